@@ -1,0 +1,133 @@
+//! The kinematic bicycle of seed 001 §1.1.
+//!
+//! Rear-axle reference (explicit Euler with the state at step k):
+//! `x += v cos ψ dt; y += v sin ψ dt; ψ += v/L · tan δ · dt; v += a dt`.
+//!
+//! Centre-of-gravity reference: side-slip `β = atan(l_r/L · tan δ)`,
+//! `x += v cos(ψ+β) dt; y += v sin(ψ+β) dt; ψ += v/L · cos β · tan δ · dt`
+//! (Rajamani, *Vehicle Dynamics and Control*, §2.2).
+//!
+//! `a` and `δ` are saturated to the configured limits before integration;
+//! the speed stays in `[0, max_speed]`.
+
+use super::{VehicleInput, VehicleModel, VehicleState};
+use crate::geometry::wrap_angle;
+use crate::math;
+use serde::{Deserialize, Serialize};
+
+/// Which point of the vehicle the state describes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferencePoint {
+    /// The rear axle centre (no side-slip at the reference).
+    #[default]
+    RearAxle,
+    /// The centre of gravity, `rear_to_cg` ahead of the rear axle.
+    CenterOfGravity,
+}
+
+/// Kinematic bicycle model.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct KinematicBicycle {
+    /// Wheelbase L (m).
+    pub wheelbase: f64,
+    /// Rear axle to centre of gravity l_r (m).
+    pub rear_to_cg: f64,
+    /// Reference point of the state.
+    pub reference: ReferencePoint,
+    /// Road-wheel angle limit (rad).
+    pub max_steering_angle: f64,
+    /// Acceleration limit (m/s²).
+    pub max_acceleration: f64,
+    /// Deceleration limit (m/s², positive).
+    pub max_deceleration: f64,
+    /// Speed limit (m/s).
+    pub max_speed: f64,
+}
+
+impl KinematicBicycle {
+    /// A rear-axle bicycle with the given wheelbase and typical passenger-car
+    /// limits (35°, +3 / −8 m/s², 60 m/s); `l_r = L/2`.
+    pub fn new(wheelbase: f64) -> Self {
+        Self {
+            wheelbase,
+            rear_to_cg: wheelbase / 2.0,
+            reference: ReferencePoint::RearAxle,
+            max_steering_angle: 35f64.to_radians(),
+            max_acceleration: 3.0,
+            max_deceleration: 8.0,
+            max_speed: 60.0,
+        }
+    }
+
+    /// Saturated `(a, δ)` for an input. Pedals map linearly: throttle to
+    /// `max_acceleration`, brake to `max_deceleration` (brake wins, as in the
+    /// seed), steering fraction to `max_steering_angle`.
+    pub fn saturate(&self, input: &VehicleInput) -> (f64, f64) {
+        let (a, d) = match *input {
+            VehicleInput::Pedals(p) => {
+                let a = if p.brake > 0.0 {
+                    -p.brake * self.max_deceleration
+                } else {
+                    p.throttle * self.max_acceleration
+                };
+                (a, p.steering * self.max_steering_angle)
+            }
+            VehicleInput::Direct {
+                acceleration,
+                steering_angle,
+            } => (acceleration, steering_angle),
+        };
+        (
+            a.clamp(-self.max_deceleration, self.max_acceleration),
+            d.clamp(-self.max_steering_angle, self.max_steering_angle),
+        )
+    }
+
+    /// Integrates one step with already saturated `(a, δ)`.
+    #[inline]
+    pub fn integrate(&self, st: &mut VehicleState, a: f64, delta: f64, dt: f64) {
+        let l = self.wheelbase;
+        let v = st.v;
+        let tan_d = if delta == 0.0 { 0.0 } else { math::tan(delta) };
+        let (beta, yaw_rate) = match self.reference {
+            ReferencePoint::RearAxle => (0.0, v / l * tan_d),
+            ReferencePoint::CenterOfGravity => {
+                let beta = if tan_d == 0.0 {
+                    0.0
+                } else {
+                    math::atan(self.rear_to_cg / l * tan_d)
+                };
+                (beta, v / l * math::cos(beta) * tan_d)
+            }
+        };
+        let (s, c) = math::sin_cos(st.yaw + beta);
+        st.x += v * c * dt;
+        st.y += v * s * dt;
+        st.yaw = wrap_angle(st.yaw + yaw_rate * dt);
+        let v_new = (v + a * dt).clamp(0.0, self.max_speed);
+        st.v = v_new;
+        st.yaw_rate = yaw_rate;
+        st.acceleration = (v_new - v) / dt;
+        st.steering_angle = delta;
+        st.curvature = tan_d / l;
+        st.slip_angle = beta;
+    }
+}
+
+impl VehicleModel for KinematicBicycle {
+    #[inline]
+    fn step(&mut self, st: &mut VehicleState, input: &VehicleInput, dt: f64) {
+        let (a, d) = self.saturate(input);
+        self.integrate(st, a, d, dt);
+    }
+    fn wheelbase(&self) -> f64 {
+        self.wheelbase
+    }
+    fn rear_to_cg(&self) -> f64 {
+        self.rear_to_cg
+    }
+    fn name(&self) -> &'static str {
+        "bicycle"
+    }
+}

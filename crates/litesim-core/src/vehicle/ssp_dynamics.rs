@@ -1,0 +1,171 @@
+//! The seed's Model SSP vehicle model, transcribed equation by equation.
+//!
+//! Seed 000 §489.2.3, in its order:
+//! 1. acceleration from pedals — brake wins over throttle; with no pedal the
+//!    car coasts at `free_deceleration` against its motion;
+//! 2. angular velocity from the steering wheel, with the speed *before* this
+//!    step's update: `wheels_angle = swp / MAX_STEERING_WHEEL_ANGLE ·
+//!    max_wheels_angle` (degrees, because the seed then calls
+//!    `math.radians(wheels_angle)`), `R = wheelbase / sin(wheels_angle)`,
+//!    `ω = v / R` (zero when the wheels are straight: the seed would divide by
+//!    zero there);
+//! 3. `v += a·dt`, capped to `[0, 40 m/s]`; heading `+= ω·dt`; position
+//!    `+= v·(cos, sin)(heading)·dt` with the *new* speed and heading.
+//!
+//! Where the seed is silent litesim chooses, and documents:
+//! * `MAX_STEERING_WHEEL_ANGLE` = 450° = 7.853981633974483 rad (1.25 turns
+//!   lock-to-centre, typical for passenger cars);
+//! * `max_wheels_angle` in degrees, default 35°;
+//! * `max_acceleration` default 4 m/s² (profiles override per vehicle);
+//! * heading is wrapped into (−π, π] after each update so that it stays
+//!   precise over millions of steps (the seed lets it grow).
+
+use super::{VehicleInput, VehicleModel, VehicleState};
+use crate::geometry::wrap_angle;
+use crate::math;
+use serde::{Deserialize, Serialize};
+
+/// Steering-wheel angle at full lock (rad): 450°. The seed uses the constant
+/// without giving its value.
+pub const MAX_STEERING_WHEEL_ANGLE: f64 = 7.853_981_633_974_483;
+
+/// The seed's `MAX_LINEAR_VELOCITY` (m/s).
+pub const MAX_LINEAR_VELOCITY: f64 = 40.0;
+
+/// The seed's dynamic model (see the module docs for every constant).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SspDynamics {
+    /// `0.6 · length` (m).
+    pub wheelbase: f64,
+    /// Acceleration at full throttle (m/s²).
+    pub max_acceleration: f64,
+    /// Road-wheel angle at full lock (degrees, as in the seed).
+    pub max_wheels_angle_deg: f64,
+    /// Deceleration at full brake (m/s²); the seed's 30.
+    pub brake_deceleration: f64,
+    /// Coasting deceleration (m/s²); the seed's 2.
+    pub free_deceleration: f64,
+    /// Speed cap (m/s); the seed's 40.
+    pub max_linear_velocity: f64,
+    // Caches: sin of the last wheel angle, and (sin, cos) of the last heading.
+    // They only skip recomputation of identical arguments, so results are
+    // bit-identical with and without them.
+    #[serde(skip)]
+    cache_wheels: Option<(f64, f64)>,
+    #[serde(skip)]
+    cache_yaw: Option<(f64, f64, f64)>,
+}
+
+impl SspDynamics {
+    /// The seed's model for a vehicle of the given length (m), with the
+    /// defaults documented at module level.
+    pub fn for_length(length: f64) -> Self {
+        Self::new(0.6 * length, 4.0, 35.0)
+    }
+
+    /// A model with explicit wheelbase (m), max acceleration (m/s²) and max
+    /// road-wheel angle (degrees); the seed's constants for the rest.
+    pub fn new(wheelbase: f64, max_acceleration: f64, max_wheels_angle_deg: f64) -> Self {
+        Self {
+            wheelbase,
+            max_acceleration,
+            max_wheels_angle_deg,
+            brake_deceleration: 30.0,
+            free_deceleration: 2.0,
+            max_linear_velocity: MAX_LINEAR_VELOCITY,
+            cache_wheels: None,
+            cache_yaw: None,
+        }
+    }
+
+    #[inline]
+    fn sin_wheels(&mut self, wheels_angle_deg: f64) -> f64 {
+        match self.cache_wheels {
+            Some((a, s)) if a == wheels_angle_deg => s,
+            _ => {
+                let s = math::sin(wheels_angle_deg.to_radians());
+                self.cache_wheels = Some((wheels_angle_deg, s));
+                s
+            }
+        }
+    }
+
+    #[inline]
+    fn sin_cos_yaw(&mut self, yaw: f64) -> (f64, f64) {
+        match self.cache_yaw {
+            Some((a, s, c)) if a == yaw => (s, c),
+            _ => {
+                let (s, c) = math::sin_cos(yaw);
+                self.cache_yaw = Some((yaw, s, c));
+                (s, c)
+            }
+        }
+    }
+}
+
+impl VehicleModel for SspDynamics {
+    #[inline]
+    fn step(&mut self, st: &mut VehicleState, input: &VehicleInput, dt: f64) {
+        let v = st.v;
+        let (acceleration, wheels_angle_deg) = match *input {
+            VehicleInput::Pedals(p) => {
+                let a = if p.brake > 0.0 {
+                    -p.brake * self.brake_deceleration
+                } else if p.throttle > 0.0 {
+                    p.throttle * self.max_acceleration
+                } else {
+                    -self.free_deceleration.copysign(v)
+                };
+                let steering_wheel_position = p.steering * MAX_STEERING_WHEEL_ANGLE;
+                let wheels =
+                    steering_wheel_position / MAX_STEERING_WHEEL_ANGLE * self.max_wheels_angle_deg;
+                (a, wheels)
+            }
+            VehicleInput::Direct {
+                acceleration,
+                steering_angle,
+            } => (
+                acceleration.clamp(-self.brake_deceleration, self.max_acceleration),
+                steering_angle
+                    .to_degrees()
+                    .clamp(-self.max_wheels_angle_deg, self.max_wheels_angle_deg),
+            ),
+        };
+        let sin_wheels = if wheels_angle_deg == 0.0 {
+            0.0
+        } else {
+            self.sin_wheels(wheels_angle_deg)
+        };
+        // ω = v / R with R = L / sin δ, i.e. v·sin δ / L; written as the seed
+        // writes it so the hand-computed trajectory matches to the last bits.
+        let angular_velocity = if sin_wheels == 0.0 {
+            0.0
+        } else {
+            v / (self.wheelbase / sin_wheels)
+        };
+        let mut v_new = v + acceleration * dt;
+        v_new = v_new.min(self.max_linear_velocity);
+        v_new = v_new.max(0.0);
+        let yaw = if angular_velocity == 0.0 {
+            st.yaw
+        } else {
+            wrap_angle(st.yaw + angular_velocity * dt)
+        };
+        let (s, c) = self.sin_cos_yaw(yaw);
+        st.x += v_new * c * dt;
+        st.y += v_new * s * dt;
+        st.yaw = yaw;
+        st.v = v_new;
+        st.yaw_rate = angular_velocity;
+        st.acceleration = (v_new - v) / dt;
+        st.steering_angle = wheels_angle_deg.to_radians();
+        st.curvature = sin_wheels / self.wheelbase;
+        st.slip_angle = 0.0;
+    }
+    fn wheelbase(&self) -> f64 {
+        self.wheelbase
+    }
+    fn name(&self) -> &'static str {
+        "ssp"
+    }
+}

@@ -1,0 +1,491 @@
+//! The fixed-step world: actors in a deterministic order and an integer clock.
+
+use crate::actor::{ActorDescription, ActorId, ActorState, TrajectoryStatus};
+use crate::geometry::{Pose, Vec2, Vec3, wrap_angle};
+use crate::math;
+use crate::trajectory::Trajectory;
+use crate::vehicle::{Derived, VehicleInput, VehicleModel, VehicleModelKind, VehicleState};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A simulator-side behaviour model driving an actor (SSP "external controller").
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "controller")]
+pub enum ExternalController {
+    /// Hold the heading, approach `desired_speed` (m/s) at up to `max_acceleration`.
+    Cruise {
+        /// Target speed (m/s).
+        desired_speed: f64,
+        /// Acceleration limit (m/s²).
+        max_acceleration: f64,
+    },
+    /// Intelligent Driver Model (Treiber, Hennecke, Helbing 2000) following
+    /// the nearest actor ahead within ±`lane_half_width` of the heading line.
+    Idm {
+        /// Desired speed v0 (m/s).
+        desired_speed: f64,
+        /// Maximum acceleration a (m/s²).
+        max_acceleration: f64,
+        /// Comfortable deceleration b (m/s²).
+        comfortable_deceleration: f64,
+        /// Time headway T (s).
+        time_headway: f64,
+        /// Minimum gap s0 (m).
+        min_gap: f64,
+        /// Half width of the corridor in which leaders are looked for (m).
+        lane_half_width: f64,
+    },
+    /// Brake at `deceleration` (m/s²) to a standstill and stay there.
+    Stop {
+        /// Deceleration (m/s², positive).
+        deceleration: f64,
+    },
+}
+
+/// How an actor is moved each step.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "mode")]
+pub enum ControlMode {
+    /// Kinematic, stored: the state given at creation or by a set call is
+    /// returned unchanged (the seed's "Model SSP does not update actor data").
+    #[default]
+    Stored,
+    /// Kinematic, xy trajectory: placed on the trajectory at the current time.
+    Trajectory(Trajectory),
+    /// Dynamic: pedals and steering into the actor's vehicle model.
+    /// After tick `valid_until_tick` (if any) the pedals are released.
+    Dynamic {
+        /// The normalised command.
+        input: VehicleInput,
+        /// Last tick the command applies to.
+        valid_until_tick: Option<u64>,
+    },
+    /// A simulator-side behaviour model.
+    External(ExternalController),
+}
+
+impl ControlMode {
+    /// A short name ("stored", "trajectory", "dynamic", "direct", "external").
+    pub fn name(&self) -> &'static str {
+        match self {
+            ControlMode::Stored => "stored",
+            ControlMode::Trajectory(_) => "trajectory",
+            ControlMode::Dynamic {
+                input: VehicleInput::Direct { .. },
+                ..
+            } => "direct",
+            ControlMode::Dynamic { .. } => "dynamic",
+            ControlMode::External(_) => "external",
+        }
+    }
+}
+
+/// One actor of the world.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Actor {
+    /// Unique id.
+    pub id: ActorId,
+    /// What it is.
+    pub description: ActorDescription,
+    /// Its reported state.
+    pub state: ActorState,
+    /// Its vehicle model, if it can be driven dynamically.
+    pub model: Option<VehicleModelKind>,
+    /// Road friction coefficient μ for the friction-use proxy.
+    pub friction: f64,
+    /// The quantities derived in the last step.
+    pub derived: Derived,
+    /// The input applied in the last step (for logs).
+    pub last_input: VehicleInput,
+    mode: ControlMode,
+    vehicle: VehicleState,
+}
+
+impl Actor {
+    /// A stored (kinematic) actor at `state`.
+    pub fn new(
+        id: impl Into<ActorId>,
+        description: ActorDescription,
+        state: ActorState,
+        model: Option<VehicleModelKind>,
+    ) -> Self {
+        let mut a = Self {
+            id: id.into(),
+            description,
+            state,
+            model,
+            friction: 1.0,
+            derived: Derived::default(),
+            last_input: VehicleInput::default(),
+            mode: ControlMode::Stored,
+            vehicle: VehicleState::default(),
+        };
+        a.sync_vehicle();
+        a
+    }
+    /// The control mode.
+    pub fn mode(&self) -> &ControlMode {
+        &self.mode
+    }
+    /// The vehicle model's internal state.
+    pub fn vehicle_state(&self) -> &VehicleState {
+        &self.vehicle
+    }
+
+    fn sync_vehicle(&mut self) {
+        let s = &self.state;
+        self.vehicle = VehicleState {
+            x: s.pose.position.x,
+            y: s.pose.position.y,
+            z: s.pose.position.z,
+            yaw: s.pose.yaw,
+            v: s.speed.max(0.0),
+            ..VehicleState::default()
+        };
+    }
+
+    fn publish_vehicle(&mut self) {
+        let v = &self.vehicle;
+        let (s, c) = math::sin_cos(v.yaw);
+        self.state.pose = Pose {
+            position: Vec3::new(v.x, v.y, v.z),
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: v.yaw,
+        };
+        self.state.speed = v.v;
+        self.state.velocity = Vec3::new(v.v * c, v.v * s, 0.0);
+        self.state.long_acceleration = v.acceleration;
+        // World-frame acceleration: tangential plus centripetal (a_y = v²κ = v·ω).
+        let a_lat = v.v * v.yaw_rate;
+        self.state.acceleration = Vec3::new(
+            v.acceleration * c - a_lat * s,
+            v.acceleration * s + a_lat * c,
+            0.0,
+        );
+        self.state.yaw_rate = v.yaw_rate;
+        self.state.trajectory = TrajectoryStatus::None;
+        self.derived = Derived::from_state(v, self.description.mass, self.friction);
+    }
+}
+
+/// Why a world operation failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum WorldError {
+    /// `dt` not positive and finite.
+    #[error("time step must be positive and finite, got {0} s")]
+    BadTimeStep(f64),
+    /// Id already used.
+    #[error("an actor with id '{0}' already exists")]
+    DuplicateActor(ActorId),
+    /// No actor with that id.
+    #[error("no actor with id '{0}'")]
+    UnknownActor(ActorId),
+    /// Dynamic control of an actor without a vehicle model.
+    #[error("actor '{0}' has no vehicle model and cannot be driven dynamically")]
+    NoVehicleModel(ActorId),
+    /// A NaN or infinite number.
+    #[error("{0} is not finite")]
+    NotFinite(&'static str),
+}
+
+/// The simulated world.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct World {
+    dt: f64,
+    tick: u64,
+    actors: Vec<Actor>,
+    index: BTreeMap<ActorId, usize>,
+}
+
+impl World {
+    /// An empty world stepping `dt` seconds per tick.
+    pub fn new(dt: f64) -> Result<Self, WorldError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(WorldError::BadTimeStep(dt));
+        }
+        Ok(Self {
+            dt,
+            tick: 0,
+            actors: Vec::new(),
+            index: BTreeMap::new(),
+        })
+    }
+    /// Step size (s).
+    pub fn dt(&self) -> f64 {
+        self.dt
+    }
+    /// Steps taken.
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+    /// Simulation time (s) = tick · dt.
+    pub fn time(&self) -> f64 {
+        self.tick as f64 * self.dt
+    }
+    /// Sets the clock (e.g. a simulation that starts at a given time).
+    pub fn set_tick(&mut self, tick: u64) {
+        self.tick = tick;
+    }
+    /// Actors in creation order.
+    pub fn actors(&self) -> &[Actor] {
+        &self.actors
+    }
+    /// Number of actors.
+    pub fn len(&self) -> usize {
+        self.actors.len()
+    }
+    /// True when there are no actors.
+    pub fn is_empty(&self) -> bool {
+        self.actors.is_empty()
+    }
+    /// An actor by id.
+    pub fn actor(&self, id: &str) -> Option<&Actor> {
+        self.index.get(id).map(|&i| &self.actors[i])
+    }
+    fn index_of(&self, id: &str) -> Result<usize, WorldError> {
+        self.index
+            .get(id)
+            .copied()
+            .ok_or_else(|| WorldError::UnknownActor(id.to_string()))
+    }
+
+    /// Adds an actor at the end of the order.
+    pub fn add_actor(&mut self, actor: Actor) -> Result<(), WorldError> {
+        if !actor.state.is_finite() {
+            return Err(WorldError::NotFinite("state"));
+        }
+        if self.index.contains_key(&actor.id) {
+            return Err(WorldError::DuplicateActor(actor.id));
+        }
+        self.index.insert(actor.id.clone(), self.actors.len());
+        self.actors.push(actor);
+        Ok(())
+    }
+
+    /// Removes an actor; the others keep their relative order.
+    pub fn remove_actor(&mut self, id: &str) -> Result<Actor, WorldError> {
+        let i = self.index_of(id)?;
+        let a = self.actors.remove(i);
+        self.index.remove(id);
+        for j in self.index.values_mut() {
+            if *j > i {
+                *j -= 1;
+            }
+        }
+        Ok(a)
+    }
+
+    /// Overwrites an actor's state (a kinematic "set"); the actor returns to stored mode.
+    pub fn set_state(&mut self, id: &str, state: ActorState) -> Result<(), WorldError> {
+        if !state.is_finite() {
+            return Err(WorldError::NotFinite("state"));
+        }
+        let i = self.index_of(id)?;
+        let a = &mut self.actors[i];
+        a.state = state;
+        a.mode = ControlMode::Stored;
+        a.sync_vehicle();
+        Ok(())
+    }
+
+    /// Changes how an actor is moved. A trajectory replaces the remainder of
+    /// a trajectory already held from its own start time on.
+    pub fn set_mode(&mut self, id: &str, mode: ControlMode) -> Result<(), WorldError> {
+        let i = self.index_of(id)?;
+        let a = &mut self.actors[i];
+        let needs_model = matches!(mode, ControlMode::Dynamic { .. } | ControlMode::External(_));
+        if needs_model && a.model.is_none() {
+            return Err(WorldError::NoVehicleModel(a.id.clone()));
+        }
+        if let ControlMode::Dynamic {
+            input:
+                VehicleInput::Direct {
+                    acceleration,
+                    steering_angle,
+                },
+            ..
+        } = mode
+        {
+            if !acceleration.is_finite() {
+                return Err(WorldError::NotFinite("acceleration"));
+            }
+            if !steering_angle.is_finite() {
+                return Err(WorldError::NotFinite("steering_angle"));
+            }
+        }
+        let was_integrating = matches!(
+            a.mode,
+            ControlMode::Dynamic { .. } | ControlMode::External(_)
+        );
+        if needs_model && !was_integrating {
+            a.sync_vehicle();
+        }
+        match (&mut a.mode, mode) {
+            (ControlMode::Trajectory(old), ControlMode::Trajectory(new)) => old.replace_from(new),
+            (slot, mode) => *slot = mode,
+        }
+        Ok(())
+    }
+
+    /// Advances every actor by one tick, in creation order.
+    ///
+    /// External controllers all see the states at the start of the step, so
+    /// the result does not depend on the order actors were created in.
+    pub fn step(&mut self) {
+        let dt = self.dt;
+        let tick = self.tick + 1;
+        let t = tick as f64 * dt;
+        let snapshot: Vec<Snapshot> = if self
+            .actors
+            .iter()
+            .any(|a| matches!(a.mode, ControlMode::External(_)))
+        {
+            self.actors
+                .iter()
+                .map(|a| Snapshot {
+                    position: a.state.pose.position.xy(),
+                    yaw: a.state.pose.yaw,
+                    speed: a.state.speed,
+                    length: a.description.length,
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        for idx in 0..self.actors.len() {
+            let a = &mut self.actors[idx];
+            match &mut a.mode {
+                ControlMode::Stored => {}
+                ControlMode::Trajectory(tr) => {
+                    tr.prune_before(t);
+                    if let Some(s) = tr.sample(t) {
+                        let prev = a.state;
+                        let yaw = s.yaw.unwrap_or(prev.pose.yaw);
+                        let (sn, cs) = math::sin_cos(yaw);
+                        let yaw_rate = wrap_angle(yaw - prev.pose.yaw) / dt;
+                        let long_acc = (s.speed - prev.speed) / dt;
+                        let velocity = Vec3::new(s.speed * cs, s.speed * sn, 0.0);
+                        a.state = ActorState {
+                            pose: Pose {
+                                position: s.position,
+                                yaw,
+                                ..prev.pose
+                            },
+                            velocity,
+                            acceleration: Vec3::new(
+                                (velocity.x - prev.velocity.x) / dt,
+                                (velocity.y - prev.velocity.y) / dt,
+                                0.0,
+                            ),
+                            yaw_rate,
+                            speed: s.speed,
+                            long_acceleration: long_acc,
+                            trajectory: s.status,
+                        };
+                        let curvature = if s.speed > 1e-9 {
+                            yaw_rate / s.speed
+                        } else {
+                            0.0
+                        };
+                        a.derived = Derived {
+                            curvature,
+                            lateral_acceleration: s.speed * yaw_rate,
+                            longitudinal_acceleration: long_acc,
+                            ..Derived::default()
+                        };
+                        a.sync_vehicle();
+                    }
+                }
+                ControlMode::Dynamic {
+                    input,
+                    valid_until_tick,
+                } => {
+                    if valid_until_tick.is_some_and(|last| tick > last) {
+                        *input = VehicleInput::default();
+                        *valid_until_tick = None;
+                    }
+                    let input = *input;
+                    if let Some(m) = a.model.as_mut() {
+                        m.step(&mut a.vehicle, &input, dt);
+                        a.last_input = input;
+                        a.publish_vehicle();
+                    }
+                }
+                ControlMode::External(ctrl) => {
+                    let input = external_input(ctrl, idx, &snapshot);
+                    if let Some(m) = a.model.as_mut() {
+                        m.step(&mut a.vehicle, &input, dt);
+                        a.last_input = input;
+                        a.publish_vehicle();
+                    }
+                }
+            }
+        }
+        self.tick = tick;
+    }
+}
+
+/// What external controllers see of each actor at the start of a step.
+struct Snapshot {
+    position: Vec2,
+    yaw: f64,
+    speed: f64,
+    length: f64,
+}
+
+fn external_input(ctrl: &ExternalController, me: usize, snapshot: &[Snapshot]) -> VehicleInput {
+    let direct = |acceleration: f64| VehicleInput::Direct {
+        acceleration,
+        steering_angle: 0.0,
+    };
+    let v = snapshot[me].speed;
+    match *ctrl {
+        ExternalController::Stop { deceleration } => {
+            direct(if v > 0.0 { -deceleration } else { 0.0 })
+        }
+        ExternalController::Cruise {
+            desired_speed,
+            max_acceleration,
+        } => direct((desired_speed - v).clamp(-max_acceleration, max_acceleration)),
+        ExternalController::Idm {
+            desired_speed,
+            max_acceleration: a_max,
+            comfortable_deceleration: b,
+            time_headway,
+            min_gap,
+            lane_half_width,
+        } => {
+            let free = 1.0 - (v / desired_speed.max(0.1)).powi(4);
+            let interaction = leader(me, snapshot, lane_half_width).map_or(0.0, |(gap, v_lead)| {
+                let s_star = min_gap
+                    + (v * time_headway + v * (v - v_lead) / (2.0 * (a_max * b).sqrt())).max(0.0);
+                (s_star / gap.max(0.1)).powi(2)
+            });
+            direct(a_max * (free - interaction))
+        }
+    }
+}
+
+/// The nearest actor ahead of `me` within ±`half_width` of its heading line:
+/// (bumper-to-bumper gap in m, its speed in m/s). Ties go to the earlier actor.
+fn leader(me: usize, snapshot: &[Snapshot], half_width: f64) -> Option<(f64, f64)> {
+    let ego = &snapshot[me];
+    let dir = Vec2::from_heading(ego.yaw);
+    let mut best: Option<(f64, f64)> = None;
+    for (j, other) in snapshot.iter().enumerate() {
+        if j == me {
+            continue;
+        }
+        let d = other.position - ego.position;
+        let along = d.dot(dir);
+        if along <= 0.0 || dir.cross(d).abs() > half_width {
+            continue;
+        }
+        let gap = along - (ego.length + other.length) / 2.0;
+        if best.is_none_or(|(g, _)| gap < g) {
+            best = Some((gap, other.speed));
+        }
+    }
+    best
+}

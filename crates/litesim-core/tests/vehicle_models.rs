@@ -1,0 +1,189 @@
+//! Vehicle models against hand-computed trajectories and closed forms.
+
+use litesim_core::{
+    ActuatorLag, KinematicBicycle, NormalizedPedals, ReferencePoint, SspDynamics, VehicleInput,
+    VehicleModel, VehicleState,
+};
+
+fn pedals(throttle: f64, brake: f64, steering: f64) -> VehicleInput {
+    VehicleInput::Pedals(NormalizedPedals {
+        throttle,
+        brake,
+        steering,
+    })
+}
+
+/// Expected values computed by hand with the seed's Python equations
+/// (length 5 m → wheelbase 3 m, 4 m/s², 35°, dt 20 ms, v0 = 10 m/s).
+#[test]
+fn ssp_dynamics_reproduces_hand_computed_trajectory() {
+    let mut m = SspDynamics::for_length(5.0);
+    let mut st = VehicleState {
+        v: 10.0,
+        ..VehicleState::default()
+    };
+    let cmds = [
+        pedals(0.5, 0.0, 0.25),
+        pedals(0.5, 0.0, 0.25),
+        pedals(0.0, 0.1, -0.5),
+        pedals(0.0, 0.0, 0.0),
+        pedals(1.0, 0.0, 1.0),
+    ];
+    let expect = [
+        (
+            0.20078967382596122,
+            0.002036390155174648,
+            0.01014155907932778,
+            10.04,
+        ),
+        (
+            0.40234803960262633,
+            0.006133362871712663,
+            0.02032368439497287,
+            10.079999999999998,
+        ),
+        (
+            0.6027480382484085,
+            0.006156660307184643,
+            0.0001162546682857181,
+            10.019999999999998,
+        ),
+        (
+            0.8023480368995968,
+            0.006179864738922203,
+            0.0001162546682857181,
+            9.979999999999999,
+        ),
+        (
+            1.0034006536516458,
+            0.013879559353233747,
+            0.03827820690017532,
+            10.059999999999999,
+        ),
+    ];
+    for (cmd, (x, y, h, v)) in cmds.iter().zip(expect) {
+        m.step(&mut st, cmd, 0.02);
+        for (got, want, what) in [
+            (st.x, x, "x"),
+            (st.y, y, "y"),
+            (st.yaw, h, "yaw"),
+            (st.v, v, "v"),
+        ] {
+            assert!((got - want).abs() < 1e-12, "{what}: {got} vs {want}");
+        }
+    }
+}
+
+#[test]
+fn ssp_dynamics_limits() {
+    let mut m = SspDynamics::for_length(4.5);
+    let mut st = VehicleState::default();
+    // Coasting from rest never reverses.
+    m.step(&mut st, &pedals(0.0, 0.0, 0.0), 0.02);
+    assert_eq!(st.v, 0.0);
+    // Full throttle for a long time is capped at 40 m/s.
+    for _ in 0..10_000 {
+        m.step(&mut st, &pedals(1.0, 0.0, 0.0), 0.02);
+    }
+    assert_eq!(st.v, 40.0);
+    // Brake wins over throttle: 30 m/s² at full brake.
+    m.step(&mut st, &pedals(1.0, 1.0, 0.0), 0.02);
+    assert!((st.v - (40.0 - 0.6)).abs() < 1e-12);
+    // Free deceleration 2 m/s².
+    m.step(&mut st, &pedals(0.0, 0.0, 0.0), 0.1);
+    assert!((st.v - (39.4 - 0.2)).abs() < 1e-12);
+}
+
+#[test]
+fn bicycle_drives_a_circle_of_the_right_radius() {
+    let l = 2.7;
+    let delta: f64 = 0.1;
+    let mut m = KinematicBicycle::new(l);
+    let mut st = VehicleState {
+        v: 5.0,
+        ..VehicleState::default()
+    };
+    let r = l / delta.tan();
+    let input = VehicleInput::Direct {
+        acceleration: 0.0,
+        steering_angle: delta,
+    };
+    let dt = 0.001;
+    let mut max_err: f64 = 0.0;
+    for _ in 0..20_000 {
+        m.step(&mut st, &input, dt);
+        // Centre of the circle is (0, r).
+        let d = (st.x * st.x + (st.y - r) * (st.y - r)).sqrt();
+        max_err = max_err.max((d - r).abs());
+    }
+    // Explicit Euler drifts outward by O(v·dt) per revolution: stays small.
+    assert!(max_err < 0.05 * r, "radius error {max_err} for r = {r}");
+    assert!((st.curvature - delta.tan() / l).abs() < 1e-15);
+    assert!((st.yaw_rate - 5.0 / r).abs() < 1e-12);
+}
+
+#[test]
+fn bicycle_saturates_before_integrating() {
+    let mut m = KinematicBicycle::new(2.7);
+    let mut st = VehicleState {
+        v: 10.0,
+        ..VehicleState::default()
+    };
+    m.step(
+        &mut st,
+        &VehicleInput::Direct {
+            acceleration: 100.0,
+            steering_angle: 3.0,
+        },
+        0.1,
+    );
+    assert_eq!(st.steering_angle, m.max_steering_angle);
+    assert!((st.v - (10.0 + m.max_acceleration * 0.1)).abs() < 1e-12);
+    // First step integrates position with v_k and ψ_k (explicit Euler).
+    assert!((st.x - 1.0).abs() < 1e-12 && st.y == 0.0);
+}
+
+#[test]
+fn cg_bicycle_has_slip() {
+    let mut m = KinematicBicycle::new(2.7);
+    m.reference = ReferencePoint::CenterOfGravity;
+    m.rear_to_cg = 1.2;
+    let mut st = VehicleState {
+        v: 10.0,
+        ..VehicleState::default()
+    };
+    m.step(
+        &mut st,
+        &VehicleInput::Direct {
+            acceleration: 0.0,
+            steering_angle: 0.2,
+        },
+        0.01,
+    );
+    let beta = (1.2 / 2.7 * 0.2f64.tan()).atan();
+    assert!((st.slip_angle - beta).abs() < 1e-15);
+    assert!((st.y - 10.0 * beta.sin() * 0.01).abs() < 1e-15);
+}
+
+#[test]
+fn actuator_lag_delays_and_smooths() {
+    let dt = 0.02;
+    let mut m = ActuatorLag::new(KinematicBicycle::new(2.7), 0.2, 0.1, 0.1, dt);
+    assert_eq!(m.delay_steps, 5);
+    let mut st = VehicleState::default();
+    let cmd = VehicleInput::Direct {
+        acceleration: 2.0,
+        steering_angle: 0.0,
+    };
+    for _ in 0..5 {
+        m.step(&mut st, &cmd, dt);
+        assert_eq!(st.v, 0.0, "nothing happens during the dead time");
+    }
+    m.step(&mut st, &cmd, dt);
+    let a1 = 2.0 * (1.0 - (-dt / 0.2f64).exp());
+    assert!(
+        (st.acceleration - a1).abs() < 1e-12,
+        "{} vs {a1}",
+        st.acceleration
+    );
+}
