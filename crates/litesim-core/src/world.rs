@@ -193,6 +193,7 @@ pub enum WorldError {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct World {
     dt: f64,
+    step_ms: Option<u64>,
     tick: u64,
     actors: Vec<Actor>,
     index: BTreeMap<ActorId, usize>,
@@ -206,10 +207,22 @@ impl World {
         }
         Ok(Self {
             dt,
+            step_ms: None,
             tick: 0,
             actors: Vec::new(),
             index: BTreeMap::new(),
         })
+    }
+    /// An empty world on an integer millisecond clock: `time() =
+    /// (tick · step_ms) / 1000`, so times given in ms elsewhere (trajectory
+    /// points, requested step times) convert to exactly the same `f64`.
+    pub fn with_step_ms(step_ms: u64) -> Result<Self, WorldError> {
+        if step_ms == 0 {
+            return Err(WorldError::BadTimeStep(0.0));
+        }
+        let mut w = Self::new(step_ms as f64 / 1000.0)?;
+        w.step_ms = Some(step_ms);
+        Ok(w)
     }
     /// Step size (s).
     pub fn dt(&self) -> f64 {
@@ -219,9 +232,15 @@ impl World {
     pub fn tick(&self) -> u64 {
         self.tick
     }
-    /// Simulation time (s) = tick · dt.
+    /// Simulation time (s) = tick · dt (see [`World::with_step_ms`]).
     pub fn time(&self) -> f64 {
-        self.tick as f64 * self.dt
+        self.time_at(self.tick)
+    }
+    fn time_at(&self, tick: u64) -> f64 {
+        match self.step_ms {
+            Some(ms) => (tick * ms) as f64 / 1000.0,
+            None => tick as f64 * self.dt,
+        }
     }
     /// Sets the clock (e.g. a simulation that starts at a given time).
     pub fn set_tick(&mut self, tick: u64) {
@@ -335,7 +354,7 @@ impl World {
     pub fn step(&mut self) {
         let dt = self.dt;
         let tick = self.tick + 1;
-        let t = tick as f64 * dt;
+        let t = self.time_at(tick);
         let snapshot: Vec<Snapshot> = if self
             .actors
             .iter()
@@ -488,4 +507,14 @@ fn leader(me: usize, snapshot: &[Snapshot], half_width: f64) -> Option<(f64, f64
         }
     }
     best
+}
+
+impl World {
+    /// Sets the road friction μ an actor's friction-use proxy is computed with.
+    /// Unknown ids and non-positive values are ignored (callers validate).
+    pub fn set_friction(&mut self, id: &str, mu: f64) {
+        if let (Ok(i), true) = (self.index_of(id), mu.is_finite() && mu > 0.0) {
+            self.actors[i].friction = mu;
+        }
+    }
 }

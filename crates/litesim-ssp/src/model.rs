@@ -1,0 +1,113 @@
+//! Models: how a session turns a catalog entry into a vehicle model.
+//!
+//! The seed's Model SSP lets users pick a model at start-up, with a dummy
+//! model by default. A [`Model`] decides which vehicle dynamics an actor gets
+//! under dynamic control; kinematic control is the same for all models.
+
+use crate::api::CatalogEntry;
+use crate::error::{SspError, SspResult};
+use litesim_core::{ActuatorLag, KinematicBicycle, SspDynamics, VehicleModelKind};
+
+/// A pluggable simulator model.
+pub trait Model: Send + Sync {
+    /// Name used to select it.
+    fn name(&self) -> &'static str;
+    /// One line for `--help` and capability reports.
+    fn summary(&self) -> &'static str;
+    /// The vehicle dynamics of an actor created from `entry`, for steps of `dt` s.
+    fn vehicle_model(&self, entry: &CatalogEntry, dt: f64) -> VehicleModelKind;
+}
+
+/// The seed's dummy model: [`SspDynamics`] with wheelbase = 0.6 · length.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct DummyModel;
+
+impl Model for DummyModel {
+    fn name(&self) -> &'static str {
+        "dummy"
+    }
+    fn summary(&self) -> &'static str {
+        "the seed's Model SSP: stored kinematic states, SspDynamics under pedals (wheelbase = 0.6·length)"
+    }
+    fn vehicle_model(&self, entry: &CatalogEntry, _dt: f64) -> VehicleModelKind {
+        let mut m = SspDynamics::new(
+            0.6 * entry.length,
+            entry.max_accel,
+            entry.max_steer_angle_deg,
+        );
+        m.brake_deceleration = entry.max_decel;
+        m.max_linear_velocity = entry
+            .max_speed
+            .min(litesim_core::vehicle::MAX_LINEAR_VELOCITY);
+        VehicleModelKind::Ssp(m)
+    }
+}
+
+/// Kinematic bicycle with the catalog's wheelbase and limits.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BicycleModel;
+
+fn bicycle(entry: &CatalogEntry) -> KinematicBicycle {
+    let mut b = KinematicBicycle::new(entry.effective_wheelbase());
+    b.max_steering_angle = entry.max_steer_angle_deg.to_radians();
+    b.max_acceleration = entry.max_accel;
+    b.max_deceleration = entry.max_decel;
+    b.max_speed = entry.max_speed;
+    b
+}
+
+impl Model for BicycleModel {
+    fn name(&self) -> &'static str {
+        "bicycle"
+    }
+    fn summary(&self) -> &'static str {
+        "kinematic bicycle (seed 001 §1.1) with the catalog's wheelbase, steering and acceleration limits"
+    }
+    fn vehicle_model(&self, entry: &CatalogEntry, _dt: f64) -> VehicleModelKind {
+        VehicleModelKind::Bicycle(bicycle(entry))
+    }
+}
+
+/// Kinematic bicycle with actuator lag (τ_a = 0.2 s, τ_δ = 0.1 s) and 0.1 s dead time,
+/// after Autoware's simple planning simulator.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LagModel;
+
+impl Model for LagModel {
+    fn name(&self) -> &'static str {
+        "lag"
+    }
+    fn summary(&self) -> &'static str {
+        "kinematic bicycle whose actuators lag (first order, τ_a 0.2 s, τ_δ 0.1 s) after 0.1 s dead time"
+    }
+    fn vehicle_model(&self, entry: &CatalogEntry, dt: f64) -> VehicleModelKind {
+        VehicleModelKind::Lag(ActuatorLag::new(bicycle(entry), 0.2, 0.1, 0.1, dt))
+    }
+}
+
+/// All built-in models.
+pub fn models() -> Vec<Box<dyn Model>> {
+    vec![
+        Box::new(DummyModel),
+        Box::new(BicycleModel),
+        Box::new(LagModel),
+    ]
+}
+
+/// A model by name ("" = dummy); unknown names are an error listing what exists.
+pub fn model_by_name(name: &str) -> SspResult<Box<dyn Model>> {
+    let name = if name.is_empty() { "dummy" } else { name };
+    models()
+        .into_iter()
+        .find(|m| m.name() == name)
+        .ok_or_else(|| {
+            SspError::not_found(format!(
+                "unknown model '{name}'; available: {}",
+                models()
+                    .iter()
+                    .map(|m| m.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ))
+        })
+}

@@ -1,0 +1,80 @@
+//! Golden digest of the mixed 10-actor, 1,000-step run (all control modes).
+//!
+//! Size first: a size change means the encoding changed; a digest change with
+//! the same size means values changed. Update both only for an intended change.
+
+use litesim_ssp::Session;
+use litesim_ssp::testkit::{encode, fnv1a, mixed_scenario};
+
+const GOLDEN_SIZE: usize = 1_211_000;
+const GOLDEN_DIGEST: u64 = 0xf24d_dcdd_7c50_ef1d;
+
+#[test]
+fn golden_digest_of_mixed_run() {
+    let run = mixed_scenario(&mut Session::default(), 1000).expect("scenario runs");
+    let bytes = encode(&run);
+    println!("size {} digest {:#018x}", bytes.len(), fnv1a(&bytes));
+    assert_eq!(bytes.len(), GOLDEN_SIZE, "encoding changed");
+    assert_eq!(fnv1a(&bytes), GOLDEN_DIGEST, "values changed");
+}
+
+#[test]
+fn repeated_runs_are_identical() {
+    let a = encode(&mixed_scenario(&mut Session::default(), 300).unwrap());
+    let b = encode(&mixed_scenario(&mut Session::default(), 300).unwrap());
+    assert_eq!(a, b);
+}
+
+#[test]
+fn runs_on_other_threads_are_identical() {
+    let here = encode(&mixed_scenario(&mut Session::default(), 300).unwrap());
+    let handles: Vec<_> = (0..4)
+        .map(|_| {
+            std::thread::spawn(|| encode(&mixed_scenario(&mut Session::default(), 300).unwrap()))
+        })
+        .collect();
+    for h in handles {
+        assert_eq!(h.join().unwrap(), here);
+    }
+}
+
+#[test]
+fn mixed_run_behaves() {
+    let run = mixed_scenario(&mut Session::default(), 1000).unwrap();
+    let last = run.last().unwrap();
+    let get = |id: &str| last.iter().find(|s| s.actor_id == id).unwrap();
+    for s in last {
+        println!(
+            "{:>8} x={:9.3} y={:8.3} yaw={:6.3} v={:6.3} {:?} {:?}",
+            s.actor_id,
+            s.pose.position.x,
+            s.pose.position.y,
+            s.pose.yaw,
+            s.speed,
+            s.mode,
+            s.trajectory
+        );
+    }
+    // Stored actors never move.
+    assert_eq!(get("parked").pose.position.x, 50.0);
+    assert_eq!(get("cone").pose.position.y, 2.5);
+    // Trajectory cars are where their trajectory says at t = 20 s.
+    assert!((get("traj0").pose.position.x - 160.0).abs() < 1e-9);
+    assert_eq!(
+        get("traj2").trajectory,
+        litesim_core::TrajectoryStatus::Exhausted
+    );
+    assert_eq!(
+        get("traj1").trajectory,
+        litesim_core::TrajectoryStatus::Following
+    );
+    // The IDM follower never runs into traj0, which it follows.
+    for step in &run {
+        let f = step.iter().find(|s| s.actor_id == "follower").unwrap();
+        let l = step.iter().find(|s| s.actor_id == "traj0").unwrap();
+        assert!(
+            l.pose.position.x - f.pose.position.x > 4.6,
+            "follower too close"
+        );
+    }
+}
