@@ -1,0 +1,867 @@
+//! The tonic server: many independent Model SSP sessions behind one socket.
+//!
+//! * Each `Init` creates a session; every later call names it. Sessions end
+//!   on `Shutdown`, when their `StepStream` closes, when they sit idle longer
+//!   than [`ServerConfig::idle_timeout`] (a client that disappeared), or a
+//!   short grace period after `EndSimulation`.
+//! * Limits on sessions, actors, trajectory points, steps per call and
+//!   message size answer `RESOURCE_EXHAUSTED`; a bad request never affects
+//!   another session.
+//! * With a trace file, every call is written as one JSON line: time, session,
+//!   method, arguments (in API units) and result or error.
+
+use crate::convert as cv;
+use crate::pb;
+use crate::pb::simulator_support_server::{SimulatorSupport, SimulatorSupportServer};
+use litesim_ssp::{Session, SessionLimits, Ssp, SspError, SspResult};
+use serde::Serialize;
+use serde_json::{Value, json};
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::PathBuf;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use tokio_stream::{Stream, StreamExt};
+use tonic::{Request, Response, Status, Streaming};
+
+/// Server settings.
+#[derive(Clone, Debug)]
+pub struct ServerConfig {
+    /// Profile for `Init` requests that name none.
+    pub default_profile: String,
+    /// Model for `Init` requests that name none.
+    pub default_model: String,
+    /// Sessions alive at once.
+    pub max_sessions: usize,
+    /// Per-session limits.
+    pub limits: SessionLimits,
+    /// A session unused this long is ended (its client is gone).
+    pub idle_timeout: Duration,
+    /// Largest request accepted (bytes).
+    pub max_message_bytes: usize,
+    /// JSON-lines trace of every call.
+    pub trace_rpc: Option<PathBuf>,
+}
+
+impl Default for ServerConfig {
+    fn default() -> Self {
+        Self {
+            default_profile: "dummy".into(),
+            default_model: "dummy".into(),
+            max_sessions: 64,
+            limits: SessionLimits::default(),
+            idle_timeout: Duration::from_secs(300),
+            max_message_bytes: 16 * 1024 * 1024,
+            trace_rpc: None,
+        }
+    }
+}
+
+struct Slot {
+    session: Mutex<Session>,
+    last_used: Mutex<Instant>,
+    streaming: AtomicBool,
+}
+
+struct Inner {
+    cfg: ServerConfig,
+    sessions: Mutex<BTreeMap<String, Arc<Slot>>>,
+    next_id: AtomicU64,
+    started: Instant,
+    trace: Option<Mutex<std::io::BufWriter<std::fs::File>>>,
+}
+
+/// The gRPC service; cheap to clone.
+#[derive(Clone)]
+pub struct SspService {
+    inner: Arc<Inner>,
+}
+
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    // A panic while holding the lock must not take the whole server down.
+    m.lock().unwrap_or_else(|p| p.into_inner())
+}
+
+impl SspService {
+    /// A service with the given settings; opens the trace file if any.
+    pub fn new(cfg: ServerConfig) -> std::io::Result<Self> {
+        let trace = match &cfg.trace_rpc {
+            Some(p) => Some(Mutex::new(std::io::BufWriter::new(std::fs::File::create(
+                p,
+            )?))),
+            None => None,
+        };
+        Ok(Self {
+            inner: Arc::new(Inner {
+                cfg,
+                sessions: Mutex::new(BTreeMap::new()),
+                next_id: AtomicU64::new(1),
+                started: Instant::now(),
+                trace,
+            }),
+        })
+    }
+
+    /// Number of live sessions.
+    pub fn session_count(&self) -> usize {
+        lock(&self.inner.sessions).len()
+    }
+
+    /// Ends sessions idle longer than the timeout, or ended more than 10 s ago.
+    pub fn reap(&self) -> usize {
+        let now = Instant::now();
+        let mut sessions = lock(&self.inner.sessions);
+        let before = sessions.len();
+        sessions.retain(|_, slot| {
+            if slot.streaming.load(Ordering::SeqCst) {
+                return true;
+            }
+            let idle = now.duration_since(*lock(&slot.last_used));
+            let ended = lock(&slot.session).phase() == litesim_ssp::Phase::Ended;
+            idle < self.inner.cfg.idle_timeout && !(ended && idle > Duration::from_secs(10))
+        });
+        before - sessions.len()
+    }
+
+    fn trace(&self, session: &str, method: &str, args: Value, result: &Result<Value, SspError>) {
+        if let Some(t) = &self.inner.trace {
+            let line = json!({
+                "t_ms": self.inner.started.elapsed().as_secs_f64() * 1000.0,
+                "session": session,
+                "method": method,
+                "args": args,
+                "result": match result {
+                    Ok(v) => json!({ "ok": v }),
+                    Err(e) => json!({ "error": { "code": e.code, "message": e.message } }),
+                },
+            });
+            let mut w = lock(t);
+            let _ = writeln!(w, "{line}");
+            let _ = w.flush();
+        }
+    }
+
+    fn slot(&self, session_id: &str) -> Result<Arc<Slot>, SspError> {
+        if session_id.is_empty() {
+            return Err(SspError::invalid("session_id is missing"));
+        }
+        lock(&self.inner.sessions)
+            .get(session_id)
+            .cloned()
+            .ok_or_else(|| {
+                SspError::not_found(format!(
+                    "no session '{session_id}' (never created, shut down or expired)"
+                ))
+            })
+    }
+
+    /// Runs `f` on a session, traces the call and maps errors to statuses.
+    fn with<R: Serialize>(
+        &self,
+        session_id: &str,
+        method: &str,
+        args: impl FnOnce() -> Value,
+        stepping: bool,
+        f: impl FnOnce(&mut Session) -> SspResult<R>,
+    ) -> Result<R, Status> {
+        let traced = self.inner.trace.is_some();
+        let args = if traced { args() } else { Value::Null };
+        let result = self.slot(session_id).and_then(|slot| {
+            if stepping && slot.streaming.load(Ordering::SeqCst) {
+                return Err(SspError::precondition(
+                    "this session is driven by an open StepStream; unary stepping is refused",
+                ));
+            }
+            *lock(&slot.last_used) = Instant::now();
+            let mut s = lock(&slot.session);
+            f(&mut s)
+        });
+        if traced {
+            let v = result
+                .as_ref()
+                .map(|r| serde_json::to_value(r).unwrap_or(Value::Null))
+                .map_err(Clone::clone);
+            self.trace(session_id, method, args, &v);
+        }
+        result.map_err(cv::status)
+    }
+
+    fn init_session(&self, r: pb::InitRequest) -> SspResult<litesim_ssp::InitResponse> {
+        let map = r.map.map(|m| match m {
+            pb::init_request::Map::MapPath(p) => p,
+            pb::init_request::Map::MapXodr(x) => x,
+        });
+        let req = litesim_ssp::InitRequest {
+            client_name: r.client_name,
+            step_size_ms: r.step_size_ms,
+            map,
+            profile: r.profile,
+            model: r.model,
+            seed: r.seed,
+            options: r.options,
+            traffic_lights: r
+                .traffic_lights
+                .into_iter()
+                .map(cv::light_box)
+                .collect::<SspResult<_>>()?,
+            logical_lights: r.logical_lights.into_iter().map(cv::logical).collect(),
+        };
+        let traced_req = self
+            .inner
+            .trace
+            .as_ref()
+            .map(|_| serde_json::to_value(&req).unwrap_or(Value::Null));
+        let mut session = Session::new(
+            &self.inner.cfg.default_profile,
+            &self.inner.cfg.default_model,
+            self.inner.cfg.limits,
+        );
+        let result = (|| {
+            if lock(&self.inner.sessions).len() >= self.inner.cfg.max_sessions {
+                return Err(SspError::exhausted(format!(
+                    "the server already runs {} sessions (the limit); shut one down first",
+                    self.inner.cfg.max_sessions
+                )));
+            }
+            let mut resp = session.init(req)?;
+            let n = self.inner.next_id.fetch_add(1, Ordering::SeqCst);
+            let id = format!(
+                "s{n:06}-{:08x}",
+                (self.inner.started.elapsed().as_nanos() as u64 ^ n.wrapping_mul(0x9e37_79b9))
+                    & 0xffff_ffff
+            );
+            let mut sessions = lock(&self.inner.sessions);
+            if sessions.len() >= self.inner.cfg.max_sessions {
+                return Err(SspError::exhausted("session limit reached"));
+            }
+            sessions.insert(
+                id.clone(),
+                Arc::new(Slot {
+                    session: Mutex::new(std::mem::take(&mut session)),
+                    last_used: Mutex::new(Instant::now()),
+                    streaming: AtomicBool::new(false),
+                }),
+            );
+            resp.session_id = id;
+            Ok(resp)
+        })();
+        if let Some(args) = traced_req {
+            let v = result
+                .as_ref()
+                .map(|r| serde_json::to_value(r).unwrap_or(Value::Null))
+                .map_err(Clone::clone);
+            self.trace(
+                result.as_ref().map_or("", |r| r.session_id.as_str()),
+                "init",
+                args,
+                &v,
+            );
+        }
+        result
+    }
+
+    /// Applies one stream command and steps; per-command problems are
+    /// collected, step errors are fatal.
+    fn stream_step(
+        &self,
+        session_id: &str,
+        cmd: pb::StepCommand,
+    ) -> Result<pb::StepResult, Status> {
+        let summary = (
+            cmd.seq,
+            cmd.requested_sim_time_ms,
+            cmd.moves.len(),
+            cmd.lights.len(),
+        );
+        let args = move || json!({ "seq": summary.0, "requested_sim_time_ms": summary.1, "moves": summary.2, "lights": summary.3 });
+        let seq = cmd.seq;
+        self.with(session_id, "step_stream", args, false, move |s| {
+            let mut rejected = Vec::new();
+            for (i, m) in cmd.moves.iter().enumerate() {
+                if let Err(e) = apply_move(s, m) {
+                    rejected.push(pb::CommandError {
+                        index: i as u32,
+                        code: cv::status(e.clone()).code() as i32,
+                        message: e.message,
+                    });
+                }
+            }
+            for (j, l) in cmd.lights.iter().enumerate() {
+                let r = cv::light_request(l).and_then(|(t, st)| s.set_traffic_light_state(t, st));
+                if let Err(e) = r {
+                    rejected.push(pb::CommandError {
+                        index: (cmd.moves.len() + j) as u32,
+                        code: cv::status(e.clone()).code() as i32,
+                        message: e.message,
+                    });
+                }
+            }
+            let filter = cv::filter(cmd.state_filter)?;
+            let requested = (cmd.requested_sim_time_ms != 0).then_some(cmd.requested_sim_time_ms);
+            let (info, states) = s.step(requested, &filter)?;
+            Ok(StreamOut {
+                seq,
+                sim_time_ms: info.sim_time_ms,
+                step_index: info.step_index,
+                states,
+                rejected,
+            })
+        })
+        .map(|o| pb::StepResult {
+            seq: o.seq,
+            sim_time_ms: o.sim_time_ms,
+            states: o.states.iter().map(cv::state_pb).collect(),
+            rejected: o.rejected,
+            step_index: o.step_index,
+        })
+    }
+}
+
+#[derive(Serialize)]
+struct StreamOut {
+    seq: u64,
+    sim_time_ms: u64,
+    step_index: u64,
+    states: Vec<litesim_ssp::ReportedState>,
+    #[serde(skip)]
+    rejected: Vec<pb::CommandError>,
+}
+
+fn apply_move(s: &mut Session, m: &pb::MoveCommand) -> SspResult<()> {
+    match &m.cmd {
+        Some(pb::move_command::Cmd::Xy(r)) => s.set_xy_trajectory(&r.actor_id, cv::xy(r)),
+        Some(pb::move_command::Cmd::Dynamic(r)) => {
+            s.set_dynamic_move(&r.actor_id, cv::dynamic(r)?, r.valid_until_ms)
+        }
+        Some(pb::move_command::Cmd::External(r)) => {
+            s.set_external_controller(&r.actor_id, cv::external(r))
+        }
+        None => Err(SspError::invalid(
+            "move command is empty: give xy, dynamic or external",
+        )),
+    }
+}
+
+fn states_json(v: &[litesim_ssp::ReportedState]) -> Value {
+    json!(v.len())
+}
+
+type StepStreamOut = Pin<Box<dyn Stream<Item = Result<pb::StepResult, Status>> + Send + 'static>>;
+
+#[tonic::async_trait]
+impl SimulatorSupport for SspService {
+    async fn init(
+        &self,
+        req: Request<pb::InitRequest>,
+    ) -> Result<Response<pb::InitResponse>, Status> {
+        let resp = self.init_session(req.into_inner()).map_err(cv::status)?;
+        Ok(Response::new(pb::InitResponse {
+            session_id: resp.session_id,
+            capabilities: Some(cv::capabilities_pb(&resp.capabilities)),
+            diagnostics: Some(pb::Diagnostics {
+                info: vec![],
+                warning: resp.diagnostics,
+            }),
+        }))
+    }
+
+    async fn shutdown(
+        &self,
+        req: Request<pb::ShutdownRequest>,
+    ) -> Result<Response<pb::ShutdownResponse>, Status> {
+        let id = req.into_inner().session_id;
+        let removed = lock(&self.inner.sessions).remove(&id);
+        let result = removed
+            .map(|_| Value::Null)
+            .ok_or_else(|| SspError::not_found(format!("no session '{id}'")));
+        self.trace(&id, "shutdown", Value::Null, &result);
+        result.map_err(cv::status)?;
+        Ok(Response::new(pb::ShutdownResponse {}))
+    }
+
+    async fn launch_simulator(
+        &self,
+        req: Request<pb::LaunchSimulatorRequest>,
+    ) -> Result<Response<pb::LaunchSimulatorResponse>, Status> {
+        let r = req.into_inner();
+        let c = self.with(
+            &r.session_id,
+            "launch_simulator",
+            || json!(r.connection_string),
+            false,
+            |s| s.launch_simulator(&r.connection_string),
+        )?;
+        Ok(Response::new(pb::LaunchSimulatorResponse {
+            connection_string: c,
+            diagnostics: None,
+        }))
+    }
+
+    async fn terminate_simulator(
+        &self,
+        req: Request<pb::TerminateSimulatorRequest>,
+    ) -> Result<Response<pb::TerminateSimulatorResponse>, Status> {
+        let r = req.into_inner();
+        self.with(
+            &r.session_id,
+            "terminate_simulator",
+            || Value::Null,
+            false,
+            |s| s.terminate_simulator(),
+        )?;
+        Ok(Response::new(pb::TerminateSimulatorResponse {
+            diagnostics: None,
+        }))
+    }
+
+    async fn start_simulation(
+        &self,
+        req: Request<pb::StartSimulationRequest>,
+    ) -> Result<Response<pb::StartSimulationResponse>, Status> {
+        let r = req.into_inner();
+        self.with(
+            &r.session_id,
+            "start_simulation",
+            || json!({"start_time_ms": r.start_time_ms}),
+            false,
+            |s| s.start_simulation(r.start_time_ms),
+        )?;
+        Ok(Response::new(pb::StartSimulationResponse {
+            diagnostics: None,
+        }))
+    }
+
+    async fn wait_start_simulation(
+        &self,
+        req: Request<pb::WaitStartSimulationRequest>,
+    ) -> Result<Response<pb::WaitStartSimulationResponse>, Status> {
+        let r = req.into_inner();
+        let t = self.with(
+            &r.session_id,
+            "wait_start_simulation",
+            || json!({"max_wait_ms": r.max_wait_ms}),
+            false,
+            |s| s.wait_start_simulation(r.max_wait_ms),
+        )?;
+        Ok(Response::new(pb::WaitStartSimulationResponse {
+            sim_time_ms: t,
+            diagnostics: None,
+        }))
+    }
+
+    async fn end_simulation(
+        &self,
+        req: Request<pb::EndSimulationRequest>,
+    ) -> Result<Response<pb::EndSimulationResponse>, Status> {
+        let r = req.into_inner();
+        let n = self.with(
+            &r.session_id,
+            "end_simulation",
+            || json!({"reason": r.reason}),
+            false,
+            |s| s.end_simulation(&r.reason),
+        )?;
+        Ok(Response::new(pb::EndSimulationResponse {
+            steps_executed: n,
+            diagnostics: None,
+        }))
+    }
+
+    async fn start_step(
+        &self,
+        req: Request<pb::StartStepRequest>,
+    ) -> Result<Response<pb::StartStepResponse>, Status> {
+        let r = req.into_inner();
+        let t = (r.requested_sim_time_ms != 0).then_some(r.requested_sim_time_ms);
+        let i = self.with(
+            &r.session_id,
+            "start_step",
+            || json!({"requested_sim_time_ms": t}),
+            true,
+            |s| s.start_step(t),
+        )?;
+        Ok(Response::new(pb::StartStepResponse { step_index: i }))
+    }
+
+    async fn wait_step(
+        &self,
+        req: Request<pb::WaitStepRequest>,
+    ) -> Result<Response<pb::WaitStepResponse>, Status> {
+        let r = req.into_inner();
+        let info = self.with(
+            &r.session_id,
+            "wait_step",
+            || json!({"max_wait_ms": r.max_wait_ms}),
+            true,
+            |s| s.wait_step(r.max_wait_ms),
+        )?;
+        Ok(Response::new(pb::WaitStepResponse {
+            sim_time_ms: info.sim_time_ms,
+            step_index: info.step_index,
+            diagnostics: None,
+        }))
+    }
+
+    async fn step(
+        &self,
+        req: Request<pb::StepRequest>,
+    ) -> Result<Response<pb::StepResponse>, Status> {
+        let r = req.into_inner();
+        let t = (r.requested_sim_time_ms != 0).then_some(r.requested_sim_time_ms);
+        let filter = r.state_filter;
+        let (info, states) = self.with(
+            &r.session_id,
+            "step",
+            || json!({"requested_sim_time_ms": t}),
+            true,
+            |s| {
+                let f = cv::filter(filter)?;
+                s.step(t, &f)
+            },
+        )?;
+        Ok(Response::new(pb::StepResponse {
+            sim_time_ms: info.sim_time_ms,
+            step_index: info.step_index,
+            states: states.iter().map(cv::state_pb).collect(),
+        }))
+    }
+
+    type StepStreamStream = StepStreamOut;
+
+    async fn step_stream(
+        &self,
+        req: Request<Streaming<pb::StepCommand>>,
+    ) -> Result<Response<Self::StepStreamStream>, Status> {
+        let mut input = req.into_inner();
+        let svc = self.clone();
+        let (tx, rx) = tokio::sync::mpsc::channel::<Result<pb::StepResult, Status>>(4);
+        tokio::spawn(async move {
+            let mut session_id = String::new();
+            while let Some(msg) = input.next().await {
+                let cmd = match msg {
+                    Ok(c) => c,
+                    Err(_) => break, // client went away
+                };
+                if session_id.is_empty() {
+                    let slot = match svc.slot(&cmd.session_id) {
+                        Ok(s) => s,
+                        Err(e) => {
+                            let _ = tx.send(Err(cv::status(e))).await;
+                            return;
+                        }
+                    };
+                    if slot.streaming.swap(true, Ordering::SeqCst) {
+                        let e =
+                            SspError::precondition("this session already has an open StepStream");
+                        let _ = tx.send(Err(cv::status(e))).await;
+                        return;
+                    }
+                    session_id = cmd.session_id.clone();
+                }
+                let out = svc.stream_step(&session_id, cmd);
+                let fatal = out.is_err();
+                if tx.send(out).await.is_err() || fatal {
+                    break;
+                }
+            }
+            // The stream owned the session: it ends with the stream.
+            if !session_id.is_empty() {
+                lock(&svc.inner.sessions).remove(&session_id);
+            }
+        });
+        Ok(Response::new(Box::pin(
+            tokio_stream::wrappers::ReceiverStream::new(rx),
+        )))
+    }
+
+    async fn get_actors_states(
+        &self,
+        req: Request<pb::GetActorsStatesRequest>,
+    ) -> Result<Response<pb::GetActorsStatesResponse>, Status> {
+        let r = req.into_inner();
+        let filter = r.filter;
+        let (t, states) = self.with(
+            &r.session_id,
+            "get_actors_states",
+            || json!({}),
+            false,
+            |s| {
+                let f = cv::filter(filter)?;
+                let states = s.get_actors_states(&f)?;
+                Ok((s.sim_time_ms(), StatesOut(states)))
+            },
+        )?;
+        Ok(Response::new(pb::GetActorsStatesResponse {
+            sim_time_ms: t,
+            states: states.0.iter().map(cv::state_pb).collect(),
+        }))
+    }
+
+    async fn create_actor(
+        &self,
+        req: Request<pb::CreateActorRequest>,
+    ) -> Result<Response<pb::CreateActorResponse>, Status> {
+        let r = req.into_inner();
+        let build = |r: &pb::CreateActorRequest| -> SspResult<litesim_ssp::CreateActor> {
+            Ok(litesim_ssp::CreateActor {
+                actor_id: r.actor_id.clone(),
+                spec: cv::spec(r.description.clone())?,
+                position: cv::coord(r.position),
+                speed: cv::coord(r.speed),
+                acceleration: cv::coord(r.acceleration),
+                initial_mode: cv::move_mode(r.initial_mode, "initial_mode")?,
+            })
+        };
+        let parsed = build(&r);
+        let args = || serde_json::to_value(parsed.as_ref().ok()).unwrap_or(Value::Null);
+        let a = self.with(&r.session_id, "create_actor", args, false, |s| {
+            s.create_actor(parsed.clone()?)
+        })?;
+        Ok(Response::new(pb::CreateActorResponse {
+            actual_description: Some(cv::actual_pb(&a)),
+            diagnostics: None,
+        }))
+    }
+
+    async fn set_actor_params(
+        &self,
+        req: Request<pb::SetActorParamsRequest>,
+    ) -> Result<Response<pb::SetActorParamsResponse>, Status> {
+        let r = req.into_inner();
+        let args = || json!({"actor_id": r.actor_id, "params": r.params});
+        self.with(&r.session_id, "set_actor_params", args, false, |s| {
+            let controls = r.controls.clone().map(cv::controls).transpose()?;
+            s.set_actor_params(&r.actor_id, r.params.clone(), controls)
+        })?;
+        Ok(Response::new(pb::SetActorParamsResponse {
+            diagnostics: None,
+        }))
+    }
+
+    async fn destroy_actor(
+        &self,
+        req: Request<pb::DestroyActorRequest>,
+    ) -> Result<Response<pb::DestroyActorResponse>, Status> {
+        let r = req.into_inner();
+        self.with(
+            &r.session_id,
+            "destroy_actor",
+            || json!({"actor_id": r.actor_id}),
+            false,
+            |s| s.destroy_actor(&r.actor_id),
+        )?;
+        Ok(Response::new(pb::DestroyActorResponse {}))
+    }
+
+    async fn set_xy_trajectory(
+        &self,
+        req: Request<pb::SetXyTrajectoryRequest>,
+    ) -> Result<Response<pb::MoveResponse>, Status> {
+        let r = req.into_inner();
+        let t = cv::xy(&r);
+        let args = || json!({"actor_id": r.actor_id, "trajectory": t});
+        self.with(&r.session_id, "set_xy_trajectory", args, false, |s| {
+            s.set_xy_trajectory(&r.actor_id, t.clone())
+        })?;
+        Ok(Response::new(pb::MoveResponse { diagnostics: None }))
+    }
+
+    async fn set_dynamic_move(
+        &self,
+        req: Request<pb::SetDynamicMoveRequest>,
+    ) -> Result<Response<pb::MoveResponse>, Status> {
+        let r = req.into_inner();
+        let cmd = cv::dynamic(&r);
+        let args = || json!({"actor_id": r.actor_id, "command": cmd.as_ref().ok(), "valid_until_ms": r.valid_until_ms});
+        self.with(&r.session_id, "set_dynamic_move", args, false, |s| {
+            s.set_dynamic_move(&r.actor_id, cmd.clone()?, r.valid_until_ms)
+        })?;
+        Ok(Response::new(pb::MoveResponse { diagnostics: None }))
+    }
+
+    async fn set_external_controller(
+        &self,
+        req: Request<pb::SetExternalControllerRequest>,
+    ) -> Result<Response<pb::MoveResponse>, Status> {
+        let r = req.into_inner();
+        let ext = cv::external(&r);
+        let args = || json!({"actor_id": r.actor_id, "controller": ext});
+        self.with(&r.session_id, "set_external_controller", args, false, |s| {
+            s.set_external_controller(&r.actor_id, ext.clone())
+        })?;
+        Ok(Response::new(pb::MoveResponse { diagnostics: None }))
+    }
+
+    async fn set_weather(
+        &self,
+        req: Request<pb::SetWeatherRequest>,
+    ) -> Result<Response<pb::SetWeatherResponse>, Status> {
+        let r = req.into_inner();
+        let w = cv::weather(r.weather);
+        let applied = self.with(
+            &r.session_id,
+            "set_weather",
+            || json!(w),
+            false,
+            |s| s.set_weather(w.clone()),
+        )?;
+        Ok(Response::new(pb::SetWeatherResponse {
+            applied: Some(cv::weather_pb(&applied)),
+        }))
+    }
+
+    async fn set_time_of_day(
+        &self,
+        req: Request<pb::SetTimeOfDayRequest>,
+    ) -> Result<Response<pb::SetTimeOfDayResponse>, Status> {
+        let r = req.into_inner();
+        let tod = litesim_ssp::TimeOfDay {
+            seconds_since_midnight: r.seconds_since_midnight,
+            day_of_year: r.day_of_year,
+            advance_with_sim: r.advance_with_sim,
+        };
+        self.with(
+            &r.session_id,
+            "set_time_of_day",
+            || json!(tod),
+            false,
+            |s| s.set_time_of_day(tod),
+        )?;
+        Ok(Response::new(pb::SetTimeOfDayResponse {}))
+    }
+
+    async fn sim_command(
+        &self,
+        req: Request<pb::SimCommandRequest>,
+    ) -> Result<Response<pb::SimCommandResponse>, Status> {
+        let r = req.into_inner();
+        let out = self.with(
+            &r.session_id,
+            "sim_command",
+            || json!({"command": r.command, "args": r.args}),
+            false,
+            |s| s.sim_command(&r.command, &r.args),
+        )?;
+        Ok(Response::new(pb::SimCommandResponse {
+            output: out,
+            diagnostics: None,
+        }))
+    }
+
+    async fn list_traffic_lights(
+        &self,
+        req: Request<pb::ListTrafficLightsRequest>,
+    ) -> Result<Response<pb::ListTrafficLightsResponse>, Status> {
+        let r = req.into_inner();
+        let l = self.with(
+            &r.session_id,
+            "list_traffic_lights",
+            || Value::Null,
+            false,
+            |s| s.list_traffic_lights(),
+        )?;
+        Ok(Response::new(pb::ListTrafficLightsResponse {
+            boxes: l.boxes.iter().map(cv::light_box_pb).collect(),
+            logical: l.logical.iter().map(cv::logical_pb).collect(),
+        }))
+    }
+
+    async fn set_traffic_light_state(
+        &self,
+        req: Request<pb::SetTrafficLightStateRequest>,
+    ) -> Result<Response<pb::SetTrafficLightStateResponse>, Status> {
+        let r = req.into_inner();
+        let parsed = cv::light_request(&r);
+        let args = || serde_json::to_value(parsed.as_ref().ok()).unwrap_or(Value::Null);
+        let affected = self.with(&r.session_id, "set_traffic_light_state", args, false, |s| {
+            let (t, st) = parsed.clone()?;
+            s.set_traffic_light_state(t, st)
+        })?;
+        Ok(Response::new(pb::SetTrafficLightStateResponse {
+            affected: affected.iter().map(cv::light_box_pb).collect(),
+        }))
+    }
+}
+
+/// States serialised as a count in traces (a full state dump per step would
+/// dwarf the run itself).
+struct StatesOut(Vec<litesim_ssp::ReportedState>);
+
+impl Serialize for StatesOut {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        states_json(&self.0).serialize(s)
+    }
+}
+
+/// tonic rejects oversized requests with `OUT_OF_RANGE`; gRPC's convention
+/// (and litesim's API) is `RESOURCE_EXHAUSTED`. This rewrites exactly that
+/// one case on trailers-only error responses.
+fn remap_oversize<B>(mut resp: http::Response<B>) -> http::Response<B> {
+    let h = resp.headers();
+    let oversize = h.get("grpc-status").is_some_and(|v| v == "11")
+        && h.get("grpc-message")
+            .and_then(|m| m.to_str().ok())
+            .is_some_and(|m| {
+                m.contains("message%20length%20too%20large")
+                    || m.contains("message length too large")
+            });
+    if oversize {
+        resp.headers_mut()
+            .insert("grpc-status", http::HeaderValue::from_static("8"));
+    }
+    resp
+}
+
+/// The encoded descriptor set of the proto (for reflection).
+pub const FILE_DESCRIPTOR_SET: &[u8] =
+    include_bytes!(concat!(env!("OUT_DIR"), "/ssp_descriptor.bin"));
+
+/// Serves the SSP API, gRPC health and reflection on `listener` until
+/// `shutdown` completes. Idle sessions are reaped every second.
+pub async fn serve(
+    listener: tokio::net::TcpListener,
+    cfg: ServerConfig,
+    shutdown: impl std::future::Future<Output = ()> + Send,
+) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+    let max = cfg.max_message_bytes;
+    let svc = SspService::new(cfg)?;
+    let reaper = svc.clone();
+    let reap_task = tokio::spawn(async move {
+        let mut every = tokio::time::interval(Duration::from_secs(1));
+        loop {
+            every.tick().await;
+            reaper.reap();
+        }
+    });
+    let (reporter, health) = tonic_health::server::health_reporter();
+    reporter
+        .set_serving::<SimulatorSupportServer<SspService>>()
+        .await;
+    let reflection = tonic_reflection::server::Builder::configure()
+        .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
+        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+        .build_v1()?;
+    let ssp = SimulatorSupportServer::new(svc)
+        .max_decoding_message_size(max)
+        .max_encoding_message_size(usize::MAX);
+    // Lock-step traffic is many tiny messages: without TCP_NODELAY, Nagle and
+    // delayed ACKs add tens of milliseconds per call. The builder's own
+    // nodelay setting applies only to listeners it binds itself.
+    let incoming = tokio_stream::wrappers::TcpListenerStream::new(listener).map(|conn| {
+        conn.inspect(|s| {
+            let _ = s.set_nodelay(true);
+        })
+    });
+    let result = tonic::transport::Server::builder()
+        .tcp_nodelay(true)
+        .layer(tower::util::MapResponseLayer::new(remap_oversize))
+        .add_service(health)
+        .add_service(reflection)
+        .add_service(ssp)
+        .serve_with_incoming_shutdown(incoming, shutdown)
+        .await;
+    reap_task.abort();
+    result.map_err(Into::into)
+}

@@ -1,0 +1,482 @@
+//! The SSP API over a real loopback socket: equality with the in-process
+//! model, every class of bad input, sessions, streaming, health and traces.
+
+use litesim_grpc::pb;
+use litesim_grpc::{RemoteSsp, ServerConfig};
+use litesim_ssp::testkit::{encode, mixed_scenario};
+use litesim_ssp::*;
+use std::net::SocketAddr;
+
+struct Server {
+    addr: SocketAddr,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl Drop for Server {
+    fn drop(&mut self) {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn start(cfg: ServerConfig) -> Server {
+    let (tx_addr, rx_addr) = std::sync::mpsc::channel();
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let thread = std::thread::spawn(move || {
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(2)
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async move {
+            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+            tx_addr.send(listener.local_addr().unwrap()).unwrap();
+            litesim_grpc::serve(listener, cfg, async {
+                let _ = stopped.await;
+            })
+            .await
+            .unwrap();
+        });
+    });
+    Server {
+        addr: rx_addr.recv().unwrap(),
+        stop: Some(stop),
+        thread: Some(thread),
+    }
+}
+
+fn running(addr: SocketAddr) -> RemoteSsp {
+    let mut c = RemoteSsp::connect(&addr.to_string()).unwrap();
+    c.init(InitRequest::default()).unwrap();
+    c.start_simulation(0).unwrap();
+    c.wait_start_simulation(100).unwrap();
+    c
+}
+
+fn car(id: &str) -> CreateActor {
+    CreateActor {
+        actor_id: id.into(),
+        position: Coord6::xy_yaw(0.0, 0.0, 0.0),
+        ..CreateActor::default()
+    }
+}
+
+#[test]
+fn remote_run_is_bit_identical_to_in_process() {
+    let server = start(ServerConfig::default());
+    let local = encode(&mixed_scenario(&mut Session::default(), 1000).unwrap());
+    let mut remote = RemoteSsp::connect(&server.addr.to_string()).unwrap();
+    let over_grpc = encode(&mixed_scenario(&mut remote, 1000).unwrap());
+    assert_eq!(local.len(), over_grpc.len());
+    assert!(local == over_grpc, "in-process and gRPC runs differ");
+}
+
+#[test]
+fn bad_input_gets_the_right_code_and_the_server_keeps_serving() {
+    let server = start(ServerConfig {
+        max_message_bytes: 64 * 1024,
+        ..ServerConfig::default()
+    });
+    let mut bystander = running(server.addr);
+    bystander.create_actor(car("b")).unwrap();
+    bystander
+        .set_dynamic_move(
+            "b",
+            DynamicMove::Normalized {
+                throttle: 0.5,
+                brake: 0.0,
+                steering: 0.0,
+            },
+            0,
+        )
+        .unwrap();
+    bystander.step(None, &ActorFilter::default()).unwrap();
+    let before = bystander
+        .get_actors_states(&ActorFilter::default())
+        .unwrap();
+
+    let mut c = RemoteSsp::connect(&server.addr.to_string()).unwrap();
+    // Wrong life-cycle state, before init: the session does not exist yet.
+    let e = c.start_step(None).unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArgument, "{e}"); // session_id missing
+    c.init(InitRequest::default()).unwrap();
+    let e = c.start_step(None).unwrap_err();
+    assert_eq!(e.code, ErrorCode::FailedPrecondition);
+    assert!(
+        e.message.contains("INITIALIZED") && e.message.contains("start_simulation"),
+        "{}",
+        e.message
+    );
+    c.start_simulation(0).unwrap();
+    assert_eq!(
+        c.start_simulation(0).unwrap_err().code,
+        ErrorCode::AlreadyExists
+    );
+    c.wait_start_simulation(10).unwrap();
+    let e = c.wait_step(10).unwrap_err();
+    assert_eq!(e.code, ErrorCode::FailedPrecondition);
+
+    // Missing and NaN fields.
+    let e = c
+        .create_actor(CreateActor {
+            actor_id: "x".into(),
+            position: Coord6 {
+                x: Some(1.0),
+                ..Coord6::default()
+            },
+            ..CreateActor::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArgument);
+    assert!(
+        e.message.contains("position.y") || e.message.contains("position.x and position.y"),
+        "{}",
+        e.message
+    );
+    let e = c
+        .create_actor(CreateActor {
+            actor_id: "x".into(),
+            position: Coord6::xy_yaw(0.0, f64::NAN, 0.0),
+            ..CreateActor::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArgument);
+    assert!(e.message.contains("position.y"), "{}", e.message);
+    c.create_actor(car("a")).unwrap();
+    assert_eq!(
+        c.create_actor(car("a")).unwrap_err().code,
+        ErrorCode::AlreadyExists
+    );
+    let e = c
+        .set_dynamic_move(
+            "a",
+            DynamicMove::Normalized {
+                throttle: f64::NAN,
+                brake: 0.0,
+                steering: 0.0,
+            },
+            0,
+        )
+        .unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArgument);
+    assert!(e.message.contains("throttle"), "{}", e.message);
+    let e = c
+        .set_dynamic_move(
+            "a",
+            DynamicMove::Physical {
+                drive_force_n: -5.0,
+                brake_force_n: 0.0,
+                steer: PhysicalSteer::TorqueNm(0.0),
+            },
+            0,
+        )
+        .unwrap_err();
+    assert!(
+        e.code == ErrorCode::InvalidArgument && e.message.contains("throttle"),
+        "{e}"
+    );
+    let e = c
+        .set_dynamic_move(
+            "a",
+            DynamicMove::Normalized {
+                throttle: 0.0,
+                brake: 0.0,
+                steering: 2.0,
+            },
+            0,
+        )
+        .unwrap_err();
+    assert!(e.message.contains("steering"), "{e}");
+    let e = c
+        .set_xy_trajectory("a", XyTrajectory::default())
+        .unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArgument);
+    c.step(None, &ActorFilter::default()).unwrap();
+    let e = c.start_step(Some(20)).unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArgument, "a time not after now");
+
+    // Unknown ids.
+    assert_eq!(
+        c.destroy_actor("ghost").unwrap_err().code,
+        ErrorCode::NotFound
+    );
+    assert_eq!(
+        c.set_dynamic_move(
+            "ghost",
+            DynamicMove::Normalized {
+                throttle: 0.0,
+                brake: 0.0,
+                steering: 0.0
+            },
+            0
+        )
+        .unwrap_err()
+        .code,
+        ErrorCode::NotFound
+    );
+    let e = c
+        .get_actors_states(&ActorFilter {
+            actor_ids: vec!["ghost".into()],
+            ..ActorFilter::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.code, ErrorCode::NotFound);
+    let e = c
+        .create_actor(CreateActor {
+            spec: ActorSpec {
+                model_id: "vehicle.flux.capacitor".into(),
+                ..ActorSpec::default()
+            },
+            ..car("q")
+        })
+        .unwrap_err();
+    assert!(
+        e.code == ErrorCode::NotFound && e.message.contains("dummy.vehicle"),
+        "{e}"
+    );
+    assert_eq!(
+        c.sim_command("warp", &[]).unwrap_err().code,
+        ErrorCode::Unimplemented
+    );
+
+    // Oversized request: RESOURCE_EXHAUSTED from the transport limit.
+    let huge = XyTrajectory {
+        start_time_ms: 0,
+        end_time_ms: 100_000,
+        points: (0..20_000)
+            .map(|i| Coord6::xy_yaw(i as f64, 0.0, 0.0))
+            .collect(),
+        ..XyTrajectory::default()
+    };
+    let e = c.set_xy_trajectory("a", huge).unwrap_err();
+    assert_eq!(e.code, ErrorCode::ResourceExhausted, "{e}");
+    // Too many steps in one call.
+    let e = c.start_step(Some(10_000_000_000)).unwrap_err();
+    assert_eq!(e.code, ErrorCode::ResourceExhausted, "{e}");
+
+    // The session still works after all that.
+    c.step(None, &ActorFilter::default()).unwrap();
+    // The bystander saw none of it.
+    assert_eq!(
+        bystander
+            .get_actors_states(&ActorFilter::default())
+            .unwrap(),
+        before
+    );
+    bystander.step(None, &ActorFilter::default()).unwrap();
+
+    // Unknown sessions.
+    c.shutdown().unwrap();
+    assert_eq!(
+        c.step(None, &ActorFilter::default()).unwrap_err().code,
+        ErrorCode::NotFound
+    );
+}
+
+#[test]
+fn session_and_actor_limits() {
+    let server = start(ServerConfig {
+        max_sessions: 2,
+        limits: SessionLimits {
+            max_actors: 3,
+            ..SessionLimits::default()
+        },
+        ..ServerConfig::default()
+    });
+    let mut a = running(server.addr);
+    let _b = running(server.addr);
+    let mut c = RemoteSsp::connect(&server.addr.to_string()).unwrap();
+    let e = c.init(InitRequest::default()).unwrap_err();
+    assert_eq!(e.code, ErrorCode::ResourceExhausted);
+    for i in 0..3 {
+        a.create_actor(car(&format!("c{i}"))).unwrap();
+    }
+    assert_eq!(
+        a.create_actor(car("c3")).unwrap_err().code,
+        ErrorCode::ResourceExhausted
+    );
+    a.shutdown().unwrap();
+    c.init(InitRequest::default()).unwrap();
+}
+
+#[test]
+fn many_clients_run_independent_simulations_at_once() {
+    let server = start(ServerConfig::default());
+    let addr = server.addr;
+    let local = encode(&mixed_scenario(&mut Session::default(), 200).unwrap());
+    let threads: Vec<_> = (0..4)
+        .map(|_| {
+            std::thread::spawn(move || {
+                let mut c = RemoteSsp::connect(&addr.to_string()).unwrap();
+                encode(&mixed_scenario(&mut c, 200).unwrap())
+            })
+        })
+        .collect();
+    for t in threads {
+        assert!(t.join().unwrap() == local);
+    }
+}
+
+#[test]
+fn step_stream_lock_step() {
+    use pb::move_command::Cmd;
+    let server = start(ServerConfig::default());
+    let mut c = running(server.addr);
+    c.create_actor(car("a")).unwrap();
+    let sid = c.session_id().to_string();
+    let (rt, raw) = c.raw();
+    let mut raw = raw.clone();
+    let results = rt.block_on(async move {
+        let (tx, rx) = tokio::sync::mpsc::channel(4);
+        let mut out = raw
+            .step_stream(tokio_stream::wrappers::ReceiverStream::new(rx))
+            .await
+            .unwrap()
+            .into_inner();
+        let mut got = Vec::new();
+        for seq in 1..=50u64 {
+            let moves = vec![
+                pb::MoveCommand {
+                    cmd: Some(Cmd::Dynamic(litesim_grpc::convert::dynamic_pb(
+                        "",
+                        "a",
+                        &DynamicMove::Normalized {
+                            throttle: 0.5,
+                            brake: 0.0,
+                            steering: 0.1,
+                        },
+                        0,
+                    ))),
+                },
+                // A bad command is rejected, the step still happens.
+                pb::MoveCommand {
+                    cmd: Some(Cmd::Dynamic(litesim_grpc::convert::dynamic_pb(
+                        "",
+                        "ghost",
+                        &DynamicMove::Normalized {
+                            throttle: 0.5,
+                            brake: 0.0,
+                            steering: 0.1,
+                        },
+                        0,
+                    ))),
+                },
+            ];
+            tx.send(pb::StepCommand {
+                session_id: if seq == 1 { sid.clone() } else { String::new() },
+                seq,
+                moves,
+                ..Default::default()
+            })
+            .await
+            .unwrap();
+            got.push(out.message().await.unwrap().unwrap());
+        }
+        got
+    });
+    assert_eq!(results.len(), 50);
+    for (i, r) in results.iter().enumerate() {
+        assert_eq!(r.seq, i as u64 + 1);
+        assert_eq!(r.sim_time_ms, 20 * (i as u64 + 1));
+        assert_eq!(r.rejected.len(), 1);
+        assert_eq!(r.rejected[0].code, tonic::Code::NotFound as i32);
+    }
+    let last = &results[49].states[0];
+    assert!(last.speed_mps > 0.0);
+    // The same steps in-process give the same state, bit for bit.
+    let mut s = Session::default();
+    s.init(InitRequest::default()).unwrap();
+    s.start_simulation(0).unwrap();
+    s.wait_start_simulation(0).unwrap();
+    s.create_actor(car("a")).unwrap();
+    for _ in 0..50 {
+        s.set_dynamic_move(
+            "a",
+            DynamicMove::Normalized {
+                throttle: 0.5,
+                brake: 0.0,
+                steering: 0.1,
+            },
+            0,
+        )
+        .unwrap();
+        s.step(None, &ActorFilter::default()).unwrap();
+    }
+    let st = &s.get_actors_states(&ActorFilter::default()).unwrap()[0];
+    assert_eq!(
+        last.position.unwrap().x.unwrap().to_bits(),
+        st.pose.position.x.to_bits()
+    );
+    assert_eq!(last.speed_mps.to_bits(), st.speed.to_bits());
+}
+
+#[test]
+fn health_reports_serving() {
+    let server = start(ServerConfig::default());
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap();
+    let status = rt.block_on(async {
+        let ch = tonic::transport::Channel::from_shared(format!("http://{}", server.addr))
+            .unwrap()
+            .connect()
+            .await
+            .unwrap();
+        let mut h = tonic_health::pb::health_client::HealthClient::new(ch);
+        h.check(tonic_health::pb::HealthCheckRequest {
+            service: "litesim.ssp.v1.SimulatorSupport".into(),
+        })
+        .await
+        .unwrap()
+        .into_inner()
+        .status
+    });
+    assert_eq!(
+        status,
+        tonic_health::pb::health_check_response::ServingStatus::Serving as i32
+    );
+}
+
+#[test]
+fn trace_rpc_writes_every_call_as_json_lines() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("trace.jsonl");
+    {
+        let server = start(ServerConfig {
+            trace_rpc: Some(path.clone()),
+            ..ServerConfig::default()
+        });
+        let mut c = running(server.addr);
+        c.create_actor(car("a")).unwrap();
+        let _ = c.destroy_actor("ghost");
+        c.step(None, &ActorFilter::default()).unwrap();
+    }
+    let text = std::fs::read_to_string(&path).unwrap();
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    let methods: Vec<&str> = lines
+        .iter()
+        .map(|l| l["method"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        methods,
+        [
+            "init",
+            "start_simulation",
+            "wait_start_simulation",
+            "create_actor",
+            "destroy_actor",
+            "step"
+        ]
+    );
+    assert_eq!(lines[3]["args"]["actor_id"], "a");
+    assert_eq!(lines[4]["result"]["error"]["code"], "NOT_FOUND");
+}
