@@ -1,0 +1,197 @@
+//! Writers and readers. Writes are atomic: a temporary file in the target's
+//! folder, flushed, then renamed over the target.
+
+use crate::log::SimulationLog;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// Why a log could not be written or read.
+#[derive(Debug, thiserror::Error)]
+pub enum LogError {
+    /// File-system trouble.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Not a valid JSON log.
+    #[error("{path}: line {line}, column {column}: {message}")]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// Line (1-based).
+        line: usize,
+        /// Column (1-based).
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// Well-formed JSON that breaks the log's invariants.
+    #[error("{path}: {message}")]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> LogError + '_ {
+    move |source| LogError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Writes `fill`'s output to `path` atomically.
+pub(crate) fn write_atomic(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), LogError> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&dir).map_err(io_err(path))?;
+    let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(io_err(path))?;
+    {
+        let mut w = std::io::BufWriter::new(tmp.as_file_mut());
+        fill(&mut w).map_err(io_err(path))?;
+        w.flush().map_err(io_err(path))?;
+    }
+    tmp.as_file().sync_all().map_err(io_err(path))?;
+    tmp.persist(path).map_err(|e| io_err(path)(e.error))?;
+    Ok(())
+}
+
+fn num(x: f64) -> String {
+    if x.is_nan() {
+        String::new()
+    } else {
+        format!("{x}")
+    }
+}
+
+impl SimulationLog {
+    /// Writes the JSON form atomically. NaN (no value) is written as `null`.
+    pub fn write_json(&self, path: &Path) -> Result<(), LogError> {
+        write_atomic(path, |w| {
+            serde_json::to_writer(&mut *w, self).map_err(std::io::Error::other)?;
+            writeln!(w)
+        })
+    }
+
+    /// Writes the long CSV form atomically: one row per actor and tick.
+    pub fn write_csv(&self, path: &Path) -> Result<(), LogError> {
+        write_atomic(path, |w| {
+            writeln!(
+                w,
+                "tick,time_s,actor_id,mode,x_m,y_m,z_m,yaw_rad,vx_mps,vy_mps,speed_mps,yaw_rate_radps,\
+                 throttle,brake,steering,accel_cmd_mps2,steering_angle_rad,curvature_1pm,lat_acc_mps2,\
+                 long_acc_mps2,slip_angle_rad,force_long_n,force_lat_n,friction_use"
+            )?;
+            let times: std::collections::BTreeMap<u64, f64> = self
+                .tick
+                .iter()
+                .copied()
+                .zip(self.time.iter().copied())
+                .collect();
+            for t in &self.tracks {
+                for i in 0..t.len() {
+                    let s = &t.state;
+                    let c = &t.control;
+                    let d = &t.derived;
+                    let cols = [
+                        s.x[i],
+                        s.y[i],
+                        s.z[i],
+                        s.yaw[i],
+                        s.vx[i],
+                        s.vy[i],
+                        s.speed[i],
+                        s.yaw_rate[i],
+                        c.throttle[i],
+                        c.brake[i],
+                        c.steering[i],
+                        c.acceleration[i],
+                        c.steering_angle[i],
+                        d.curvature[i],
+                        d.lateral_acceleration[i],
+                        d.longitudinal_acceleration[i],
+                        d.slip_angle[i],
+                        d.force_longitudinal_n[i],
+                        d.force_lateral_n[i],
+                        d.friction_use[i],
+                    ];
+                    let time = times.get(&t.tick[i]).copied().unwrap_or(f64::NAN);
+                    write!(
+                        w,
+                        "{},{},{},{}",
+                        t.tick[i],
+                        num(time),
+                        csv_field(&t.id),
+                        t.mode[i]
+                    )?;
+                    for v in cols {
+                        write!(w, ",{}", num(v))?;
+                    }
+                    writeln!(w)?;
+                }
+            }
+            Ok(())
+        })
+    }
+
+    /// Reads and validates the JSON form.
+    pub fn read_json(path: &Path) -> Result<Self, LogError> {
+        let text = std::fs::read_to_string(path).map_err(io_err(path))?;
+        Self::from_json_str(&text, path)
+    }
+
+    /// Parses and validates the JSON form (`path` is used in messages).
+    pub fn from_json_str(text: &str, path: &Path) -> Result<Self, LogError> {
+        let log: SimulationLog = serde_json::from_str(text).map_err(|e| LogError::Json {
+            path: path.to_path_buf(),
+            line: e.line(),
+            column: e.column(),
+            message: e.to_string(),
+        })?;
+        let invalid = |message: String| LogError::Invalid {
+            path: path.to_path_buf(),
+            message,
+        };
+        if log.format_version != 1 {
+            return Err(invalid(format!(
+                "format_version {} is not supported (expected 1)",
+                log.format_version
+            )));
+        }
+        if log.tick.len() != log.time.len() {
+            return Err(invalid(format!(
+                "{} ticks but {} times",
+                log.tick.len(),
+                log.time.len()
+            )));
+        }
+        for t in &log.tracks {
+            if let Some((name, len)) = t.bad_columns().first() {
+                return Err(invalid(format!(
+                    "track '{}': column {name} has {len} entries, expected {} (one per tick)",
+                    t.id,
+                    t.len()
+                )));
+            }
+        }
+        Ok(log)
+    }
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}

@@ -1,0 +1,409 @@
+//! The columnar log and its recorder.
+
+use litesim_core::{Derived, Pose, Vec3, VehicleInput, World, math};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// JSON has no NaN: writers emit `null` for "no value"; read it back as NaN.
+fn nan_vec<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    let v: Vec<Option<f64>> = Deserialize::deserialize(d)?;
+    Ok(v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())
+}
+
+/// State columns of one actor (SI units, world frame).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StateColumns {
+    /// x (m).
+    #[serde(deserialize_with = "nan_vec")]
+    pub x: Vec<f64>,
+    /// y (m).
+    #[serde(deserialize_with = "nan_vec")]
+    pub y: Vec<f64>,
+    /// z (m).
+    #[serde(deserialize_with = "nan_vec")]
+    pub z: Vec<f64>,
+    /// Heading (rad).
+    #[serde(deserialize_with = "nan_vec")]
+    pub yaw: Vec<f64>,
+    /// Velocity x (m/s).
+    #[serde(deserialize_with = "nan_vec")]
+    pub vx: Vec<f64>,
+    /// Velocity y (m/s).
+    #[serde(deserialize_with = "nan_vec")]
+    pub vy: Vec<f64>,
+    /// Longitudinal speed (m/s).
+    #[serde(deserialize_with = "nan_vec")]
+    pub speed: Vec<f64>,
+    /// Yaw rate (rad/s).
+    #[serde(deserialize_with = "nan_vec")]
+    pub yaw_rate: Vec<f64>,
+}
+
+/// Control columns: what the actor was told in the step (NaN = not applicable).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ControlColumns {
+    /// Throttle 0..1.
+    #[serde(deserialize_with = "nan_vec")]
+    pub throttle: Vec<f64>,
+    /// Brake 0..1.
+    #[serde(deserialize_with = "nan_vec")]
+    pub brake: Vec<f64>,
+    /// Steering −1..1 of full lock.
+    #[serde(deserialize_with = "nan_vec")]
+    pub steering: Vec<f64>,
+    /// Commanded acceleration (m/s²) for direct control.
+    #[serde(deserialize_with = "nan_vec")]
+    pub acceleration: Vec<f64>,
+    /// Road-wheel angle applied (rad).
+    #[serde(deserialize_with = "nan_vec")]
+    pub steering_angle: Vec<f64>,
+}
+
+/// Derived columns (seed 001 §1.3; see [`litesim_core::Derived`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DerivedColumns {
+    /// Curvature (1/m).
+    #[serde(deserialize_with = "nan_vec")]
+    pub curvature: Vec<f64>,
+    /// Lateral acceleration (m/s²).
+    #[serde(deserialize_with = "nan_vec")]
+    pub lateral_acceleration: Vec<f64>,
+    /// Longitudinal acceleration (m/s²).
+    #[serde(deserialize_with = "nan_vec")]
+    pub longitudinal_acceleration: Vec<f64>,
+    /// Side-slip angle (rad).
+    #[serde(deserialize_with = "nan_vec")]
+    pub slip_angle: Vec<f64>,
+    /// m·a_x (N).
+    #[serde(deserialize_with = "nan_vec")]
+    pub force_longitudinal_n: Vec<f64>,
+    /// m·a_y (N).
+    #[serde(deserialize_with = "nan_vec")]
+    pub force_lateral_n: Vec<f64>,
+    /// √(a_x²+a_y²)/(μg).
+    #[serde(deserialize_with = "nan_vec")]
+    pub friction_use: Vec<f64>,
+}
+
+/// One actor's record.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ActorTrack {
+    /// Actor id.
+    pub id: String,
+    /// Kind ("vehicle/car", "person", …).
+    pub kind: String,
+    /// Blueprint.
+    pub model: String,
+    /// Length (m).
+    pub length: f64,
+    /// Width (m).
+    pub width: f64,
+    /// Mass (kg).
+    pub mass: f64,
+    /// Ticks at which the actor was recorded.
+    pub tick: Vec<u64>,
+    /// Control mode per tick ("stored", "trajectory", "dynamic", "direct", "external").
+    pub mode: Vec<String>,
+    /// State.
+    pub state: StateColumns,
+    /// Control.
+    pub control: ControlColumns,
+    /// Derived.
+    pub derived: DerivedColumns,
+}
+
+impl ActorTrack {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.tick.len()
+    }
+    /// True when empty.
+    pub fn is_empty(&self) -> bool {
+        self.tick.is_empty()
+    }
+    /// Column lengths that disagree with `tick` (name, length).
+    pub(crate) fn bad_columns(&self) -> Vec<(&'static str, usize)> {
+        let n = self.tick.len();
+        let s = &self.state;
+        let c = &self.control;
+        let d = &self.derived;
+        [
+            ("mode", self.mode.len()),
+            ("state.x", s.x.len()),
+            ("state.y", s.y.len()),
+            ("state.z", s.z.len()),
+            ("state.yaw", s.yaw.len()),
+            ("state.vx", s.vx.len()),
+            ("state.vy", s.vy.len()),
+            ("state.speed", s.speed.len()),
+            ("state.yaw_rate", s.yaw_rate.len()),
+            ("control.throttle", c.throttle.len()),
+            ("control.brake", c.brake.len()),
+            ("control.steering", c.steering.len()),
+            ("control.acceleration", c.acceleration.len()),
+            ("control.steering_angle", c.steering_angle.len()),
+            ("derived.curvature", d.curvature.len()),
+            ("derived.lateral_acceleration", d.lateral_acceleration.len()),
+            (
+                "derived.longitudinal_acceleration",
+                d.longitudinal_acceleration.len(),
+            ),
+            ("derived.slip_angle", d.slip_angle.len()),
+            ("derived.force_longitudinal_n", d.force_longitudinal_n.len()),
+            ("derived.force_lateral_n", d.force_lateral_n.len()),
+            ("derived.friction_use", d.friction_use.len()),
+        ]
+        .into_iter()
+        .filter(|(_, l)| *l != n)
+        .collect()
+    }
+}
+
+/// A whole run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SimulationLog {
+    /// Format version (1).
+    pub format_version: u32,
+    /// Step (s).
+    pub dt: f64,
+    /// Free metadata (profile, model, seed, scenario…), sorted.
+    pub meta: BTreeMap<String, String>,
+    /// Recorded ticks.
+    pub tick: Vec<u64>,
+    /// Times of the recorded ticks (s).
+    #[serde(deserialize_with = "nan_vec")]
+    pub time: Vec<f64>,
+    /// Actor tracks, in first-appearance order.
+    pub tracks: Vec<ActorTrack>,
+}
+
+impl SimulationLog {
+    /// A track by actor id.
+    pub fn track(&self, id: &str) -> Option<&ActorTrack> {
+        self.tracks.iter().find(|t| t.id == id)
+    }
+}
+
+/// Control applied in a step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControlSample {
+    /// Throttle (NaN when not pedal-driven).
+    pub throttle: f64,
+    /// Brake.
+    pub brake: f64,
+    /// Steering fraction.
+    pub steering: f64,
+    /// Commanded acceleration (NaN when pedal-driven).
+    pub acceleration: f64,
+    /// Road-wheel angle applied (rad).
+    pub steering_angle: f64,
+}
+
+impl Default for ControlSample {
+    fn default() -> Self {
+        Self {
+            throttle: f64::NAN,
+            brake: f64::NAN,
+            steering: f64::NAN,
+            acceleration: f64::NAN,
+            steering_angle: f64::NAN,
+        }
+    }
+}
+
+/// One actor at one tick.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ActorSample {
+    /// Pose.
+    pub pose: Pose,
+    /// Velocity (world frame).
+    pub velocity: Vec3,
+    /// Longitudinal speed.
+    pub speed: f64,
+    /// Yaw rate.
+    pub yaw_rate: f64,
+    /// Control.
+    pub control: ControlSample,
+    /// Derived quantities.
+    pub derived: Derived,
+}
+
+impl ActorSample {
+    /// A sample from kinematics alone (e.g. states read over the SSP API):
+    /// curvature = ω/v, a_y = v·ω, a_x = a·heading; force proxies from `mass`.
+    pub fn from_kinematics(
+        pose: Pose,
+        velocity: Vec3,
+        acceleration: Vec3,
+        yaw_rate: f64,
+        speed: f64,
+        mass: f64,
+    ) -> Self {
+        let (s, c) = math::sin_cos(pose.yaw);
+        let a_x = acceleration.x * c + acceleration.y * s;
+        let a_y = speed * yaw_rate;
+        let g = 9.806_65;
+        Self {
+            pose,
+            velocity,
+            speed,
+            yaw_rate,
+            control: ControlSample::default(),
+            derived: Derived {
+                curvature: if speed.abs() > 1e-6 {
+                    yaw_rate / speed
+                } else {
+                    0.0
+                },
+                lateral_acceleration: a_y,
+                longitudinal_acceleration: a_x,
+                slip_angle: 0.0,
+                force_longitudinal_n: mass * a_x,
+                force_lateral_n: mass * a_y,
+                friction_use: (a_x * a_x + a_y * a_y).sqrt() / g,
+            },
+        }
+    }
+}
+
+/// Builds a [`SimulationLog`] step by step.
+#[derive(Clone, Debug, Default)]
+pub struct LogRecorder {
+    log: SimulationLog,
+    index: BTreeMap<String, usize>,
+}
+
+impl LogRecorder {
+    /// A recorder for steps of `dt` seconds.
+    pub fn new(dt: f64) -> Self {
+        Self {
+            log: SimulationLog {
+                format_version: 1,
+                dt,
+                ..SimulationLog::default()
+            },
+            index: BTreeMap::new(),
+        }
+    }
+
+    /// Adds a metadata entry.
+    pub fn meta(&mut self, key: &str, value: impl ToString) {
+        self.log.meta.insert(key.into(), value.to_string());
+    }
+
+    /// Opens a tick; follow with [`LogRecorder::sample`] per actor.
+    pub fn begin(&mut self, tick: u64, time: f64) {
+        self.log.tick.push(tick);
+        self.log.time.push(time);
+    }
+
+    /// Declares an actor (first call wins) so that samples can be recorded.
+    pub fn actor(&mut self, id: &str, kind: &str, model: &str, length: f64, width: f64, mass: f64) {
+        if !self.index.contains_key(id) {
+            self.index.insert(id.to_string(), self.log.tracks.len());
+            self.log.tracks.push(ActorTrack {
+                id: id.into(),
+                kind: kind.into(),
+                model: model.into(),
+                length,
+                width,
+                mass,
+                ..ActorTrack::default()
+            });
+        }
+    }
+
+    /// Records one actor at the current tick. Unknown actors are declared
+    /// with empty metadata.
+    pub fn sample(&mut self, id: &str, mode: &str, s: &ActorSample) {
+        if !self.index.contains_key(id) {
+            self.actor(id, "", "", 0.0, 0.0, 0.0);
+        }
+        let tick = self.log.tick.last().copied().unwrap_or(0);
+        let t = &mut self.log.tracks[self.index[id]];
+        t.tick.push(tick);
+        t.mode.push(mode.into());
+        let st = &mut t.state;
+        st.x.push(s.pose.position.x);
+        st.y.push(s.pose.position.y);
+        st.z.push(s.pose.position.z);
+        st.yaw.push(s.pose.yaw);
+        st.vx.push(s.velocity.x);
+        st.vy.push(s.velocity.y);
+        st.speed.push(s.speed);
+        st.yaw_rate.push(s.yaw_rate);
+        let c = &mut t.control;
+        c.throttle.push(s.control.throttle);
+        c.brake.push(s.control.brake);
+        c.steering.push(s.control.steering);
+        c.acceleration.push(s.control.acceleration);
+        c.steering_angle.push(s.control.steering_angle);
+        let d = &mut t.derived;
+        d.curvature.push(s.derived.curvature);
+        d.lateral_acceleration.push(s.derived.lateral_acceleration);
+        d.longitudinal_acceleration
+            .push(s.derived.longitudinal_acceleration);
+        d.slip_angle.push(s.derived.slip_angle);
+        d.force_longitudinal_n.push(s.derived.force_longitudinal_n);
+        d.force_lateral_n.push(s.derived.force_lateral_n);
+        d.friction_use.push(s.derived.friction_use);
+    }
+
+    /// Records every actor of a world at its current tick.
+    pub fn record_world(&mut self, world: &World) {
+        self.begin(world.tick(), world.time());
+        for a in world.actors() {
+            let kind = match a.description.kind {
+                litesim_core::ActorKind::Vehicle(c) => {
+                    format!("vehicle/{}", format!("{c:?}").to_lowercase())
+                }
+                k => format!("{k:?}").to_lowercase(),
+            };
+            self.actor(
+                &a.id,
+                &kind,
+                &a.description.model,
+                a.description.length,
+                a.description.width,
+                a.description.mass,
+            );
+            let vs = a.vehicle_state();
+            let control = match (a.mode().name(), a.last_input) {
+                ("dynamic", VehicleInput::Pedals(p)) => ControlSample {
+                    throttle: p.throttle,
+                    brake: p.brake,
+                    steering: p.steering,
+                    acceleration: f64::NAN,
+                    steering_angle: vs.steering_angle,
+                },
+                ("direct" | "external", VehicleInput::Direct { acceleration, .. }) => {
+                    ControlSample {
+                        acceleration,
+                        steering_angle: vs.steering_angle,
+                        ..ControlSample::default()
+                    }
+                }
+                _ => ControlSample::default(),
+            };
+            let s = ActorSample {
+                pose: a.state.pose,
+                velocity: a.state.velocity,
+                speed: a.state.speed,
+                yaw_rate: a.state.yaw_rate,
+                control,
+                derived: a.derived,
+            };
+            self.sample(&a.id, a.mode().name(), &s);
+        }
+    }
+
+    /// The log so far.
+    pub fn log(&self) -> &SimulationLog {
+        &self.log
+    }
+
+    /// Finishes recording.
+    pub fn finish(self) -> SimulationLog {
+        self.log
+    }
+}

@@ -1,0 +1,108 @@
+//! Writers and reader: round trip, atomicity, bad files.
+
+use litesim_core::{
+    Actor, ActorDescription, ActorState, ControlMode, NormalizedPedals, Pose, SspDynamics,
+    VehicleInput, VehicleModelKind, World,
+};
+use litesim_log::{LogError, LogRecorder, SimulationLog};
+
+fn sample_log() -> SimulationLog {
+    let mut w = World::with_step_ms(20).unwrap();
+    let car = ActorDescription::car("test.car");
+    w.add_actor(Actor::new(
+        "ego",
+        car.clone(),
+        ActorState::at_rest(Pose::planar(0.0, 0.0, 0.0)),
+        Some(VehicleModelKind::Ssp(SspDynamics::for_length(4.6))),
+    ))
+    .unwrap();
+    w.add_actor(Actor::new(
+        "parked, \"odd\" id",
+        car,
+        ActorState::at_rest(Pose::planar(10.0, 2.0, 0.0)),
+        None,
+    ))
+    .unwrap();
+    w.set_mode(
+        "ego",
+        ControlMode::Dynamic {
+            input: VehicleInput::Pedals(NormalizedPedals {
+                throttle: 0.5,
+                brake: 0.0,
+                steering: 0.1,
+            }),
+            valid_until_tick: None,
+        },
+    )
+    .unwrap();
+    let mut rec = LogRecorder::new(w.dt());
+    rec.meta("profile", "dummy");
+    for _ in 0..50 {
+        w.step();
+        rec.record_world(&w);
+    }
+    rec.finish()
+}
+
+#[test]
+fn json_round_trip_keeps_every_bit_and_nan() {
+    let log = sample_log();
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("sub/log.json");
+    log.write_json(&p).unwrap();
+    let back = SimulationLog::read_json(&p).unwrap();
+    assert_eq!(back.tracks.len(), 2);
+    let (a, b) = (&log.tracks[0], &back.tracks[0]);
+    assert_eq!(
+        a.state.x.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+        b.state.x.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+    );
+    assert_eq!(a.control.throttle, b.control.throttle);
+    assert!(back.tracks[1].control.throttle.iter().all(|v| v.is_nan()));
+    assert_eq!(back.meta["profile"], "dummy");
+    assert!(log.tracks[0].state.speed[49] > 0.0);
+    // No temporary files are left behind.
+    assert_eq!(std::fs::read_dir(p.parent().unwrap()).unwrap().count(), 1);
+}
+
+#[test]
+fn csv_has_a_row_per_actor_and_tick() {
+    let log = sample_log();
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("log.csv");
+    log.write_csv(&p).unwrap();
+    let text = std::fs::read_to_string(&p).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 1 + 2 * 50);
+    assert!(lines[0].starts_with("tick,time_s,actor_id,mode,x_m"));
+    assert!(lines[1].starts_with("1,0.02,ego,dynamic,"));
+    assert!(lines[51].starts_with("1,0.02,\"parked, \"\"odd\"\" id\",stored,10,2,"));
+    let cols = lines[0].split(',').count();
+    assert_eq!(lines[1].split(',').count(), cols);
+}
+
+#[test]
+fn bad_files_are_precise_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("bad.json");
+    std::fs::write(&p, "{\"format_version\": 1,\n \"dt\": 0.02, \"tick\": [1,").unwrap();
+    match SimulationLog::read_json(&p) {
+        Err(LogError::Json { line: 2, .. }) => {}
+        other => panic!("{other:?}"),
+    }
+    let mut log = sample_log();
+    log.tracks[0].state.y.pop();
+    let text = serde_json::to_string(&log).unwrap();
+    let e = SimulationLog::from_json_str(&text, &p)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("track 'ego': column state.y has 49 entries, expected 50"),
+        "{e}"
+    );
+    assert!(matches!(
+        SimulationLog::read_json(&dir.path().join("missing.json")),
+        Err(LogError::Io { .. })
+    ));
+    assert!(SimulationLog::from_json_str("", &p).is_err());
+}
