@@ -1,1 +1,178 @@
-fn main() {}
+//! `litesim`: the command line. It only wires the libraries together and
+//! owns argument parsing, printing and exit codes.
+
+mod demo;
+
+use anyhow::{Context, Result};
+use clap::{Parser, Subcommand};
+use std::io::Write;
+use std::path::PathBuf;
+
+#[derive(Parser)]
+#[command(
+    name = "litesim",
+    version,
+    about = "A lightweight, deterministic vehicle and scenario simulator"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Serve the SSP API over gRPC (with health and reflection services).
+    Serve {
+        /// Address to bind; loopback by default.
+        #[arg(long, default_value = "127.0.0.1:50051")]
+        addr: String,
+        /// Model for sessions that name none (dummy, bicycle, lag).
+        #[arg(long, default_value = "dummy")]
+        model: String,
+        /// Profile for sessions that name none.
+        #[arg(long, default_value = "dummy")]
+        profile: String,
+        /// Write every call with arguments and result as JSON lines.
+        #[arg(long, value_name = "FILE")]
+        trace_rpc: Option<PathBuf>,
+        /// Sessions alive at once.
+        #[arg(long, default_value_t = 64)]
+        max_sessions: usize,
+        /// Actors per session.
+        #[arg(long, default_value_t = 10_000)]
+        max_actors: usize,
+        /// Largest request (bytes).
+        #[arg(long, default_value_t = 16 * 1024 * 1024)]
+        max_message_bytes: usize,
+        /// End sessions idle this long (s): their client is gone.
+        #[arg(long, default_value_t = 300)]
+        idle_timeout_s: u64,
+    },
+    /// Start a server, drive it with the bundled demo client over gRPC, write the log.
+    Demo {
+        #[command(flatten)]
+        opts: demo::DemoOptions,
+        /// Drive the model in-process instead of over gRPC (same results).
+        #[arg(long)]
+        in_process: bool,
+    },
+    /// Run the demo client against a running server.
+    Client {
+        /// Server address.
+        #[arg(long, default_value = "127.0.0.1:50051")]
+        addr: String,
+        #[command(flatten)]
+        opts: demo::DemoOptions,
+    },
+    /// List the simulator profiles, or show one.
+    Profiles {
+        /// Profile to show.
+        name: Option<String>,
+    },
+    /// List the models.
+    Models,
+}
+
+fn main() -> std::process::ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Serve {
+            addr,
+            model,
+            profile,
+            trace_rpc,
+            max_sessions,
+            max_actors,
+            max_message_bytes,
+            idle_timeout_s,
+        } => {
+            // Fail early, before binding, on names that cannot work.
+            litesim_ssp::model_by_name(&model).map_err(|e| anyhow::anyhow!(e.message))?;
+            litesim_ssp::Profile::builtin(&profile).map_err(|e| anyhow::anyhow!(e.message))?;
+            let cfg = litesim_grpc::ServerConfig {
+                default_profile: profile,
+                default_model: model,
+                max_sessions,
+                limits: litesim_ssp::SessionLimits {
+                    max_actors,
+                    ..litesim_ssp::SessionLimits::default()
+                },
+                idle_timeout: std::time::Duration::from_secs(idle_timeout_s),
+                max_message_bytes,
+                trace_rpc,
+            };
+            let rt = tokio::runtime::Runtime::new()?;
+            rt.block_on(async move {
+                let listener = tokio::net::TcpListener::bind(&addr)
+                    .await
+                    .with_context(|| format!("cannot bind {addr}"))?;
+                let local = listener.local_addr()?;
+                println!("litesim: serving the SSP API on {local} (health, reflection on)");
+                std::io::stdout().flush()?;
+                litesim_grpc::serve(listener, cfg, async {
+                    let _ = tokio::signal::ctrl_c().await;
+                })
+                .await
+                .map_err(|e| anyhow::anyhow!(e))
+            })
+        }
+        Command::Demo { opts, in_process } => {
+            if in_process {
+                let mut s = litesim_ssp::Session::default();
+                demo::run(&mut s, &opts, "in-process")
+            } else {
+                demo::run_with_local_server(&opts)
+            }
+        }
+        Command::Client { addr, opts } => {
+            let mut c =
+                litesim_grpc::RemoteSsp::connect(&addr).map_err(|e| anyhow::anyhow!(e.message))?;
+            demo::run(&mut c, &opts, &format!("gRPC {addr}"))
+        }
+        Command::Profiles { name: None } => {
+            for n in litesim_ssp::profile::builtin_names() {
+                let p = litesim_ssp::Profile::builtin(n).map_err(|e| anyhow::anyhow!(e.message))?;
+                println!(
+                    "{:<14} {:>4} ms  {:<10?}  {}",
+                    p.name, p.step_ms, p.pedal_encoding, p.simulator
+                );
+            }
+            Ok(())
+        }
+        Command::Profiles { name: Some(n) } => {
+            let p = litesim_ssp::Profile::builtin(&n).map_err(|e| anyhow::anyhow!(e.message))?;
+            println!("{} — {}\n{}\n", p.name, p.simulator, p.description);
+            println!(
+                "step {} ms (allowed {}..={}), actuators {:?}, traffic lights {:?}",
+                p.step_ms, p.min_step_ms, p.max_step_ms, p.pedal_encoding, p.traffic_light_api
+            );
+            println!(
+                "\n{:<36} {:<12} {:>7} {:>6} {:>6} {:>8}",
+                "blueprint", "category", "length", "width", "height", "mass"
+            );
+            for e in &p.catalog {
+                println!(
+                    "{:<36} {:<12} {:>7.2} {:>6.2} {:>6.2} {:>8.0}",
+                    e.model_id, e.category, e.length, e.width, e.height, e.mass
+                );
+            }
+            Ok(())
+        }
+        Command::Models => {
+            for m in litesim_ssp::models() {
+                println!("{:<8} {}", m.name(), m.summary());
+            }
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,177 @@
+//! The command line as a user sees it: arguments in, output and exit code out.
+
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+
+fn litesim() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_litesim"))
+}
+
+fn workspace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+struct Serve {
+    child: Child,
+    addr: String,
+}
+
+impl Drop for Serve {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn serve(extra: &[&str]) -> Serve {
+    let mut child = litesim()
+        .args(["serve", "--addr", "127.0.0.1:0"])
+        .args(extra)
+        .stdout(Stdio::piped())
+        .spawn()
+        .expect("litesim serve starts");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let addr = line
+        .split_whitespace()
+        .find(|w| w.starts_with("127.0.0.1:"))
+        .unwrap_or_else(|| panic!("no address in {line:?}"))
+        .to_string();
+    Serve { child, addr }
+}
+
+#[test]
+fn python_grpcio_client_drives_the_server() {
+    let server = serve(&[]);
+    let out = Command::new("python3")
+        .arg(workspace().join("crates/litesim-cli/tests/python/ssp_client.py"))
+        .arg(&server.addr)
+        .arg(workspace().join("proto"))
+        .output()
+        .expect("python3 runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if stderr.contains("No module named 'grpc") {
+        panic!(
+            "grpcio and grpcio-tools are needed: pip install grpcio grpcio-tools (.ci/run installs them)"
+        );
+    }
+    assert!(
+        out.status.success(),
+        "python client failed:\n{stderr}\n{}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("python client OK"));
+}
+
+#[test]
+fn demo_in_process_and_over_grpc_write_identical_logs() {
+    let dir = tempfile::tempdir().unwrap();
+    let a = dir.path().join("a");
+    let b = dir.path().join("b");
+    let out = litesim()
+        .args(["demo", "--in-process", "-o"])
+        .arg(&a)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("300 steps of 20 ms") && text.contains("sut.car"),
+        "{text}"
+    );
+    let out = litesim().args(["demo", "-o"]).arg(&b).output().unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Same CSV bytes (the JSON differs only in the transport metadata).
+    let csv_a = std::fs::read(a.join("log.csv")).unwrap();
+    assert_eq!(csv_a, std::fs::read(b.join("log.csv")).unwrap());
+    assert!(csv_a.len() > 300 * 3 * 50);
+    let log = litesim_log::SimulationLog::read_json(&b.join("log.json")).unwrap();
+    assert_eq!(log.tracks.len(), 3);
+}
+
+#[test]
+fn client_against_a_running_server() {
+    let server = serve(&["--profile", "carla-0.9.15"]);
+    let dir = tempfile::tempdir().unwrap();
+    let out = litesim()
+        .args([
+            "client",
+            "--addr",
+            &server.addr,
+            "--profile",
+            "carla-0.9.15",
+            "--duration",
+            "1",
+            "-o",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("20 steps of 50 ms"));
+}
+
+#[test]
+fn bad_names_are_clear_errors() {
+    let out = litesim().args(["profiles", "carla-0.8"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("unknown profile 'carla-0.8'") && err.contains("carla-0.9.15"),
+        "{err}"
+    );
+    let out = litesim()
+        .args(["serve", "--model", "warp"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("available: dummy, bicycle, lag"));
+    let out = litesim()
+        .args(["client", "--addr", "127.0.0.1:1"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot connect"));
+}
+
+#[test]
+fn profiles_and_models_are_listed() {
+    let out = litesim().arg("profiles").output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    for p in [
+        "dummy",
+        "carla-0.9.12",
+        "carla-0.9.13",
+        "carla-0.9.15",
+        "sumo",
+        "dspace",
+        "carmaker",
+        "drivesim",
+        "simian",
+        "aisim",
+    ] {
+        assert!(text.contains(p), "{p} missing from\n{text}");
+    }
+    let out = litesim()
+        .args(["profiles", "carla-0.9.15"])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stdout).contains("vehicle.tesla.model3"));
+    let out = litesim().arg("models").output().unwrap();
+    assert!(String::from_utf8_lossy(&out.stdout).contains("bicycle"));
+}
