@@ -114,7 +114,7 @@ pub fn run(ssp: &mut dyn Ssp, opts: &DemoOptions, transport: &str) -> Result<()>
             category: ActorCategory::Pedestrian,
             ..ActorSpec::default()
         },
-        position: Coord6::xy_yaw(40.0, -4.0, 1.5708),
+        position: Coord6::xy_yaw(40.0, -4.0, std::f64::consts::FRAC_PI_2),
         ..CreateActor::default()
     })
     .map_err(e)?;

@@ -301,7 +301,7 @@ mod tests {
         }
         assert_eq!(wrap_angle(PI), PI);
         assert_eq!(wrap_angle(-PI), PI);
-        assert_eq!(wrap_angle(1e300).abs() <= PI, true);
+        assert!(wrap_angle(1e300).abs() <= PI);
     }
 
     #[test]

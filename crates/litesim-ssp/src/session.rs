@@ -330,13 +330,13 @@ impl Session {
         let m = &self.meta[&a.id];
         let s = a.state;
         let mut controls = m.controls.clone();
-        if let VehicleInput::Pedals(p) = a.last_input {
-            if matches!(a.mode(), ControlMode::Dynamic { .. }) {
-                controls.throttle_pedal_pos = Some(p.throttle);
-                controls.brake_pedal_pos = Some(p.brake);
-                controls.steering_wheel_angle =
-                    Some(p.steering * m.limits.max_steering_wheel_angle_rad);
-            }
+        if let VehicleInput::Pedals(p) = a.last_input
+            && matches!(a.mode(), ControlMode::Dynamic { .. })
+        {
+            controls.throttle_pedal_pos = Some(p.throttle);
+            controls.brake_pedal_pos = Some(p.brake);
+            controls.steering_wheel_angle =
+                Some(p.steering * m.limits.max_steering_wheel_angle_rad);
         }
         let mode = match a.mode() {
             ControlMode::Stored | ControlMode::Trajectory(_) => MoveMode::Kinematic,
@@ -530,7 +530,7 @@ impl Ssp for Session {
             ));
         }
         self.require("start_simulation")?;
-        if start_time_ms % self.step_ms != 0 {
+        if !start_time_ms.is_multiple_of(self.step_ms) {
             return Err(SspError::invalid(format!(
                 "start_time_ms = {start_time_ms} is not a multiple of the step size {} ms",
                 self.step_ms
@@ -770,10 +770,10 @@ impl Ssp for Session {
                 ("controls.brake_pedal_pos", c.brake_pedal_pos),
                 ("controls.throttle_pedal_pos", c.throttle_pedal_pos),
             ] {
-                if let Some(v) = v {
-                    if !(0.0..=1.0).contains(&v) {
-                        return Err(SspError::invalid(format!("{name} = {v} is outside [0, 1]")));
-                    }
+                if let Some(v) = v
+                    && !(0.0..=1.0).contains(&v)
+                {
+                    return Err(SspError::invalid(format!("{name} = {v} is outside [0, 1]")));
                 }
             }
             opt_finite("controls.steering_wheel_angle", c.steering_wheel_angle)?;
@@ -971,12 +971,12 @@ impl Ssp for Session {
             check_coord(&format!("polyline[{i}]"), c)?;
             let c = self.frame(*c);
             let speed = traj.speeds.get(i).copied();
-            if let Some(s) = speed {
-                if !(s.is_finite() && s >= 0.0) {
-                    return Err(SspError::invalid(format!(
-                        "speeds[{i}] = {s} must be finite and ≥ 0"
-                    )));
-                }
+            if let Some(s) = speed
+                && !(s.is_finite() && s >= 0.0)
+            {
+                return Err(SspError::invalid(format!(
+                    "speeds[{i}] = {s} must be finite and ≥ 0"
+                )));
             }
             points.push(TimedPoint {
                 t: times[i] as f64 / 1000.0,
