@@ -43,8 +43,21 @@ fn serve(extra: &[&str]) -> Serve {
     Serve { child, addr }
 }
 
+/// Makes sure `grpcio` and `grpcio-tools` are importable, installing them
+/// from PyPI into the user site when they are not (a fresh machine has pip).
+fn ensure_grpcio() {
+    let ok = |c: &mut Command| c.status().is_ok_and(|s| s.success());
+    if ok(Command::new("python3").args(["-c", "import grpc, grpc_tools"])) {
+        return;
+    }
+    let installed = ok(Command::new("python3").args(["-m", "pip", "install", "--quiet", "--user", "grpcio", "grpcio-tools"]))
+        || ok(Command::new("python3").args(["-m", "pip", "install", "--quiet", "grpcio", "grpcio-tools"]));
+    assert!(installed, "could not install grpcio and grpcio-tools with pip");
+}
+
 #[test]
 fn python_grpcio_client_drives_the_server() {
+    ensure_grpcio();
     let server = serve(&[]);
     let out = Command::new("python3")
         .arg(workspace().join("crates/litesim-cli/tests/python/ssp_client.py"))

@@ -1,5 +1,151 @@
 //! Vehicle-model and world-step throughput.
-use criterion::{Criterion, criterion_group, criterion_main};
-fn benches(_c: &mut Criterion) {}
-criterion_group!(b, benches);
-criterion_main!(b);
+//!
+//! `cargo bench -p litesim-core --bench vehicle` measures:
+//! * `SspDynamics` and `KinematicBicycle` per actor-step (straight and turning),
+//! * a world step with 1,000 dynamic actors (actor-steps per second),
+//!
+//! and afterwards runs `benches/seed_model.py` — a plain Python transcription
+//! of the seed's model — in the same session and prints the ratio.
+
+use criterion::{BenchmarkId, Criterion, Throughput};
+use litesim_core::{
+    Actor, ActorDescription, ActorState, ControlMode, KinematicBicycle, NormalizedPedals, Pose, SspDynamics,
+    VehicleInput, VehicleModel, VehicleModelKind, VehicleState, World,
+};
+use std::hint::black_box;
+
+const STEPS: u64 = 1000;
+
+fn pedals(throttle: f64, steering: f64) -> VehicleInput {
+    VehicleInput::Pedals(NormalizedPedals {
+        throttle,
+        brake: 0.0,
+        steering,
+    })
+}
+
+fn models(c: &mut Criterion) {
+    let mut g = c.benchmark_group("actor_step");
+    g.throughput(Throughput::Elements(STEPS));
+    for (name, steering) in [("straight", 0.0), ("turning", 0.2)] {
+        g.bench_with_input(BenchmarkId::new("ssp_dynamics", name), &steering, |b, &s| {
+            let input = pedals(0.3, s);
+            b.iter(|| {
+                let mut m = SspDynamics::for_length(4.5);
+                let mut st = VehicleState {
+                    v: 10.0,
+                    ..VehicleState::default()
+                };
+                for _ in 0..STEPS {
+                    m.step(&mut st, black_box(&input), 0.02);
+                }
+                black_box(st)
+            })
+        });
+        g.bench_with_input(BenchmarkId::new("kinematic_bicycle", name), &steering, |b, &s| {
+            let input = VehicleInput::Direct {
+                acceleration: 0.5,
+                steering_angle: s * 0.5,
+            };
+            b.iter(|| {
+                let mut m = KinematicBicycle::new(2.7);
+                let mut st = VehicleState {
+                    v: 10.0,
+                    ..VehicleState::default()
+                };
+                for _ in 0..STEPS {
+                    m.step(&mut st, black_box(&input), 0.02);
+                }
+                black_box(st)
+            })
+        });
+    }
+    g.finish();
+}
+
+fn world_with(n: usize, turning_every: usize) -> World {
+    let mut w = World::with_step_ms(20).unwrap();
+    for i in 0..n {
+        let id = format!("car{i:04}");
+        let model = VehicleModelKind::Ssp(SspDynamics::for_length(4.5));
+        w.add_actor(Actor::new(
+            id.clone(),
+            ActorDescription::car("bench"),
+            ActorState::at_rest(Pose::planar(0.0, 4.0 * i as f64, 0.0)),
+            Some(model),
+        ))
+        .unwrap();
+        let steering = if turning_every > 0 && i % turning_every == 0 { 0.1 } else { 0.0 };
+        w.set_mode(
+            &id,
+            ControlMode::Dynamic {
+                input: pedals(0.3, steering),
+                valid_until_tick: None,
+            },
+        )
+        .unwrap();
+    }
+    w
+}
+
+fn world(c: &mut Criterion) {
+    let mut g = c.benchmark_group("world_step_1000_dynamic");
+    g.throughput(Throughput::Elements(1000));
+    for (name, every) in [("straight", 0), ("10pct_turning", 10), ("all_turning", 1)] {
+        let mut w = world_with(1000, every);
+        g.bench_function(name, |b| b.iter(|| w.step()));
+    }
+    g.finish();
+}
+
+/// Median ns per actor-step from criterion's saved estimate.
+fn median_ns(id: &str, elements: f64) -> Option<f64> {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../target/criterion")
+        .join(id)
+        .join("new/estimates.json");
+    let text = std::fs::read_to_string(path).ok()?;
+    let key = "\"median\":{\"confidence_interval\":{\"confidence_level\":0.95,\"lower_bound\":";
+    let start = text.find("\"median\"")?;
+    let rest = &text[start..];
+    let p = rest.find("\"point_estimate\":")? + "\"point_estimate\":".len();
+    let end = rest[p..].find(',')?;
+    let _ = key;
+    rest[p..p + end].parse::<f64>().ok().map(|ns| ns / elements)
+}
+
+fn compare_with_python() {
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/seed_model.py");
+    let out = std::process::Command::new("python3").arg(&script).output();
+    let py_ns = match out {
+        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).trim().parse::<f64>().ok(),
+        _ => None,
+    };
+    println!("\n== seed model: litesim vs plain Python (same run) ==");
+    for (id, label) in [
+        ("actor_step/ssp_dynamics/straight", "SspDynamics straight"),
+        ("actor_step/ssp_dynamics/turning", "SspDynamics turning"),
+        ("actor_step/kinematic_bicycle/straight", "KinematicBicycle straight"),
+        ("actor_step/kinematic_bicycle/turning", "KinematicBicycle turning"),
+    ] {
+        if let Some(ns) = median_ns(id, STEPS as f64) {
+            match py_ns {
+                Some(py) => println!("{label:<28} {ns:8.2} ns/actor-step   Python {py:8.1} ns   ratio {:6.0}×", py / ns),
+                None => println!("{label:<28} {ns:8.2} ns/actor-step   (python3 not available)"),
+            }
+        }
+    }
+    for id in ["straight", "10pct_turning", "all_turning"] {
+        if let Some(ns) = median_ns(&format!("world_step_1000_dynamic/{id}"), 1000.0) {
+            println!("world 1,000 dynamic, {id:<14} {:8.1} M actor-steps/s", 1000.0 / ns);
+        }
+    }
+}
+
+fn main() {
+    let mut c = Criterion::default().configure_from_args();
+    models(&mut c);
+    world(&mut c);
+    c.final_summary();
+    compare_with_python();
+}

@@ -151,18 +151,24 @@ impl Pose {
 
 /// Wraps an angle into `(−π, π]`.
 ///
-/// Uses a remainder rather than a loop so that huge inputs cost the same as
-/// small ones; non-finite input is returned unchanged (callers validate).
+/// Headings change by a little per step, so the common cases (already in
+/// range, or one turn off) are handled with one comparison and one addition;
+/// only far-off values pay for a remainder. Non-finite input is returned
+/// unchanged (callers validate).
+#[inline]
 pub fn wrap_angle(a: f64) -> f64 {
+    const TWO_PI: f64 = 2.0 * PI;
+    if a > -PI && a <= PI {
+        return a;
+    }
     if !a.is_finite() {
         return a;
     }
-    let two_pi = 2.0 * PI;
-    let mut r = a % two_pi; // in (−2π, 2π)
+    let mut r = if a > -3.0 * PI && a <= 3.0 * PI { a } else { a % TWO_PI };
     if r > PI {
-        r -= two_pi;
+        r -= TWO_PI;
     } else if r <= -PI {
-        r += two_pi;
+        r += TWO_PI;
     }
     r
 }

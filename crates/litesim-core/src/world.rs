@@ -93,12 +93,13 @@ pub struct Actor {
     pub model: Option<VehicleModelKind>,
     /// Road friction coefficient μ for the friction-use proxy.
     pub friction: f64,
-    /// The quantities derived in the last step.
-    pub derived: Derived,
     /// The input applied in the last step (for logs).
     pub last_input: VehicleInput,
     mode: ControlMode,
     vehicle: VehicleState,
+    // (yaw, sin, cos) last published; see `publish_vehicle`.
+    #[serde(skip)]
+    yaw_trig: Option<(f64, f64, f64)>,
 }
 
 impl Actor {
@@ -115,10 +116,10 @@ impl Actor {
             state,
             model,
             friction: 1.0,
-            derived: Derived::default(),
             last_input: VehicleInput::default(),
             mode: ControlMode::Stored,
             vehicle: VehicleState::default(),
+            yaw_trig: None,
         };
         a.sync_vehicle();
         a
@@ -126,6 +127,14 @@ impl Actor {
     /// The control mode.
     pub fn mode(&self) -> &ControlMode {
         &self.mode
+    }
+    /// The quantities derived from the last step (seed 001 §1.3).
+    ///
+    /// A pure function of the vehicle state, mass and friction, computed
+    /// when asked: the sqrt and division it needs would otherwise cost a
+    /// third of a world step for values most runs never read.
+    pub fn derived(&self) -> Derived {
+        Derived::from_state(&self.vehicle, self.description.mass, self.friction)
     }
     /// The vehicle model's internal state.
     pub fn vehicle_state(&self) -> &VehicleState {
@@ -146,7 +155,15 @@ impl Actor {
 
     fn publish_vehicle(&mut self) {
         let v = &self.vehicle;
-        let (s, c) = math::sin_cos(v.yaw);
+        // Straight driving keeps the heading: reuse its trig (bit-identical).
+        let (s, c) = match self.yaw_trig {
+            Some((y, s, c)) if y == v.yaw => (s, c),
+            _ => {
+                let (s, c) = math::sin_cos(v.yaw);
+                self.yaw_trig = Some((v.yaw, s, c));
+                (s, c)
+            }
+        };
         self.state.pose = Pose {
             position: Vec3::new(v.x, v.y, v.z),
             roll: 0.0,
@@ -165,7 +182,6 @@ impl Actor {
         );
         self.state.yaw_rate = v.yaw_rate;
         self.state.trajectory = TrajectoryStatus::None;
-        self.derived = Derived::from_state(v, self.description.mass, self.friction);
     }
 }
 
@@ -197,6 +213,9 @@ pub struct World {
     tick: u64,
     actors: Vec<Actor>,
     index: BTreeMap<ActorId, usize>,
+    // Actors under an external controller; kept so that a step can skip the
+    // snapshot of all actors when nobody needs it.
+    external: usize,
 }
 
 impl World {
@@ -211,6 +230,7 @@ impl World {
             tick: 0,
             actors: Vec::new(),
             index: BTreeMap::new(),
+            external: 0,
         })
     }
     /// An empty world on an integer millisecond clock: `time() =
@@ -287,6 +307,9 @@ impl World {
         let i = self.index_of(id)?;
         let a = self.actors.remove(i);
         self.index.remove(id);
+        if matches!(a.mode, ControlMode::External(_)) {
+            self.external -= 1;
+        }
         for j in self.index.values_mut() {
             if *j > i {
                 *j -= 1;
@@ -302,6 +325,9 @@ impl World {
         }
         let i = self.index_of(id)?;
         let a = &mut self.actors[i];
+        if matches!(a.mode, ControlMode::External(_)) {
+            self.external -= 1;
+        }
         a.state = state;
         a.mode = ControlMode::Stored;
         a.sync_vehicle();
@@ -340,10 +366,13 @@ impl World {
         if needs_model && !was_integrating {
             a.sync_vehicle();
         }
+        let was_external = matches!(a.mode, ControlMode::External(_));
+        let is_external = matches!(mode, ControlMode::External(_));
         match (&mut a.mode, mode) {
             (ControlMode::Trajectory(old), ControlMode::Trajectory(new)) => old.replace_from(new),
             (slot, mode) => *slot = mode,
         }
+        self.external = self.external + usize::from(is_external) - usize::from(was_external);
         Ok(())
     }
 
@@ -355,11 +384,8 @@ impl World {
         let dt = self.dt;
         let tick = self.tick + 1;
         let t = self.time_at(tick);
-        let snapshot: Vec<Snapshot> = if self
-            .actors
-            .iter()
-            .any(|a| matches!(a.mode, ControlMode::External(_)))
-        {
+        // Only external controllers look at other actors; skip the snapshot otherwise.
+        let snapshot: Vec<Snapshot> = if self.external > 0 {
             self.actors
                 .iter()
                 .map(|a| Snapshot {
@@ -402,18 +428,11 @@ impl World {
                             long_acceleration: long_acc,
                             trajectory: s.status,
                         };
-                        let curvature = if s.speed > 1e-9 {
-                            yaw_rate / s.speed
-                        } else {
-                            0.0
-                        };
-                        a.derived = Derived {
-                            curvature,
-                            lateral_acceleration: s.speed * yaw_rate,
-                            longitudinal_acceleration: long_acc,
-                            ..Derived::default()
-                        };
                         a.sync_vehicle();
+                        // What the motion implies, for `Actor::derived`.
+                        a.vehicle.yaw_rate = yaw_rate;
+                        a.vehicle.acceleration = long_acc;
+                        a.vehicle.curvature = if s.speed > 1e-9 { yaw_rate / s.speed } else { 0.0 };
                     }
                 }
                 ControlMode::Dynamic {

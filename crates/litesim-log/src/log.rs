@@ -391,7 +391,7 @@ impl LogRecorder {
                 speed: a.state.speed,
                 yaw_rate: a.state.yaw_rate,
                 control,
-                derived: a.derived,
+                derived: a.derived(),
             };
             self.sample(&a.id, a.mode().name(), &s);
         }

@@ -43,6 +43,11 @@ pub struct KinematicBicycle {
     pub max_deceleration: f64,
     /// Speed limit (m/s).
     pub max_speed: f64,
+    // (heading argument, sin, cos) of the last step: straight driving keeps
+    // the heading, and recomputing identical trig is the model's main cost.
+    // Bit-identical with or without it.
+    #[serde(skip)]
+    trig_cache: Option<(f64, f64, f64)>,
 }
 
 impl KinematicBicycle {
@@ -57,6 +62,7 @@ impl KinematicBicycle {
             max_acceleration: 3.0,
             max_deceleration: 8.0,
             max_speed: 60.0,
+            trig_cache: None,
         }
     }
 
@@ -86,7 +92,7 @@ impl KinematicBicycle {
 
     /// Integrates one step with already saturated `(a, δ)`.
     #[inline]
-    pub fn integrate(&self, st: &mut VehicleState, a: f64, delta: f64, dt: f64) {
+    pub fn integrate(&mut self, st: &mut VehicleState, a: f64, delta: f64, dt: f64) {
         let l = self.wheelbase;
         let v = st.v;
         let tan_d = if delta == 0.0 { 0.0 } else { math::tan(delta) };
@@ -101,7 +107,15 @@ impl KinematicBicycle {
                 (beta, v / l * math::cos(beta) * tan_d)
             }
         };
-        let (s, c) = math::sin_cos(st.yaw + beta);
+        let arg = st.yaw + beta;
+        let (s, c) = match self.trig_cache {
+            Some((x, s, c)) if x == arg => (s, c),
+            _ => {
+                let (s, c) = math::sin_cos(arg);
+                self.trig_cache = Some((arg, s, c));
+                (s, c)
+            }
+        };
         st.x += v * c * dt;
         st.y += v * s * dt;
         st.yaw = wrap_angle(st.yaw + yaw_rate * dt);
