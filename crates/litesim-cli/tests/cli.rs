@@ -50,9 +50,26 @@ fn ensure_grpcio() {
     if ok(Command::new("python3").args(["-c", "import grpc, grpc_tools"])) {
         return;
     }
-    let installed = ok(Command::new("python3").args(["-m", "pip", "install", "--quiet", "--user", "grpcio", "grpcio-tools"]))
-        || ok(Command::new("python3").args(["-m", "pip", "install", "--quiet", "grpcio", "grpcio-tools"]));
-    assert!(installed, "could not install grpcio and grpcio-tools with pip");
+    let installed = ok(Command::new("python3").args([
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "--user",
+        "grpcio",
+        "grpcio-tools",
+    ])) || ok(Command::new("python3").args([
+        "-m",
+        "pip",
+        "install",
+        "--quiet",
+        "grpcio",
+        "grpcio-tools",
+    ]));
+    assert!(
+        installed,
+        "could not install grpcio and grpcio-tools with pip"
+    );
 }
 
 #[test]

@@ -9,8 +9,8 @@
 
 use criterion::{BenchmarkId, Criterion, Throughput};
 use litesim_core::{
-    Actor, ActorDescription, ActorState, ControlMode, KinematicBicycle, NormalizedPedals, Pose, SspDynamics,
-    VehicleInput, VehicleModel, VehicleModelKind, VehicleState, World,
+    Actor, ActorDescription, ActorState, ControlMode, KinematicBicycle, NormalizedPedals, Pose,
+    SspDynamics, VehicleInput, VehicleModel, VehicleModelKind, VehicleState, World,
 };
 use std::hint::black_box;
 
@@ -28,37 +28,45 @@ fn models(c: &mut Criterion) {
     let mut g = c.benchmark_group("actor_step");
     g.throughput(Throughput::Elements(STEPS));
     for (name, steering) in [("straight", 0.0), ("turning", 0.2)] {
-        g.bench_with_input(BenchmarkId::new("ssp_dynamics", name), &steering, |b, &s| {
-            let input = pedals(0.3, s);
-            b.iter(|| {
-                let mut m = SspDynamics::for_length(4.5);
-                let mut st = VehicleState {
-                    v: 10.0,
-                    ..VehicleState::default()
+        g.bench_with_input(
+            BenchmarkId::new("ssp_dynamics", name),
+            &steering,
+            |b, &s| {
+                let input = pedals(0.3, s);
+                b.iter(|| {
+                    let mut m = SspDynamics::for_length(4.5);
+                    let mut st = VehicleState {
+                        v: 10.0,
+                        ..VehicleState::default()
+                    };
+                    for _ in 0..STEPS {
+                        m.step(&mut st, black_box(&input), 0.02);
+                    }
+                    black_box(st)
+                })
+            },
+        );
+        g.bench_with_input(
+            BenchmarkId::new("kinematic_bicycle", name),
+            &steering,
+            |b, &s| {
+                let input = VehicleInput::Direct {
+                    acceleration: 0.5,
+                    steering_angle: s * 0.5,
                 };
-                for _ in 0..STEPS {
-                    m.step(&mut st, black_box(&input), 0.02);
-                }
-                black_box(st)
-            })
-        });
-        g.bench_with_input(BenchmarkId::new("kinematic_bicycle", name), &steering, |b, &s| {
-            let input = VehicleInput::Direct {
-                acceleration: 0.5,
-                steering_angle: s * 0.5,
-            };
-            b.iter(|| {
-                let mut m = KinematicBicycle::new(2.7);
-                let mut st = VehicleState {
-                    v: 10.0,
-                    ..VehicleState::default()
-                };
-                for _ in 0..STEPS {
-                    m.step(&mut st, black_box(&input), 0.02);
-                }
-                black_box(st)
-            })
-        });
+                b.iter(|| {
+                    let mut m = KinematicBicycle::new(2.7);
+                    let mut st = VehicleState {
+                        v: 10.0,
+                        ..VehicleState::default()
+                    };
+                    for _ in 0..STEPS {
+                        m.step(&mut st, black_box(&input), 0.02);
+                    }
+                    black_box(st)
+                })
+            },
+        );
     }
     g.finish();
 }
@@ -75,7 +83,11 @@ fn world_with(n: usize, turning_every: usize) -> World {
             Some(model),
         ))
         .unwrap();
-        let steering = if turning_every > 0 && i % turning_every == 0 { 0.1 } else { 0.0 };
+        let steering = if turning_every > 0 && i % turning_every == 0 {
+            0.1
+        } else {
+            0.0
+        };
         w.set_mode(
             &id,
             ControlMode::Dynamic {
@@ -118,26 +130,41 @@ fn compare_with_python() {
     let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("benches/seed_model.py");
     let out = std::process::Command::new("python3").arg(&script).output();
     let py_ns = match out {
-        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).trim().parse::<f64>().ok(),
+        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout)
+            .trim()
+            .parse::<f64>()
+            .ok(),
         _ => None,
     };
     println!("\n== seed model: litesim vs plain Python (same run) ==");
     for (id, label) in [
         ("actor_step/ssp_dynamics/straight", "SspDynamics straight"),
         ("actor_step/ssp_dynamics/turning", "SspDynamics turning"),
-        ("actor_step/kinematic_bicycle/straight", "KinematicBicycle straight"),
-        ("actor_step/kinematic_bicycle/turning", "KinematicBicycle turning"),
+        (
+            "actor_step/kinematic_bicycle/straight",
+            "KinematicBicycle straight",
+        ),
+        (
+            "actor_step/kinematic_bicycle/turning",
+            "KinematicBicycle turning",
+        ),
     ] {
         if let Some(ns) = median_ns(id, STEPS as f64) {
             match py_ns {
-                Some(py) => println!("{label:<28} {ns:8.2} ns/actor-step   Python {py:8.1} ns   ratio {:6.0}×", py / ns),
+                Some(py) => println!(
+                    "{label:<28} {ns:8.2} ns/actor-step   Python {py:8.1} ns   ratio {:6.0}×",
+                    py / ns
+                ),
                 None => println!("{label:<28} {ns:8.2} ns/actor-step   (python3 not available)"),
             }
         }
     }
     for id in ["straight", "10pct_turning", "all_turning"] {
         if let Some(ns) = median_ns(&format!("world_step_1000_dynamic/{id}"), 1000.0) {
-            println!("world 1,000 dynamic, {id:<14} {:8.1} M actor-steps/s", 1000.0 / ns);
+            println!(
+                "world 1,000 dynamic, {id:<14} {:8.1} M actor-steps/s",
+                1000.0 / ns
+            );
         }
     }
 }

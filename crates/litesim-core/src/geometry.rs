@@ -164,7 +164,11 @@ pub fn wrap_angle(a: f64) -> f64 {
     if !a.is_finite() {
         return a;
     }
-    let mut r = if a > -3.0 * PI && a <= 3.0 * PI { a } else { a % TWO_PI };
+    let mut r = if a > -3.0 * PI && a <= 3.0 * PI {
+        a
+    } else {
+        a % TWO_PI
+    };
     if r > PI {
         r -= TWO_PI;
     } else if r <= -PI {

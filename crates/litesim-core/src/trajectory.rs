@@ -148,8 +148,11 @@ impl Trajectory {
         }
     }
 
-    /// Samples the trajectory at time `t` (s).
+    /// Samples the trajectory at time `t` (s); `None` when empty or `t` is NaN.
     pub fn sample(&self, t: f64) -> Option<TrajectorySample> {
+        if t.is_nan() {
+            return None;
+        }
         let first = self.points.front()?;
         let last = self.points.back()?;
         if t < first.t {

@@ -432,7 +432,11 @@ impl World {
                         // What the motion implies, for `Actor::derived`.
                         a.vehicle.yaw_rate = yaw_rate;
                         a.vehicle.acceleration = long_acc;
-                        a.vehicle.curvature = if s.speed > 1e-9 { yaw_rate / s.speed } else { 0.0 };
+                        a.vehicle.curvature = if s.speed > 1e-9 {
+                            yaw_rate / s.speed
+                        } else {
+                            0.0
+                        };
                     }
                 }
                 ControlMode::Dynamic {

@@ -21,7 +21,11 @@ use std::time::Instant;
 fn rss_kib() -> u64 {
     std::fs::read_to_string("/proc/self/statm")
         .ok()
-        .and_then(|s| s.split_whitespace().nth(1).and_then(|p| p.parse::<u64>().ok()))
+        .and_then(|s| {
+            s.split_whitespace()
+                .nth(1)
+                .and_then(|p| p.parse::<u64>().ok())
+        })
         .map_or(0, |pages| pages * 4)
 }
 
@@ -44,14 +48,26 @@ fn setup(addr: &str) -> RemoteSsp {
         })
         .unwrap();
         if i < 5 {
-            c.set_dynamic_move(&id, DynamicMove::Normalized { throttle: 0.2, brake: 0.0, steering: 0.05 }, 0).unwrap();
+            c.set_dynamic_move(
+                &id,
+                DynamicMove::Normalized {
+                    throttle: 0.2,
+                    brake: 0.0,
+                    steering: 0.05,
+                },
+                0,
+            )
+            .unwrap();
         } else {
             c.set_xy_trajectory(
                 &id,
                 XyTrajectory {
                     start_time_ms: 0,
                     end_time_ms: 3_600_000,
-                    points: vec![Coord6::xy_yaw(0.0, 4.0 * i as f64, 0.0), Coord6::xy_yaw(36_000.0, 4.0 * i as f64, 0.0)],
+                    points: vec![
+                        Coord6::xy_yaw(0.0, 4.0 * i as f64, 0.0),
+                        Coord6::xy_yaw(36_000.0, 4.0 * i as f64, 0.0),
+                    ],
                     ..XyTrajectory::default()
                 },
             )
@@ -65,7 +81,11 @@ fn tcp_floor(iters: usize) -> Vec<f64> {
     use std::io::{Read, Write};
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
-        let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(1).enable_all().build().unwrap();
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .enable_all()
+            .build()
+            .unwrap();
         rt.block_on(async move {
             use tokio::io::{AsyncReadExt, AsyncWriteExt};
             let l = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
@@ -103,17 +123,31 @@ fn report(name: &str, mut us: Vec<f64>) {
 }
 
 fn main() {
-    let args: Vec<u64> = std::env::args().skip(1).filter_map(|a| a.parse().ok()).collect();
+    let args: Vec<u64> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
     let iters = args.first().copied().unwrap_or(20_000) as usize;
     let memory_steps = args.get(1).copied().unwrap_or(1_000_000);
 
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
-        let rt = tokio::runtime::Builder::new_multi_thread().worker_threads(std::env::var("WORKERS").ok().and_then(|w| w.parse().ok()).unwrap_or(1)).enable_all().build().unwrap();
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(
+                std::env::var("WORKERS")
+                    .ok()
+                    .and_then(|w| w.parse().ok())
+                    .unwrap_or(1),
+            )
+            .enable_all()
+            .build()
+            .unwrap();
         rt.block_on(async move {
             let l = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
             tx.send(l.local_addr().unwrap()).unwrap();
-            litesim_grpc::serve(l, ServerConfig::default(), std::future::pending()).await.unwrap();
+            litesim_grpc::serve(l, ServerConfig::default(), std::future::pending())
+                .await
+                .unwrap();
         });
     });
     let addr = rx.recv().unwrap().to_string();
@@ -148,7 +182,11 @@ fn main() {
     let mut raw = raw.clone();
     let (stream_us, mem) = rt.block_on(async move {
         let (tx, rx) = tokio::sync::mpsc::channel(1);
-        let mut out = raw.step_stream(tokio_stream::wrappers::ReceiverStream::new(rx)).await.unwrap().into_inner();
+        let mut out = raw
+            .step_stream(tokio_stream::wrappers::ReceiverStream::new(rx))
+            .await
+            .unwrap()
+            .into_inner();
         let mut us = Vec::with_capacity(iters);
         let mut mem = Vec::new();
         let total = iters as u64 + memory_steps;
@@ -163,7 +201,7 @@ fn main() {
             let r = out.message().await.unwrap().unwrap();
             if seq < iters as u64 {
                 us.push(t.elapsed().as_secs_f64() * 1e6);
-            } else if (seq - iters as u64) % (memory_steps / 10).max(1) == 0 {
+            } else if (seq - iters as u64).is_multiple_of((memory_steps / 10).max(1)) {
                 mem.push((seq - iters as u64, rss_kib()));
             }
             assert_eq!(r.states.len(), 10);
@@ -172,7 +210,9 @@ fn main() {
         (us, mem)
     });
     report("StepStream (10 actors)", stream_us);
-    println!("\nresident memory while streaming {memory_steps} more steps (server + client, one process):");
+    println!(
+        "\nresident memory while streaming {memory_steps} more steps (server + client, one process):"
+    );
     for (step, kib) in mem {
         println!("  after {step:>9} steps: {:>8.1} MiB", kib as f64 / 1024.0);
     }

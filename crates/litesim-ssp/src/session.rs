@@ -213,6 +213,11 @@ fn positive_dim(field: &str, v: Option<f64>) -> SspResult<Option<f64>> {
     }
 }
 
+/// Largest coordinate magnitude accepted (m, m/s, m/s², rad): 10⁹ is far
+/// beyond any map (the Earth's circumference is 4·10⁷ m) yet keeps every
+/// interpolation and integration finite.
+const MAX_COORD: f64 = 1e9;
+
 fn check_coord(field: &str, c: &Coord6) -> SspResult<()> {
     for (name, v) in [
         ("x", c.x),
@@ -222,7 +227,12 @@ fn check_coord(field: &str, c: &Coord6) -> SspResult<()> {
         ("pitch", c.pitch),
         ("yaw", c.yaw),
     ] {
-        opt_finite(&format!("{field}.{name}"), v)?;
+        if let Some(x) = opt_finite(&format!("{field}.{name}"), v)?.filter(|x| x.abs() > MAX_COORD)
+        {
+            return Err(SspError::invalid(format!(
+                "{field}.{name} = {x} is beyond ±{MAX_COORD:e}"
+            )));
+        }
     }
     Ok(())
 }
