@@ -69,6 +69,56 @@ fn models(c: &mut Criterion) {
         );
     }
     g.finish();
+
+    // Throughput: 1,000 independent vehicles, one step each per iteration —
+    // what a world of many actors pays per actor-step, free of the serial
+    // dependency of one vehicle's successive steps measured above.
+    let mut g = c.benchmark_group("actor_step_batch_1000");
+    g.throughput(Throughput::Elements(1000));
+    for (name, steering) in [("straight", 0.0), ("turning", 0.2)] {
+        let input = pedals(0.3, steering);
+        let mut fleet: Vec<(SspDynamics, VehicleState)> = (0..1000)
+            .map(|i| {
+                (
+                    SspDynamics::for_length(4.5),
+                    VehicleState {
+                        v: 5.0 + (i % 10) as f64,
+                        ..VehicleState::default()
+                    },
+                )
+            })
+            .collect();
+        g.bench_function(BenchmarkId::new("ssp_dynamics", name), |b| {
+            b.iter(|| {
+                for (m, st) in fleet.iter_mut() {
+                    m.step(st, black_box(&input), 0.02);
+                }
+            })
+        });
+        let input = VehicleInput::Direct {
+            acceleration: 0.5,
+            steering_angle: steering * 0.5,
+        };
+        let mut fleet: Vec<(KinematicBicycle, VehicleState)> = (0..1000)
+            .map(|i| {
+                (
+                    KinematicBicycle::new(2.7),
+                    VehicleState {
+                        v: 5.0 + (i % 10) as f64,
+                        ..VehicleState::default()
+                    },
+                )
+            })
+            .collect();
+        g.bench_function(BenchmarkId::new("kinematic_bicycle", name), |b| {
+            b.iter(|| {
+                for (m, st) in fleet.iter_mut() {
+                    m.step(st, black_box(&input), 0.02);
+                }
+            })
+        });
+    }
+    g.finish();
 }
 
 fn world_with(n: usize, turning_every: usize) -> World {
@@ -157,6 +207,16 @@ fn compare_with_python() {
                 ),
                 None => println!("{label:<28} {ns:8.2} ns/actor-step   (python3 not available)"),
             }
+        }
+    }
+    for (id, label) in [
+        ("actor_step_batch_1000/ssp_dynamics/straight", "SspDynamics straight, 1,000 vehicles"),
+        ("actor_step_batch_1000/ssp_dynamics/turning", "SspDynamics turning, 1,000 vehicles"),
+        ("actor_step_batch_1000/kinematic_bicycle/straight", "KinematicBicycle straight, 1,000"),
+        ("actor_step_batch_1000/kinematic_bicycle/turning", "KinematicBicycle turning, 1,000"),
+    ] {
+        if let Some(ns) = median_ns(id, 1000.0) {
+            println!("{label:<40} {ns:8.2} ns/actor-step");
         }
     }
     for id in ["straight", "10pct_turning", "all_turning"] {
