@@ -1,0 +1,602 @@
+//! The road network: a parsed map plus the indices queries need.
+
+use crate::model::{LinkTarget, OpenDrive, Road};
+use crate::parse::{MapError, Warning, parse};
+use crate::road::{Direction, LaneSpan};
+use litesim_core::{Pose, Vec2, math, wrap_angle};
+use serde::Serialize;
+use std::collections::{BTreeMap, BinaryHeap};
+
+/// A point in road coordinates.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RoadPosition {
+    /// Road id.
+    pub road: String,
+    /// Lane id (0 when on the centre line exactly between sides).
+    pub lane: i32,
+    /// s along the reference line (m).
+    pub s: f64,
+    /// t from the reference line (m, left positive).
+    pub t: f64,
+    /// Offset from the lane centre (m, left positive).
+    pub offset: f64,
+}
+
+/// A lane in the routing graph: a lane of one lane section.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+pub struct LaneRef {
+    /// Road index.
+    pub road: usize,
+    /// Section index.
+    pub section: usize,
+    /// Lane id.
+    pub lane: i32,
+}
+
+/// What a scenario engine wants to know about a road.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RoadSummary {
+    /// Road id.
+    pub id: String,
+    /// Length (m).
+    pub length: f64,
+    /// Junction it belongs to.
+    pub junction: Option<String>,
+    /// Fewest drivable lanes along +s over the road's sections.
+    pub min_forward_lanes: usize,
+    /// Fewest drivable lanes along −s.
+    pub min_backward_lanes: usize,
+    /// Most drivable lanes (both directions) in any section.
+    pub max_driving_lanes: usize,
+    /// All drivable lanes run the same way (and there is at least one).
+    pub one_way: bool,
+}
+
+/// A sampled lane: centre and both borders, for export, drawing and rasterising.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LanePolyline {
+    /// Road id.
+    pub road: String,
+    /// Section index.
+    pub section: usize,
+    /// Lane id.
+    pub lane: i32,
+    /// Lane type.
+    pub kind: String,
+    /// Centre line.
+    pub center: Vec<Vec2>,
+    /// Inner border.
+    pub inner: Vec<Vec2>,
+    /// Outer border.
+    pub outer: Vec<Vec2>,
+}
+
+#[derive(Clone, Debug)]
+struct Segment {
+    road: usize,
+    s0: f64,
+    s1: f64,
+    a: Vec2,
+    b: Vec2,
+}
+
+/// Uniform grid over reference-line segments, padded by each road's width.
+#[derive(Clone, Debug, Default)]
+struct SegmentIndex {
+    cell: f64,
+    origin: Vec2,
+    nx: usize,
+    ny: usize,
+    cells: Vec<Vec<u32>>,
+    segments: Vec<Segment>,
+}
+
+impl SegmentIndex {
+    fn cell_of(&self, p: Vec2) -> Option<usize> {
+        let i = ((p.x - self.origin.x) / self.cell).floor();
+        let j = ((p.y - self.origin.y) / self.cell).floor();
+        if i < 0.0 || j < 0.0 || i >= self.nx as f64 || j >= self.ny as f64 {
+            return None;
+        }
+        Some(j as usize * self.nx + i as usize)
+    }
+}
+
+/// A loaded OpenDRIVE road network.
+#[derive(Clone, Debug)]
+pub struct RoadNetwork {
+    /// The parsed file.
+    pub od: OpenDrive,
+    /// Warnings found while loading.
+    pub warnings: Vec<Warning>,
+    index: BTreeMap<String, usize>,
+    segments: SegmentIndex,
+    graph: BTreeMap<LaneRef, Vec<(LaneRef, f64)>>,
+}
+
+/// Step (m) that keeps a chord within `tol` of an arc of curvature `k`.
+fn step_for(k: f64, tol: f64, max: f64) -> f64 {
+    if k.abs() < 1e-9 { max } else { (8.0 * tol / k.abs()).sqrt().clamp(0.05, max) }
+}
+
+impl RoadNetwork {
+    /// Loads an `.xodr` file.
+    pub fn load(path: &std::path::Path) -> Result<Self, MapError> {
+        let text = std::fs::read_to_string(path).map_err(|e| MapError {
+            file: path.display().to_string(),
+            line: 0,
+            column: 0,
+            path: String::new(),
+            message: format!("cannot read: {e}"),
+        })?;
+        Self::from_xodr(&text, &path.display().to_string())
+    }
+
+    /// Builds a network from OpenDRIVE text; `file` names it in messages.
+    pub fn from_xodr(text: &str, file: &str) -> Result<Self, MapError> {
+        let (od, mut warnings) = parse(text, file)?;
+        let index: BTreeMap<String, usize> = od.roads.iter().enumerate().map(|(i, r)| (r.id.clone(), i)).collect();
+        let mut net = Self {
+            od,
+            warnings: Vec::new(),
+            index,
+            segments: SegmentIndex::default(),
+            graph: BTreeMap::new(),
+        };
+        net.build_segments();
+        net.build_graph(&mut warnings);
+        net.warnings = warnings;
+        Ok(net)
+    }
+
+    /// Roads in file order.
+    pub fn roads(&self) -> &[Road] {
+        &self.od.roads
+    }
+
+    /// A road by id.
+    pub fn road(&self, id: &str) -> Option<&Road> {
+        self.index.get(id).map(|&i| &self.od.roads[i])
+    }
+
+    /// A road's index by id.
+    pub fn road_index(&self, id: &str) -> Option<usize> {
+        self.index.get(id).copied()
+    }
+
+    /// Total reference-line length (m).
+    pub fn total_length(&self) -> f64 {
+        self.od.roads.iter().map(|r| r.length).sum()
+    }
+
+    fn build_segments(&mut self) {
+        let mut segs = Vec::new();
+        let mut pad = Vec::new();
+        for (ri, r) in self.od.roads.iter().enumerate() {
+            let width = r
+                .sections
+                .iter()
+                .map(|sec| {
+                    let mid = (sec.s + 0.01).min(r.length);
+                    r.lane_spans(mid).iter().map(|l| l.t_outer.abs()).fold(0.0, f64::max)
+                })
+                .fold(0.0, f64::max)
+                + r.lane_offsets.iter().map(|o| o.a.abs()).fold(0.0, f64::max);
+            let mut s = 0.0;
+            let mut p = r.reference(0.0);
+            while s < r.length {
+                let step = step_for(p.curvature, 0.02, 2.0);
+                let s1 = (s + step).min(r.length);
+                let q = r.reference(s1);
+                segs.push(Segment {
+                    road: ri,
+                    s0: s,
+                    s1,
+                    a: Vec2::new(p.x, p.y),
+                    b: Vec2::new(q.x, q.y),
+                });
+                pad.push(width + 0.5);
+                s = s1;
+                p = q;
+            }
+        }
+        let (mut lo, mut hi) = (Vec2::new(f64::MAX, f64::MAX), Vec2::new(f64::MIN, f64::MIN));
+        for (sg, w) in segs.iter().zip(&pad) {
+            for p in [sg.a, sg.b] {
+                lo = Vec2::new(lo.x.min(p.x - w), lo.y.min(p.y - w));
+                hi = Vec2::new(hi.x.max(p.x + w), hi.y.max(p.y + w));
+            }
+        }
+        let cell = 8.0;
+        let nx = (((hi.x - lo.x) / cell).ceil() as usize).clamp(1, 20_000);
+        let ny = (((hi.y - lo.y) / cell).ceil() as usize).clamp(1, 20_000);
+        let cell = ((hi.x - lo.x) / nx as f64).max((hi.y - lo.y) / ny as f64).max(1e-3);
+        let mut idx = SegmentIndex {
+            cell,
+            origin: lo,
+            nx,
+            ny,
+            cells: vec![Vec::new(); nx * ny],
+            segments: Vec::new(),
+        };
+        for (k, (sg, w)) in segs.iter().zip(&pad).enumerate() {
+            let i0 = ((sg.a.x.min(sg.b.x) - w - lo.x) / cell).floor().max(0.0) as usize;
+            let i1 = (((sg.a.x.max(sg.b.x) + w - lo.x) / cell).floor() as usize).min(nx - 1);
+            let j0 = ((sg.a.y.min(sg.b.y) - w - lo.y) / cell).floor().max(0.0) as usize;
+            let j1 = (((sg.a.y.max(sg.b.y) + w - lo.y) / cell).floor() as usize).min(ny - 1);
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    idx.cells[j * nx + i].push(k as u32);
+                }
+            }
+        }
+        idx.segments = segs;
+        self.segments = idx;
+    }
+
+    /// The road position of a world point: the lane it lies in (drivable or
+    /// not), or `None` when it is on no road. Overlapping roads (junctions)
+    /// are resolved in favour of the nearest lane centre.
+    pub fn to_road(&self, p: Vec2) -> Option<RoadPosition> {
+        let cell = self.segments.cell_of(p)?;
+        let mut best: Option<(f64, RoadPosition)> = None;
+        // Nearest segment per road first, then refine once per road.
+        let mut per_road: Vec<(usize, f64, f64)> = Vec::new(); // (road, s guess, dist²)
+        for &k in &self.segments.cells[cell] {
+            let sg = &self.segments.segments[k as usize];
+            let d = sg.b - sg.a;
+            let len2 = d.dot(d);
+            let u = if len2 > 0.0 { ((p - sg.a).dot(d) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let foot = sg.a + d * u;
+            let e = p - foot;
+            let dist2 = e.dot(e);
+            let s = sg.s0 + (sg.s1 - sg.s0) * u;
+            match per_road.iter_mut().find(|(r, _, _)| *r == sg.road) {
+                Some(entry) if dist2 < entry.2 => *entry = (sg.road, s, dist2),
+                Some(_) => {}
+                None => per_road.push((sg.road, s, dist2)),
+            }
+        }
+        for (ri, s_guess, _) in per_road {
+            let road = &self.od.roads[ri];
+            let (s, t) = refine(road, p, s_guess);
+            let spans = road.lane_spans(s);
+            let Some(span) = spans.iter().find(|l| l.width() > 1e-3 && l.contains(t)) else {
+                continue;
+            };
+            let offset = t - span.t_center();
+            let score = offset.abs();
+            if best.as_ref().is_none_or(|(b, _)| score < *b) {
+                best = Some((
+                    score,
+                    RoadPosition {
+                        road: road.id.clone(),
+                        lane: span.id,
+                        s,
+                        t,
+                        offset,
+                    },
+                ));
+            }
+        }
+        best.map(|(_, rp)| rp)
+    }
+
+    /// World pose at (road, lane, s) plus a lateral offset from the lane
+    /// centre; heading along the lane's direction of travel.
+    pub fn lane_pose(&self, road: &str, lane: i32, s: f64, offset: f64) -> Option<Pose> {
+        let r = self.road(road)?;
+        let span = r.lane_span(s, lane)?;
+        let t = span.t_center() + offset;
+        let (x, y, z) = r.st_to_xyz(s, t);
+        let h = r.reference(s).hdg;
+        // Lane centre heading: road heading + atan(dt/ds), by a central difference.
+        let ds = 0.05;
+        let (a, b) = ((s - ds).max(0.0), (s + ds).min(r.length));
+        let dt = r.lane_span(b, lane).map_or(0.0, |l| l.t_center()) - r.lane_span(a, lane).map_or(0.0, |l| l.t_center());
+        let mut yaw = h + if b > a { math::atan(dt / (b - a)) } else { 0.0 };
+        if r.lane_direction(s, lane) == Direction::Backward {
+            yaw += std::f64::consts::PI;
+        }
+        let mut pose = Pose::planar(x, y, wrap_angle(yaw));
+        pose.position.z = z;
+        Some(pose)
+    }
+
+    /// Summaries of all roads (for scenario elaboration).
+    pub fn road_summaries(&self) -> Vec<RoadSummary> {
+        self.od
+            .roads
+            .iter()
+            .map(|r| {
+                let mut min_f = usize::MAX;
+                let mut min_b = usize::MAX;
+                let mut max_all = 0;
+                for sec in &r.sections {
+                    let mid = (sec.s + 0.01).min(r.length);
+                    let (mut f, mut b) = (0, 0);
+                    for l in sec.left.iter().chain(sec.right.iter()).filter(|l| l.is_drivable()) {
+                        match r.lane_direction(mid, l.id) {
+                            Direction::Forward => f += 1,
+                            Direction::Backward => b += 1,
+                            Direction::Both => {
+                                f += 1;
+                                b += 1;
+                            }
+                        }
+                    }
+                    min_f = min_f.min(f);
+                    min_b = min_b.min(b);
+                    max_all = max_all.max(sec.left.iter().chain(sec.right.iter()).filter(|l| l.is_drivable()).count());
+                }
+                let (min_f, min_b) = (min_f.min(max_all), min_b.min(max_all));
+                RoadSummary {
+                    id: r.id.clone(),
+                    length: r.length,
+                    junction: r.junction.clone(),
+                    min_forward_lanes: min_f,
+                    min_backward_lanes: min_b,
+                    max_driving_lanes: max_all,
+                    one_way: max_all > 0 && (min_f == 0 || min_b == 0) && r.sections.iter().all(|sec| {
+                        let mid = (sec.s + 0.01).min(r.length);
+                        let dirs: std::collections::BTreeSet<_> = sec
+                            .left
+                            .iter()
+                            .chain(sec.right.iter())
+                            .filter(|l| l.is_drivable())
+                            .map(|l| r.lane_direction(mid, l.id) as u8)
+                            .collect();
+                        dirs.len() <= 1 && !dirs.contains(&(Direction::Both as u8))
+                    }),
+                }
+            })
+            .collect()
+    }
+
+    /// Free spawn poses along a lane every `spacing` m, at least `clearance` m
+    /// from every point in `occupied`, in the lane's direction of travel.
+    pub fn spawn_positions(&self, road: &str, lane: i32, spacing: f64, clearance: f64, occupied: &[Vec2]) -> Vec<Pose> {
+        let Some(r) = self.road(road) else { return Vec::new() };
+        if !(spacing.is_finite() && spacing > 0.0) {
+            return Vec::new();
+        }
+        let mut out = Vec::new();
+        let mut s = spacing / 2.0;
+        while s < r.length {
+            if let Some(p) = self.lane_pose(road, lane, s, 0.0) {
+                let xy = p.position.xy();
+                if occupied.iter().all(|o| o.distance(xy) >= clearance) {
+                    out.push(p);
+                }
+            }
+            s += spacing;
+        }
+        out
+    }
+
+    /// Centre and border polylines of every lane, within `tolerance` m of the
+    /// true curves (chord error on the reference line, plus a sample wherever
+    /// lane width changes).
+    pub fn lane_polylines(&self, tolerance: f64) -> Vec<LanePolyline> {
+        let tol = tolerance.max(1e-4);
+        let mut out = Vec::new();
+        for r in &self.od.roads {
+            for (si, sec) in r.sections.iter().enumerate() {
+                let s_end = r.sections.get(si + 1).map_or(r.length, |n| n.s);
+                if s_end - sec.s < 1e-6 {
+                    continue;
+                }
+                let mut ss = vec![sec.s];
+                let mut s = sec.s;
+                while s < s_end {
+                    let k = r.reference(s).curvature.abs() + 0.02; // margin for width changes
+                    s = (s + step_for(k, tol, 5.0)).min(s_end);
+                    ss.push(s);
+                }
+                for lane in sec.left.iter().chain(sec.right.iter()) {
+                    let mut pl = LanePolyline {
+                        road: r.id.clone(),
+                        section: si,
+                        lane: lane.id,
+                        kind: lane.kind.clone(),
+                        center: Vec::with_capacity(ss.len()),
+                        inner: Vec::with_capacity(ss.len()),
+                        outer: Vec::with_capacity(ss.len()),
+                    };
+                    for &s in &ss {
+                        // Evaluate just inside the section at its end.
+                        let se = if s >= s_end { (s_end - 1e-6).max(sec.s) } else { s };
+                        if let Some(span) = r.lane_span(se, lane.id) {
+                            let pt = |t: f64| {
+                                let (x, y, _) = r.st_to_xyz(se, t);
+                                Vec2::new(x, y)
+                            };
+                            pl.center.push(pt(span.t_center()));
+                            pl.inner.push(pt(span.t_inner));
+                            pl.outer.push(pt(span.t_outer));
+                        }
+                    }
+                    out.push(pl);
+                }
+            }
+        }
+        out
+    }
+
+    /// Lane spans of a road at `s` (convenience).
+    pub fn lane_spans(&self, road: &str, s: f64) -> Vec<LaneSpan> {
+        self.road(road).map(|r| r.lane_spans(s)).unwrap_or_default()
+    }
+
+    fn lane_ref(&self, road: usize, at_start: bool, lane: i32) -> Option<LaneRef> {
+        let r = &self.od.roads[road];
+        let section = if at_start { 0 } else { r.sections.len() - 1 };
+        let sec = &r.sections[section];
+        sec.left
+            .iter()
+            .chain(sec.right.iter())
+            .any(|l| l.id == lane && l.is_drivable())
+            .then_some(LaneRef { road, section, lane })
+    }
+
+    fn lane_length(&self, n: LaneRef) -> f64 {
+        let r = &self.od.roads[n.road];
+        let s0 = r.sections[n.section].s;
+        let s1 = r.sections.get(n.section + 1).map_or(r.length, |x| x.s);
+        (s1 - s0).max(0.0)
+    }
+
+    fn build_graph(&mut self, warnings: &mut Vec<Warning>) {
+        let mut graph: BTreeMap<LaneRef, Vec<(LaneRef, f64)>> = BTreeMap::new();
+        let mut dropped = 0usize;
+        for (ri, r) in self.od.roads.iter().enumerate() {
+            for (si, sec) in r.sections.iter().enumerate() {
+                let mid = (sec.s + 0.01).min(r.length);
+                for lane in sec.left.iter().chain(sec.right.iter()).filter(|l| l.is_drivable()) {
+                    let node = LaneRef { road: ri, section: si, lane: lane.id };
+                    let dirs: &[bool] = match r.lane_direction(mid, lane.id) {
+                        Direction::Forward => &[true],
+                        Direction::Backward => &[false],
+                        Direction::Both => &[true, false],
+                    };
+                    for &forward in dirs {
+                        let mut next = Vec::new();
+                        let link = if forward { lane.successor } else { lane.predecessor };
+                        let neighbour_section = if forward { si + 1 } else { si.wrapping_sub(1) };
+                        if neighbour_section < r.sections.len() {
+                            let id = link.unwrap_or(lane.id);
+                            let ns = &r.sections[neighbour_section];
+                            if ns.left.iter().chain(ns.right.iter()).any(|l| l.id == id && l.is_drivable()) {
+                                next.push(LaneRef { road: ri, section: neighbour_section, lane: id });
+                            }
+                        } else {
+                            let target = if forward { &r.successor } else { &r.predecessor };
+                            match target {
+                                Some(LinkTarget::Road { id, at_start }) => {
+                                    let to = link.unwrap_or(lane.id);
+                                    match self.index.get(id).and_then(|&t| self.lane_ref(t, *at_start, to)) {
+                                        Some(n) => next.push(n),
+                                        None => dropped += 1,
+                                    }
+                                }
+                                Some(LinkTarget::Junction(jid)) => {
+                                    for j in self.od.junctions.iter().filter(|j| &j.id == jid) {
+                                        for c in j.connections.iter().filter(|c| c.incoming == r.id) {
+                                            for &(from, to) in &c.lane_links {
+                                                if from != lane.id {
+                                                    continue;
+                                                }
+                                                match self.index.get(&c.connecting).and_then(|&t| self.lane_ref(t, c.at_start, to)) {
+                                                    Some(n) => next.push(n),
+                                                    None => dropped += 1,
+                                                }
+                                            }
+                                        }
+                                    }
+                                }
+                                None => {}
+                            }
+                        }
+                        let cost = self.lane_length(node);
+                        graph.entry(node).or_default().extend(next.into_iter().map(|n| (n, cost)));
+                    }
+                }
+            }
+        }
+        if dropped > 0 {
+            warnings.push(Warning {
+                line: 0,
+                path: "OpenDRIVE".into(),
+                message: format!("{dropped} lane link(s) point at lanes that do not exist or are not drivable; dropped"),
+            });
+        }
+        for v in graph.values_mut() {
+            v.sort_by(|a, b| a.0.cmp(&b.0));
+            v.dedup_by(|a, b| a.0 == b.0);
+        }
+        self.graph = graph;
+    }
+
+    /// Lanes reachable from `from` in one move along the direction of travel.
+    pub fn successors(&self, from: LaneRef) -> Vec<LaneRef> {
+        self.graph.get(&from).map(|v| v.iter().map(|(n, _)| *n).collect()).unwrap_or_default()
+    }
+
+    /// The drivable lane node of (road, lane) at s.
+    pub fn lane_at(&self, road: &str, lane: i32, s: f64) -> Option<LaneRef> {
+        let ri = self.road_index(road)?;
+        let section = self.od.roads[ri].section_index(s);
+        let node = LaneRef { road: ri, section, lane };
+        self.graph.contains_key(&node).then_some(node)
+    }
+
+    /// Shortest route (by lane length, Dijkstra) from one lane node to another.
+    pub fn route(&self, from: LaneRef, to: LaneRef) -> Option<Vec<LaneRef>> {
+        #[derive(PartialEq)]
+        struct Item(f64, LaneRef);
+        impl Eq for Item {}
+        impl PartialOrd for Item {
+            fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
+                Some(self.cmp(o))
+            }
+        }
+        impl Ord for Item {
+            fn cmp(&self, o: &Self) -> std::cmp::Ordering {
+                o.0.total_cmp(&self.0).then_with(|| o.1.cmp(&self.1))
+            }
+        }
+        let mut dist: BTreeMap<LaneRef, f64> = BTreeMap::new();
+        let mut prev: BTreeMap<LaneRef, LaneRef> = BTreeMap::new();
+        let mut heap = BinaryHeap::new();
+        dist.insert(from, 0.0);
+        heap.push(Item(0.0, from));
+        while let Some(Item(d, n)) = heap.pop() {
+            if n == to {
+                let mut path = vec![to];
+                let mut cur = to;
+                while let Some(&p) = prev.get(&cur) {
+                    path.push(p);
+                    cur = p;
+                }
+                path.reverse();
+                return Some(path);
+            }
+            if d > dist.get(&n).copied().unwrap_or(f64::INFINITY) {
+                continue;
+            }
+            for &(m, w) in self.graph.get(&n).into_iter().flatten() {
+                let nd = d + w;
+                if nd < dist.get(&m).copied().unwrap_or(f64::INFINITY) {
+                    dist.insert(m, nd);
+                    prev.insert(m, n);
+                    heap.push(Item(nd, m));
+                }
+            }
+        }
+        None
+    }
+}
+
+/// Newton refinement of the foot point on the reference line:
+/// g(s) = (P − C(s))·T(s) = 0, g'(s) = −1 + κ (P − C(s))·N(s).
+fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64) {
+    for _ in 0..3 {
+        let r = road.reference(s);
+        let (sn, cs) = math::sin_cos(r.hdg);
+        let (dx, dy) = (p.x - r.x, p.y - r.y);
+        let along = dx * cs + dy * sn;
+        let across = -dx * sn + dy * cs;
+        let d = 1.0 - r.curvature * across;
+        let step = if d.abs() > 1e-6 { along / d } else { along };
+        let ns = (s + step).clamp(0.0, road.length);
+        if (ns - s).abs() < 1e-9 {
+            s = ns;
+            break;
+        }
+        s = ns;
+    }
+    let r = road.reference(s);
+    let (sn, cs) = math::sin_cos(r.hdg);
+    let t = -(p.x - r.x) * sn + (p.y - r.y) * cs;
+    (s, t)
+}

@@ -1,0 +1,622 @@
+//! OpenDRIVE XML → [`OpenDrive`], with precise errors and warnings.
+//!
+//! Elements are matched by local name (namespaces ignored, order not
+//! assumed). Unknown elements and `userData` are skipped with a warning;
+//! missing required attributes, unparsable numbers, negative lengths, unknown
+//! geometry and lanes without width are errors naming the element path and
+//! the line.
+
+use crate::geometry::{Geometry, Shape};
+use crate::model::*;
+use roxmltree::{Document, Node};
+use std::collections::BTreeMap;
+
+/// A load error: where (element path, line, column) and what.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{file}:{line}:{column}: {path}: {message}")]
+pub struct MapError {
+    /// File name (for messages).
+    pub file: String,
+    /// Line (1-based; 0 when not tied to a place).
+    pub line: u32,
+    /// Column (1-based).
+    pub column: u32,
+    /// Element path, e.g. `OpenDRIVE/road[id=5]/planView/geometry[2]`.
+    pub path: String,
+    /// What is wrong and what was expected.
+    pub message: String,
+}
+
+/// A non-fatal finding.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Warning {
+    /// Line (1-based; 0 when not tied to one place).
+    pub line: u32,
+    /// Element path.
+    pub path: String,
+    /// What was found.
+    pub message: String,
+}
+
+struct Ctx<'a> {
+    doc: &'a Document<'a>,
+    file: String,
+    warnings: Vec<Warning>,
+    skipped: BTreeMap<String, (u32, String, usize)>,
+}
+
+type R<T> = Result<T, MapError>;
+
+impl<'a> Ctx<'a> {
+    fn pos(&self, n: Node) -> (u32, u32) {
+        let p = self.doc.text_pos_at(n.range().start);
+        (p.row, p.col)
+    }
+    fn err(&self, n: Node, path: &str, message: impl Into<String>) -> MapError {
+        let (line, column) = self.pos(n);
+        MapError {
+            file: self.file.clone(),
+            line,
+            column,
+            path: path.to_string(),
+            message: message.into(),
+        }
+    }
+    fn warn(&mut self, n: Node, path: &str, message: impl Into<String>) {
+        let (line, _) = self.pos(n);
+        self.warnings.push(Warning {
+            line,
+            path: path.into(),
+            message: message.into(),
+        });
+    }
+    /// Records an ignored element; warnings are aggregated per element name.
+    fn skip(&mut self, n: Node, path: &str) {
+        let name = n.tag_name().name().to_string();
+        let (line, _) = self.pos(n);
+        let e = self.skipped.entry(name).or_insert((line, format!("{path}/{}", n.tag_name().name()), 0));
+        e.2 += 1;
+    }
+    fn req_f64(&self, n: Node, path: &str, name: &str) -> R<f64> {
+        match n.attribute(name) {
+            None => Err(self.err(n, path, format!("missing required attribute '{name}' (a number)"))),
+            Some(v) => self.num(n, path, name, v),
+        }
+    }
+    fn num(&self, n: Node, path: &str, name: &str, v: &str) -> R<f64> {
+        let x: f64 = v
+            .trim()
+            .parse()
+            .map_err(|_| self.err(n, path, format!("attribute '{name}' = '{v}' is not a number")))?;
+        if !x.is_finite() {
+            return Err(self.err(n, path, format!("attribute '{name}' = '{v}' is not finite")));
+        }
+        Ok(x)
+    }
+    fn opt_f64(&self, n: Node, path: &str, name: &str) -> R<Option<f64>> {
+        n.attribute(name).map(|v| self.num(n, path, name, v)).transpose()
+    }
+    fn f64_or(&self, n: Node, path: &str, name: &str, default: f64) -> R<f64> {
+        Ok(self.opt_f64(n, path, name)?.unwrap_or(default))
+    }
+    fn req_str(&self, n: Node, path: &str, name: &str) -> R<String> {
+        n.attribute(name)
+            .map(|s| s.trim().to_string())
+            .ok_or_else(|| self.err(n, path, format!("missing required attribute '{name}'")))
+    }
+    fn req_i32(&self, n: Node, path: &str, name: &str) -> R<i32> {
+        let v = self.req_str(n, path, name)?;
+        v.parse::<i32>()
+            .or_else(|_| v.parse::<f64>().map_err(|_| ()).and_then(|f| if f.fract() == 0.0 { Ok(f as i32) } else { Err(()) }))
+            .map_err(|_| self.err(n, path, format!("attribute '{name}' = '{v}' is not an integer")))
+    }
+    fn cubic(&self, n: Node, path: &str, s_name: &str) -> R<Cubic> {
+        Ok(Cubic {
+            s: self.req_f64(n, path, s_name)?,
+            a: self.f64_or(n, path, "a", 0.0)?,
+            b: self.f64_or(n, path, "b", 0.0)?,
+            c: self.f64_or(n, path, "c", 0.0)?,
+            d: self.f64_or(n, path, "d", 0.0)?,
+        })
+    }
+}
+
+fn elements<'a, 'i>(n: Node<'a, 'i>) -> impl Iterator<Item = Node<'a, 'i>> {
+    n.children().filter(|c| c.is_element())
+}
+
+fn boolean(v: Option<&str>) -> bool {
+    matches!(v.map(str::trim), Some("true" | "1" | "yes"))
+}
+
+/// Speed in m/s from a value and an OpenDRIVE unit (`m/s`, `km/h`, `mph`; missing = m/s).
+fn speed(max: Option<&str>, unit: Option<&str>) -> Option<f64> {
+    let v: f64 = max?.trim().parse().ok()?;
+    Some(match unit.map(str::trim) {
+        Some("km/h") => v / 3.6,
+        Some("mph") => v * 0.447_04,
+        _ => v,
+    })
+}
+
+/// Parses OpenDRIVE text. `file` names the source in messages.
+pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapError> {
+    let doc = Document::parse(text).map_err(|e| {
+        let p = e.pos();
+        MapError {
+            file: file.into(),
+            line: p.row,
+            column: p.col,
+            path: String::new(),
+            message: format!("malformed XML: {e}"),
+        }
+    })?;
+    let mut cx = Ctx {
+        doc: &doc,
+        file: file.into(),
+        warnings: Vec::new(),
+        skipped: BTreeMap::new(),
+    };
+    let root = doc.root_element();
+    if root.tag_name().name() != "OpenDRIVE" {
+        return Err(cx.err(root, "", format!("root element is <{}>, expected <OpenDRIVE>", root.tag_name().name())));
+    }
+    let mut od = OpenDrive::default();
+    let mut saw_header = false;
+    for n in elements(root) {
+        match n.tag_name().name() {
+            "header" => {
+                saw_header = true;
+                od.header = header(&mut cx, n)?;
+            }
+            "road" => od.roads.push(road(&mut cx, n)?),
+            "junction" => od.junctions.push(junction(&mut cx, n)?),
+            "controller" => {
+                let path = format!("OpenDRIVE/controller[id={}]", n.attribute("id").unwrap_or("?"));
+                od.controllers.push(Controller {
+                    id: cx.req_str(n, &path, "id")?,
+                    name: n.attribute("name").unwrap_or("").into(),
+                    signals: elements(n)
+                        .filter(|c| c.tag_name().name() == "control")
+                        .map(|c| cx.req_str(c, &format!("{path}/control"), "signalId"))
+                        .collect::<R<_>>()?,
+                });
+            }
+            _ => cx.skip(n, "OpenDRIVE"),
+        }
+    }
+    if !saw_header {
+        cx.warnings.push(Warning {
+            line: 0,
+            path: "OpenDRIVE".into(),
+            message: "no <header>; assuming OpenDRIVE 1.4 defaults".into(),
+        });
+    }
+    if od.roads.is_empty() {
+        return Err(cx.err(root, "OpenDRIVE", "no <road> elements: a map needs at least one road"));
+    }
+    let mut ids = std::collections::BTreeSet::new();
+    for r in &od.roads {
+        if !ids.insert(r.id.as_str()) {
+            return Err(MapError {
+                file: file.into(),
+                line: 0,
+                column: 0,
+                path: format!("OpenDRIVE/road[id={}]", r.id),
+                message: format!("road id '{}' is used twice", r.id),
+            });
+        }
+    }
+    let skipped = std::mem::take(&mut cx.skipped);
+    for (name, (line, path, count)) in skipped {
+        cx.warnings.push(Warning {
+            line,
+            path,
+            message: format!("<{name}> is not interpreted and was ignored ({count}×)"),
+        });
+    }
+    Ok((od, cx.warnings))
+}
+
+fn header(cx: &mut Ctx, n: Node) -> R<Header> {
+    let path = "OpenDRIVE/header";
+    let mut h = Header {
+        rev_major: n.attribute("revMajor").and_then(|v| v.trim().parse().ok()).unwrap_or(1),
+        rev_minor: n.attribute("revMinor").and_then(|v| v.trim().parse().ok()).unwrap_or(4),
+        name: n.attribute("name").unwrap_or("").into(),
+        vendor: n.attribute("vendor").unwrap_or("").into(),
+        ..Header::default()
+    };
+    for c in elements(n) {
+        match c.tag_name().name() {
+            "geoReference" => h.geo_reference = Some(c.text().unwrap_or("").trim().to_string()),
+            "offset" => {
+                let p = format!("{path}/offset");
+                h.offset = Some([
+                    cx.f64_or(c, &p, "x", 0.0)?,
+                    cx.f64_or(c, &p, "y", 0.0)?,
+                    cx.f64_or(c, &p, "z", 0.0)?,
+                    cx.f64_or(c, &p, "hdg", 0.0)?,
+                ]);
+            }
+            _ => cx.skip(c, path),
+        }
+    }
+    Ok(h)
+}
+
+fn link(cx: &Ctx, n: Node, path: &str) -> R<LinkTarget> {
+    let id = cx.req_str(n, path, "elementId")?;
+    match n.attribute("elementType").map(str::trim) {
+        Some("junction") => Ok(LinkTarget::Junction(id)),
+        Some("road") | None => {
+            let at_start = match n.attribute("contactPoint").map(str::trim) {
+                Some("start") => true,
+                Some("end") => false,
+                Some(other) => return Err(cx.err(n, path, format!("contactPoint = '{other}', expected 'start' or 'end'"))),
+                None => return Err(cx.err(n, path, "missing required attribute 'contactPoint' for a road link (start or end)")),
+            };
+            Ok(LinkTarget::Road { id, at_start })
+        }
+        Some(other) => Err(cx.err(n, path, format!("elementType = '{other}', expected 'road' or 'junction'"))),
+    }
+}
+
+fn road(cx: &mut Ctx, n: Node) -> R<Road> {
+    let id = n.attribute("id").unwrap_or("?").trim().to_string();
+    let path = format!("OpenDRIVE/road[id={id}]");
+    let id = cx.req_str(n, &path, "id")?;
+    let length = cx.req_f64(n, &path, "length")?;
+    if length <= 0.0 {
+        return Err(cx.err(n, &path, format!("length = {length} must be positive")));
+    }
+    let junction = n.attribute("junction").map(str::trim).filter(|j| *j != "-1" && !j.is_empty()).map(String::from);
+    let rule = match n.attribute("rule").map(str::trim) {
+        Some("LHT" | "lht") => Rule::Lht,
+        _ => Rule::Rht,
+    };
+    let mut r = Road {
+        id,
+        name: n.attribute("name").unwrap_or("").into(),
+        length,
+        junction,
+        rule,
+        predecessor: None,
+        successor: None,
+        types: Vec::new(),
+        plan_view: Vec::new(),
+        elevation: Vec::new(),
+        superelevation: Vec::new(),
+        lane_offsets: Vec::new(),
+        sections: Vec::new(),
+        signals: Vec::new(),
+        objects: Vec::new(),
+    };
+    let mut saw_plan = false;
+    let mut saw_lanes = false;
+    for c in elements(n) {
+        match c.tag_name().name() {
+            "link" => {
+                for l in elements(c) {
+                    let p = format!("{path}/link/{}", l.tag_name().name());
+                    match l.tag_name().name() {
+                        "predecessor" => r.predecessor = Some(link(cx, l, &p)?),
+                        "successor" => r.successor = Some(link(cx, l, &p)?),
+                        _ => cx.skip(l, &format!("{path}/link")),
+                    }
+                }
+            }
+            "type" => {
+                let p = format!("{path}/type");
+                let sp = elements(c).find(|s| s.tag_name().name() == "speed");
+                r.types.push(RoadType {
+                    s: cx.req_f64(c, &p, "s")?,
+                    kind: c.attribute("type").unwrap_or("unknown").trim().into(),
+                    max_speed: sp.and_then(|s| speed(s.attribute("max"), s.attribute("unit"))),
+                });
+            }
+            "planView" => {
+                saw_plan = true;
+                for (i, g) in elements(c).enumerate() {
+                    let p = format!("{path}/planView/geometry[{i}]");
+                    if g.tag_name().name() != "geometry" {
+                        cx.skip(g, &format!("{path}/planView"));
+                        continue;
+                    }
+                    r.plan_view.push(geometry(cx, g, &p)?);
+                }
+            }
+            "elevationProfile" => {
+                for e in elements(c).filter(|e| e.tag_name().name() == "elevation") {
+                    r.elevation.push(cx.cubic(e, &format!("{path}/elevationProfile/elevation"), "s")?);
+                }
+            }
+            "lateralProfile" => {
+                for e in elements(c) {
+                    match e.tag_name().name() {
+                        "superelevation" => r.superelevation.push(cx.cubic(e, &format!("{path}/lateralProfile/superelevation"), "s")?),
+                        _ => cx.skip(e, &format!("{path}/lateralProfile")),
+                    }
+                }
+            }
+            "lanes" => {
+                saw_lanes = true;
+                for (i, e) in elements(c).enumerate() {
+                    match e.tag_name().name() {
+                        "laneOffset" => r.lane_offsets.push(cx.cubic(e, &format!("{path}/lanes/laneOffset"), "s")?),
+                        "laneSection" => r.sections.push(section(cx, e, &format!("{path}/lanes/laneSection[{i}]"))?),
+                        _ => cx.skip(e, &format!("{path}/lanes")),
+                    }
+                }
+            }
+            "signals" => {
+                for (i, s) in elements(c).enumerate() {
+                    let p = format!("{path}/signals/signal[{i}]");
+                    match s.tag_name().name() {
+                        "signal" => r.signals.push(signal(cx, s, &p)?),
+                        _ => cx.skip(s, &format!("{path}/signals")),
+                    }
+                }
+            }
+            "objects" => {
+                for (i, o) in elements(c).enumerate() {
+                    let p = format!("{path}/objects/object[{i}]");
+                    match o.tag_name().name() {
+                        "object" => r.objects.push(RoadObject {
+                            id: o.attribute("id").unwrap_or("").into(),
+                            kind: o.attribute("type").unwrap_or("none").into(),
+                            s: cx.req_f64(o, &p, "s")?,
+                            t: cx.req_f64(o, &p, "t")?,
+                            hdg: cx.f64_or(o, &p, "hdg", 0.0)?,
+                            length: cx.f64_or(o, &p, "length", 0.0)?,
+                            width: cx.f64_or(o, &p, "width", 0.0)?,
+                            radius: cx.f64_or(o, &p, "radius", 0.0)?,
+                        }),
+                        _ => cx.skip(o, &format!("{path}/objects")),
+                    }
+                }
+            }
+            _ => cx.skip(c, &path),
+        }
+    }
+    if !saw_plan || r.plan_view.is_empty() {
+        return Err(cx.err(n, &path, "no <planView> geometry: a road needs a reference line"));
+    }
+    if !saw_lanes || r.sections.is_empty() {
+        return Err(cx.err(n, &path, "no <lanes>/<laneSection>: a road needs at least one lane section"));
+    }
+    r.plan_view.sort_by(|a, b| a.s.total_cmp(&b.s));
+    r.elevation.sort_by(|a, b| a.s.total_cmp(&b.s));
+    r.superelevation.sort_by(|a, b| a.s.total_cmp(&b.s));
+    r.lane_offsets.sort_by(|a, b| a.s.total_cmp(&b.s));
+    r.sections.sort_by(|a, b| a.s.total_cmp(&b.s));
+    r.types.sort_by(|a, b| a.s.total_cmp(&b.s));
+    for s in &mut r.sections {
+        if s.s > r.length {
+            cx.warn(n, &path, format!("lane section at s = {} starts beyond the road length {}; clamped", s.s, r.length));
+            s.s = r.length;
+        }
+    }
+    // Continuity of the reference line: gaps between pieces are warnings.
+    for w in r.plan_view.windows(2) {
+        let end = w[0].eval(w[0].length);
+        let gap = ((end.x - w[1].x).powi(2) + (end.y - w[1].y).powi(2)).sqrt();
+        if gap > 1e-3 {
+            cx.warnings.push(Warning {
+                line: cx.pos(n).0,
+                path: path.clone(),
+                message: format!("reference line has a gap of {gap:.4} m at s = {:.3} (between pieces at s = {} and {})", w[1].s, w[0].s, w[1].s),
+            });
+        }
+        let s_gap = (w[0].s + w[0].length - w[1].s).abs();
+        if s_gap > 0.1 {
+            cx.warnings.push(Warning {
+                line: cx.pos(n).0,
+                path: path.clone(),
+                message: format!("geometry at s = {} ends at s = {} but the next starts at s = {}", w[0].s, w[0].s + w[0].length, w[1].s),
+            });
+        }
+    }
+    let total: f64 = r.plan_view.last().map_or(0.0, |g| g.s + g.length);
+    if (total - r.length).abs() > 0.1 {
+        cx.warnings.push(Warning {
+            line: cx.pos(n).0,
+            path: path.clone(),
+            message: format!("planView ends at s = {total:.3} but the road length is {}", r.length),
+        });
+    }
+    Ok(r)
+}
+
+fn geometry(cx: &mut Ctx, g: Node, path: &str) -> R<Geometry> {
+    let s = cx.req_f64(g, path, "s")?;
+    let x = cx.req_f64(g, path, "x")?;
+    let y = cx.req_f64(g, path, "y")?;
+    let hdg = cx.req_f64(g, path, "hdg")?;
+    let length = cx.req_f64(g, path, "length")?;
+    if length < 0.0 {
+        return Err(cx.err(g, path, format!("length = {length} must not be negative")));
+    }
+    let shape_node = elements(g).find(|c| matches!(c.tag_name().name(), "line" | "arc" | "spiral" | "poly3" | "paramPoly3"));
+    let Some(c) = shape_node else {
+        let found: Vec<&str> = elements(g).map(|c| c.tag_name().name()).collect();
+        return Err(cx.err(
+            g,
+            path,
+            format!("unknown geometry: expected one of line, arc, spiral, poly3, paramPoly3; found [{}]", found.join(", ")),
+        ));
+    };
+    let p = format!("{path}/{}", c.tag_name().name());
+    let shape = match c.tag_name().name() {
+        "line" => Shape::Line,
+        "arc" => Shape::Arc {
+            curvature: cx.req_f64(c, &p, "curvature")?,
+        },
+        "spiral" => Shape::Spiral {
+            curv_start: cx.req_f64(c, &p, "curvStart")?,
+            curv_end: cx.req_f64(c, &p, "curvEnd")?,
+        },
+        "poly3" => Shape::Poly3 {
+            coef: [cx.f64_or(c, &p, "a", 0.0)?, cx.f64_or(c, &p, "b", 0.0)?, cx.f64_or(c, &p, "c", 0.0)?, cx.f64_or(c, &p, "d", 0.0)?],
+        },
+        _ => Shape::ParamPoly3 {
+            u: [cx.f64_or(c, &p, "aU", 0.0)?, cx.f64_or(c, &p, "bU", 0.0)?, cx.f64_or(c, &p, "cU", 0.0)?, cx.f64_or(c, &p, "dU", 0.0)?],
+            v: [cx.f64_or(c, &p, "aV", 0.0)?, cx.f64_or(c, &p, "bV", 0.0)?, cx.f64_or(c, &p, "cV", 0.0)?, cx.f64_or(c, &p, "dV", 0.0)?],
+            normalized: c.attribute("pRange").map(str::trim) != Some("arcLength"),
+        },
+    };
+    Ok(Geometry::new(s, x, y, hdg, length, shape))
+}
+
+fn section(cx: &mut Ctx, n: Node, path: &str) -> R<LaneSection> {
+    let mut sec = LaneSection {
+        s: cx.req_f64(n, path, "s")?,
+        single_side: boolean(n.attribute("singleSide")),
+        left: Vec::new(),
+        center: None,
+        right: Vec::new(),
+    };
+    for side in elements(n) {
+        let side_name = side.tag_name().name();
+        if !matches!(side_name, "left" | "center" | "right") {
+            cx.skip(side, path);
+            continue;
+        }
+        for l in elements(side).filter(|l| l.tag_name().name() == "lane") {
+            let lp = format!("{path}/{side_name}/lane[id={}]", l.attribute("id").unwrap_or("?"));
+            let lane = lane(cx, l, &lp)?;
+            let ok = match side_name {
+                "left" => lane.id > 0,
+                "right" => lane.id < 0,
+                _ => lane.id == 0,
+            };
+            if !ok {
+                return Err(cx.err(l, &lp, format!("lane id {} does not belong in <{side_name}> (left > 0, center = 0, right < 0)", lane.id)));
+            }
+            if lane.id != 0 && lane.widths.is_empty() && lane.borders.is_empty() {
+                return Err(cx.err(l, &lp, "lane has no <width> (or <border>) records: its extent is unknown"));
+            }
+            match side_name {
+                "left" => sec.left.push(lane),
+                "right" => sec.right.push(lane),
+                _ => sec.center = Some(lane),
+            }
+        }
+    }
+    sec.left.sort_by_key(|l| l.id);
+    sec.right.sort_by_key(|l| -l.id);
+    Ok(sec)
+}
+
+fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
+    let mut lane = Lane {
+        id: cx.req_i32(l, path, "id")?,
+        kind: l.attribute("type").unwrap_or("none").trim().to_string(),
+        level: boolean(l.attribute("level")),
+        widths: Vec::new(),
+        borders: Vec::new(),
+        road_marks: Vec::new(),
+        predecessor: None,
+        successor: None,
+        direction: l.attribute("direction").unwrap_or("standard").into(),
+        max_speed: None,
+    };
+    for c in elements(l) {
+        let p = format!("{path}/{}", c.tag_name().name());
+        match c.tag_name().name() {
+            "width" => lane.widths.push(cx.cubic(c, &p, "sOffset")?),
+            "border" => lane.borders.push(cx.cubic(c, &p, "sOffset")?),
+            "roadMark" => lane.road_marks.push(RoadMark {
+                s_offset: cx.f64_or(c, &p, "sOffset", 0.0)?,
+                kind: c.attribute("type").unwrap_or("none").into(),
+                color: c.attribute("color").unwrap_or("standard").into(),
+                width: cx.f64_or(c, &p, "width", 0.12)?,
+            }),
+            "link" => {
+                for e in elements(c) {
+                    let lp = format!("{p}/{}", e.tag_name().name());
+                    match e.tag_name().name() {
+                        "predecessor" => lane.predecessor = Some(cx.req_i32(e, &lp, "id")?),
+                        "successor" => lane.successor = Some(cx.req_i32(e, &lp, "id")?),
+                        _ => cx.skip(e, &p),
+                    }
+                }
+            }
+            "speed" => lane.max_speed = speed(c.attribute("max"), c.attribute("unit")),
+            _ => cx.skip(c, path),
+        }
+    }
+    // Duplicates with the same sOffset: the later record wins.
+    lane.widths.sort_by(|a, b| a.s.total_cmp(&b.s));
+    lane.widths.dedup_by(|later, earlier| {
+        if later.s == earlier.s {
+            *earlier = *later;
+            true
+        } else {
+            false
+        }
+    });
+    lane.borders.sort_by(|a, b| a.s.total_cmp(&b.s));
+    Ok(lane)
+}
+
+fn signal(cx: &mut Ctx, s: Node, path: &str) -> R<Signal> {
+    let validity = elements(s).find(|c| c.tag_name().name() == "validity").map(|v| {
+        let p = format!("{path}/validity");
+        Ok::<_, MapError>((cx.req_i32(v, &p, "fromLane")?, cx.req_i32(v, &p, "toLane")?))
+    });
+    Ok(Signal {
+        id: cx.req_str(s, path, "id")?,
+        name: s.attribute("name").unwrap_or("").into(),
+        s: cx.req_f64(s, path, "s")?,
+        t: cx.req_f64(s, path, "t")?,
+        dynamic: boolean(s.attribute("dynamic")),
+        orientation: s.attribute("orientation").unwrap_or("none").into(),
+        kind: s.attribute("type").unwrap_or("-1").into(),
+        subtype: s.attribute("subtype").unwrap_or("-1").into(),
+        country: s.attribute("country").unwrap_or("").into(),
+        validity: validity.transpose()?,
+    })
+}
+
+fn junction(cx: &mut Ctx, n: Node) -> R<Junction> {
+    let path = format!("OpenDRIVE/junction[id={}]", n.attribute("id").unwrap_or("?"));
+    let mut j = Junction {
+        id: cx.req_str(n, &path, "id")?,
+        name: n.attribute("name").unwrap_or("").into(),
+        kind: n.attribute("type").unwrap_or("default").into(),
+        connections: Vec::new(),
+        controllers: Vec::new(),
+    };
+    for c in elements(n) {
+        match c.tag_name().name() {
+            "connection" => {
+                let p = format!("{path}/connection[id={}]", c.attribute("id").unwrap_or("?"));
+                let connecting = c
+                    .attribute("connectingRoad")
+                    .or(c.attribute("linkedRoad"))
+                    .ok_or_else(|| cx.err(c, &p, "missing required attribute 'connectingRoad' (or 'linkedRoad')"))?;
+                let at_start = match c.attribute("contactPoint").map(str::trim) {
+                    Some("end") => false,
+                    Some("start") | None => true,
+                    Some(o) => return Err(cx.err(c, &p, format!("contactPoint = '{o}', expected 'start' or 'end'"))),
+                };
+                let mut links = Vec::new();
+                for l in elements(c).filter(|l| l.tag_name().name() == "laneLink") {
+                    let lp = format!("{p}/laneLink");
+                    links.push((cx.req_i32(l, &lp, "from")?, cx.req_i32(l, &lp, "to")?));
+                }
+                j.connections.push(Connection {
+                    id: c.attribute("id").unwrap_or("").into(),
+                    incoming: cx.req_str(c, &p, "incomingRoad")?,
+                    connecting: connecting.trim().into(),
+                    at_start,
+                    lane_links: links,
+                });
+            }
+            "controller" => j.controllers.push(cx.req_str(c, &format!("{path}/controller"), "id")?),
+            _ => cx.skip(c, &path),
+        }
+    }
+    Ok(j)
+}

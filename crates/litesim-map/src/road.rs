@@ -1,0 +1,160 @@
+//! Evaluation on one road: reference pose, lane offset, lane boundaries, (s, t) → (x, y, z).
+
+use crate::geometry::RefPoint;
+use crate::model::{Lane, LaneSection, Road, Rule, eval_cubics};
+use litesim_core::math;
+
+/// Lateral extent of a lane at some s.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LaneSpan {
+    /// Lane id.
+    pub id: i32,
+    /// Inner boundary t (m, towards the centre lane).
+    pub t_inner: f64,
+    /// Outer boundary t (m).
+    pub t_outer: f64,
+}
+
+impl LaneSpan {
+    /// Centre t (m).
+    pub fn t_center(&self) -> f64 {
+        0.5 * (self.t_inner + self.t_outer)
+    }
+    /// Width (m), never negative.
+    pub fn width(&self) -> f64 {
+        (self.t_outer - self.t_inner).abs()
+    }
+    /// True when `t` lies within the lane.
+    pub fn contains(&self, t: f64) -> bool {
+        let (lo, hi) = if self.t_inner <= self.t_outer { (self.t_inner, self.t_outer) } else { (self.t_outer, self.t_inner) };
+        t >= lo && t <= hi
+    }
+}
+
+/// Travel direction of a lane relative to the road's s.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Direction {
+    /// Along +s.
+    Forward,
+    /// Along −s.
+    Backward,
+    /// Either (bidirectional lanes, `direction="both"`).
+    Both,
+}
+
+impl Road {
+    /// Reference-line point at `s` (clamped to the road).
+    pub fn reference(&self, s: f64) -> RefPoint {
+        let s = s.clamp(0.0, self.length);
+        let i = self.plan_view.partition_point(|g| g.s <= s).max(1) - 1;
+        let g = &self.plan_view[i];
+        g.eval(s - g.s)
+    }
+
+    /// Lane offset of the centre lane and its slope at `s`.
+    pub fn lane_offset(&self, s: f64) -> (f64, f64) {
+        eval_cubics(&self.lane_offsets, s)
+    }
+
+    /// Elevation z (m) at `s`.
+    pub fn elevation(&self, s: f64) -> f64 {
+        eval_cubics(&self.elevation, s).0
+    }
+
+    /// Index of the lane section in force at `s`.
+    pub fn section_index(&self, s: f64) -> usize {
+        self.sections.partition_point(|x| x.s <= s).max(1) - 1
+    }
+
+    /// Sections for the left and right side at `s` (`singleSide` sections
+    /// only replace their own side).
+    fn sides(&self, s: f64) -> (&LaneSection, &LaneSection) {
+        let upto = self.sections.partition_point(|x| x.s <= s).max(1);
+        let pick = |left: bool| {
+            self.sections[..upto]
+                .iter()
+                .rev()
+                .find(|sec| !sec.single_side || if left { !sec.left.is_empty() } else { !sec.right.is_empty() })
+                .unwrap_or(&self.sections[0])
+        };
+        (pick(true), pick(false))
+    }
+
+    /// The lane spans at `s`, left lanes (outward) then right lanes (outward).
+    pub fn lane_spans(&self, s: f64) -> Vec<LaneSpan> {
+        let s = s.clamp(0.0, self.length);
+        let (o, _) = self.lane_offset(s);
+        let (ls, rs) = self.sides(s);
+        let mut out = Vec::with_capacity(ls.left.len() + rs.right.len());
+        let mut t = o;
+        for lane in &ls.left {
+            let t_out = outer(lane, ls.s, s, t, o, 1.0);
+            out.push(LaneSpan {
+                id: lane.id,
+                t_inner: t,
+                t_outer: t_out,
+            });
+            t = t_out;
+        }
+        let mut t = o;
+        for lane in &rs.right {
+            let t_out = outer(lane, rs.s, s, t, o, -1.0);
+            out.push(LaneSpan {
+                id: lane.id,
+                t_inner: t,
+                t_outer: t_out,
+            });
+            t = t_out;
+        }
+        out
+    }
+
+    /// The span of one lane at `s`.
+    pub fn lane_span(&self, s: f64, lane: i32) -> Option<LaneSpan> {
+        self.lane_spans(s).into_iter().find(|l| l.id == lane)
+    }
+
+    /// A lane of the section in force at `s`.
+    pub fn lane(&self, s: f64, id: i32) -> Option<&Lane> {
+        let (ls, rs) = self.sides(s.clamp(0.0, self.length));
+        if id > 0 { ls.left.iter().find(|l| l.id == id) } else { rs.right.iter().find(|l| l.id == id) }
+    }
+
+    /// World point `(x, y, z)` of road coordinates `(s, t)` with superelevation.
+    pub fn st_to_xyz(&self, s: f64, t: f64) -> (f64, f64, f64) {
+        let r = self.reference(s);
+        let roll = eval_cubics(&self.superelevation, s).0;
+        let (t_h, dz) = if roll == 0.0 { (t, 0.0) } else { (t * math::cos(roll), -t * math::sin(roll)) };
+        let (sn, cs) = math::sin_cos(r.hdg);
+        (r.x - t_h * sn, r.y + t_h * cs, self.elevation(s) + dz)
+    }
+
+    /// Direction of travel of lane `id` under the road's rule.
+    pub fn lane_direction(&self, s: f64, id: i32) -> Direction {
+        let lane = self.lane(s, id);
+        if lane.is_some_and(|l| l.direction == "both" || l.kind == "bidirectional") {
+            return Direction::Both;
+        }
+        let forward = match self.rule {
+            Rule::Rht => id < 0,
+            Rule::Lht => id > 0,
+        };
+        let reversed = lane.is_some_and(|l| l.direction == "reversed");
+        if forward != reversed { Direction::Forward } else { Direction::Backward }
+    }
+}
+
+fn outer(lane: &Lane, sec_s: f64, s: f64, t_inner: f64, offset: f64, sign: f64) -> f64 {
+    let ds = s - sec_s;
+    if !lane.widths.is_empty() {
+        let i = lane.widths.partition_point(|w| w.s <= ds).max(1) - 1;
+        let w = &lane.widths[i];
+        t_inner + sign * w.at(ds - w.s).max(0.0)
+    } else {
+        // Border: the outer edge directly, measured from the centre lane.
+        let i = lane.borders.partition_point(|w| w.s <= ds).max(1) - 1;
+        let b = &lane.borders[i];
+        offset + sign * b.at(ds - b.s).abs()
+    }
+}

@@ -1,0 +1,187 @@
+//! The shipped maps, queries, routing, rasterising and bad input.
+
+use litesim_core::Vec2;
+use litesim_map::{Direction, RoadNetwork};
+use proptest::prelude::*;
+use std::path::PathBuf;
+
+fn map(name: &str) -> RoadNetwork {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/maps").join(name);
+    RoadNetwork::load(&p).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn shipped_maps_load_cleanly_and_are_continuous_to_a_millimetre() {
+    for name in ["straight.xodr", "circ.xodr", "curvy.xodr", "junction.xodr"] {
+        let m = map(name);
+        assert!(m.warnings.is_empty(), "{name}: {:?}", m.warnings);
+        for r in m.roads() {
+            for w in r.plan_view.windows(2) {
+                let a = w[0].eval(w[0].length);
+                let gap = ((a.x - w[1].x).powi(2) + (a.y - w[1].y).powi(2)).sqrt();
+                assert!(gap < 1e-3, "{name} road {} gap {gap} at s = {}", r.id, w[1].s);
+                let dh = litesim_core::wrap_angle(a.hdg - w[1].hdg).abs();
+                assert!(dh < 1e-6, "{name} road {} heading jump {dh}", r.id);
+            }
+        }
+    }
+}
+
+#[test]
+fn straight_road_queries() {
+    let m = map("straight.xodr");
+    let r = m.road("1").unwrap();
+    let spans = r.lane_spans(100.0);
+    assert_eq!(spans.iter().map(|l| l.id).collect::<Vec<_>>(), vec![1, 2, 3, 4, -1, -2, -3, -4]);
+    let p = m.to_road(Vec2::new(100.0, -5.25)).unwrap();
+    assert_eq!((p.road.as_str(), p.lane), ("1", -2));
+    assert!((p.s - 100.0).abs() < 1e-9 && p.offset.abs() < 1e-9);
+    assert!(m.to_road(Vec2::new(100.0, 40.0)).is_none());
+    assert_eq!(r.lane_direction(10.0, -1), Direction::Forward);
+    assert_eq!(r.lane_direction(10.0, 1), Direction::Backward);
+    let pose = m.lane_pose("1", 2, 50.0, 0.0).unwrap();
+    assert!((pose.position.y - 5.25).abs() < 1e-9 && (pose.yaw.abs() - std::f64::consts::PI).abs() < 1e-9);
+    let sum = &m.road_summaries()[0];
+    assert_eq!((sum.min_forward_lanes, sum.min_backward_lanes, sum.one_way), (3, 3, false));
+    // Spawn positions keep clear of occupied points.
+    let spawns = m.spawn_positions("1", -1, 20.0, 8.0, &[Vec2::new(110.0, -1.75)]);
+    assert_eq!(spawns.len(), 24);
+    assert!(spawns.iter().all(|p| p.position.xy().distance(Vec2::new(110.0, -1.75)) >= 8.0));
+}
+
+#[test]
+fn circ_has_two_one_way_roads_linked_in_a_ring() {
+    let m = map("circ.xodr");
+    let sums = m.road_summaries();
+    assert!(sums.iter().all(|s| s.one_way && s.max_driving_lanes == 2 && s.min_forward_lanes == 2));
+    let a = m.lane_at("1", -1, 0.0).unwrap();
+    let b = m.lane_at("2", -1, 0.0).unwrap();
+    assert_eq!(m.successors(a), vec![b]);
+    assert_eq!(m.successors(b), vec![a]);
+    // Right lanes lie outside the counter-clockwise ring: 101.75 m from the centre.
+    let p = m.to_road(Vec2::new(0.0, -101.75)).unwrap();
+    assert_eq!(p.lane, -1);
+    let pose = m.lane_pose("1", -1, 0.0, 0.0).unwrap();
+    assert!((pose.position.y - -101.75).abs() < 1e-9 && pose.yaw.abs() < 1e-9);
+}
+
+#[test]
+fn curvy_round_trip_and_elevation() {
+    let m = map("curvy.xodr");
+    let r = m.road("1").unwrap();
+    assert!((r.elevation(100.0) - 1.0).abs() < 1e-12);
+    for k in 0..90 {
+        let s = 1.0 + k as f64 * 5.0;
+        for t in [-4.0, -1.0, 1.5, 5.0] {
+            let (x, y, _) = r.st_to_xyz(s, t);
+            let p = m.to_road(Vec2::new(x, y)).unwrap_or_else(|| panic!("s={s} t={t} not found"));
+            assert!((p.s - s).abs() < 1e-6 && (p.t - t).abs() < 1e-6, "s={s} t={t}: {p:?}");
+        }
+    }
+    // The widening lane -2 is 3 m at s = 0 and 3 + 3e-5 s² further on.
+    let w = r.lane_span(200.0, -2).unwrap().width();
+    assert!((w - (3.0 + 3e-5 * 200.0 * 200.0)).abs() < 1e-9);
+}
+
+#[test]
+fn junction_graph_routes_and_signals() {
+    let m = map("junction.xodr");
+    assert_eq!(m.roads().len(), 16);
+    assert_eq!(m.od.junctions[0].connections.len(), 12);
+    assert_eq!(m.roads().iter().map(|r| r.signals.len()).sum::<usize>(), 4);
+    assert_eq!(m.od.controllers.len(), 2);
+    for arm in ["1", "2", "3", "4"] {
+        let n = m.lane_at(arm, -1, 50.0).unwrap();
+        assert_eq!(m.successors(n).len(), 3, "arm {arm}: straight, right, left");
+    }
+    // West arm (1) to north arm (4): a left turn through connecting road 103.
+    let from = m.lane_at("1", -1, 0.0).unwrap();
+    let to = m.lane_at("4", 1, 0.0).unwrap();
+    let route = m.route(from, to).unwrap();
+    let ids: Vec<&str> = route.iter().map(|n| m.roads()[n.road].id.as_str()).collect();
+    assert_eq!(ids, vec!["1", "103", "4"]);
+    // The connecting roads end exactly at their exit lanes.
+    for r in m.roads().iter().filter(|r| r.junction.is_some()) {
+        let end = m.lane_pose(&r.id, -1, r.length, 0.0).unwrap();
+        let p = m.to_road(end.position.xy()).unwrap();
+        assert!(p.offset.abs() < 1e-6, "road {} ends off-lane: {p:?}", r.id);
+    }
+    // Nothing routes against traffic.
+    assert!(m.route(m.lane_at("4", 1, 0.0).unwrap(), from).is_none());
+}
+
+#[test]
+fn rasterise_straight_road() {
+    let m = map("straight.xodr");
+    let g = m.rasterise(0.25, 2.0).unwrap();
+    // Drivable: 500 m × 6 lanes × 3.5 m = 10,500 m², minus the cone (π·0.3² ≈ 0.28 m²).
+    let area = g.free_cells() as f64 * 0.0625;
+    assert!((area - 10_500.0).abs() < 10_500.0 * 0.01, "{area}");
+    assert!(!g.is_occupied(Vec2::new(100.0, 0.5)));
+    assert!(g.is_occupied(Vec2::new(100.0, 12.0)), "sidewalks are not drivable");
+    assert!(g.is_occupied(Vec2::new(250.0, -5.25)), "the cone is an obstacle");
+    assert!(m.rasterise(0.0, 0.0).is_err());
+    assert!(m.rasterise(1e-5, 0.0).is_err(), "absurd sizes are refused");
+}
+
+fn err(xml: &str) -> String {
+    RoadNetwork::from_xodr(xml, "t.xodr").unwrap_err().to_string()
+}
+
+const GOOD: &str = r#"<OpenDRIVE><header revMajor="1" revMinor="6"/>
+<road id="1" length="10" junction="-1"><planView>
+<geometry s="0" x="0" y="0" hdg="0" length="10"><line/></geometry>
+</planView><lanes><laneSection s="0"><right><lane id="-1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/></lane></right></laneSection></lanes></road>
+</OpenDRIVE>"#;
+
+#[test]
+fn bad_input_names_element_and_line() {
+    assert!(RoadNetwork::from_xodr(GOOD, "t.xodr").is_ok());
+    let e = err("<OpenDRIVE><road id=\"1\" length=\"10\"></OpenDRIVE>");
+    assert!(e.starts_with("t.xodr:1:") && e.contains("malformed XML"), "{e}");
+    let e = err(&GOOD.replace(" hdg=\"0\"", ""));
+    assert_eq!(e, "t.xodr:3:1: OpenDRIVE/road[id=1]/planView/geometry[0]: missing required attribute 'hdg' (a number)");
+    let e = err(&GOOD.replace("length=\"10\"><line/>", "length=\"-3\"><line/>"));
+    assert!(e.contains("geometry[0]: length = -3 must not be negative"), "{e}");
+    let e = err(&GOOD.replace("<line/>", "<clothoid/>"));
+    assert!(e.contains("unknown geometry: expected one of line, arc, spiral, poly3, paramPoly3; found [clothoid]"), "{e}");
+    let e = err(&GOOD.replace("<width sOffset=\"0\" a=\"3.5\" b=\"0\" c=\"0\" d=\"0\"/>", ""));
+    assert!(e.contains("lane[id=-1]: lane has no <width>"), "{e}");
+    let e = err(&GOOD.replace("a=\"3.5\"", "a=\"wide\""));
+    assert!(e.contains("attribute 'a' = 'wide' is not a number"), "{e}");
+    let e = err("<OpenDRIVE><header/></OpenDRIVE>");
+    assert!(e.contains("no <road> elements"), "{e}");
+}
+
+#[test]
+fn gaps_and_unknown_elements_are_warnings() {
+    let xml = GOOD.replace(
+        "<geometry s=\"0\" x=\"0\" y=\"0\" hdg=\"0\" length=\"10\"><line/></geometry>",
+        "<geometry s=\"0\" x=\"0\" y=\"0\" hdg=\"0\" length=\"5\"><line/></geometry><geometry s=\"5\" x=\"5.02\" y=\"0\" hdg=\"0\" length=\"5\"><line/><userData/></geometry><fancy/>",
+    );
+    let m = RoadNetwork::from_xodr(&xml, "t.xodr").unwrap();
+    let text: Vec<&str> = m.warnings.iter().map(|w| w.message.as_str()).collect();
+    assert!(text.iter().any(|w| w.contains("gap of 0.0200 m at s = 5.000")), "{text:?}");
+    assert!(text.iter().any(|w| w.contains("<fancy> is not interpreted")), "{text:?}");
+    // The namespace variants load too.
+    let ns = GOOD.replace("<OpenDRIVE>", "<OpenDRIVE xmlns=\"http://www.opendrive.org\">");
+    assert!(RoadNetwork::from_xodr(&ns, "t.xodr").is_ok());
+}
+
+proptest! {
+    #[test]
+    fn loader_never_panics_on_arbitrary_bytes(bytes in prop::collection::vec(any::<u8>(), 0..400)) {
+        let text = String::from_utf8_lossy(&bytes);
+        let _ = RoadNetwork::from_xodr(&text, "fuzz.xodr");
+    }
+
+    #[test]
+    fn loader_never_panics_on_mutated_maps(pos in 0usize..600, ch in prop::sample::select(vec!["", "-", "9e999", "\"", "<", "NaN", "0"])) {
+        let mut s = GOOD.to_string();
+        let p = pos.min(s.len());
+        if s.is_char_boundary(p) {
+            s.insert_str(p, ch);
+        }
+        let _ = RoadNetwork::from_xodr(&s, "fuzz.xodr");
+    }
+}
