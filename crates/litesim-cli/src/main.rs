@@ -2,6 +2,7 @@
 //! owns argument parsing, printing and exit codes.
 
 mod demo;
+mod map;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -71,6 +72,11 @@ enum Command {
     },
     /// List the models.
     Models,
+    /// Inspect and export OpenDRIVE maps.
+    Map {
+        #[command(subcommand)]
+        command: map::MapCommand,
+    },
 }
 
 fn main() -> std::process::ExitCode {
@@ -168,6 +174,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Command::Map { command } => map::run(command),
         Command::Models => {
             for m in litesim_ssp::models() {
                 println!("{:<8} {}", m.name(), m.summary());

@@ -205,3 +205,62 @@ fn profiles_and_models_are_listed() {
     let out = litesim().arg("models").output().unwrap();
     assert!(String::from_utf8_lossy(&out.stdout).contains("bicycle"));
 }
+
+#[test]
+fn map_info_and_export() {
+    let map = workspace().join("examples/maps/junction.xodr");
+    let out = litesim()
+        .args(["map", "info"])
+        .arg(&map)
+        .arg("--roads")
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("roads: 16 (12 in junctions)") && text.contains("4 dynamic"),
+        "{text}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let (g, c) = (dir.path().join("l.geojson"), dir.path().join("l.csv"));
+    let out = litesim()
+        .args(["map", "export"])
+        .arg(&map)
+        .arg("--geojson")
+        .arg(&g)
+        .arg("--csv")
+        .arg(&c)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&g).unwrap()).unwrap();
+    assert_eq!(v["features"].as_array().unwrap().len(), 28 * 3);
+    assert!(
+        std::fs::read_to_string(&c)
+            .unwrap()
+            .starts_with("road,section,lane,type,line,index,x,y\n")
+    );
+    // Bad files: a precise message and exit code 1.
+    let bad = dir.path().join("bad.xodr");
+    std::fs::write(
+        &bad,
+        "<OpenDRIVE>\n<road id=\"7\" length=\"-5\"></road></OpenDRIVE>",
+    )
+    .unwrap();
+    let out = litesim().args(["map", "info"]).arg(&bad).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&out.stderr)
+            .contains("bad.xodr:2:1: OpenDRIVE/road[id=7]: length = -5 must be positive")
+    );
+    let out = litesim()
+        .args(["map", "export"])
+        .arg(&map)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+}

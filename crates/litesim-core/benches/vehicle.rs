@@ -210,10 +210,22 @@ fn compare_with_python() {
         }
     }
     for (id, label) in [
-        ("actor_step_batch_1000/ssp_dynamics/straight", "SspDynamics straight, 1,000 vehicles"),
-        ("actor_step_batch_1000/ssp_dynamics/turning", "SspDynamics turning, 1,000 vehicles"),
-        ("actor_step_batch_1000/kinematic_bicycle/straight", "KinematicBicycle straight, 1,000"),
-        ("actor_step_batch_1000/kinematic_bicycle/turning", "KinematicBicycle turning, 1,000"),
+        (
+            "actor_step_batch_1000/ssp_dynamics/straight",
+            "SspDynamics straight, 1,000 vehicles",
+        ),
+        (
+            "actor_step_batch_1000/ssp_dynamics/turning",
+            "SspDynamics turning, 1,000 vehicles",
+        ),
+        (
+            "actor_step_batch_1000/kinematic_bicycle/straight",
+            "KinematicBicycle straight, 1,000",
+        ),
+        (
+            "actor_step_batch_1000/kinematic_bicycle/turning",
+            "KinematicBicycle turning, 1,000",
+        ),
     ] {
         if let Some(ns) = median_ns(id, 1000.0) {
             println!("{label:<40} {ns:8.2} ns/actor-step");

@@ -9,7 +9,11 @@ use std::fmt::Write;
 pub fn geojson(lanes: &[LanePolyline]) -> String {
     let mut features = Vec::new();
     for l in lanes {
-        for (line, pts) in [("center", &l.center), ("inner", &l.inner), ("outer", &l.outer)] {
+        for (line, pts) in [
+            ("center", &l.center),
+            ("inner", &l.inner),
+            ("outer", &l.outer),
+        ] {
             features.push(serde_json::json!({
                 "type": "Feature",
                 "properties": { "road": l.road, "section": l.section, "lane": l.lane, "type": l.kind, "line": line },
@@ -24,9 +28,17 @@ pub fn geojson(lanes: &[LanePolyline]) -> String {
 pub fn csv(lanes: &[LanePolyline]) -> String {
     let mut out = String::from("road,section,lane,type,line,index,x,y\n");
     for l in lanes {
-        for (line, pts) in [("center", &l.center), ("inner", &l.inner), ("outer", &l.outer)] {
+        for (line, pts) in [
+            ("center", &l.center),
+            ("inner", &l.inner),
+            ("outer", &l.outer),
+        ] {
             for (i, p) in pts.iter().enumerate() {
-                let _ = writeln!(out, "{},{},{},{},{},{},{},{}", l.road, l.section, l.lane, l.kind, line, i, p.x, p.y);
+                let _ = writeln!(
+                    out,
+                    "{},{},{},{},{},{},{},{}",
+                    l.road, l.section, l.lane, l.kind, line, i, p.x, p.y
+                );
             }
         }
     }

@@ -14,10 +14,10 @@ use serde::{Deserialize, Serialize};
 const GL_X: [f64; 8] = [
     -0.960_289_856_497_536_2,
     -0.796_666_477_413_626_7,
-    -0.525_532_409_916_329_0,
+    -0.525_532_409_916_329,
     -0.183_434_642_495_649_8,
     0.183_434_642_495_649_8,
-    0.525_532_409_916_329_0,
+    0.525_532_409_916_329,
     0.796_666_477_413_626_7,
     0.960_289_856_497_536_2,
 ];
@@ -25,8 +25,8 @@ const GL_W: [f64; 8] = [
     0.101_228_536_290_376_3,
     0.222_381_034_453_374_5,
     0.313_706_645_877_887_3,
-    0.362_683_783_378_362_0,
-    0.362_683_783_378_362_0,
+    0.362_683_783_378_362,
+    0.362_683_783_378_362,
     0.313_706_645_877_887_3,
     0.222_381_034_453_374_5,
     0.101_228_536_290_376_3,
@@ -157,7 +157,9 @@ impl Geometry {
         // Parameter range: for poly3, u runs a little less than the arc length;
         // extend until the arc length is covered.
         let p_end = match &self.shape {
-            Shape::ParamPoly3 { normalized: true, .. } => 1.0,
+            Shape::ParamPoly3 {
+                normalized: true, ..
+            } => 1.0,
             Shape::ParamPoly3 { .. } => self.length,
             _ => self.length,
         };
@@ -185,7 +187,11 @@ impl Geometry {
         let (s0, p0) = t[i - 1];
         let (s1, p1) = t[i];
         // Linear guess, then two Newton steps on s(p) − ds with s'(p) = speed.
-        let mut p = if s1 > s0 { p0 + (p1 - p0) * (ds - s0) / (s1 - s0) } else { p0 };
+        let mut p = if s1 > s0 {
+            p0 + (p1 - p0) * (ds - s0) / (s1 - s0)
+        } else {
+            p0
+        };
         for _ in 0..2 {
             let (s_p, _) = integrate(p0, p, 1, |q| (self.speed_at(q), 0.0));
             let sp = self.speed_at(p);
@@ -216,8 +222,15 @@ impl Geometry {
                 curvature: 0.0,
             },
             Shape::Arc { curvature: k } => arc(self.x, self.y, self.hdg, *k, ds),
-            Shape::Spiral { curv_start, curv_end } => {
-                let c = if self.length > 0.0 { (curv_end - curv_start) / self.length } else { 0.0 };
+            Shape::Spiral {
+                curv_start,
+                curv_end,
+            } => {
+                let c = if self.length > 0.0 {
+                    (curv_end - curv_start) / self.length
+                } else {
+                    0.0
+                };
                 if c.abs() < 1e-12 {
                     return arc(self.x, self.y, self.hdg, *curv_start, ds);
                 }
@@ -258,7 +271,11 @@ impl Geometry {
                     x: self.x + u * ch - v * sh,
                     y: self.y + u * sh + v * ch,
                     hdg: self.hdg + math::atan2(dv, du),
-                    curvature: if n2 > 0.0 { (du * ddv - dv * ddu) / n2.powf(1.5) } else { 0.0 },
+                    curvature: if n2 > 0.0 {
+                        (du * ddv - dv * ddu) / n2.powf(1.5)
+                    } else {
+                        0.0
+                    },
                 }
             }
         }
@@ -295,9 +312,20 @@ mod tests {
         let p = g.eval(4.0);
         assert!((p.x - 1.0).abs() < 1e-12 && (p.y - 6.0).abs() < 1e-12);
         // Quarter circle of radius 10 to the left.
-        let g = Geometry::new(0.0, 0.0, 0.0, 0.0, 10.0 * PI / 2.0, Shape::Arc { curvature: 0.1 });
+        let g = Geometry::new(
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            10.0 * PI / 2.0,
+            Shape::Arc { curvature: 0.1 },
+        );
         let p = g.eval(10.0 * PI / 2.0);
-        assert!((p.x - 10.0).abs() < 1e-9 && (p.y - 10.0).abs() < 1e-9 && (p.hdg - PI / 2.0).abs() < 1e-12);
+        assert!(
+            (p.x - 10.0).abs() < 1e-9
+                && (p.y - 10.0).abs() < 1e-9
+                && (p.hdg - PI / 2.0).abs() < 1e-12
+        );
     }
 
     /// Fresnel integrals by their power series (a closed form, summed to
@@ -329,12 +357,27 @@ mod tests {
         let (l, k1) = (1000.0, 0.004);
         let c = k1 / l;
         let a = (PI / c).sqrt();
-        let g = Geometry::new(0.0, 0.0, 0.0, 0.0, l, Shape::Spiral { curv_start: 0.0, curv_end: k1 });
+        let g = Geometry::new(
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            l,
+            Shape::Spiral {
+                curv_start: 0.0,
+                curv_end: k1,
+            },
+        );
         for s in [0.0, 100.0, 333.3, 700.0, 1000.0] {
             let p = g.eval(s);
             let (fc, fs) = fresnel(s / a);
             let (x, y) = (a * fc, a * fs);
-            assert!((p.x - x).abs() < 1e-4 && (p.y - y).abs() < 1e-4, "s={s}: ({}, {}) vs ({x}, {y})", p.x, p.y);
+            assert!(
+                (p.x - x).abs() < 1e-4 && (p.y - y).abs() < 1e-4,
+                "s={s}: ({}, {}) vs ({x}, {y})",
+                p.x,
+                p.y
+            );
             assert!((p.hdg - c * s * s / 2.0).abs() < 1e-12);
         }
         // End heading for κ0 = 0: h0 + κ1·L/2.
@@ -343,7 +386,17 @@ mod tests {
 
     #[test]
     fn spiral_with_equal_curvatures_is_an_arc() {
-        let g = Geometry::new(0.0, 0.0, 0.0, 0.0, 50.0, Shape::Spiral { curv_start: 0.02, curv_end: 0.02 });
+        let g = Geometry::new(
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            50.0,
+            Shape::Spiral {
+                curv_start: 0.02,
+                curv_end: 0.02,
+            },
+        );
         let a = Geometry::new(0.0, 0.0, 0.0, 0.0, 50.0, Shape::Arc { curvature: 0.02 });
         assert_eq!(g.eval(30.0), a.eval(30.0));
     }
@@ -351,10 +404,32 @@ mod tests {
     #[test]
     fn param_poly3_straight_line_in_both_ranges() {
         // u = p, v = 0 over 20 m, arcLength; and u = 20 p normalized.
-        let g = Geometry::new(0.0, 0.0, 0.0, 0.0, 20.0, Shape::ParamPoly3 { u: [0.0, 1.0, 0.0, 0.0], v: [0.0; 4], normalized: false });
+        let g = Geometry::new(
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            20.0,
+            Shape::ParamPoly3 {
+                u: [0.0, 1.0, 0.0, 0.0],
+                v: [0.0; 4],
+                normalized: false,
+            },
+        );
         let p = g.eval(7.0);
         assert!((p.x - 7.0).abs() < 1e-9 && p.y.abs() < 1e-12);
-        let g = Geometry::new(0.0, 0.0, 0.0, 0.0, 20.0, Shape::ParamPoly3 { u: [0.0, 20.0, 0.0, 0.0], v: [0.0; 4], normalized: true });
+        let g = Geometry::new(
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            20.0,
+            Shape::ParamPoly3 {
+                u: [0.0, 20.0, 0.0, 0.0],
+                v: [0.0; 4],
+                normalized: true,
+            },
+        );
         let p = g.eval(7.0);
         assert!((p.x - 7.0).abs() < 1e-9);
     }
@@ -362,7 +437,18 @@ mod tests {
     #[test]
     fn param_poly3_circle_approximation_has_unit_speed_arc_length() {
         // A parabola v = 0.01 u² as paramPoly3; check that eval(ds) lies ds along the curve.
-        let g = Geometry::new(0.0, 0.0, 0.0, 0.0, 30.0, Shape::ParamPoly3 { u: [0.0, 1.0, 0.0, 0.0], v: [0.0, 0.0, 0.01, 0.0], normalized: false });
+        let g = Geometry::new(
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+            30.0,
+            Shape::ParamPoly3 {
+                u: [0.0, 1.0, 0.0, 0.0],
+                v: [0.0, 0.0, 0.01, 0.0],
+                normalized: false,
+            },
+        );
         let mut prev = g.eval(0.0);
         let mut len = 0.0;
         for i in 1..=3000 {
@@ -382,7 +468,10 @@ mod tests {
         let p = g.eval(40.0);
         // Undo the rotation and check v(u) = poly(u).
         let (dx, dy) = (p.x - 5.0, p.y - 5.0);
-        let (u, v) = (dx * 0.3f64.cos() + dy * 0.3f64.sin(), -dx * 0.3f64.sin() + dy * 0.3f64.cos());
+        let (u, v) = (
+            dx * 0.3f64.cos() + dy * 0.3f64.sin(),
+            -dx * 0.3f64.sin() + dy * 0.3f64.cos(),
+        );
         assert!((v - poly(&coef, u)).abs() < 1e-9);
         assert!(u < 40.0 && u > 39.0);
     }

@@ -49,7 +49,9 @@ impl OccupancyGrid {
         }
         let width = ((hi.x - lo.x) / resolution).ceil().max(1.0);
         let height = ((hi.y - lo.y) / resolution).ceil().max(1.0);
-        if !(width * height <= MAX_CELLS as f64) {
+        // Written so that a NaN extent is refused too.
+        let cells = width * height;
+        if cells.is_nan() || cells > MAX_CELLS as f64 {
             return Err(GridError::TooLarge {
                 width: width.min(usize::MAX as f64) as usize,
                 height: height.min(usize::MAX as f64) as usize,
@@ -69,7 +71,8 @@ impl OccupancyGrid {
     pub fn cell(&self, p: Vec2) -> Option<(usize, usize)> {
         let i = ((p.x - self.origin.x) / self.resolution).floor();
         let j = ((p.y - self.origin.y) / self.resolution).floor();
-        (i >= 0.0 && j >= 0.0 && (i as usize) < self.width && (j as usize) < self.height).then(|| (i as usize, j as usize))
+        (i >= 0.0 && j >= 0.0 && (i as usize) < self.width && (j as usize) < self.height)
+            .then_some((i as usize, j as usize))
     }
     /// Centre of a cell.
     pub fn center(&self, i: usize, j: usize) -> Vec2 {
@@ -80,7 +83,8 @@ impl OccupancyGrid {
     }
     /// Whether a world point is occupied (outside the grid counts as occupied).
     pub fn is_occupied(&self, p: Vec2) -> bool {
-        self.cell(p).is_none_or(|(i, j)| self.occupied[j * self.width + i])
+        self.cell(p)
+            .is_none_or(|(i, j)| self.occupied[j * self.width + i])
     }
     /// Number of free cells.
     pub fn free_cells(&self) -> usize {
@@ -140,7 +144,11 @@ impl RoadNetwork {
             hi = lo;
         }
         let m = margin.max(0.0);
-        let mut g = OccupancyGrid::new(Vec2::new(lo.x - m, lo.y - m), Vec2::new(hi.x + m, hi.y + m), resolution)?;
+        let mut g = OccupancyGrid::new(
+            Vec2::new(lo.x - m, lo.y - m),
+            Vec2::new(hi.x + m, hi.y + m),
+            resolution,
+        )?;
         g.occupied.iter_mut().for_each(|c| *c = true);
         for l in lanes.iter().filter(|l| {
             self.road(&l.road)
@@ -149,21 +157,36 @@ impl RoadNetwork {
                 .is_some_and(|x| x.is_drivable())
         }) {
             for k in 1..l.inner.len().min(l.outer.len()) {
-                g.fill_quad([l.inner[k - 1], l.inner[k], l.outer[k], l.outer[k - 1]], false);
+                g.fill_quad(
+                    [l.inner[k - 1], l.inner[k], l.outer[k], l.outer[k - 1]],
+                    false,
+                );
             }
         }
         for r in self.roads() {
             for o in &r.objects {
                 let (x, y, _) = r.st_to_xyz(o.s, o.t);
                 let h = r.reference(o.s).hdg + o.hdg;
-                let (hl, hw) = if o.radius > 0.0 { (o.radius, o.radius) } else { (o.length / 2.0, o.width / 2.0) };
+                let (hl, hw) = if o.radius > 0.0 {
+                    (o.radius, o.radius)
+                } else {
+                    (o.length / 2.0, o.width / 2.0)
+                };
                 if hl <= 0.0 || hw <= 0.0 {
                     continue;
                 }
                 let f = Vec2::from_heading(h);
                 let n = Vec2::new(-f.y, f.x);
                 let c = Vec2::new(x, y);
-                g.fill_quad([c + f * hl + n * hw, c - f * hl + n * hw, c - f * hl - n * hw, c + f * hl - n * hw], true);
+                g.fill_quad(
+                    [
+                        c + f * hl + n * hw,
+                        c - f * hl + n * hw,
+                        c - f * hl - n * hw,
+                        c + f * hl - n * hw,
+                    ],
+                    true,
+                );
             }
         }
         Ok(g)

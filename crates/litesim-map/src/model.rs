@@ -118,7 +118,16 @@ impl Lane {
     pub fn is_drivable(&self) -> bool {
         matches!(
             self.kind.as_str(),
-            "driving" | "entry" | "exit" | "onRamp" | "offRamp" | "connectingRamp" | "slipLane" | "bidirectional" | "mwyEntry" | "mwyExit"
+            "driving"
+                | "entry"
+                | "exit"
+                | "onRamp"
+                | "offRamp"
+                | "connectingRamp"
+                | "slipLane"
+                | "bidirectional"
+                | "mwyEntry"
+                | "mwyExit"
         )
     }
 }

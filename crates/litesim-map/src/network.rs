@@ -116,7 +116,11 @@ pub struct RoadNetwork {
 
 /// Step (m) that keeps a chord within `tol` of an arc of curvature `k`.
 fn step_for(k: f64, tol: f64, max: f64) -> f64 {
-    if k.abs() < 1e-9 { max } else { (8.0 * tol / k.abs()).sqrt().clamp(0.05, max) }
+    if k.abs() < 1e-9 {
+        max
+    } else {
+        (8.0 * tol / k.abs()).sqrt().clamp(0.05, max)
+    }
 }
 
 impl RoadNetwork {
@@ -135,7 +139,12 @@ impl RoadNetwork {
     /// Builds a network from OpenDRIVE text; `file` names it in messages.
     pub fn from_xodr(text: &str, file: &str) -> Result<Self, MapError> {
         let (od, mut warnings) = parse(text, file)?;
-        let index: BTreeMap<String, usize> = od.roads.iter().enumerate().map(|(i, r)| (r.id.clone(), i)).collect();
+        let index: BTreeMap<String, usize> = od
+            .roads
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (r.id.clone(), i))
+            .collect();
         let mut net = Self {
             od,
             warnings: Vec::new(),
@@ -178,7 +187,10 @@ impl RoadNetwork {
                 .iter()
                 .map(|sec| {
                     let mid = (sec.s + 0.01).min(r.length);
-                    r.lane_spans(mid).iter().map(|l| l.t_outer.abs()).fold(0.0, f64::max)
+                    r.lane_spans(mid)
+                        .iter()
+                        .map(|l| l.t_outer.abs())
+                        .fold(0.0, f64::max)
                 })
                 .fold(0.0, f64::max)
                 + r.lane_offsets.iter().map(|o| o.a.abs()).fold(0.0, f64::max);
@@ -210,7 +222,9 @@ impl RoadNetwork {
         let cell = 8.0;
         let nx = (((hi.x - lo.x) / cell).ceil() as usize).clamp(1, 20_000);
         let ny = (((hi.y - lo.y) / cell).ceil() as usize).clamp(1, 20_000);
-        let cell = ((hi.x - lo.x) / nx as f64).max((hi.y - lo.y) / ny as f64).max(1e-3);
+        let cell = ((hi.x - lo.x) / nx as f64)
+            .max((hi.y - lo.y) / ny as f64)
+            .max(1e-3);
         let mut idx = SegmentIndex {
             cell,
             origin: lo,
@@ -246,7 +260,11 @@ impl RoadNetwork {
             let sg = &self.segments.segments[k as usize];
             let d = sg.b - sg.a;
             let len2 = d.dot(d);
-            let u = if len2 > 0.0 { ((p - sg.a).dot(d) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let u = if len2 > 0.0 {
+                ((p - sg.a).dot(d) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let foot = sg.a + d * u;
             let e = p - foot;
             let dist2 = e.dot(e);
@@ -293,7 +311,8 @@ impl RoadNetwork {
         // Lane centre heading: road heading + atan(dt/ds), by a central difference.
         let ds = 0.05;
         let (a, b) = ((s - ds).max(0.0), (s + ds).min(r.length));
-        let dt = r.lane_span(b, lane).map_or(0.0, |l| l.t_center()) - r.lane_span(a, lane).map_or(0.0, |l| l.t_center());
+        let dt = r.lane_span(b, lane).map_or(0.0, |l| l.t_center())
+            - r.lane_span(a, lane).map_or(0.0, |l| l.t_center());
         let mut yaw = h + if b > a { math::atan(dt / (b - a)) } else { 0.0 };
         if r.lane_direction(s, lane) == Direction::Backward {
             yaw += std::f64::consts::PI;
@@ -315,7 +334,12 @@ impl RoadNetwork {
                 for sec in &r.sections {
                     let mid = (sec.s + 0.01).min(r.length);
                     let (mut f, mut b) = (0, 0);
-                    for l in sec.left.iter().chain(sec.right.iter()).filter(|l| l.is_drivable()) {
+                    for l in sec
+                        .left
+                        .iter()
+                        .chain(sec.right.iter())
+                        .filter(|l| l.is_drivable())
+                    {
                         match r.lane_direction(mid, l.id) {
                             Direction::Forward => f += 1,
                             Direction::Backward => b += 1,
@@ -327,7 +351,13 @@ impl RoadNetwork {
                     }
                     min_f = min_f.min(f);
                     min_b = min_b.min(b);
-                    max_all = max_all.max(sec.left.iter().chain(sec.right.iter()).filter(|l| l.is_drivable()).count());
+                    max_all = max_all.max(
+                        sec.left
+                            .iter()
+                            .chain(sec.right.iter())
+                            .filter(|l| l.is_drivable())
+                            .count(),
+                    );
                 }
                 let (min_f, min_b) = (min_f.min(max_all), min_b.min(max_all));
                 RoadSummary {
@@ -337,17 +367,19 @@ impl RoadNetwork {
                     min_forward_lanes: min_f,
                     min_backward_lanes: min_b,
                     max_driving_lanes: max_all,
-                    one_way: max_all > 0 && (min_f == 0 || min_b == 0) && r.sections.iter().all(|sec| {
-                        let mid = (sec.s + 0.01).min(r.length);
-                        let dirs: std::collections::BTreeSet<_> = sec
-                            .left
-                            .iter()
-                            .chain(sec.right.iter())
-                            .filter(|l| l.is_drivable())
-                            .map(|l| r.lane_direction(mid, l.id) as u8)
-                            .collect();
-                        dirs.len() <= 1 && !dirs.contains(&(Direction::Both as u8))
-                    }),
+                    one_way: max_all > 0
+                        && (min_f == 0 || min_b == 0)
+                        && r.sections.iter().all(|sec| {
+                            let mid = (sec.s + 0.01).min(r.length);
+                            let dirs: std::collections::BTreeSet<_> = sec
+                                .left
+                                .iter()
+                                .chain(sec.right.iter())
+                                .filter(|l| l.is_drivable())
+                                .map(|l| r.lane_direction(mid, l.id) as u8)
+                                .collect();
+                            dirs.len() <= 1 && !dirs.contains(&(Direction::Both as u8))
+                        }),
                 }
             })
             .collect()
@@ -355,8 +387,17 @@ impl RoadNetwork {
 
     /// Free spawn poses along a lane every `spacing` m, at least `clearance` m
     /// from every point in `occupied`, in the lane's direction of travel.
-    pub fn spawn_positions(&self, road: &str, lane: i32, spacing: f64, clearance: f64, occupied: &[Vec2]) -> Vec<Pose> {
-        let Some(r) = self.road(road) else { return Vec::new() };
+    pub fn spawn_positions(
+        &self,
+        road: &str,
+        lane: i32,
+        spacing: f64,
+        clearance: f64,
+        occupied: &[Vec2],
+    ) -> Vec<Pose> {
+        let Some(r) = self.road(road) else {
+            return Vec::new();
+        };
         if !(spacing.is_finite() && spacing > 0.0) {
             return Vec::new();
         }
@@ -405,7 +446,11 @@ impl RoadNetwork {
                     };
                     for &s in &ss {
                         // Evaluate just inside the section at its end.
-                        let se = if s >= s_end { (s_end - 1e-6).max(sec.s) } else { s };
+                        let se = if s >= s_end {
+                            (s_end - 1e-6).max(sec.s)
+                        } else {
+                            s
+                        };
                         if let Some(span) = r.lane_span(se, lane.id) {
                             let pt = |t: f64| {
                                 let (x, y, _) = r.st_to_xyz(se, t);
@@ -436,7 +481,11 @@ impl RoadNetwork {
             .iter()
             .chain(sec.right.iter())
             .any(|l| l.id == lane && l.is_drivable())
-            .then_some(LaneRef { road, section, lane })
+            .then_some(LaneRef {
+                road,
+                section,
+                lane,
+            })
     }
 
     fn lane_length(&self, n: LaneRef) -> f64 {
@@ -452,8 +501,17 @@ impl RoadNetwork {
         for (ri, r) in self.od.roads.iter().enumerate() {
             for (si, sec) in r.sections.iter().enumerate() {
                 let mid = (sec.s + 0.01).min(r.length);
-                for lane in sec.left.iter().chain(sec.right.iter()).filter(|l| l.is_drivable()) {
-                    let node = LaneRef { road: ri, section: si, lane: lane.id };
+                for lane in sec
+                    .left
+                    .iter()
+                    .chain(sec.right.iter())
+                    .filter(|l| l.is_drivable())
+                {
+                    let node = LaneRef {
+                        road: ri,
+                        section: si,
+                        lane: lane.id,
+                    };
                     let dirs: &[bool] = match r.lane_direction(mid, lane.id) {
                         Direction::Forward => &[true],
                         Direction::Backward => &[false],
@@ -461,32 +519,58 @@ impl RoadNetwork {
                     };
                     for &forward in dirs {
                         let mut next = Vec::new();
-                        let link = if forward { lane.successor } else { lane.predecessor };
+                        let link = if forward {
+                            lane.successor
+                        } else {
+                            lane.predecessor
+                        };
                         let neighbour_section = if forward { si + 1 } else { si.wrapping_sub(1) };
                         if neighbour_section < r.sections.len() {
                             let id = link.unwrap_or(lane.id);
                             let ns = &r.sections[neighbour_section];
-                            if ns.left.iter().chain(ns.right.iter()).any(|l| l.id == id && l.is_drivable()) {
-                                next.push(LaneRef { road: ri, section: neighbour_section, lane: id });
+                            if ns
+                                .left
+                                .iter()
+                                .chain(ns.right.iter())
+                                .any(|l| l.id == id && l.is_drivable())
+                            {
+                                next.push(LaneRef {
+                                    road: ri,
+                                    section: neighbour_section,
+                                    lane: id,
+                                });
                             }
                         } else {
-                            let target = if forward { &r.successor } else { &r.predecessor };
+                            let target = if forward {
+                                &r.successor
+                            } else {
+                                &r.predecessor
+                            };
                             match target {
                                 Some(LinkTarget::Road { id, at_start }) => {
                                     let to = link.unwrap_or(lane.id);
-                                    match self.index.get(id).and_then(|&t| self.lane_ref(t, *at_start, to)) {
+                                    match self
+                                        .index
+                                        .get(id)
+                                        .and_then(|&t| self.lane_ref(t, *at_start, to))
+                                    {
                                         Some(n) => next.push(n),
                                         None => dropped += 1,
                                     }
                                 }
                                 Some(LinkTarget::Junction(jid)) => {
                                     for j in self.od.junctions.iter().filter(|j| &j.id == jid) {
-                                        for c in j.connections.iter().filter(|c| c.incoming == r.id) {
+                                        for c in j.connections.iter().filter(|c| c.incoming == r.id)
+                                        {
                                             for &(from, to) in &c.lane_links {
                                                 if from != lane.id {
                                                     continue;
                                                 }
-                                                match self.index.get(&c.connecting).and_then(|&t| self.lane_ref(t, c.at_start, to)) {
+                                                match self
+                                                    .index
+                                                    .get(&c.connecting)
+                                                    .and_then(|&t| self.lane_ref(t, c.at_start, to))
+                                                {
                                                     Some(n) => next.push(n),
                                                     None => dropped += 1,
                                                 }
@@ -498,7 +582,10 @@ impl RoadNetwork {
                             }
                         }
                         let cost = self.lane_length(node);
-                        graph.entry(node).or_default().extend(next.into_iter().map(|n| (n, cost)));
+                        graph
+                            .entry(node)
+                            .or_default()
+                            .extend(next.into_iter().map(|n| (n, cost)));
                     }
                 }
             }
@@ -511,7 +598,7 @@ impl RoadNetwork {
             });
         }
         for v in graph.values_mut() {
-            v.sort_by(|a, b| a.0.cmp(&b.0));
+            v.sort_by_key(|a| a.0);
             v.dedup_by(|a, b| a.0 == b.0);
         }
         self.graph = graph;
@@ -519,14 +606,21 @@ impl RoadNetwork {
 
     /// Lanes reachable from `from` in one move along the direction of travel.
     pub fn successors(&self, from: LaneRef) -> Vec<LaneRef> {
-        self.graph.get(&from).map(|v| v.iter().map(|(n, _)| *n).collect()).unwrap_or_default()
+        self.graph
+            .get(&from)
+            .map(|v| v.iter().map(|(n, _)| *n).collect())
+            .unwrap_or_default()
     }
 
     /// The drivable lane node of (road, lane) at s.
     pub fn lane_at(&self, road: &str, lane: i32, s: f64) -> Option<LaneRef> {
         let ri = self.road_index(road)?;
         let section = self.od.roads[ri].section_index(s);
-        let node = LaneRef { road: ri, section, lane };
+        let node = LaneRef {
+            road: ri,
+            section,
+            lane,
+        };
         self.graph.contains_key(&node).then_some(node)
     }
 

@@ -74,27 +74,40 @@ impl<'a> Ctx<'a> {
     fn skip(&mut self, n: Node, path: &str) {
         let name = n.tag_name().name().to_string();
         let (line, _) = self.pos(n);
-        let e = self.skipped.entry(name).or_insert((line, format!("{path}/{}", n.tag_name().name()), 0));
+        let e = self.skipped.entry(name).or_insert((
+            line,
+            format!("{path}/{}", n.tag_name().name()),
+            0,
+        ));
         e.2 += 1;
     }
     fn req_f64(&self, n: Node, path: &str, name: &str) -> R<f64> {
         match n.attribute(name) {
-            None => Err(self.err(n, path, format!("missing required attribute '{name}' (a number)"))),
+            None => Err(self.err(
+                n,
+                path,
+                format!("missing required attribute '{name}' (a number)"),
+            )),
             Some(v) => self.num(n, path, name, v),
         }
     }
     fn num(&self, n: Node, path: &str, name: &str, v: &str) -> R<f64> {
-        let x: f64 = v
-            .trim()
-            .parse()
-            .map_err(|_| self.err(n, path, format!("attribute '{name}' = '{v}' is not a number")))?;
+        let x: f64 = v.trim().parse().map_err(|_| {
+            self.err(
+                n,
+                path,
+                format!("attribute '{name}' = '{v}' is not a number"),
+            )
+        })?;
         if !x.is_finite() {
             return Err(self.err(n, path, format!("attribute '{name}' = '{v}' is not finite")));
         }
         Ok(x)
     }
     fn opt_f64(&self, n: Node, path: &str, name: &str) -> R<Option<f64>> {
-        n.attribute(name).map(|v| self.num(n, path, name, v)).transpose()
+        n.attribute(name)
+            .map(|v| self.num(n, path, name, v))
+            .transpose()
     }
     fn f64_or(&self, n: Node, path: &str, name: &str, default: f64) -> R<f64> {
         Ok(self.opt_f64(n, path, name)?.unwrap_or(default))
@@ -107,8 +120,22 @@ impl<'a> Ctx<'a> {
     fn req_i32(&self, n: Node, path: &str, name: &str) -> R<i32> {
         let v = self.req_str(n, path, name)?;
         v.parse::<i32>()
-            .or_else(|_| v.parse::<f64>().map_err(|_| ()).and_then(|f| if f.fract() == 0.0 { Ok(f as i32) } else { Err(()) }))
-            .map_err(|_| self.err(n, path, format!("attribute '{name}' = '{v}' is not an integer")))
+            .or_else(|_| {
+                v.parse::<f64>().map_err(|_| ()).and_then(|f| {
+                    if f.fract() == 0.0 {
+                        Ok(f as i32)
+                    } else {
+                        Err(())
+                    }
+                })
+            })
+            .map_err(|_| {
+                self.err(
+                    n,
+                    path,
+                    format!("attribute '{name}' = '{v}' is not an integer"),
+                )
+            })
     }
     fn cubic(&self, n: Node, path: &str, s_name: &str) -> R<Cubic> {
         Ok(Cubic {
@@ -159,7 +186,14 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
     };
     let root = doc.root_element();
     if root.tag_name().name() != "OpenDRIVE" {
-        return Err(cx.err(root, "", format!("root element is <{}>, expected <OpenDRIVE>", root.tag_name().name())));
+        return Err(cx.err(
+            root,
+            "",
+            format!(
+                "root element is <{}>, expected <OpenDRIVE>",
+                root.tag_name().name()
+            ),
+        ));
     }
     let mut od = OpenDrive::default();
     let mut saw_header = false;
@@ -172,7 +206,10 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
             "road" => od.roads.push(road(&mut cx, n)?),
             "junction" => od.junctions.push(junction(&mut cx, n)?),
             "controller" => {
-                let path = format!("OpenDRIVE/controller[id={}]", n.attribute("id").unwrap_or("?"));
+                let path = format!(
+                    "OpenDRIVE/controller[id={}]",
+                    n.attribute("id").unwrap_or("?")
+                );
                 od.controllers.push(Controller {
                     id: cx.req_str(n, &path, "id")?,
                     name: n.attribute("name").unwrap_or("").into(),
@@ -193,7 +230,11 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
         });
     }
     if od.roads.is_empty() {
-        return Err(cx.err(root, "OpenDRIVE", "no <road> elements: a map needs at least one road"));
+        return Err(cx.err(
+            root,
+            "OpenDRIVE",
+            "no <road> elements: a map needs at least one road",
+        ));
     }
     let mut ids = std::collections::BTreeSet::new();
     for r in &od.roads {
@@ -221,8 +262,14 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
 fn header(cx: &mut Ctx, n: Node) -> R<Header> {
     let path = "OpenDRIVE/header";
     let mut h = Header {
-        rev_major: n.attribute("revMajor").and_then(|v| v.trim().parse().ok()).unwrap_or(1),
-        rev_minor: n.attribute("revMinor").and_then(|v| v.trim().parse().ok()).unwrap_or(4),
+        rev_major: n
+            .attribute("revMajor")
+            .and_then(|v| v.trim().parse().ok())
+            .unwrap_or(1),
+        rev_minor: n
+            .attribute("revMinor")
+            .and_then(|v| v.trim().parse().ok())
+            .unwrap_or(4),
         name: n.attribute("name").unwrap_or("").into(),
         vendor: n.attribute("vendor").unwrap_or("").into(),
         ..Header::default()
@@ -250,15 +297,30 @@ fn link(cx: &Ctx, n: Node, path: &str) -> R<LinkTarget> {
     match n.attribute("elementType").map(str::trim) {
         Some("junction") => Ok(LinkTarget::Junction(id)),
         Some("road") | None => {
-            let at_start = match n.attribute("contactPoint").map(str::trim) {
-                Some("start") => true,
-                Some("end") => false,
-                Some(other) => return Err(cx.err(n, path, format!("contactPoint = '{other}', expected 'start' or 'end'"))),
-                None => return Err(cx.err(n, path, "missing required attribute 'contactPoint' for a road link (start or end)")),
-            };
+            let at_start =
+                match n.attribute("contactPoint").map(str::trim) {
+                    Some("start") => true,
+                    Some("end") => false,
+                    Some(other) => {
+                        return Err(cx.err(
+                            n,
+                            path,
+                            format!("contactPoint = '{other}', expected 'start' or 'end'"),
+                        ));
+                    }
+                    None => return Err(cx.err(
+                        n,
+                        path,
+                        "missing required attribute 'contactPoint' for a road link (start or end)",
+                    )),
+                };
             Ok(LinkTarget::Road { id, at_start })
         }
-        Some(other) => Err(cx.err(n, path, format!("elementType = '{other}', expected 'road' or 'junction'"))),
+        Some(other) => Err(cx.err(
+            n,
+            path,
+            format!("elementType = '{other}', expected 'road' or 'junction'"),
+        )),
     }
 }
 
@@ -270,7 +332,11 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
     if length <= 0.0 {
         return Err(cx.err(n, &path, format!("length = {length} must be positive")));
     }
-    let junction = n.attribute("junction").map(str::trim).filter(|j| *j != "-1" && !j.is_empty()).map(String::from);
+    let junction = n
+        .attribute("junction")
+        .map(str::trim)
+        .filter(|j| *j != "-1" && !j.is_empty())
+        .map(String::from);
     let rule = match n.attribute("rule").map(str::trim) {
         Some("LHT" | "lht") => Rule::Lht,
         _ => Rule::Rht,
@@ -328,13 +394,21 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             }
             "elevationProfile" => {
                 for e in elements(c).filter(|e| e.tag_name().name() == "elevation") {
-                    r.elevation.push(cx.cubic(e, &format!("{path}/elevationProfile/elevation"), "s")?);
+                    r.elevation.push(cx.cubic(
+                        e,
+                        &format!("{path}/elevationProfile/elevation"),
+                        "s",
+                    )?);
                 }
             }
             "lateralProfile" => {
                 for e in elements(c) {
                     match e.tag_name().name() {
-                        "superelevation" => r.superelevation.push(cx.cubic(e, &format!("{path}/lateralProfile/superelevation"), "s")?),
+                        "superelevation" => r.superelevation.push(cx.cubic(
+                            e,
+                            &format!("{path}/lateralProfile/superelevation"),
+                            "s",
+                        )?),
                         _ => cx.skip(e, &format!("{path}/lateralProfile")),
                     }
                 }
@@ -343,8 +417,16 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
                 saw_lanes = true;
                 for (i, e) in elements(c).enumerate() {
                     match e.tag_name().name() {
-                        "laneOffset" => r.lane_offsets.push(cx.cubic(e, &format!("{path}/lanes/laneOffset"), "s")?),
-                        "laneSection" => r.sections.push(section(cx, e, &format!("{path}/lanes/laneSection[{i}]"))?),
+                        "laneOffset" => r.lane_offsets.push(cx.cubic(
+                            e,
+                            &format!("{path}/lanes/laneOffset"),
+                            "s",
+                        )?),
+                        "laneSection" => r.sections.push(section(
+                            cx,
+                            e,
+                            &format!("{path}/lanes/laneSection[{i}]"),
+                        )?),
                         _ => cx.skip(e, &format!("{path}/lanes")),
                     }
                 }
@@ -380,10 +462,18 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
         }
     }
     if !saw_plan || r.plan_view.is_empty() {
-        return Err(cx.err(n, &path, "no <planView> geometry: a road needs a reference line"));
+        return Err(cx.err(
+            n,
+            &path,
+            "no <planView> geometry: a road needs a reference line",
+        ));
     }
     if !saw_lanes || r.sections.is_empty() {
-        return Err(cx.err(n, &path, "no <lanes>/<laneSection>: a road needs at least one lane section"));
+        return Err(cx.err(
+            n,
+            &path,
+            "no <lanes>/<laneSection>: a road needs at least one lane section",
+        ));
     }
     r.plan_view.sort_by(|a, b| a.s.total_cmp(&b.s));
     r.elevation.sort_by(|a, b| a.s.total_cmp(&b.s));
@@ -393,7 +483,14 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
     r.types.sort_by(|a, b| a.s.total_cmp(&b.s));
     for s in &mut r.sections {
         if s.s > r.length {
-            cx.warn(n, &path, format!("lane section at s = {} starts beyond the road length {}; clamped", s.s, r.length));
+            cx.warn(
+                n,
+                &path,
+                format!(
+                    "lane section at s = {} starts beyond the road length {}; clamped",
+                    s.s, r.length
+                ),
+            );
             s.s = r.length;
         }
     }
@@ -413,7 +510,12 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             cx.warnings.push(Warning {
                 line: cx.pos(n).0,
                 path: path.clone(),
-                message: format!("geometry at s = {} ends at s = {} but the next starts at s = {}", w[0].s, w[0].s + w[0].length, w[1].s),
+                message: format!(
+                    "geometry at s = {} ends at s = {} but the next starts at s = {}",
+                    w[0].s,
+                    w[0].s + w[0].length,
+                    w[1].s
+                ),
             });
         }
     }
@@ -422,7 +524,10 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
         cx.warnings.push(Warning {
             line: cx.pos(n).0,
             path: path.clone(),
-            message: format!("planView ends at s = {total:.3} but the road length is {}", r.length),
+            message: format!(
+                "planView ends at s = {total:.3} but the road length is {}",
+                r.length
+            ),
         });
     }
     Ok(r)
@@ -437,7 +542,12 @@ fn geometry(cx: &mut Ctx, g: Node, path: &str) -> R<Geometry> {
     if length < 0.0 {
         return Err(cx.err(g, path, format!("length = {length} must not be negative")));
     }
-    let shape_node = elements(g).find(|c| matches!(c.tag_name().name(), "line" | "arc" | "spiral" | "poly3" | "paramPoly3"));
+    let shape_node = elements(g).find(|c| {
+        matches!(
+            c.tag_name().name(),
+            "line" | "arc" | "spiral" | "poly3" | "paramPoly3"
+        )
+    });
     let Some(c) = shape_node else {
         let found: Vec<&str> = elements(g).map(|c| c.tag_name().name()).collect();
         return Err(cx.err(
@@ -457,11 +567,26 @@ fn geometry(cx: &mut Ctx, g: Node, path: &str) -> R<Geometry> {
             curv_end: cx.req_f64(c, &p, "curvEnd")?,
         },
         "poly3" => Shape::Poly3 {
-            coef: [cx.f64_or(c, &p, "a", 0.0)?, cx.f64_or(c, &p, "b", 0.0)?, cx.f64_or(c, &p, "c", 0.0)?, cx.f64_or(c, &p, "d", 0.0)?],
+            coef: [
+                cx.f64_or(c, &p, "a", 0.0)?,
+                cx.f64_or(c, &p, "b", 0.0)?,
+                cx.f64_or(c, &p, "c", 0.0)?,
+                cx.f64_or(c, &p, "d", 0.0)?,
+            ],
         },
         _ => Shape::ParamPoly3 {
-            u: [cx.f64_or(c, &p, "aU", 0.0)?, cx.f64_or(c, &p, "bU", 0.0)?, cx.f64_or(c, &p, "cU", 0.0)?, cx.f64_or(c, &p, "dU", 0.0)?],
-            v: [cx.f64_or(c, &p, "aV", 0.0)?, cx.f64_or(c, &p, "bV", 0.0)?, cx.f64_or(c, &p, "cV", 0.0)?, cx.f64_or(c, &p, "dV", 0.0)?],
+            u: [
+                cx.f64_or(c, &p, "aU", 0.0)?,
+                cx.f64_or(c, &p, "bU", 0.0)?,
+                cx.f64_or(c, &p, "cU", 0.0)?,
+                cx.f64_or(c, &p, "dU", 0.0)?,
+            ],
+            v: [
+                cx.f64_or(c, &p, "aV", 0.0)?,
+                cx.f64_or(c, &p, "bV", 0.0)?,
+                cx.f64_or(c, &p, "cV", 0.0)?,
+                cx.f64_or(c, &p, "dV", 0.0)?,
+            ],
             normalized: c.attribute("pRange").map(str::trim) != Some("arcLength"),
         },
     };
@@ -483,7 +608,10 @@ fn section(cx: &mut Ctx, n: Node, path: &str) -> R<LaneSection> {
             continue;
         }
         for l in elements(side).filter(|l| l.tag_name().name() == "lane") {
-            let lp = format!("{path}/{side_name}/lane[id={}]", l.attribute("id").unwrap_or("?"));
+            let lp = format!(
+                "{path}/{side_name}/lane[id={}]",
+                l.attribute("id").unwrap_or("?")
+            );
             let lane = lane(cx, l, &lp)?;
             let ok = match side_name {
                 "left" => lane.id > 0,
@@ -494,7 +622,11 @@ fn section(cx: &mut Ctx, n: Node, path: &str) -> R<LaneSection> {
                 return Err(cx.err(l, &lp, format!("lane id {} does not belong in <{side_name}> (left > 0, center = 0, right < 0)", lane.id)));
             }
             if lane.id != 0 && lane.widths.is_empty() && lane.borders.is_empty() {
-                return Err(cx.err(l, &lp, "lane has no <width> (or <border>) records: its extent is unknown"));
+                return Err(cx.err(
+                    l,
+                    &lp,
+                    "lane has no <width> (or <border>) records: its extent is unknown",
+                ));
             }
             match side_name {
                 "left" => sec.left.push(lane),
@@ -561,10 +693,12 @@ fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
 }
 
 fn signal(cx: &mut Ctx, s: Node, path: &str) -> R<Signal> {
-    let validity = elements(s).find(|c| c.tag_name().name() == "validity").map(|v| {
-        let p = format!("{path}/validity");
-        Ok::<_, MapError>((cx.req_i32(v, &p, "fromLane")?, cx.req_i32(v, &p, "toLane")?))
-    });
+    let validity = elements(s)
+        .find(|c| c.tag_name().name() == "validity")
+        .map(|v| {
+            let p = format!("{path}/validity");
+            Ok::<_, MapError>((cx.req_i32(v, &p, "fromLane")?, cx.req_i32(v, &p, "toLane")?))
+        });
     Ok(Signal {
         id: cx.req_str(s, path, "id")?,
         name: s.attribute("name").unwrap_or("").into(),
@@ -580,7 +714,10 @@ fn signal(cx: &mut Ctx, s: Node, path: &str) -> R<Signal> {
 }
 
 fn junction(cx: &mut Ctx, n: Node) -> R<Junction> {
-    let path = format!("OpenDRIVE/junction[id={}]", n.attribute("id").unwrap_or("?"));
+    let path = format!(
+        "OpenDRIVE/junction[id={}]",
+        n.attribute("id").unwrap_or("?")
+    );
     let mut j = Junction {
         id: cx.req_str(n, &path, "id")?,
         name: n.attribute("name").unwrap_or("").into(),
@@ -595,11 +732,23 @@ fn junction(cx: &mut Ctx, n: Node) -> R<Junction> {
                 let connecting = c
                     .attribute("connectingRoad")
                     .or(c.attribute("linkedRoad"))
-                    .ok_or_else(|| cx.err(c, &p, "missing required attribute 'connectingRoad' (or 'linkedRoad')"))?;
+                    .ok_or_else(|| {
+                        cx.err(
+                            c,
+                            &p,
+                            "missing required attribute 'connectingRoad' (or 'linkedRoad')",
+                        )
+                    })?;
                 let at_start = match c.attribute("contactPoint").map(str::trim) {
                     Some("end") => false,
                     Some("start") | None => true,
-                    Some(o) => return Err(cx.err(c, &p, format!("contactPoint = '{o}', expected 'start' or 'end'"))),
+                    Some(o) => {
+                        return Err(cx.err(
+                            c,
+                            &p,
+                            format!("contactPoint = '{o}', expected 'start' or 'end'"),
+                        ));
+                    }
                 };
                 let mut links = Vec::new();
                 for l in elements(c).filter(|l| l.tag_name().name() == "laneLink") {
@@ -614,7 +763,10 @@ fn junction(cx: &mut Ctx, n: Node) -> R<Junction> {
                     lane_links: links,
                 });
             }
-            "controller" => j.controllers.push(cx.req_str(c, &format!("{path}/controller"), "id")?),
+            "controller" => {
+                j.controllers
+                    .push(cx.req_str(c, &format!("{path}/controller"), "id")?)
+            }
             _ => cx.skip(c, &path),
         }
     }

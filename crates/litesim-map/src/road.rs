@@ -26,7 +26,11 @@ impl LaneSpan {
     }
     /// True when `t` lies within the lane.
     pub fn contains(&self, t: f64) -> bool {
-        let (lo, hi) = if self.t_inner <= self.t_outer { (self.t_inner, self.t_outer) } else { (self.t_outer, self.t_inner) };
+        let (lo, hi) = if self.t_inner <= self.t_outer {
+            (self.t_inner, self.t_outer)
+        } else {
+            (self.t_outer, self.t_inner)
+        };
         t >= lo && t <= hi
     }
 }
@@ -75,7 +79,14 @@ impl Road {
             self.sections[..upto]
                 .iter()
                 .rev()
-                .find(|sec| !sec.single_side || if left { !sec.left.is_empty() } else { !sec.right.is_empty() })
+                .find(|sec| {
+                    !sec.single_side
+                        || if left {
+                            !sec.left.is_empty()
+                        } else {
+                            !sec.right.is_empty()
+                        }
+                })
                 .unwrap_or(&self.sections[0])
         };
         (pick(true), pick(false))
@@ -118,14 +129,22 @@ impl Road {
     /// A lane of the section in force at `s`.
     pub fn lane(&self, s: f64, id: i32) -> Option<&Lane> {
         let (ls, rs) = self.sides(s.clamp(0.0, self.length));
-        if id > 0 { ls.left.iter().find(|l| l.id == id) } else { rs.right.iter().find(|l| l.id == id) }
+        if id > 0 {
+            ls.left.iter().find(|l| l.id == id)
+        } else {
+            rs.right.iter().find(|l| l.id == id)
+        }
     }
 
     /// World point `(x, y, z)` of road coordinates `(s, t)` with superelevation.
     pub fn st_to_xyz(&self, s: f64, t: f64) -> (f64, f64, f64) {
         let r = self.reference(s);
         let roll = eval_cubics(&self.superelevation, s).0;
-        let (t_h, dz) = if roll == 0.0 { (t, 0.0) } else { (t * math::cos(roll), -t * math::sin(roll)) };
+        let (t_h, dz) = if roll == 0.0 {
+            (t, 0.0)
+        } else {
+            (t * math::cos(roll), -t * math::sin(roll))
+        };
         let (sn, cs) = math::sin_cos(r.hdg);
         (r.x - t_h * sn, r.y + t_h * cs, self.elevation(s) + dz)
     }
@@ -141,7 +160,11 @@ impl Road {
             Rule::Lht => id > 0,
         };
         let reversed = lane.is_some_and(|l| l.direction == "reversed");
-        if forward != reversed { Direction::Forward } else { Direction::Backward }
+        if forward != reversed {
+            Direction::Forward
+        } else {
+            Direction::Backward
+        }
     }
 }
 

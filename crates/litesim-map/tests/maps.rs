@@ -6,7 +6,9 @@ use proptest::prelude::*;
 use std::path::PathBuf;
 
 fn map(name: &str) -> RoadNetwork {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/maps").join(name);
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/maps")
+        .join(name);
     RoadNetwork::load(&p).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -19,7 +21,12 @@ fn shipped_maps_load_cleanly_and_are_continuous_to_a_millimetre() {
             for w in r.plan_view.windows(2) {
                 let a = w[0].eval(w[0].length);
                 let gap = ((a.x - w[1].x).powi(2) + (a.y - w[1].y).powi(2)).sqrt();
-                assert!(gap < 1e-3, "{name} road {} gap {gap} at s = {}", r.id, w[1].s);
+                assert!(
+                    gap < 1e-3,
+                    "{name} road {} gap {gap} at s = {}",
+                    r.id,
+                    w[1].s
+                );
                 let dh = litesim_core::wrap_angle(a.hdg - w[1].hdg).abs();
                 assert!(dh < 1e-6, "{name} road {} heading jump {dh}", r.id);
             }
@@ -32,7 +39,10 @@ fn straight_road_queries() {
     let m = map("straight.xodr");
     let r = m.road("1").unwrap();
     let spans = r.lane_spans(100.0);
-    assert_eq!(spans.iter().map(|l| l.id).collect::<Vec<_>>(), vec![1, 2, 3, 4, -1, -2, -3, -4]);
+    assert_eq!(
+        spans.iter().map(|l| l.id).collect::<Vec<_>>(),
+        vec![1, 2, 3, 4, -1, -2, -3, -4]
+    );
     let p = m.to_road(Vec2::new(100.0, -5.25)).unwrap();
     assert_eq!((p.road.as_str(), p.lane), ("1", -2));
     assert!((p.s - 100.0).abs() < 1e-9 && p.offset.abs() < 1e-9);
@@ -40,20 +50,33 @@ fn straight_road_queries() {
     assert_eq!(r.lane_direction(10.0, -1), Direction::Forward);
     assert_eq!(r.lane_direction(10.0, 1), Direction::Backward);
     let pose = m.lane_pose("1", 2, 50.0, 0.0).unwrap();
-    assert!((pose.position.y - 5.25).abs() < 1e-9 && (pose.yaw.abs() - std::f64::consts::PI).abs() < 1e-9);
+    assert!(
+        (pose.position.y - 5.25).abs() < 1e-9
+            && (pose.yaw.abs() - std::f64::consts::PI).abs() < 1e-9
+    );
     let sum = &m.road_summaries()[0];
-    assert_eq!((sum.min_forward_lanes, sum.min_backward_lanes, sum.one_way), (3, 3, false));
+    assert_eq!(
+        (sum.min_forward_lanes, sum.min_backward_lanes, sum.one_way),
+        (3, 3, false)
+    );
     // Spawn positions keep clear of occupied points.
     let spawns = m.spawn_positions("1", -1, 20.0, 8.0, &[Vec2::new(110.0, -1.75)]);
     assert_eq!(spawns.len(), 24);
-    assert!(spawns.iter().all(|p| p.position.xy().distance(Vec2::new(110.0, -1.75)) >= 8.0));
+    assert!(
+        spawns
+            .iter()
+            .all(|p| p.position.xy().distance(Vec2::new(110.0, -1.75)) >= 8.0)
+    );
 }
 
 #[test]
 fn circ_has_two_one_way_roads_linked_in_a_ring() {
     let m = map("circ.xodr");
     let sums = m.road_summaries();
-    assert!(sums.iter().all(|s| s.one_way && s.max_driving_lanes == 2 && s.min_forward_lanes == 2));
+    assert!(
+        sums.iter()
+            .all(|s| s.one_way && s.max_driving_lanes == 2 && s.min_forward_lanes == 2)
+    );
     let a = m.lane_at("1", -1, 0.0).unwrap();
     let b = m.lane_at("2", -1, 0.0).unwrap();
     assert_eq!(m.successors(a), vec![b]);
@@ -74,8 +97,13 @@ fn curvy_round_trip_and_elevation() {
         let s = 1.0 + k as f64 * 5.0;
         for t in [-4.0, -1.0, 1.5, 5.0] {
             let (x, y, _) = r.st_to_xyz(s, t);
-            let p = m.to_road(Vec2::new(x, y)).unwrap_or_else(|| panic!("s={s} t={t} not found"));
-            assert!((p.s - s).abs() < 1e-6 && (p.t - t).abs() < 1e-6, "s={s} t={t}: {p:?}");
+            let p = m
+                .to_road(Vec2::new(x, y))
+                .unwrap_or_else(|| panic!("s={s} t={t} not found"));
+            assert!(
+                (p.s - s).abs() < 1e-6 && (p.t - t).abs() < 1e-6,
+                "s={s} t={t}: {p:?}"
+            );
         }
     }
     // The widening lane -2 is 3 m at s = 0 and 3 + 3e-5 s² further on.
@@ -98,7 +126,10 @@ fn junction_graph_routes_and_signals() {
     let from = m.lane_at("1", -1, 0.0).unwrap();
     let to = m.lane_at("4", 1, 0.0).unwrap();
     let route = m.route(from, to).unwrap();
-    let ids: Vec<&str> = route.iter().map(|n| m.roads()[n.road].id.as_str()).collect();
+    let ids: Vec<&str> = route
+        .iter()
+        .map(|n| m.roads()[n.road].id.as_str())
+        .collect();
     assert_eq!(ids, vec!["1", "103", "4"]);
     // The connecting roads end exactly at their exit lanes.
     for r in m.roads().iter().filter(|r| r.junction.is_some()) {
@@ -118,14 +149,22 @@ fn rasterise_straight_road() {
     let area = g.free_cells() as f64 * 0.0625;
     assert!((area - 10_500.0).abs() < 10_500.0 * 0.01, "{area}");
     assert!(!g.is_occupied(Vec2::new(100.0, 0.5)));
-    assert!(g.is_occupied(Vec2::new(100.0, 12.0)), "sidewalks are not drivable");
-    assert!(g.is_occupied(Vec2::new(250.0, -5.25)), "the cone is an obstacle");
+    assert!(
+        g.is_occupied(Vec2::new(100.0, 12.0)),
+        "sidewalks are not drivable"
+    );
+    assert!(
+        g.is_occupied(Vec2::new(250.0, -5.25)),
+        "the cone is an obstacle"
+    );
     assert!(m.rasterise(0.0, 0.0).is_err());
     assert!(m.rasterise(1e-5, 0.0).is_err(), "absurd sizes are refused");
 }
 
 fn err(xml: &str) -> String {
-    RoadNetwork::from_xodr(xml, "t.xodr").unwrap_err().to_string()
+    RoadNetwork::from_xodr(xml, "t.xodr")
+        .unwrap_err()
+        .to_string()
 }
 
 const GOOD: &str = r#"<OpenDRIVE><header revMajor="1" revMinor="6"/>
@@ -138,14 +177,26 @@ const GOOD: &str = r#"<OpenDRIVE><header revMajor="1" revMinor="6"/>
 fn bad_input_names_element_and_line() {
     assert!(RoadNetwork::from_xodr(GOOD, "t.xodr").is_ok());
     let e = err("<OpenDRIVE><road id=\"1\" length=\"10\"></OpenDRIVE>");
-    assert!(e.starts_with("t.xodr:1:") && e.contains("malformed XML"), "{e}");
+    assert!(
+        e.starts_with("t.xodr:1:") && e.contains("malformed XML"),
+        "{e}"
+    );
     let e = err(&GOOD.replace(" hdg=\"0\"", ""));
-    assert_eq!(e, "t.xodr:3:1: OpenDRIVE/road[id=1]/planView/geometry[0]: missing required attribute 'hdg' (a number)");
+    assert_eq!(
+        e,
+        "t.xodr:3:1: OpenDRIVE/road[id=1]/planView/geometry[0]: missing required attribute 'hdg' (a number)"
+    );
     let e = err(&GOOD.replace("length=\"10\"><line/>", "length=\"-3\"><line/>"));
-    assert!(e.contains("geometry[0]: length = -3 must not be negative"), "{e}");
+    assert!(
+        e.contains("geometry[0]: length = -3 must not be negative"),
+        "{e}"
+    );
     let e = err(&GOOD.replace("<line/>", "<clothoid/>"));
     assert!(e.contains("unknown geometry: expected one of line, arc, spiral, poly3, paramPoly3; found [clothoid]"), "{e}");
-    let e = err(&GOOD.replace("<width sOffset=\"0\" a=\"3.5\" b=\"0\" c=\"0\" d=\"0\"/>", ""));
+    let e = err(&GOOD.replace(
+        "<width sOffset=\"0\" a=\"3.5\" b=\"0\" c=\"0\" d=\"0\"/>",
+        "",
+    ));
     assert!(e.contains("lane[id=-1]: lane has no <width>"), "{e}");
     let e = err(&GOOD.replace("a=\"3.5\"", "a=\"wide\""));
     assert!(e.contains("attribute 'a' = 'wide' is not a number"), "{e}");
@@ -161,10 +212,21 @@ fn gaps_and_unknown_elements_are_warnings() {
     );
     let m = RoadNetwork::from_xodr(&xml, "t.xodr").unwrap();
     let text: Vec<&str> = m.warnings.iter().map(|w| w.message.as_str()).collect();
-    assert!(text.iter().any(|w| w.contains("gap of 0.0200 m at s = 5.000")), "{text:?}");
-    assert!(text.iter().any(|w| w.contains("<fancy> is not interpreted")), "{text:?}");
+    assert!(
+        text.iter()
+            .any(|w| w.contains("gap of 0.0200 m at s = 5.000")),
+        "{text:?}"
+    );
+    assert!(
+        text.iter()
+            .any(|w| w.contains("<fancy> is not interpreted")),
+        "{text:?}"
+    );
     // The namespace variants load too.
-    let ns = GOOD.replace("<OpenDRIVE>", "<OpenDRIVE xmlns=\"http://www.opendrive.org\">");
+    let ns = GOOD.replace(
+        "<OpenDRIVE>",
+        "<OpenDRIVE xmlns=\"http://www.opendrive.org\">",
+    );
     assert!(RoadNetwork::from_xodr(&ns, "t.xodr").is_ok());
 }
 
