@@ -604,6 +604,55 @@ impl RoadNetwork {
         self.graph = graph;
     }
 
+    /// All lanes of a type (`driving`, `sidewalk`, …), in file order.
+    pub fn lanes_of_type(&self, kind: &str) -> Vec<LaneRef> {
+        let mut out = Vec::new();
+        for (ri, r) in self.od.roads.iter().enumerate() {
+            for (si, sec) in r.sections.iter().enumerate() {
+                for l in sec
+                    .left
+                    .iter()
+                    .chain(sec.right.iter())
+                    .filter(|l| l.kind == kind)
+                {
+                    out.push(LaneRef {
+                        road: ri,
+                        section: si,
+                        lane: l.id,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// Footprints of road objects as world polygons (boxes, or 16-gons for round objects).
+    pub fn object_footprints(&self) -> Vec<(String, Vec<Vec2>)> {
+        let mut out = Vec::new();
+        for r in &self.od.roads {
+            for o in &r.objects {
+                let (x, y, _) = r.st_to_xyz(o.s, o.t);
+                let c = Vec2::new(x, y);
+                let h = r.reference(o.s).hdg + o.hdg;
+                let poly: Vec<Vec2> = if o.radius > 0.0 {
+                    (0..16)
+                        .map(|k| {
+                            c + Vec2::from_heading(k as f64 * std::f64::consts::PI / 8.0) * o.radius
+                        })
+                        .collect()
+                } else if o.length > 0.0 && o.width > 0.0 {
+                    let f = Vec2::from_heading(h) * (o.length / 2.0);
+                    let n = Vec2::from_heading(h + std::f64::consts::FRAC_PI_2) * (o.width / 2.0);
+                    vec![c + f + n, c - f + n, c - f - n, c + f - n]
+                } else {
+                    continue;
+                };
+                out.push((o.id.clone(), poly));
+            }
+        }
+        out
+    }
+
     /// Lanes reachable from `from` in one move along the direction of travel.
     pub fn successors(&self, from: LaneRef) -> Vec<LaneRef> {
         self.graph

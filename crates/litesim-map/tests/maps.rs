@@ -247,3 +247,31 @@ proptest! {
         let _ = RoadNetwork::from_xodr(&s, "fuzz.xodr");
     }
 }
+
+proptest! {
+    #[test]
+    fn st_xy_round_trip_on_curvy(s in 0.5f64..449.5, t in -6.4f64..6.4) {
+        let m = map("curvy.xodr");
+        let r = m.road("1").unwrap();
+        // Stay inside the lanes (lane -2 widens with s).
+        let outer = r.lane_spans(s).iter().map(|l| l.t_outer.abs()).fold(0.0, f64::max);
+        prop_assume!(t.abs() < outer - 0.01 && t.abs() > 0.01);
+        let (x, y, _) = r.st_to_xyz(s, t);
+        let p = m.to_road(Vec2::new(x, y)).unwrap();
+        prop_assert!((p.s - s).abs() < 1e-6 && (p.t - t).abs() < 1e-6, "{s} {t} -> {p:?}");
+    }
+}
+
+#[test]
+fn lanes_by_type_and_object_footprints() {
+    let m = map("straight.xodr");
+    assert_eq!(m.lanes_of_type("sidewalk").len(), 2);
+    assert_eq!(m.lanes_of_type("driving").len(), 6);
+    let f = m.object_footprints();
+    assert_eq!(f.len(), 1);
+    assert!(
+        f[0].1
+            .iter()
+            .all(|p| (p.distance(Vec2::new(250.0, -5.25)) - 0.3).abs() < 1e-9)
+    );
+}

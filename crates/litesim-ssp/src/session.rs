@@ -150,6 +150,7 @@ pub struct Session {
     time_of_day: TimeOfDay,
     lights: TrafficLights,
     map: Option<String>,
+    network: Option<std::sync::Arc<litesim_map::RoadNetwork>>,
     seed: u64,
     launched: bool,
     steps_executed: u64,
@@ -269,6 +270,7 @@ impl Session {
             time_of_day: TimeOfDay::default(),
             lights: TrafficLights::default(),
             map: None,
+            network: None,
             seed: 0,
             launched: false,
             steps_executed: 0,
@@ -289,6 +291,11 @@ impl Session {
     /// The active profile (after `init`).
     pub fn profile(&self) -> Option<&Profile> {
         self.profile.as_ref()
+    }
+
+    /// The road network loaded at `init`, if any.
+    pub fn network(&self) -> Option<&litesim_map::RoadNetwork> {
+        self.network.as_deref()
     }
 
     /// Current simulation time (ms).
@@ -456,7 +463,25 @@ impl Ssp for Session {
                 profile.name, profile.min_step_ms, profile.max_step_ms
             )));
         }
-        let lights = TrafficLights::new(req.traffic_lights, req.logical_lights)?;
+        let mut boxes = req.traffic_lights;
+        let mut logical = req.logical_lights;
+        let network = match req.map.as_deref() {
+            None | Some("") => None,
+            Some(m) => {
+                let loaded = if m.trim_start().starts_with('<') {
+                    litesim_map::RoadNetwork::from_xodr(m, "map_xodr")
+                } else {
+                    litesim_map::RoadNetwork::load(std::path::Path::new(m))
+                };
+                Some(loaded.map_err(|e| SspError::invalid(format!("map: {e}")))?)
+            }
+        };
+        if let Some(net) = &network {
+            let (b, l) = crate::traffic::from_map(net);
+            boxes.extend(b);
+            logical.extend(l);
+        }
+        let lights = TrafficLights::new(boxes, logical)?;
         if profile.traffic_light_api == TrafficLightApi::None && !lights.boxes.is_empty() {
             return Err(SspError::unimplemented(format!(
                 "profile {} has no traffic-light API; remove traffic_lights from init",
@@ -489,7 +514,21 @@ impl Ssp for Session {
         self.profile = Some(profile);
         self.model = Some(model);
         self.lights = lights;
-        self.map = req.map;
+        if let Some(net) = &network {
+            diagnostics.extend(
+                net.warnings
+                    .iter()
+                    .map(|w| format!("map: line {}: {}: {}", w.line, w.path, w.message)),
+            );
+        }
+        self.network = network.map(std::sync::Arc::new);
+        self.map = req.map.map(|m| {
+            if m.trim_start().starts_with('<') {
+                "<inline OpenDRIVE>".into()
+            } else {
+                m
+            }
+        });
         self.seed = req.seed;
         self.phase = Phase::Initialized;
         Ok(InitResponse {

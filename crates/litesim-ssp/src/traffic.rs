@@ -309,3 +309,106 @@ mod tests {
         assert!(TrafficLights::new(vec![bx("a")], vec![l]).is_err());
     }
 }
+
+/// Bulbs of an OpenDRIVE traffic-light signal by its type code (German
+/// numbering as used with `country="OpenDRIVE"`; lamps top to bottom).
+fn bulbs_for(kind: &str, subtype: &str, id: &str) -> Vec<Bulb> {
+    use BulbColor::*;
+    use BulbIcon as I;
+    let arrow = match subtype {
+        "10" => I::ArrowLeft,
+        "20" => I::ArrowRight,
+        "30" => I::ArrowStraight,
+        _ => I::None,
+    };
+    let lamps: Vec<(BulbIcon, BulbColor)> = match kind {
+        "1000002" => vec![(I::DontWalk, Red), (I::Walk, Green)],
+        "1000011" => vec![(arrow, Red), (arrow, Yellow), (arrow, Green)],
+        "1000013" => vec![(I::Bicycle, Red), (I::Bicycle, Green)],
+        "1000014" => vec![(I::Tram, Yellow)],
+        "1000020" => vec![(arrow, Red)],
+        "1000008" => vec![(arrow, Yellow)],
+        "1000012" => vec![(arrow, Green)],
+        _ => vec![(I::None, Red), (I::None, Yellow), (I::None, Green)],
+    };
+    lamps
+        .into_iter()
+        .enumerate()
+        .map(|(k, (icon, color))| Bulb {
+            map_id: format!("{id}/{k}"),
+            icon,
+            color,
+            mode: BulbMode::Off,
+            counter: None,
+        })
+        .collect()
+}
+
+/// Traffic lights of a map: one box per dynamic signal, one logical light per controller.
+pub fn from_map(
+    net: &litesim_map::RoadNetwork,
+) -> (Vec<TrafficLightBox>, Vec<LogicalTrafficLight>) {
+    let mut count: std::collections::BTreeMap<&str, usize> = std::collections::BTreeMap::new();
+    for r in net.roads() {
+        for s in r.signals.iter().filter(|s| s.dynamic) {
+            *count.entry(s.id.as_str()).or_default() += 1;
+        }
+    }
+    // Signal ids repeat across roads in real maps; make box ids unique then.
+    let box_id = |road: &str, sig: &str| {
+        if count.get(sig).copied().unwrap_or(0) > 1 {
+            format!("{road}:{sig}")
+        } else {
+            sig.to_string()
+        }
+    };
+    let mut boxes = Vec::new();
+    for r in net.roads() {
+        for s in r.signals.iter().filter(|s| s.dynamic) {
+            let (x, y, z) = r.st_to_xyz(s.s, s.t);
+            let mut yaw = r.reference(s.s).hdg;
+            if s.orientation == "-" {
+                yaw += std::f64::consts::PI;
+            }
+            let id = box_id(&r.id, &s.id);
+            boxes.push(TrafficLightBox {
+                bulbs: bulbs_for(&s.kind, &s.subtype, &id),
+                id,
+                road_id: r.id.clone(),
+                s: s.s,
+                t: s.t,
+                pose: Coord6 {
+                    x: Some(x),
+                    y: Some(y),
+                    z: Some(z),
+                    yaw: Some(litesim_core::wrap_angle(yaw)),
+                    ..Coord6::default()
+                },
+                valid_lanes: s
+                    .validity
+                    .map(|(a, b)| (a.min(b)..=a.max(b)).filter(|l| *l != 0).collect())
+                    .unwrap_or_default(),
+            });
+        }
+    }
+    let logical = net
+        .od
+        .controllers
+        .iter()
+        .map(|c| LogicalTrafficLight {
+            id: c.id.clone(),
+            box_ids: c
+                .signals
+                .iter()
+                .filter_map(|sid| {
+                    boxes
+                        .iter()
+                        .find(|b| b.id == *sid || b.id.ends_with(&format!(":{sid}")))
+                        .map(|b| b.id.clone())
+                })
+                .collect(),
+            controller_id: c.id.clone(),
+        })
+        .collect();
+    (boxes, logical)
+}

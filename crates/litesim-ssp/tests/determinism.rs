@@ -78,3 +78,57 @@ fn mixed_run_behaves() {
         );
     }
 }
+
+#[test]
+fn traffic_lights_come_from_the_map() {
+    use litesim_ssp::*;
+    let map = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/maps/junction.xodr"
+    );
+    let mut s = Session::default();
+    s.init(InitRequest {
+        map: Some(map.into()),
+        ..InitRequest::default()
+    })
+    .unwrap();
+    s.start_simulation(0).unwrap();
+    s.wait_start_simulation(0).unwrap();
+    let tl = s.list_traffic_lights().unwrap();
+    assert_eq!(tl.boxes.len(), 4);
+    assert_eq!(
+        tl.logical
+            .iter()
+            .map(|l| l.box_ids.len())
+            .collect::<Vec<_>>(),
+        vec![2, 2]
+    );
+    assert_eq!(tl.boxes[0].bulbs.len(), 3);
+    assert_eq!(tl.boxes[0].valid_lanes, vec![-1]);
+    let green = BulbState {
+        icon: BulbIcon::None,
+        color: BulbColor::Green,
+        mode: BulbMode::On,
+    };
+    let affected = s
+        .set_traffic_light_state(LightTarget::Logical("c1".into()), vec![green])
+        .unwrap();
+    assert_eq!(
+        affected.iter().map(|b| b.id.as_str()).collect::<Vec<_>>(),
+        vec!["tl1", "tl3"]
+    );
+    // A broken map is refused at init with the map's own message.
+    let mut bad = Session::default();
+    let e = bad
+        .init(InitRequest {
+            map: Some("<OpenDRIVE><road id=\"1\" length=\"-1\"/></OpenDRIVE>".into()),
+            ..InitRequest::default()
+        })
+        .unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArgument);
+    assert!(
+        e.message.contains("length = -1 must be positive"),
+        "{}",
+        e.message
+    );
+}
