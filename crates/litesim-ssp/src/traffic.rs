@@ -249,67 +249,6 @@ impl TrafficLights {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn bx(id: &str) -> TrafficLightBox {
-        TrafficLightBox {
-            id: id.into(),
-            bulbs: [BulbColor::Red, BulbColor::Yellow, BulbColor::Green]
-                .into_iter()
-                .map(|color| Bulb {
-                    map_id: format!("{id}-{color:?}"),
-                    icon: BulbIcon::None,
-                    color,
-                    mode: BulbMode::Off,
-                    counter: None,
-                })
-                .collect(),
-            ..TrafficLightBox::default()
-        }
-    }
-
-    #[test]
-    fn logical_group_switches_common_bulbs() {
-        let mut tl = TrafficLights::new(
-            vec![bx("a"), bx("b"), bx("c")],
-            vec![LogicalTrafficLight {
-                id: "north".into(),
-                box_ids: vec!["a".into(), "b".into()],
-                controller_id: String::new(),
-            }],
-        )
-        .unwrap();
-        let green = BulbState {
-            icon: BulbIcon::None,
-            color: BulbColor::Green,
-            mode: BulbMode::On,
-        };
-        let affected = tl
-            .set(&LightTarget::Logical("north".into()), &[green])
-            .unwrap();
-        assert_eq!(affected.len(), 2);
-        for b in &tl.boxes[..2] {
-            let modes: Vec<_> = b.bulbs.iter().map(|x| x.mode).collect();
-            assert_eq!(modes, vec![BulbMode::Off, BulbMode::Off, BulbMode::On]);
-        }
-        assert!(tl.boxes[2].bulbs.iter().all(|x| x.mode == BulbMode::Off));
-        assert!(tl.set(&LightTarget::Box("zz".into()), &[green]).is_err());
-    }
-
-    #[test]
-    fn bad_definitions() {
-        assert!(TrafficLights::new(vec![bx("a"), bx("a")], vec![]).is_err());
-        let l = LogicalTrafficLight {
-            id: "x".into(),
-            box_ids: vec!["nope".into()],
-            controller_id: String::new(),
-        };
-        assert!(TrafficLights::new(vec![bx("a")], vec![l]).is_err());
-    }
-}
-
 /// Bulbs of an OpenDRIVE traffic-light signal by its type code (German
 /// numbering as used with `country="OpenDRIVE"`; lamps top to bottom).
 fn bulbs_for(kind: &str, subtype: &str, id: &str) -> Vec<Bulb> {
@@ -411,4 +350,65 @@ pub fn from_map(
         })
         .collect();
     (boxes, logical)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bx(id: &str) -> TrafficLightBox {
+        TrafficLightBox {
+            id: id.into(),
+            bulbs: [BulbColor::Red, BulbColor::Yellow, BulbColor::Green]
+                .into_iter()
+                .map(|color| Bulb {
+                    map_id: format!("{id}-{color:?}"),
+                    icon: BulbIcon::None,
+                    color,
+                    mode: BulbMode::Off,
+                    counter: None,
+                })
+                .collect(),
+            ..TrafficLightBox::default()
+        }
+    }
+
+    #[test]
+    fn logical_group_switches_common_bulbs() {
+        let mut tl = TrafficLights::new(
+            vec![bx("a"), bx("b"), bx("c")],
+            vec![LogicalTrafficLight {
+                id: "north".into(),
+                box_ids: vec!["a".into(), "b".into()],
+                controller_id: String::new(),
+            }],
+        )
+        .unwrap();
+        let green = BulbState {
+            icon: BulbIcon::None,
+            color: BulbColor::Green,
+            mode: BulbMode::On,
+        };
+        let affected = tl
+            .set(&LightTarget::Logical("north".into()), &[green])
+            .unwrap();
+        assert_eq!(affected.len(), 2);
+        for b in &tl.boxes[..2] {
+            let modes: Vec<_> = b.bulbs.iter().map(|x| x.mode).collect();
+            assert_eq!(modes, vec![BulbMode::Off, BulbMode::Off, BulbMode::On]);
+        }
+        assert!(tl.boxes[2].bulbs.iter().all(|x| x.mode == BulbMode::Off));
+        assert!(tl.set(&LightTarget::Box("zz".into()), &[green]).is_err());
+    }
+
+    #[test]
+    fn bad_definitions() {
+        assert!(TrafficLights::new(vec![bx("a"), bx("a")], vec![]).is_err());
+        let l = LogicalTrafficLight {
+            id: "x".into(),
+            box_ids: vec!["nope".into()],
+            controller_id: String::new(),
+        };
+        assert!(TrafficLights::new(vec![bx("a")], vec![l]).is_err());
+    }
 }
