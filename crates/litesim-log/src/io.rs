@@ -184,6 +184,42 @@ impl SimulationLog {
                 )));
             }
         }
+        if let Some(t) = &log.tracking {
+            let n = t.tick.len();
+            let lens = [
+                t.lateral_error.len(),
+                t.heading_error.len(),
+                t.progress.len(),
+                t.cmd_acceleration.len(),
+                t.cmd_steering.len(),
+                t.predictions.len(),
+            ];
+            if lens.iter().any(|l| *l != n) {
+                return Err(invalid(format!(
+                    "tracking columns have lengths {lens:?}, expected {n} each"
+                )));
+            }
+        }
+        if let Some(p) = &log.plan {
+            if p.grid.cells.len() != p.grid.width * p.grid.height {
+                return Err(invalid(format!(
+                    "plan grid has {} cells for {} × {}",
+                    p.grid.cells.len(),
+                    p.grid.width,
+                    p.grid.height
+                )));
+            }
+            if let Some(e) = p
+                .edges
+                .iter()
+                .find(|e| e[0] >= p.samples.len() || e[1] >= p.samples.len())
+            {
+                return Err(invalid(format!(
+                    "plan edge {e:?} refers to a sample that does not exist ({} samples)",
+                    p.samples.len()
+                )));
+            }
+        }
         Ok(log)
     }
 }

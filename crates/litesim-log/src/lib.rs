@@ -20,6 +20,6 @@ mod log;
 
 pub use io::LogError;
 pub use log::{
-    ActorSample, ActorTrack, ControlColumns, ControlSample, DerivedColumns, LogRecorder,
-    SimulationLog, StateColumns,
+    ActorSample, ActorTrack, ControlColumns, ControlSample, DerivedColumns, GridRecord,
+    LogRecorder, PlanRecord, SimulationLog, StateColumns, TrackingColumns,
 };

@@ -175,6 +175,71 @@ pub struct SimulationLog {
     pub time: Vec<f64>,
     /// Actor tracks, in first-appearance order.
     pub tracks: Vec<ActorTrack>,
+    /// The plan, for runs that planned (samples, tree, corridors, grid).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plan: Option<PlanRecord>,
+    /// Tracking metrics and MPC predictions, for runs that tracked a corridor.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tracking: Option<TrackingColumns>,
+}
+
+/// The occupancy grid a plan was made on: 0 free, 1 inflated margin, 2 hard obstacle.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct GridRecord {
+    /// Columns.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+    /// Cell size (m).
+    pub resolution: f64,
+    /// Lower-left corner (m).
+    pub origin: [f64; 2],
+    /// Layer per cell, row-major from the bottom row.
+    pub cells: Vec<u8>,
+}
+
+/// What the planner produced.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PlanRecord {
+    /// Start, goal, then the samples (m).
+    pub samples: Vec<[f64; 2]>,
+    /// Tree edges (parent, child) in acceptance order.
+    pub edges: Vec<[usize; 2]>,
+    /// Connection radius (m).
+    pub radius: f64,
+    /// The planner's path (m).
+    pub raw_path: Vec<[f64; 2]>,
+    /// The smoothed, resampled corridor (m).
+    pub corridor: Vec<[f64; 2]>,
+    /// Speed profile along the corridor (m/s).
+    pub corridor_speed: Vec<f64>,
+    /// Free distance left of the corridor (m).
+    pub left_bound: Vec<f64>,
+    /// Free distance right of the corridor (m).
+    pub right_bound: Vec<f64>,
+    /// Whether smoothing was kept (false: raw polyline used).
+    pub smoothed: bool,
+    /// The grid.
+    pub grid: GridRecord,
+}
+
+/// Per control cycle: errors against the corridor, progress, command, prediction.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrackingColumns {
+    /// Tick of the cycle.
+    pub tick: Vec<u64>,
+    /// Lateral (cross-track) error (m, left positive).
+    pub lateral_error: Vec<f64>,
+    /// Heading error (rad).
+    pub heading_error: Vec<f64>,
+    /// Progress along the corridor (m).
+    pub progress: Vec<f64>,
+    /// Commanded acceleration (m/s²).
+    pub cmd_acceleration: Vec<f64>,
+    /// Commanded steering angle (rad).
+    pub cmd_steering: Vec<f64>,
+    /// MPC predicted states (x, y, ψ, v) per cycle.
+    pub predictions: Vec<Vec<[f64; 4]>>,
 }
 
 impl SimulationLog {

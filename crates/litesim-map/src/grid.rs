@@ -26,6 +26,17 @@ pub enum GridError {
     /// Resolution not positive and finite.
     #[error("resolution must be positive and finite, got {0} m")]
     BadResolution(f64),
+    /// Width or height not positive and finite.
+    #[error("grid size must be positive and finite, got {0} × {1} m")]
+    BadSize(f64, f64),
+    /// An obstacle with NaN/inf coordinates, negative radius or < 3 polygon points.
+    #[error(
+        "obstacle {0} is malformed (non-finite coordinates, negative radius, inverted rectangle or < 3 polygon points)"
+    )]
+    BadObstacle(usize),
+    /// The image could not be decoded.
+    #[error("not a readable PNG: {0}")]
+    Image(String),
     /// More cells than allowed.
     #[error("a {width} × {height} grid has more than {max} cells; use a coarser resolution")]
     TooLarge {
@@ -36,6 +47,88 @@ pub enum GridError {
         /// Limit.
         max: usize,
     },
+}
+
+/// An obstacle for [`OccupancyGrid::from_obstacles`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case", tag = "shape")]
+pub enum Obstacle {
+    /// Axis-aligned rectangle `[min, max]`.
+    Rect {
+        /// Lower-left corner (m).
+        min: [f64; 2],
+        /// Upper-right corner (m).
+        max: [f64; 2],
+    },
+    /// Disc.
+    Circle {
+        /// Centre (m).
+        center: [f64; 2],
+        /// Radius (m).
+        radius: f64,
+    },
+    /// Simple polygon (any orientation; even–odd rule).
+    Polygon {
+        /// Vertices (m).
+        points: Vec<[f64; 2]>,
+    },
+}
+
+impl Obstacle {
+    fn contains(&self, p: Vec2) -> bool {
+        match self {
+            Obstacle::Rect { min, max } => {
+                p.x >= min[0] && p.x <= max[0] && p.y >= min[1] && p.y <= max[1]
+            }
+            Obstacle::Circle { center, radius } => {
+                p.distance(Vec2::new(center[0], center[1])) <= *radius
+            }
+            Obstacle::Polygon { points } => {
+                let mut inside = false;
+                let n = points.len();
+                for i in 0..n {
+                    let (a, b) = (points[i], points[(i + n - 1) % n]);
+                    if (a[1] > p.y) != (b[1] > p.y)
+                        && p.x < (b[0] - a[0]) * (p.y - a[1]) / (b[1] - a[1]) + a[0]
+                    {
+                        inside = !inside;
+                    }
+                }
+                inside
+            }
+        }
+    }
+    fn bounds(&self) -> (Vec2, Vec2) {
+        match self {
+            Obstacle::Rect { min, max } => (Vec2::new(min[0], min[1]), Vec2::new(max[0], max[1])),
+            Obstacle::Circle { center, radius } => (
+                Vec2::new(center[0] - radius, center[1] - radius),
+                Vec2::new(center[0] + radius, center[1] + radius),
+            ),
+            Obstacle::Polygon { points } => points.iter().fold(
+                (Vec2::new(f64::MAX, f64::MAX), Vec2::new(f64::MIN, f64::MIN)),
+                |(lo, hi), p| {
+                    (
+                        Vec2::new(lo.x.min(p[0]), lo.y.min(p[1])),
+                        Vec2::new(hi.x.max(p[0]), hi.y.max(p[1])),
+                    )
+                },
+            ),
+        }
+    }
+    fn is_valid(&self) -> bool {
+        match self {
+            Obstacle::Rect { min, max } => {
+                min.iter().chain(max).all(|v| v.is_finite()) && min[0] <= max[0] && min[1] <= max[1]
+            }
+            Obstacle::Circle { center, radius } => {
+                center.iter().all(|v| v.is_finite()) && radius.is_finite() && *radius >= 0.0
+            }
+            Obstacle::Polygon { points } => {
+                points.len() >= 3 && points.iter().flatten().all(|v| v.is_finite())
+            }
+        }
+    }
 }
 
 /// Largest grid built (cells): 100 M cells = 100 MB.
@@ -86,6 +179,100 @@ impl OccupancyGrid {
         self.cell(p)
             .is_none_or(|(i, j)| self.occupied[j * self.width + i])
     }
+    /// A grid of `size` metres (width, height) at `origin`, free except
+    /// under the obstacles; cells whose centre lies in an obstacle are occupied.
+    pub fn from_obstacles(
+        origin: Vec2,
+        size: (f64, f64),
+        resolution: f64,
+        obstacles: &[Obstacle],
+    ) -> Result<Self, GridError> {
+        if !(size.0.is_finite() && size.1.is_finite() && size.0 > 0.0 && size.1 > 0.0) {
+            return Err(GridError::BadSize(size.0, size.1));
+        }
+        if let Some(i) = obstacles.iter().position(|o| !o.is_valid()) {
+            return Err(GridError::BadObstacle(i));
+        }
+        let mut g = Self::new(
+            origin,
+            Vec2::new(origin.x + size.0, origin.y + size.1),
+            resolution,
+        )?;
+        for o in obstacles {
+            let (lo, hi) = o.bounds();
+            let r = g.resolution;
+            let i0 = ((lo.x - g.origin.x) / r - 0.5).ceil().max(0.0) as usize;
+            let j0 = ((lo.y - g.origin.y) / r - 0.5).ceil().max(0.0) as usize;
+            let i1 = ((hi.x - g.origin.x) / r - 0.5)
+                .floor()
+                .min(g.width as f64 - 1.0);
+            let j1 = ((hi.y - g.origin.y) / r - 0.5)
+                .floor()
+                .min(g.height as f64 - 1.0);
+            if i1 < 0.0 || j1 < 0.0 {
+                continue;
+            }
+            for j in j0..=j1 as usize {
+                for i in i0..=i1 as usize {
+                    if o.contains(g.center(i, j)) {
+                        g.occupied[j * g.width + i] = true;
+                    }
+                }
+            }
+        }
+        Ok(g)
+    }
+
+    /// Reads a PNG: dark pixels (luma < 128) are obstacles, light ones free;
+    /// image row 0 is the top (largest y). `origin` is the lower-left corner.
+    pub fn from_png(bytes: &[u8], resolution: f64, origin: Vec2) -> Result<Self, GridError> {
+        let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
+        dec.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
+        let mut reader = dec
+            .read_info()
+            .map_err(|e| GridError::Image(e.to_string()))?;
+        let (w, h) = (reader.info().width as usize, reader.info().height as usize);
+        if w.saturating_mul(h) > MAX_CELLS {
+            return Err(GridError::TooLarge {
+                width: w,
+                height: h,
+                max: MAX_CELLS,
+            });
+        }
+        let mut buf = vec![
+            0;
+            reader
+                .output_buffer_size()
+                .ok_or_else(|| GridError::Image("image too large".into()))?
+        ];
+        let info = reader
+            .next_frame(&mut buf)
+            .map_err(|e| GridError::Image(e.to_string()))?;
+        let channels = info.color_type.samples();
+        let mut g = Self::new(
+            origin,
+            Vec2::new(
+                origin.x + w as f64 * resolution,
+                origin.y + h as f64 * resolution,
+            ),
+            resolution,
+        )?;
+        g.width = w;
+        g.height = h;
+        g.occupied = vec![false; w * h];
+        for row in 0..h {
+            for col in 0..w {
+                let px = &buf[row * info.line_size + col * channels..][..channels];
+                let luma = match channels {
+                    1 | 2 => px[0] as f64,
+                    _ => 0.299 * px[0] as f64 + 0.587 * px[1] as f64 + 0.114 * px[2] as f64,
+                };
+                g.occupied[(h - 1 - row) * w + col] = luma < 128.0;
+            }
+        }
+        Ok(g)
+    }
+
     /// Number of free cells.
     pub fn free_cells(&self) -> usize {
         self.occupied.iter().filter(|o| !**o).count()

@@ -22,7 +22,7 @@ pub mod network;
 pub mod parse;
 pub mod road;
 
-pub use grid::{GridError, OccupancyGrid};
+pub use grid::{GridError, Obstacle, OccupancyGrid};
 pub use network::{LanePolyline, LaneRef, RoadNetwork, RoadPosition, RoadSummary};
 pub use parse::{MapError, Warning, parse};
 pub use road::{Direction, LaneSpan};

@@ -1,0 +1,677 @@
+//! The closed loop of seed 001: plan (FMT*), smooth (corridor), track (MPC)
+//! in the deterministic world, log everything.
+//!
+//! The world steps `N = ⌈T/dt⌉` times (early stop within the goal tolerance
+//! below the stop speed); the MPC runs every `tracker.dt`, which must be a
+//! whole number of simulation steps, and its command is held in between
+//! (zero-order hold). Commands are saturated by the vehicle model before
+//! integration. The MPC's model uses the tracker's dt and the vehicle's
+//! wheelbase — both named in the configuration, never guessed.
+
+use crate::corridor::{Corridor, RefState, SpeedLimits};
+use crate::fmt::{FmtConfig, FmtError, FmtResult, Radius, fmt_star};
+use crate::grid::{Layer, PlanningGrid};
+use crate::mpc::{Mpc, MpcConfig, MpcError};
+use litesim_core::{
+    Actor, ActorDescription, ActorKind, ActorState, ControlMode, KinematicBicycle, Pose, Vec2,
+    VehicleCategory, VehicleInput, VehicleModelKind, World, run_loop, wrap_angle,
+};
+use litesim_log::{GridRecord, LogRecorder, PlanRecord, SimulationLog, TrackingColumns};
+use litesim_map::{Obstacle, OccupancyGrid};
+use serde::{Deserialize, Serialize};
+
+/// Where the occupancy comes from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MapConfig {
+    /// Lower-left corner (m).
+    #[serde(default)]
+    pub origin: [f64; 2],
+    /// Width and height (m) for obstacle maps.
+    #[serde(default)]
+    pub size: [f64; 2],
+    /// Cell size (m).
+    pub resolution: f64,
+    /// Obstacles (rectangles, circles, polygons).
+    #[serde(default)]
+    pub obstacles: Vec<Obstacle>,
+    /// A PNG (dark = obstacle), relative to the configuration file.
+    #[serde(default)]
+    pub png: Option<String>,
+    /// An OpenDRIVE map (drivable lanes free), relative to the configuration file.
+    #[serde(default)]
+    pub opendrive: Option<String>,
+}
+
+/// A start pose.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StartConfig {
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// Heading (rad).
+    #[serde(default)]
+    pub yaw: f64,
+    /// Speed (m/s).
+    #[serde(default)]
+    pub speed: f64,
+}
+
+/// The goal.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GoalConfig {
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// Arrival radius (m).
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Stop speed (m/s): the run ends inside the tolerance below it.
+    #[serde(default = "default_stop")]
+    pub stop_speed: f64,
+}
+fn default_tolerance() -> f64 {
+    1.0
+}
+fn default_stop() -> f64 {
+    0.3
+}
+
+/// Vehicle parameters (a preset, optionally overridden).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleConfig {
+    /// Preset: passenger, compact, sport, suv, van, bus, truck.
+    #[serde(default = "default_preset")]
+    pub preset: String,
+    /// Length (m).
+    pub length: Option<f64>,
+    /// Width (m).
+    pub width: Option<f64>,
+    /// Wheelbase (m).
+    pub wheelbase: Option<f64>,
+    /// Mass (kg).
+    pub mass: Option<f64>,
+    /// Steering limit (deg).
+    pub max_steer_deg: Option<f64>,
+    /// Steering-rate limit (deg/s).
+    pub max_steer_rate_deg: Option<f64>,
+    /// Acceleration limit (m/s²).
+    pub max_accel: Option<f64>,
+    /// Deceleration limit (m/s², positive).
+    pub max_decel: Option<f64>,
+    /// Top speed (m/s).
+    pub max_speed: Option<f64>,
+    /// Lateral acceleration limit (m/s²).
+    pub max_lat_accel: Option<f64>,
+}
+fn default_preset() -> String {
+    "passenger".into()
+}
+
+/// A resolved vehicle.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Vehicle {
+    /// Length (m).
+    pub length: f64,
+    /// Width (m).
+    pub width: f64,
+    /// Wheelbase (m).
+    pub wheelbase: f64,
+    /// Mass (kg).
+    pub mass: f64,
+    /// Steering limit (rad).
+    pub max_steer: f64,
+    /// Steering-rate limit (rad/s).
+    pub max_steer_rate: f64,
+    /// Acceleration (m/s²).
+    pub max_accel: f64,
+    /// Deceleration (m/s²).
+    pub max_decel: f64,
+    /// Top speed (m/s).
+    pub max_speed: f64,
+    /// Lateral acceleration (m/s²).
+    pub max_lat_accel: f64,
+}
+
+/// Vehicle presets: (name, length, width, wheelbase, mass, steer deg, steer rate deg/s, accel, decel, v max, a_lat).
+pub const PRESETS: &[(&str, [f64; 10])] = &[
+    (
+        "passenger",
+        [4.6, 1.85, 2.7, 1500.0, 35.0, 40.0, 2.5, 6.0, 15.0, 3.0],
+    ),
+    (
+        "compact",
+        [3.9, 1.7, 2.45, 1100.0, 38.0, 45.0, 2.5, 6.0, 14.0, 3.0],
+    ),
+    (
+        "sport",
+        [4.4, 1.9, 2.6, 1400.0, 32.0, 50.0, 5.0, 9.0, 20.0, 5.0],
+    ),
+    (
+        "suv",
+        [4.9, 2.0, 2.95, 2100.0, 34.0, 35.0, 2.0, 6.0, 14.0, 2.5],
+    ),
+    (
+        "van",
+        [5.9, 2.0, 3.66, 2800.0, 33.0, 30.0, 1.5, 5.0, 12.0, 2.0],
+    ),
+    (
+        "bus",
+        [12.0, 2.55, 6.0, 12000.0, 40.0, 25.0, 1.0, 4.0, 10.0, 1.5],
+    ),
+    (
+        "truck",
+        [9.0, 2.5, 5.0, 14000.0, 38.0, 25.0, 1.0, 4.0, 10.0, 1.5],
+    ),
+];
+
+impl VehicleConfig {
+    /// Resolves the preset and overrides.
+    pub fn resolve(&self) -> Result<Vehicle, PlanError> {
+        let (_, p) = PRESETS
+            .iter()
+            .find(|(n, _)| *n == self.preset)
+            .ok_or_else(|| {
+                PlanError::Config(format!(
+                    "unknown vehicle preset '{}'; available: {}",
+                    self.preset,
+                    PRESETS
+                        .iter()
+                        .map(|(n, _)| *n)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))
+            })?;
+        let v = Vehicle {
+            length: self.length.unwrap_or(p[0]),
+            width: self.width.unwrap_or(p[1]),
+            wheelbase: self.wheelbase.unwrap_or(p[2]),
+            mass: self.mass.unwrap_or(p[3]),
+            max_steer: self.max_steer_deg.unwrap_or(p[4]).to_radians(),
+            max_steer_rate: self.max_steer_rate_deg.unwrap_or(p[5]).to_radians(),
+            max_accel: self.max_accel.unwrap_or(p[6]),
+            max_decel: self.max_decel.unwrap_or(p[7]),
+            max_speed: self.max_speed.unwrap_or(p[8]),
+            max_lat_accel: self.max_lat_accel.unwrap_or(p[9]),
+        };
+        let all = [
+            v.length,
+            v.width,
+            v.wheelbase,
+            v.mass,
+            v.max_steer,
+            v.max_steer_rate,
+            v.max_accel,
+            v.max_decel,
+            v.max_speed,
+            v.max_lat_accel,
+        ];
+        if all.iter().any(|x| !(x.is_finite() && *x > 0.0)) {
+            return Err(PlanError::Config(
+                "vehicle: every dimension and limit must be positive".into(),
+            ));
+        }
+        if v.wheelbase >= v.length {
+            return Err(PlanError::Config(format!(
+                "vehicle: wheelbase {} m must be shorter than the length {} m",
+                v.wheelbase, v.length
+            )));
+        }
+        Ok(v)
+    }
+}
+
+/// Planner settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlannerConfig {
+    /// Samples.
+    #[serde(default = "default_samples")]
+    pub samples: usize,
+    /// η of the FMT* radius (ignored when `radius` or `k_nearest` is set).
+    #[serde(default = "default_eta")]
+    pub eta: f64,
+    /// Fixed connection radius (m).
+    pub radius: Option<f64>,
+    /// k nearest neighbours.
+    pub k_nearest: Option<usize>,
+    /// Seed.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Safety margin beyond the vehicle's half width (m).
+    #[serde(default = "default_margin")]
+    pub margin: f64,
+    /// Corridor resampling step (m).
+    #[serde(default = "default_ds")]
+    pub corridor_ds: f64,
+}
+fn default_samples() -> usize {
+    2000
+}
+fn default_eta() -> f64 {
+    0.5
+}
+fn default_seed() -> u64 {
+    1
+}
+fn default_margin() -> f64 {
+    0.4
+}
+fn default_ds() -> f64 {
+    0.5
+}
+
+/// Simulation settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SimulationConfig {
+    /// Step (s).
+    pub dt: f64,
+    /// Horizon T (s).
+    pub horizon: f64,
+}
+
+/// A whole closed-loop configuration (the TOML file).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClosedLoopConfig {
+    /// Map.
+    pub map: MapConfig,
+    /// Start.
+    pub start: StartConfig,
+    /// Goal.
+    pub goal: GoalConfig,
+    /// Vehicle.
+    #[serde(default = "default_vehicle")]
+    pub vehicle: VehicleConfig,
+    /// Planner.
+    #[serde(default = "default_planner")]
+    pub planner: PlannerConfig,
+    /// Tracker (MPC); its `wheelbase` is taken from the vehicle.
+    pub tracker: TrackerConfig,
+    /// Simulation.
+    pub simulation: SimulationConfig,
+}
+fn default_vehicle() -> VehicleConfig {
+    VehicleConfig {
+        preset: default_preset(),
+        length: None,
+        width: None,
+        wheelbase: None,
+        mass: None,
+        max_steer_deg: None,
+        max_steer_rate_deg: None,
+        max_accel: None,
+        max_decel: None,
+        max_speed: None,
+        max_lat_accel: None,
+    }
+}
+fn default_planner() -> PlannerConfig {
+    PlannerConfig {
+        samples: default_samples(),
+        eta: default_eta(),
+        radius: None,
+        k_nearest: None,
+        seed: default_seed(),
+        margin: default_margin(),
+        corridor_ds: default_ds(),
+    }
+}
+
+/// Tracker settings as written in the file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrackerConfig {
+    /// Horizon N.
+    #[serde(default = "default_horizon")]
+    pub horizon: usize,
+    /// Control period and prediction step (s).
+    pub dt: f64,
+    /// State weights (x, y, ψ, v).
+    #[serde(default = "default_q")]
+    pub q: [f64; 4],
+    /// Terminal weight multiplier.
+    #[serde(default = "default_qt")]
+    pub q_terminal: f64,
+    /// Input weights (a, δ).
+    #[serde(default = "default_r")]
+    pub r: [f64; 2],
+    /// Input-rate weights (a, δ).
+    #[serde(default = "default_rr")]
+    pub r_rate: [f64; 2],
+}
+fn default_horizon() -> usize {
+    20
+}
+fn default_q() -> [f64; 4] {
+    MpcConfig::default().q
+}
+fn default_qt() -> f64 {
+    MpcConfig::default().q_terminal
+}
+fn default_r() -> [f64; 2] {
+    MpcConfig::default().r
+}
+fn default_rr() -> [f64; 2] {
+    MpcConfig::default().r_rate
+}
+
+/// Why a closed-loop run could not be made.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    /// Bad configuration.
+    #[error("configuration: {0}")]
+    Config(String),
+    /// Grid construction failed.
+    #[error("map: {0}")]
+    Grid(#[from] litesim_map::GridError),
+    /// Planning failed.
+    #[error("planner: {0}")]
+    Plan(#[from] FmtError),
+    /// Tracking failed.
+    #[error("tracker: {0}")]
+    Mpc(#[from] MpcError),
+}
+
+/// What a run produced.
+#[derive(Clone, Debug)]
+pub struct ClosedLoopResult {
+    /// The complete log (with plan and tracking).
+    pub log: SimulationLog,
+    /// Goal reached (within tolerance, below the stop speed).
+    pub reached_goal: bool,
+    /// Simulated time (s).
+    pub time: f64,
+    /// Steps executed.
+    pub steps: u64,
+    /// Length of the planner's path (m).
+    pub path_length: f64,
+    /// Largest |cross-track error| (m).
+    pub max_cross_track: f64,
+    /// Mean |cross-track error| (m).
+    pub mean_cross_track: f64,
+    /// Smallest clearance of the vehicle's footprint to a hard obstacle (m).
+    pub min_clearance: f64,
+    /// Whether the footprint ever touched a hard obstacle.
+    pub collided: bool,
+    /// FMT* output.
+    pub fmt: FmtResult,
+    /// The corridor.
+    pub corridor: Corridor,
+    /// The planning grid.
+    pub grid: PlanningGrid,
+}
+
+/// Footprint sample points of a rear-axle-referenced vehicle.
+fn footprint(v: &Vehicle, x: f64, y: f64, yaw: f64) -> Vec<Vec2> {
+    let rear = (v.length - v.wheelbase) / 2.0;
+    let f = Vec2::from_heading(yaw);
+    let n = Vec2::new(-f.y, f.x);
+    let base = Vec2::new(x, y);
+    let mut pts = Vec::new();
+    for i in 0..=8 {
+        let along = -rear + v.length * i as f64 / 8.0;
+        for j in 0..=2 {
+            let across = -v.width / 2.0 + v.width * j as f64 / 2.0;
+            pts.push(base + f * along + n * across);
+        }
+    }
+    pts
+}
+
+/// Plans, tracks and logs one run. `grid` is the occupancy (already loaded).
+pub fn run_closed_loop(
+    cfg: &ClosedLoopConfig,
+    grid: OccupancyGrid,
+) -> Result<ClosedLoopResult, PlanError> {
+    let veh = cfg.vehicle.resolve()?;
+    let sim = cfg.simulation;
+    if !(sim.dt.is_finite() && sim.dt > 0.0 && sim.horizon.is_finite() && sim.horizon > 0.0) {
+        return Err(PlanError::Config(format!(
+            "simulation: dt ({}) and horizon ({}) must be positive",
+            sim.dt, sim.horizon
+        )));
+    }
+    let ratio = cfg.tracker.dt / sim.dt;
+    if !(ratio.is_finite() && ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-6) {
+        return Err(PlanError::Config(format!(
+            "tracker.dt = {} s must be a whole multiple of simulation.dt = {} s",
+            cfg.tracker.dt, sim.dt
+        )));
+    }
+    let every = ratio.round() as u64;
+    let mpc = Mpc::new(MpcConfig {
+        horizon: cfg.tracker.horizon,
+        dt: cfg.tracker.dt,
+        wheelbase: veh.wheelbase,
+        q: cfg.tracker.q,
+        q_terminal: cfg.tracker.q_terminal,
+        r: cfg.tracker.r,
+        r_rate: cfg.tracker.r_rate,
+        max_steer: veh.max_steer,
+        max_steer_rate: veh.max_steer_rate,
+        min_accel: -veh.max_decel,
+        max_accel: veh.max_accel,
+    })?;
+    let pl = &cfg.planner;
+    if !(pl.margin.is_finite() && pl.margin >= 0.0) {
+        return Err(PlanError::Config(format!(
+            "planner.margin must be ≥ 0, got {}",
+            pl.margin
+        )));
+    }
+    let pgrid = PlanningGrid::new(grid, veh.width / 2.0, pl.margin);
+    let start = Vec2::new(cfg.start.x, cfg.start.y);
+    let goal = Vec2::new(cfg.goal.x, cfg.goal.y);
+    let radius = match (pl.radius, pl.k_nearest) {
+        (Some(r), _) => Radius::Fixed(r),
+        (None, Some(k)) => Radius::KNearest(k),
+        _ => Radius::Eta(pl.eta),
+    };
+    let fmt = fmt_star(
+        &pgrid,
+        start,
+        goal,
+        &FmtConfig {
+            samples: pl.samples,
+            radius,
+            seed: pl.seed,
+        },
+    )?;
+    let corridor = Corridor::build(
+        &fmt.path,
+        &pgrid,
+        pl.corridor_ds,
+        &SpeedLimits {
+            v_max: veh.max_speed,
+            a_lat_max: veh.max_lat_accel,
+            a_max: veh.max_accel * 0.8,
+            d_max: veh.max_decel * 0.5,
+            v_start: cfg.start.speed.max(0.5),
+        },
+    );
+
+    // The world: one vehicle on direct (acceleration, steering) control.
+    let mut world = World::new(sim.dt).map_err(|e| PlanError::Config(e.to_string()))?;
+    let mut bike = KinematicBicycle::new(veh.wheelbase);
+    bike.max_steering_angle = veh.max_steer;
+    bike.max_acceleration = veh.max_accel;
+    bike.max_deceleration = veh.max_decel;
+    bike.max_speed = veh.max_speed;
+    let desc = ActorDescription {
+        kind: ActorKind::Vehicle(VehicleCategory::Car),
+        actor_type: "Ego".into(),
+        model: cfg.vehicle.preset.clone(),
+        length: veh.length,
+        width: veh.width,
+        height: 1.5,
+        mass: veh.mass,
+        properties: Default::default(),
+    };
+    let mut st = ActorState::at_rest(Pose::planar(start.x, start.y, cfg.start.yaw));
+    st.speed = cfg.start.speed.max(0.0);
+    world
+        .add_actor(Actor::new(
+            "ego",
+            desc,
+            st,
+            Some(VehicleModelKind::Bicycle(bike)),
+        ))
+        .map_err(|e| PlanError::Config(e.to_string()))?;
+
+    let mut rec = LogRecorder::new(sim.dt);
+    rec.meta("kind", "closed_loop");
+    rec.meta("planner", format!("FMT* n={} seed={}", pl.samples, pl.seed));
+    rec.meta(
+        "tracker",
+        format!("MPC N={} dt={}", cfg.tracker.horizon, cfg.tracker.dt),
+    );
+    rec.meta("vehicle", &cfg.vehicle.preset);
+    rec.record_world(&world);
+    let mut tracking = TrackingColumns::default();
+    let mut hint = 0usize;
+    let mut prev_cmd = [0.0, 0.0];
+    let mut mpc_error: Option<MpcError> = None;
+    let mut collided = false;
+    let mut min_clear = f64::INFINITY;
+    let stop = litesim_core::StopCondition {
+        actor: "ego".into(),
+        goal,
+        radius: cfg.goal.tolerance,
+        speed_threshold: cfg.goal.stop_speed,
+    };
+    let n_h = cfg.tracker.horizon;
+    let tdt = cfg.tracker.dt;
+    let check = |w: &World, min_clear: &mut f64, collided: &mut bool| {
+        if let Some(a) = w.actor("ego") {
+            let p = a.state.pose;
+            for q in footprint(&veh, p.position.x, p.position.y, p.yaw) {
+                if pgrid.layer(q) == Layer::Hard {
+                    *collided = true;
+                }
+                let d = pgrid.clearance(q);
+                if d < *min_clear {
+                    *min_clear = d;
+                }
+            }
+        }
+    };
+    let steps = run_loop(
+        &mut world,
+        sim.horizon,
+        Some(&stop),
+        |w| {
+            if w.tick() % every != 0 || mpc_error.is_some() {
+                return;
+            }
+            let Some(a) = w.actor("ego") else { return };
+            let p = a.state.pose;
+            let z0 = [p.position.x, p.position.y, p.yaw, a.state.speed];
+            let (s, lat, i) = corridor.project(p.position.xy(), hint);
+            hint = i;
+            let t0 = corridor.time_at_s(s);
+            let refs: Vec<RefState> = (0..=n_h)
+                .map(|k| corridor.at_time(t0 + k as f64 * tdt))
+                .collect();
+            match mpc.solve(z0, &refs, prev_cmd) {
+                Ok(sol) => {
+                    prev_cmd = [sol.acceleration, sol.steering];
+                    tracking.tick.push(w.tick());
+                    tracking.lateral_error.push(lat);
+                    tracking
+                        .heading_error
+                        .push(wrap_angle(p.yaw - corridor.heading_at_s(s)));
+                    tracking.progress.push(s);
+                    tracking.cmd_acceleration.push(sol.acceleration);
+                    tracking.cmd_steering.push(sol.steering);
+                    tracking.predictions.push(sol.predicted.clone());
+                    let _ = w.set_mode(
+                        "ego",
+                        ControlMode::Dynamic {
+                            input: VehicleInput::Direct {
+                                acceleration: sol.acceleration,
+                                steering_angle: sol.steering,
+                            },
+                            valid_until_tick: None,
+                        },
+                    );
+                }
+                Err(e) => mpc_error = Some(e),
+            }
+        },
+        |w| {
+            rec.record_world(w);
+            check(w, &mut min_clear, &mut collided);
+        },
+    );
+    if let Some(e) = mpc_error {
+        return Err(PlanError::Mpc(e));
+    }
+    let reached = stop.reached(&world);
+    let abs: Vec<f64> = tracking.lateral_error.iter().map(|e| e.abs()).collect();
+    let max_cte = abs.iter().copied().fold(0.0, f64::max);
+    let mean_cte = if abs.is_empty() {
+        0.0
+    } else {
+        abs.iter().sum::<f64>() / abs.len() as f64
+    };
+    let g = &pgrid.grid;
+    let cells: Vec<u8> = pgrid
+        .layers()
+        .iter()
+        .map(|l| match l {
+            Layer::Free => 0,
+            Layer::Inflated => 1,
+            Layer::Hard => 2,
+        })
+        .collect();
+    let mut log = rec.finish();
+    log.plan = Some(PlanRecord {
+        samples: fmt.samples.iter().map(|p| [p.x, p.y]).collect(),
+        edges: fmt.edges.iter().map(|&(a, b)| [a, b]).collect(),
+        radius: fmt.radius,
+        raw_path: fmt.path.iter().map(|p| [p.x, p.y]).collect(),
+        corridor: corridor.points.iter().map(|p| [p.x, p.y]).collect(),
+        corridor_speed: corridor.speed.clone(),
+        left_bound: corridor.left_bound.clone(),
+        right_bound: corridor.right_bound.clone(),
+        smoothed: corridor.smoothed,
+        grid: GridRecord {
+            width: g.width,
+            height: g.height,
+            resolution: g.resolution,
+            origin: [g.origin.x, g.origin.y],
+            cells,
+        },
+    });
+    log.tracking = Some(tracking);
+    Ok(ClosedLoopResult {
+        time: world.time(),
+        steps,
+        reached_goal: reached,
+        path_length: fmt.path_cost,
+        max_cross_track: max_cte,
+        mean_cross_track: mean_cte,
+        min_clearance: min_clear,
+        collided,
+        log,
+        fmt,
+        corridor,
+        grid: pgrid,
+    })
+}
+
+/// Parses a configuration (TOML), naming the offending key on error.
+pub fn parse_config(text: &str) -> Result<ClosedLoopConfig, PlanError> {
+    toml_parse(text)
+}
+
+fn toml_parse(text: &str) -> Result<ClosedLoopConfig, PlanError> {
+    toml::from_str(text).map_err(|e| PlanError::Config(e.to_string()))
+}

@@ -1,0 +1,206 @@
+//! The planning grid: an occupancy grid with an exact Euclidean distance
+//! transform and the seed's three layers — free space, inflated safety
+//! margin, hard obstacle.
+
+use litesim_core::Vec2;
+use litesim_map::OccupancyGrid;
+use serde::{Deserialize, Serialize};
+
+/// What a cell is for planning.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Layer {
+    /// Farther than `radius + margin` from every obstacle.
+    Free,
+    /// Within the safety margin (`radius + margin`) of an obstacle.
+    Inflated,
+    /// An obstacle cell.
+    Hard,
+}
+
+/// "No site" in the squared-distance transform: large but finite, so the
+/// parabola intersections stay well-defined.
+const FAR: f64 = 1e20;
+
+/// Exact squared Euclidean distance transform of one line (Felzenszwalb &
+/// Huttenlocher 2012, lower envelope of parabolas): `f` holds 0 at sites and
+/// [`FAR`] elsewhere.
+fn edt_1d(f: &[f64], out: &mut [f64], v: &mut [usize], z: &mut [f64]) {
+    let n = f.len();
+    if n == 0 {
+        return;
+    }
+    let mut k = 0usize;
+    v[0] = 0;
+    z[0] = f64::NEG_INFINITY;
+    z[1] = f64::INFINITY;
+    for q in 1..n {
+        let fq = f[q] + (q * q) as f64;
+        let mut s;
+        loop {
+            let p = v[k];
+            s = (fq - (f[p] + (p * p) as f64)) / (2.0 * (q - p) as f64);
+            if s <= z[k] && k > 0 {
+                k -= 1;
+            } else {
+                break;
+            }
+        }
+        if s <= z[k] {
+            // k == 0 and the new parabola dominates from −∞.
+            v[0] = q;
+            z[1] = f64::INFINITY;
+            continue;
+        }
+        k += 1;
+        v[k] = q;
+        z[k] = s;
+        z[k + 1] = f64::INFINITY;
+    }
+    let mut k = 0;
+    for (q, o) in out.iter_mut().enumerate() {
+        while z[k + 1] < q as f64 {
+            k += 1;
+        }
+        let p = v[k];
+        *o = (q as f64 - p as f64).powi(2) + f[p];
+    }
+}
+
+/// Distance (m) from each cell centre to the nearest obstacle cell centre;
+/// +∞ when there is no obstacle at all.
+pub fn distance_transform(g: &OccupancyGrid) -> Vec<f64> {
+    let (w, h) = (g.width, g.height);
+    let mut d: Vec<f64> = g
+        .occupied
+        .iter()
+        .map(|&o| if o { 0.0 } else { FAR })
+        .collect();
+    let n = w.max(h);
+    let (mut f, mut out, mut v, mut z) = (
+        vec![0.0; n],
+        vec![0.0; n],
+        vec![0usize; n],
+        vec![0.0; n + 1],
+    );
+    for x in 0..w {
+        for y in 0..h {
+            f[y] = d[y * w + x];
+        }
+        edt_1d(&f[..h], &mut out[..h], &mut v, &mut z);
+        for y in 0..h {
+            d[y * w + x] = out[y];
+        }
+    }
+    for y in 0..h {
+        f[..w].copy_from_slice(&d[y * w..(y + 1) * w]);
+        edt_1d(&f[..w], &mut out[..w], &mut v, &mut z);
+        d[y * w..(y + 1) * w].copy_from_slice(&out[..w]);
+    }
+    d.iter()
+        .map(|&s| {
+            if s >= FAR / 2.0 {
+                f64::INFINITY
+            } else {
+                s.sqrt() * g.resolution
+            }
+        })
+        .collect()
+}
+
+/// A grid ready for planning.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PlanningGrid {
+    /// The occupancy.
+    pub grid: OccupancyGrid,
+    /// Distance to the nearest obstacle (m), per cell.
+    pub distance: Vec<f64>,
+    /// Vehicle radius (m): centres closer than this to an obstacle collide.
+    pub radius: f64,
+    /// Extra safety margin (m).
+    pub margin: f64,
+}
+
+impl PlanningGrid {
+    /// Computes the distance field and layers for a vehicle of `radius` m with `margin` m to spare.
+    pub fn new(grid: OccupancyGrid, radius: f64, margin: f64) -> Self {
+        let distance = distance_transform(&grid);
+        Self {
+            grid,
+            distance,
+            radius: radius.max(0.0),
+            margin: margin.max(0.0),
+        }
+    }
+    /// Clearance at a point (m); 0 outside the grid.
+    pub fn clearance(&self, p: Vec2) -> f64 {
+        match self.grid.cell(p) {
+            Some((i, j)) => {
+                let d = self.distance[j * self.grid.width + i];
+                // Distances are between cell centres; half a cell of slack.
+                (d - 0.5 * self.grid.resolution).max(0.0)
+            }
+            None => 0.0,
+        }
+    }
+    /// The layer of a point.
+    pub fn layer(&self, p: Vec2) -> Layer {
+        if self.grid.is_occupied(p) {
+            Layer::Hard
+        } else if self.clearance(p) < self.radius + self.margin {
+            Layer::Inflated
+        } else {
+            Layer::Free
+        }
+    }
+    /// True when a vehicle centred at `p` keeps radius + margin from every obstacle.
+    pub fn is_free(&self, p: Vec2) -> bool {
+        self.layer(p) == Layer::Free
+    }
+    /// Layer of each cell, row-major.
+    pub fn layers(&self) -> Vec<Layer> {
+        (0..self.grid.height)
+            .flat_map(|j| (0..self.grid.width).map(move |i| (i, j)))
+            .map(|(i, j)| self.layer(self.grid.center(i, j)))
+            .collect()
+    }
+    /// Free area (m²), μ(X_free) of the FMT* radius.
+    pub fn free_area(&self) -> f64 {
+        let r2 = self.grid.resolution * self.grid.resolution;
+        let need = self.radius + self.margin + 0.5 * self.grid.resolution;
+        self.distance.iter().filter(|d| **d >= need).count() as f64 * r2
+    }
+    /// True when the straight segment a→b stays free, checked every half cell.
+    pub fn segment_free(&self, a: Vec2, b: Vec2) -> bool {
+        let len = a.distance(b);
+        let n = (len / (0.5 * self.grid.resolution)).ceil().max(1.0) as usize;
+        (0..=n).all(|k| self.is_free(a.lerp(b, k as f64 / n as f64)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn edt_is_exact_against_brute_force() {
+        let mut g = OccupancyGrid::new(Vec2::new(0.0, 0.0), Vec2::new(13.0, 7.0), 1.0).unwrap();
+        for &(i, j) in &[(2usize, 3usize), (9, 1), (12, 6), (5, 5)] {
+            g.occupied[j * g.width + i] = true;
+        }
+        let d = distance_transform(&g);
+        for j in 0..g.height {
+            for i in 0..g.width {
+                let brute = [(2, 3), (9, 1), (12, 6), (5, 5)]
+                    .iter()
+                    .map(|&(a, b): &(i32, i32)| {
+                        (((i as i32 - a).pow(2) + (j as i32 - b).pow(2)) as f64).sqrt()
+                    })
+                    .fold(f64::INFINITY, f64::min);
+                assert!((d[j * g.width + i] - brute).abs() < 1e-12, "({i},{j})");
+            }
+        }
+        let empty = OccupancyGrid::new(Vec2::new(0.0, 0.0), Vec2::new(3.0, 3.0), 1.0).unwrap();
+        assert!(distance_transform(&empty).iter().all(|d| d.is_infinite()));
+    }
+}

@@ -1,0 +1,357 @@
+//! Closed-loop runs on the example maps, FMT* against the visibility-graph
+//! optimum, MPC constraints and tracking, determinism, bad input.
+
+use litesim_core::Vec2;
+use litesim_map::{Obstacle, OccupancyGrid};
+use litesim_plan::closed_loop::parse_config;
+use litesim_plan::corridor::RefState;
+use litesim_plan::*;
+use std::path::PathBuf;
+
+fn example(name: &str) -> ClosedLoopConfig {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../examples/plan")
+        .join(name);
+    parse_config(&std::fs::read_to_string(p).unwrap()).unwrap()
+}
+
+fn grid_of(cfg: &ClosedLoopConfig) -> OccupancyGrid {
+    let m = &cfg.map;
+    OccupancyGrid::from_obstacles(
+        Vec2::new(m.origin[0], m.origin[1]),
+        (m.size[0], m.size[1]),
+        m.resolution,
+        &m.obstacles,
+    )
+    .unwrap()
+}
+
+#[test]
+fn closed_loop_reaches_the_goal_on_five_maps_without_touching_obstacles() {
+    for name in [
+        "single_rect.toml",
+        "narrow_passage.toml",
+        "s_bend.toml",
+        "forest.toml",
+        "parking_lot.toml",
+    ] {
+        let cfg = example(name);
+        let r = run_closed_loop(&cfg, grid_of(&cfg)).unwrap_or_else(|e| panic!("{name}: {e}"));
+        println!(
+            "{name}: reached {} in {:.1} s, path {:.1} m, cte max {:.2} mean {:.2}, clearance {:.2}",
+            r.reached_goal,
+            r.time,
+            r.path_length,
+            r.max_cross_track,
+            r.mean_cross_track,
+            r.min_clearance
+        );
+        assert!(r.reached_goal, "{name}: goal not reached");
+        assert!(!r.collided, "{name}: touched an obstacle");
+        assert!(
+            r.max_cross_track < 1.0,
+            "{name}: cross-track error {}",
+            r.max_cross_track
+        );
+    }
+}
+
+/// Shortest path around one axis-aligned rectangle for a point robot: the
+/// better of going over or under it (visibility graph through the corners).
+#[test]
+fn fmt_cost_is_within_three_percent_of_the_visibility_graph_optimum() {
+    let rect = (Vec2::new(30.0, 10.0), Vec2::new(50.0, 30.0));
+    let g = OccupancyGrid::from_obstacles(
+        Vec2::new(0.0, 0.0),
+        (80.0, 40.0),
+        0.2,
+        &[Obstacle::Rect {
+            min: [rect.0.x, rect.0.y],
+            max: [rect.1.x, rect.1.y],
+        }],
+    )
+    .unwrap();
+    let pg = PlanningGrid::new(g, 0.0, 0.0);
+    let (start, goal) = (Vec2::new(5.0, 18.0), Vec2::new(75.0, 22.0));
+    // The grid marks cells whose centres are inside, so the free boundary
+    // lies half a cell outside the rectangle's cells: use its true corners.
+    let over = start.distance(Vec2::new(30.0, 30.0)) + 20.0 + Vec2::new(50.0, 30.0).distance(goal);
+    let under = start.distance(Vec2::new(30.0, 10.0)) + 20.0 + Vec2::new(50.0, 10.0).distance(goal);
+    let optimum = over.min(under);
+    let r = fmt_star(
+        &pg,
+        start,
+        goal,
+        &FmtConfig {
+            samples: 2000,
+            radius: Radius::Eta(0.5),
+            seed: 1,
+        },
+    )
+    .unwrap();
+    let ratio = r.path_cost / optimum;
+    println!(
+        "FMT* n=2000: {:.3} m vs optimum {:.3} m ({:.2}%)",
+        r.path_cost,
+        optimum,
+        (ratio - 1.0) * 100.0
+    );
+    assert!(ratio >= 0.999 && ratio <= 1.03, "ratio {ratio}");
+    // More samples: closer (asymptotic optimality, not monotone per seed, so compare far apart).
+    let r200 = fmt_star(
+        &pg,
+        start,
+        goal,
+        &FmtConfig {
+            samples: 200,
+            radius: Radius::Eta(0.5),
+            seed: 1,
+        },
+    )
+    .unwrap();
+    assert!(r200.path_cost >= r.path_cost - 0.5);
+    // The tree and its edge order are returned for the debug view.
+    assert_eq!(
+        r.edges.len(),
+        r.parent.iter().filter(|p| p.is_some()).count()
+    );
+    assert!(r.collision_checks >= r.edges.len());
+}
+
+#[test]
+fn fmt_errors_say_which_end_is_wrong() {
+    let g = OccupancyGrid::from_obstacles(
+        Vec2::new(0.0, 0.0),
+        (20.0, 10.0),
+        0.2,
+        &[Obstacle::Rect {
+            min: [9.0, 0.0],
+            max: [11.0, 10.0],
+        }],
+    )
+    .unwrap();
+    let pg = PlanningGrid::new(g, 0.5, 0.1);
+    let cfg = FmtConfig::default();
+    assert!(matches!(
+        fmt_star(&pg, Vec2::new(10.0, 5.0), Vec2::new(18.0, 5.0), &cfg),
+        Err(FmtError::StartInCollision(..))
+    ));
+    assert!(matches!(
+        fmt_star(&pg, Vec2::new(2.0, 5.0), Vec2::new(30.0, 5.0), &cfg),
+        Err(FmtError::GoalInCollision(..))
+    ));
+    assert!(matches!(
+        fmt_star(&pg, Vec2::new(2.0, 5.0), Vec2::new(18.0, 5.0), &cfg),
+        Err(FmtError::NoPath { .. })
+    ));
+    let all = OccupancyGrid::from_obstacles(
+        Vec2::new(0.0, 0.0),
+        (5.0, 5.0),
+        0.5,
+        &[Obstacle::Rect {
+            min: [0.0, 0.0],
+            max: [5.0, 5.0],
+        }],
+    )
+    .unwrap();
+    let pg = PlanningGrid::new(all, 0.5, 0.0);
+    assert!(fmt_star(&pg, Vec2::new(1.0, 1.0), Vec2::new(4.0, 4.0), &cfg).is_err());
+    assert!(matches!(
+        fmt_star(
+            &PlanningGrid::new(
+                OccupancyGrid::new(Vec2::new(0.0, 0.0), Vec2::new(5.0, 5.0), 0.5).unwrap(),
+                0.1,
+                0.0
+            ),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(4.0, 4.0),
+            &FmtConfig { samples: 0, ..cfg }
+        ),
+        Err(FmtError::BadConfig(_))
+    ));
+}
+
+fn line_refs(n: usize, dt: f64, v: f64, y: f64) -> Vec<RefState> {
+    (0..=n)
+        .map(|k| RefState {
+            p: Vec2::new(v * dt * k as f64, y),
+            heading: 0.0,
+            speed: v,
+            curvature: 0.0,
+            s: v * dt * k as f64,
+        })
+        .collect()
+}
+
+#[test]
+fn mpc_respects_every_constraint() {
+    let cfg = MpcConfig::default();
+    let mpc = Mpc::new(cfg.clone()).unwrap();
+    // A large offset pushes for extreme commands.
+    let refs = line_refs(cfg.horizon, cfg.dt, 10.0, 0.0);
+    let sol = mpc.solve([0.0, 5.0, 0.8, 2.0], &refs, [0.0, 0.1]).unwrap();
+    let mut prev = 0.1;
+    for u in &sol.inputs {
+        assert!(
+            u[0] >= cfg.min_accel - 1e-6 && u[0] <= cfg.max_accel + 1e-6,
+            "accel {u:?}"
+        );
+        assert!(u[1].abs() <= cfg.max_steer + 1e-6, "steer {u:?}");
+        assert!(
+            (u[1] - prev).abs() <= cfg.max_steer_rate * cfg.dt + 1e-6,
+            "steer rate {} -> {}",
+            prev,
+            u[1]
+        );
+        prev = u[1];
+    }
+    assert_eq!(sol.predicted.len(), cfg.horizon + 1);
+    assert!(
+        Mpc::new(MpcConfig {
+            dt: 0.0,
+            ..cfg.clone()
+        })
+        .is_err()
+    );
+    assert!(
+        Mpc::new(MpcConfig {
+            horizon: 0,
+            ..cfg.clone()
+        })
+        .is_err()
+    );
+    assert!(mpc.solve([0.0; 4], &refs[..3], [0.0, 0.0]).is_err());
+}
+
+/// Closed loop with the bicycle model: a straight line and a circle.
+fn track(refs_at: impl Fn(f64) -> RefState, z0: [f64; 4], secs: f64) -> (f64, f64) {
+    use litesim_core::{KinematicBicycle, VehicleInput, VehicleModel, VehicleState};
+    let cfg = MpcConfig::default();
+    let mpc = Mpc::new(cfg.clone()).unwrap();
+    let mut bike = KinematicBicycle::new(cfg.wheelbase);
+    bike.max_steering_angle = cfg.max_steer;
+    let mut st = VehicleState {
+        x: z0[0],
+        y: z0[1],
+        yaw: z0[2],
+        v: z0[3],
+        ..VehicleState::default()
+    };
+    let mut prev = [0.0, 0.0];
+    let mut worst_late: f64 = 0.0;
+    let steps = (secs / cfg.dt) as usize;
+    let mut last_err = 0.0;
+    for k in 0..steps {
+        let t = k as f64 * cfg.dt;
+        let refs: Vec<RefState> = (0..=cfg.horizon)
+            .map(|j| refs_at(t + j as f64 * cfg.dt))
+            .collect();
+        let sol = mpc.solve([st.x, st.y, st.yaw, st.v], &refs, prev).unwrap();
+        prev = [sol.acceleration, sol.steering];
+        // Two simulation steps of dt/2 per control period.
+        for _ in 0..2 {
+            bike.step(
+                &mut st,
+                &VehicleInput::Direct {
+                    acceleration: sol.acceleration,
+                    steering_angle: sol.steering,
+                },
+                cfg.dt / 2.0,
+            );
+        }
+        let r = refs_at(t + cfg.dt);
+        let err = Vec2::new(st.x, st.y).distance(r.p);
+        last_err = err;
+        if t > secs / 2.0 {
+            worst_late = worst_late.max(err);
+        }
+    }
+    (worst_late, last_err)
+}
+
+#[test]
+fn mpc_tracks_a_straight_line_and_a_circle() {
+    let (late, _) = track(
+        |t| RefState {
+            p: Vec2::new(8.0 * t, 0.0),
+            heading: 0.0,
+            speed: 8.0,
+            curvature: 0.0,
+            s: 8.0 * t,
+        },
+        [0.0, 1.5, 0.2, 6.0],
+        12.0,
+    );
+    assert!(late < 0.15, "straight line: {late}");
+    let r = 20.0;
+    let w = 6.0 / r;
+    let circle = move |t: f64| RefState {
+        p: Vec2::new(r * (w * t).sin(), r - r * (w * t).cos()),
+        heading: w * t,
+        speed: 6.0,
+        curvature: 1.0 / r,
+        s: 6.0 * t,
+    };
+    let (late, _) = track(circle, [0.0, -1.0, 0.0, 6.0], 20.0);
+    assert!(late < 0.3, "circle: {late}");
+}
+
+#[test]
+fn closed_loop_log_is_deterministic() {
+    let cfg = example("single_rect.toml");
+    let a = run_closed_loop(&cfg, grid_of(&cfg)).unwrap();
+    let b = run_closed_loop(&cfg, grid_of(&cfg)).unwrap();
+    let ja = serde_json::to_string(&a.log).unwrap();
+    let jb = serde_json::to_string(&b.log).unwrap();
+    assert!(ja == jb);
+    let t = a.log.tracking.as_ref().unwrap();
+    assert!(!t.predictions.is_empty() && t.predictions[0].len() == 21);
+    let p = a.log.plan.as_ref().unwrap();
+    assert_eq!(p.samples.len(), 2002);
+    let digest = litesim_ssp_free_fnv(ja.as_bytes());
+    println!("closed-loop log: {} bytes, digest {digest:#018x}", ja.len());
+    assert_eq!(
+        (ja.len(), digest),
+        (GOLDEN_LEN, GOLDEN_DIGEST),
+        "closed-loop log changed"
+    );
+}
+
+const GOLDEN_LEN: usize = 602_608;
+const GOLDEN_DIGEST: u64 = 0xe002_75d7_2a5d_50f7;
+
+fn litesim_ssp_free_fnv(bytes: &[u8]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for &x in bytes {
+        h ^= u64::from(x);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+#[test]
+fn bad_configurations_are_clear_errors() {
+    let mut cfg = example("single_rect.toml");
+    cfg.goal.x = 500.0;
+    let e = run_closed_loop(&cfg, grid_of(&cfg))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("goal (500.00, 20.00) is in collision"), "{e}");
+    let mut cfg = example("single_rect.toml");
+    cfg.simulation.dt = 0.03;
+    let e = run_closed_loop(&cfg, grid_of(&cfg))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("whole multiple"), "{e}");
+    let mut cfg = example("single_rect.toml");
+    cfg.vehicle.preset = "hovercraft".into();
+    let e = run_closed_loop(&cfg, grid_of(&cfg))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("unknown vehicle preset 'hovercraft'"), "{e}");
+    let e = parse_config("[map]\nresolution = 0.2\nsize = [1, 1]\ncolour = 3")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("colour"), "{e}");
+    assert!(OccupancyGrid::from_obstacles(Vec2::new(0.0, 0.0), (10.0, 10.0), -1.0, &[]).is_err());
+}
