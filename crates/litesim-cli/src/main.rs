@@ -3,6 +3,7 @@
 
 mod demo;
 mod map;
+mod plan;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -72,6 +73,14 @@ enum Command {
     },
     /// List the models.
     Models,
+    /// Plan (FMT*), smooth and track (MPC) a vehicle on a map; write the log.
+    Plan {
+        /// The TOML configuration (see examples/plan/).
+        config: PathBuf,
+        /// Output folder (default: out/plan/<config name>).
+        #[arg(short = 'o', long)]
+        out: Option<PathBuf>,
+    },
     /// Inspect and export OpenDRIVE maps.
     Map {
         #[command(subcommand)]
@@ -80,6 +89,21 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
+    // `litesim … | head` closes our stdout early: that is the reader's
+    // choice, not a crash, so leave quietly instead of panicking.
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        let msg = info
+            .payload()
+            .downcast_ref::<String>()
+            .map(String::as_str)
+            .or_else(|| info.payload().downcast_ref::<&str>().copied())
+            .unwrap_or("");
+        if msg.contains("Broken pipe") {
+            std::process::exit(0);
+        }
+        default_hook(info);
+    }));
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -175,6 +199,7 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Map { command } => map::run(command),
+        Command::Plan { config, out } => plan::run(&config, out),
         Command::Models => {
             for m in litesim_ssp::models() {
                 println!("{:<8} {}", m.name(), m.summary());

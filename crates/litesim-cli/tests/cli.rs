@@ -264,3 +264,44 @@ fn map_info_and_export() {
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
 }
+
+#[test]
+fn plan_runs_configs_from_obstacles_png_and_opendrive() {
+    let dir = tempfile::tempdir().unwrap();
+    for name in ["narrow_passage", "warehouse", "curvy_road"] {
+        let cfg = workspace().join(format!("examples/plan/{name}.toml"));
+        let out = litesim()
+            .arg("plan")
+            .arg(&cfg)
+            .arg("-o")
+            .arg(dir.path().join(name))
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{name}: {}\n{text}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(
+            text.contains("reached the goal") && text.contains("cross-track"),
+            "{text}"
+        );
+        let log =
+            litesim_log::SimulationLog::read_json(&dir.path().join(name).join("log.json")).unwrap();
+        assert!(log.plan.is_some() && log.tracking.is_some());
+    }
+    // Bad configurations: the file, the key and what is wrong.
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(&bad, "[map]\nresolution = -1.0\nsize = [10.0, 10.0]\n[start]\nx = 1.0\ny = 1.0\n[goal]\nx = 5.0\ny = 5.0\n[tracker]\ndt = 0.1\n[simulation]\ndt = 0.05\nhorizon = 10.0\n").unwrap();
+    let out = litesim().arg("plan").arg(&bad).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("resolution must be positive"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    std::fs::write(&bad, "[map]\nresolution = 0.2\nwat = 1\n").unwrap();
+    let out = litesim().arg("plan").arg(&bad).output().unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("wat"));
+}

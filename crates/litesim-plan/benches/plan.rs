@@ -1,2 +1,98 @@
-//! placeholder
-fn main() {}
+//! Planner and controller benchmarks (`cargo bench -p litesim-plan --bench plan`):
+//! FMT* on an 80 × 40 m map at 0.2 m with one large rectangle (n = 2,000 and
+//! 50,000), the distance transform of a 400 × 200 grid, one MPC solve at
+//! N = 20, and a 150-step closed loop with MPC.
+
+use criterion::Criterion;
+use litesim_core::Vec2;
+use litesim_map::{Obstacle, OccupancyGrid};
+use litesim_plan::corridor::RefState;
+use litesim_plan::*;
+use std::hint::black_box;
+
+fn yard() -> OccupancyGrid {
+    OccupancyGrid::from_obstacles(
+        Vec2::new(0.0, 0.0),
+        (80.0, 40.0),
+        0.2,
+        &[Obstacle::Rect {
+            min: [32.0, 6.0],
+            max: [48.0, 34.0],
+        }],
+    )
+    .unwrap()
+}
+
+fn main() {
+    let mut c = Criterion::default().configure_from_args();
+    let grid = yard();
+    assert_eq!((grid.width, grid.height), (400, 200));
+    c.bench_function("distance_transform_400x200", |b| {
+        b.iter(|| distance_transform(black_box(&grid)))
+    });
+    let pg = PlanningGrid::new(grid.clone(), 0.9, 0.4);
+    let (start, goal) = (Vec2::new(5.0, 20.0), Vec2::new(75.0, 20.0));
+    let mut g = c.benchmark_group("fmt_star_80x40");
+    g.sample_size(20);
+    for n in [2000usize, 50_000] {
+        g.bench_function(format!("n{n}"), |b| {
+            b.iter(|| {
+                fmt_star(
+                    &pg,
+                    start,
+                    goal,
+                    &FmtConfig {
+                        samples: n,
+                        radius: Radius::Eta(0.5),
+                        seed: 1,
+                    },
+                )
+                .unwrap()
+            })
+        });
+    }
+    g.finish();
+
+    let cfg = MpcConfig::default();
+    let mut mpc = Mpc::new(cfg.clone()).unwrap();
+    let refs: Vec<RefState> = (0..=cfg.horizon)
+        .map(|k| {
+            let t = k as f64 * cfg.dt;
+            let (r, w) = (25.0, 8.0 / 25.0);
+            RefState {
+                p: Vec2::new(r * (w * t).sin(), r - r * (w * t).cos()),
+                heading: w * t,
+                speed: 8.0,
+                curvature: 1.0 / r,
+                s: 8.0 * t,
+            }
+        })
+        .collect();
+    println!(
+        "mpc iterations: {}",
+        mpc.solve([0.3, -0.4, 0.05, 7.5], &refs, [0.0, 0.1])
+            .unwrap()
+            .iterations
+    );
+    c.bench_function("mpc_solve_n20", |b| {
+        b.iter(|| {
+            mpc.solve(black_box([0.3, -0.4, 0.05, 7.5]), &refs, [0.0, 0.1])
+                .unwrap()
+        })
+    });
+
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/plan/single_rect.toml"
+    ))
+    .unwrap();
+    let mut cl = litesim_plan::closed_loop::parse_config(&text).unwrap();
+    cl.simulation.horizon = 150.0 * cl.simulation.dt; // exactly 150 steps
+    let mut g = c.benchmark_group("closed_loop");
+    g.sample_size(10);
+    g.bench_function("150_steps_with_mpc_incl_planning", |b| {
+        b.iter(|| run_closed_loop(&cl, yard()).unwrap())
+    });
+    g.finish();
+    c.final_summary();
+}

@@ -446,7 +446,7 @@ pub fn run_closed_loop(
         )));
     }
     let every = ratio.round() as u64;
-    let mpc = Mpc::new(MpcConfig {
+    let mut mpc = Mpc::new(MpcConfig {
         horizon: cfg.tracker.horizon,
         dt: cfg.tracker.dt,
         wheelbase: veh.wheelbase,

@@ -260,7 +260,10 @@ pub fn fmt_star(
     state[0] = State::Open;
     cost[0] = 0.0;
     heap.push(Open(0.0, 0));
-    let (mut near_z, mut near_x) = (Vec::new(), Vec::new());
+    // Neighbour lists are asked for again and again (each node both as `z`
+    // and as a candidate `x`): compute each once.
+    let mut cache: Vec<Option<Vec<u32>>> = vec![None; n];
+    let mut scratch = Vec::new();
     let knn = |p: Vec2, out: &mut Vec<u32>, k: usize| {
         // Nearest k within the search radius (ties by index).
         out.sort_by(|a, b| {
@@ -282,20 +285,25 @@ pub fn fmt_star(
             reached_goal = true;
             break;
         }
-        buckets.near(&samples, samples[z], r, &mut near_z);
-        if let Radius::KNearest(k) = cfg.radius {
-            knn(samples[z], &mut near_z, k);
-        }
+        let mut neighbours = |i: usize, cache: &mut Vec<Option<Vec<u32>>>| -> Vec<u32> {
+            if let Some(v) = &cache[i] {
+                return v.clone();
+            }
+            buckets.near(&samples, samples[i], r, &mut scratch);
+            if let Radius::KNearest(k) = cfg.radius {
+                knn(samples[i], &mut scratch, k);
+            }
+            cache[i] = Some(scratch.clone());
+            scratch.clone()
+        };
+        let near_z = neighbours(z, &mut cache);
         new_open.clear();
         for &xi in &near_z {
             let x = xi as usize;
             if state[x] != State::Unvisited {
                 continue;
             }
-            buckets.near(&samples, samples[x], r, &mut near_x);
-            if let Radius::KNearest(k) = cfg.radius {
-                knn(samples[x], &mut near_x, k);
-            }
+            let near_x = neighbours(x, &mut cache);
             let best = near_x
                 .iter()
                 .map(|&y| y as usize)

@@ -119,17 +119,28 @@ pub struct PlanningGrid {
     pub radius: f64,
     /// Extra safety margin (m).
     pub margin: f64,
+    /// Per cell: free for planning (the hot query of sampling and edge checks).
+    free: Vec<bool>,
 }
 
 impl PlanningGrid {
     /// Computes the distance field and layers for a vehicle of `radius` m with `margin` m to spare.
     pub fn new(grid: OccupancyGrid, radius: f64, margin: f64) -> Self {
         let distance = distance_transform(&grid);
+        let (radius, margin) = (radius.max(0.0), margin.max(0.0));
+        let need = radius + margin + 0.5 * grid.resolution;
+        let free = grid
+            .occupied
+            .iter()
+            .zip(&distance)
+            .map(|(o, d)| !o && *d >= need)
+            .collect();
         Self {
             grid,
             distance,
-            radius: radius.max(0.0),
-            margin: margin.max(0.0),
+            radius,
+            margin,
+            free,
         }
     }
     /// Clearance at a point (m); 0 outside the grid.
@@ -155,7 +166,9 @@ impl PlanningGrid {
     }
     /// True when a vehicle centred at `p` keeps radius + margin from every obstacle.
     pub fn is_free(&self, p: Vec2) -> bool {
-        self.layer(p) == Layer::Free
+        self.grid
+            .cell(p)
+            .is_some_and(|(i, j)| self.free[j * self.grid.width + i])
     }
     /// Layer of each cell, row-major.
     pub fn layers(&self) -> Vec<Layer> {

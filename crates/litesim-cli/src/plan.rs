@@ -1,0 +1,107 @@
+//! `litesim plan CONFIG [-o DIR]`.
+
+use anyhow::{Context, Result, anyhow};
+use litesim_core::Vec2;
+use litesim_map::{OccupancyGrid, RoadNetwork};
+use litesim_plan::closed_loop::{ClosedLoopConfig, parse_config};
+use std::path::{Path, PathBuf};
+
+/// Builds the occupancy grid a configuration names (files relative to it).
+pub fn load_grid(cfg: &ClosedLoopConfig, base: &Path) -> Result<OccupancyGrid> {
+    let m = &cfg.map;
+    let origin = Vec2::new(m.origin[0], m.origin[1]);
+    match (&m.png, &m.opendrive) {
+        (Some(_), Some(_)) => Err(anyhow!("map: give either png or opendrive, not both")),
+        (Some(png), None) => {
+            let p = base.join(png);
+            let bytes =
+                std::fs::read(&p).with_context(|| format!("cannot read {}", p.display()))?;
+            OccupancyGrid::from_png(&bytes, m.resolution, origin)
+                .map_err(|e| anyhow!("{}: {e}", p.display()))
+        }
+        (None, Some(xodr)) => {
+            let p = base.join(xodr);
+            let net = RoadNetwork::load(&p).map_err(|e| anyhow!("{e}"))?;
+            net.rasterise(m.resolution, 2.0)
+                .map_err(|e| anyhow!("{}: {e}", p.display()))
+        }
+        (None, None) => OccupancyGrid::from_obstacles(
+            origin,
+            (m.size[0], m.size[1]),
+            m.resolution,
+            &m.obstacles,
+        )
+        .map_err(|e| anyhow!("map: {e}")),
+    }
+}
+
+/// Runs a closed loop from a configuration file.
+pub fn run(config: &Path, out: Option<PathBuf>) -> Result<()> {
+    let text = std::fs::read_to_string(config)
+        .with_context(|| format!("cannot read {}", config.display()))?;
+    let cfg = parse_config(&text).map_err(|e| anyhow!("{}: {e}", config.display()))?;
+    let base = config.parent().unwrap_or(Path::new("."));
+    let grid = load_grid(&cfg, base)?;
+    let started = std::time::Instant::now();
+    let r = litesim_plan::run_closed_loop(&cfg, grid)
+        .map_err(|e| anyhow!("{}: {e}", config.display()))?;
+    let wall = started.elapsed();
+    let name = config
+        .file_stem()
+        .map_or("plan".into(), |s| s.to_string_lossy().to_string());
+    let dir = out.unwrap_or_else(|| PathBuf::from("out/plan").join(&name));
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    r.log.write_json(&dir.join("log.json"))?;
+    r.log.write_csv(&dir.join("log.csv"))?;
+    println!(
+        "{name}: {}",
+        if r.reached_goal {
+            "reached the goal"
+        } else {
+            "did NOT reach the goal"
+        }
+    );
+    println!(
+        "  simulated time   {:8.2} s ({} steps, {:.0} ms wall)",
+        r.time,
+        r.steps,
+        wall.as_secs_f64() * 1000.0
+    );
+    println!(
+        "  path length      {:8.2} m (FMT*, {} samples, r = {:.2} m)",
+        r.path_length,
+        r.fmt.samples.len() - 2,
+        r.fmt.radius
+    );
+    println!(
+        "  cross-track      {:8.3} m max, {:.3} m mean{}",
+        r.max_cross_track,
+        r.mean_cross_track,
+        if r.corridor.smoothed {
+            ""
+        } else {
+            " (corridor not smoothed: smoothing cut a corner)"
+        }
+    );
+    println!(
+        "  min clearance    {:8.3} m{}",
+        r.min_clearance,
+        if r.collided { " — COLLISION" } else { "" }
+    );
+    println!(
+        "wrote {} and {}",
+        dir.join("log.json").display(),
+        dir.join("log.csv").display()
+    );
+    if !r.reached_goal || r.collided {
+        return Err(anyhow!(
+            "the run failed: {}",
+            if r.collided {
+                "collision"
+            } else {
+                "goal not reached"
+            }
+        ));
+    }
+    Ok(())
+}
