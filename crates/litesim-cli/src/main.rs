@@ -4,6 +4,7 @@
 mod demo;
 mod map;
 mod plan;
+mod viz;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
@@ -73,13 +74,56 @@ enum Command {
     },
     /// List the models.
     Models,
-    /// Plan (FMT*), smooth and track (MPC) a vehicle on a map; write the log.
+    /// Plan (FMT*), smooth and track (MPC) a vehicle on a map; write the log and pictures.
     Plan {
         /// The TOML configuration (see examples/plan/).
         config: PathBuf,
         /// Output folder (default: out/plan/<config name>).
         #[arg(short = 'o', long)]
         out: Option<PathBuf>,
+        /// Stylesheet for the pictures (TOML).
+        #[arg(long)]
+        style: Option<PathBuf>,
+        /// Skip the pictures (dashboard, animation, planner views).
+        #[arg(long)]
+        no_pictures: bool,
+    },
+    /// Draw a log: the nine-panel dashboard (PNG or SVG by extension), or the planner view.
+    Plot {
+        /// A log.json written by litesim.
+        log: PathBuf,
+        /// Output file (.png or .svg).
+        #[arg(short = 'o', long)]
+        out: PathBuf,
+        /// Draw the planner debug view (FMT* samples, edges, corridors) instead.
+        #[arg(long)]
+        planner: bool,
+        /// Draw every actor's track (scenario replay overview) instead.
+        #[arg(long)]
+        replay: bool,
+        /// Stylesheet (TOML).
+        #[arg(long)]
+        style: Option<PathBuf>,
+    },
+    /// Animate a log as GIF: the vehicle with its MPC horizon, or a multi-actor replay.
+    Animate {
+        /// A log.json written by litesim.
+        log: PathBuf,
+        /// Output .gif.
+        #[arg(short = 'o', long)]
+        out: PathBuf,
+        /// Most frames (steps are subsampled to stay within it).
+        #[arg(long, default_value_t = 150)]
+        max_frames: usize,
+        /// The FMT* exploration instead of the run.
+        #[arg(long)]
+        planner: bool,
+        /// A multi-actor replay instead of the ego view.
+        #[arg(long)]
+        replay: bool,
+        /// Stylesheet (TOML).
+        #[arg(long)]
+        style: Option<PathBuf>,
     },
     /// Inspect and export OpenDRIVE maps.
     Map {
@@ -199,7 +243,27 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Map { command } => map::run(command),
-        Command::Plan { config, out } => plan::run(&config, out),
+        Command::Plan {
+            config,
+            out,
+            style,
+            no_pictures,
+        } => plan::run(&config, out, style.as_deref(), !no_pictures),
+        Command::Plot {
+            log,
+            out,
+            planner,
+            replay,
+            style,
+        } => viz::plot(&log, &out, planner, replay, style.as_deref()),
+        Command::Animate {
+            log,
+            out,
+            max_frames,
+            planner,
+            replay,
+            style,
+        } => viz::animate(&log, &out, max_frames, planner, replay, style.as_deref()),
         Command::Models => {
             for m in litesim_ssp::models() {
                 println!("{:<8} {}", m.name(), m.summary());

@@ -36,7 +36,13 @@ pub fn load_grid(cfg: &ClosedLoopConfig, base: &Path) -> Result<OccupancyGrid> {
 }
 
 /// Runs a closed loop from a configuration file.
-pub fn run(config: &Path, out: Option<PathBuf>) -> Result<()> {
+pub fn run(
+    config: &Path,
+    out: Option<PathBuf>,
+    style: Option<&Path>,
+    pictures: bool,
+) -> Result<()> {
+    let style = crate::viz::load_style(style)?;
     let text = std::fs::read_to_string(config)
         .with_context(|| format!("cannot read {}", config.display()))?;
     let cfg = parse_config(&text).map_err(|e| anyhow!("{}: {e}", config.display()))?;
@@ -93,6 +99,20 @@ pub fn run(config: &Path, out: Option<PathBuf>) -> Result<()> {
         dir.join("log.json").display(),
         dir.join("log.csv").display()
     );
+    if pictures {
+        let err = |e: litesim_viz::VizError| anyhow!("{e}");
+        litesim_viz::dashboard::write_png(&r.log, &style, &dir.join("dashboard.png"))
+            .map_err(err)?;
+        litesim_viz::animation::write_gif(&r.log, &style, &dir.join("run.gif"), 150)
+            .map_err(err)?;
+        litesim_viz::planner::write_png(&r.log, &style, &dir.join("fmt.png")).map_err(err)?;
+        litesim_viz::planner::write_exploration_gif(&r.log, &style, &dir.join("fmt.gif"), 40)
+            .map_err(err)?;
+        println!(
+            "wrote dashboard.png, run.gif, fmt.png and fmt.gif in {}",
+            dir.display()
+        );
+    }
     if !r.reached_goal || r.collided {
         return Err(anyhow!(
             "the run failed: {}",

@@ -1,0 +1,93 @@
+//! `litesim plot` and `litesim animate`.
+
+use anyhow::{Context, Result, anyhow, bail};
+use litesim_log::SimulationLog;
+use litesim_viz::{Style, VizError};
+use std::path::Path;
+
+/// The stylesheet at `path`, or the built-in default.
+pub fn load_style(path: Option<&Path>) -> Result<Style> {
+    match path {
+        None => Ok(Style::default()),
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read {}", p.display()))?;
+            Style::from_toml(&text).map_err(|e| anyhow!("{}: {e}", p.display()))
+        }
+    }
+}
+
+fn read(log: &Path) -> Result<SimulationLog> {
+    SimulationLog::read_json(log).map_err(|e| anyhow!("{e}"))
+}
+
+fn err(e: VizError) -> anyhow::Error {
+    anyhow!("{e}")
+}
+
+/// Draws a dashboard, planner view or replay overview.
+pub fn plot(
+    log: &Path,
+    out: &Path,
+    planner: bool,
+    replay: bool,
+    style: Option<&Path>,
+) -> Result<()> {
+    let style = load_style(style)?;
+    let log = read(log)?;
+    let ext = out.extension().and_then(|e| e.to_str()).unwrap_or("");
+    match (planner, replay, ext) {
+        (true, true, _) => bail!("--planner and --replay are different views; pick one"),
+        (true, false, "png") => litesim_viz::planner::write_png(&log, &style, out).map_err(err)?,
+        (false, true, "png") => {
+            litesim_viz::replay::write_png(&log, &[], &style, out).map_err(err)?
+        }
+        (false, false, "png") => {
+            litesim_viz::dashboard::write_png(&log, &style, out).map_err(err)?
+        }
+        (false, false, "svg") => {
+            litesim_viz::dashboard::write_svg(&log, &style, out).map_err(err)?
+        }
+        _ => bail!(
+            "cannot write '{}': the dashboard is .png or .svg, the planner and replay views .png",
+            out.display()
+        ),
+    }
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+/// Animates a run, the FMT* exploration, or a replay.
+pub fn animate(
+    log: &Path,
+    out: &Path,
+    max_frames: usize,
+    planner: bool,
+    replay: bool,
+    style: Option<&Path>,
+) -> Result<()> {
+    if out.extension().and_then(|e| e.to_str()) != Some("gif") {
+        bail!(
+            "animations are GIF: give an output ending in .gif (got '{}')",
+            out.display()
+        );
+    }
+    if max_frames == 0 {
+        bail!("--max-frames must be at least 1");
+    }
+    let style = load_style(style)?;
+    let log = read(log)?;
+    let frames = match (planner, replay) {
+        (true, true) => bail!("--planner and --replay are different views; pick one"),
+        (true, false) => litesim_viz::planner::write_exploration_gif(&log, &style, out, max_frames)
+            .map_err(err)?,
+        (false, true) => {
+            litesim_viz::replay::write_gif(&log, &[], &style, out, max_frames).map_err(err)?
+        }
+        (false, false) => {
+            litesim_viz::animation::write_gif(&log, &style, out, max_frames).map_err(err)?
+        }
+    };
+    println!("wrote {} ({frames} frames)", out.display());
+    Ok(())
+}

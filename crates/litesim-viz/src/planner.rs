@@ -1,0 +1,158 @@
+//! Planner debug views: FMT* samples, accepted edges, raw and smoothed
+//! corridor (PNG), and an exploration GIF that adds the edges in the order
+//! FMT* accepted them, batched into a bounded number of frames.
+
+use crate::draw::map_chart;
+use crate::style::Style;
+use crate::{VizError, check_size, draw_err, encode_png, fonts, temp_sibling, write_atomic};
+use litesim_log::{PlanRecord, SimulationLog};
+use plotters::prelude::*;
+use std::path::Path;
+
+fn plan(log: &SimulationLog) -> Result<&PlanRecord, VizError> {
+    log.plan.as_ref().ok_or_else(|| {
+        VizError::Empty("the log has no planner data (it was not made by `litesim plan`)".into())
+    })
+}
+
+fn draw_plan<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    log: &SimulationLog,
+    style: &Style,
+    edges_upto: usize,
+    title: &str,
+) -> Result<(), VizError> {
+    let p = plan(log)?;
+    root.fill(&style.c(&style.background)).map_err(draw_err)?;
+    let mut chart = map_chart(root, log, title, style, None)?;
+    let ec = style.c(&style.edges);
+    chart
+        .draw_series(
+            p.edges[..edges_upto.min(p.edges.len())]
+                .iter()
+                .filter_map(|e| {
+                    let (a, b) = (p.samples.get(e[0])?, p.samples.get(e[1])?);
+                    Some(PathElement::new(
+                        vec![(a[0], a[1]), (b[0], b[1])],
+                        ec.stroke_width(1),
+                    ))
+                }),
+        )
+        .map_err(draw_err)?;
+    let sc = style.c(&style.samples);
+    chart
+        .draw_series(
+            p.samples
+                .iter()
+                .skip(2)
+                .map(|s| Circle::new((s[0], s[1]), style.marker_size, sc.filled())),
+        )
+        .map_err(draw_err)?;
+    if edges_upto >= p.edges.len() {
+        let line = |v: &[[f64; 2]]| v.iter().map(|q| (q[0], q[1])).collect::<Vec<_>>();
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                line(&p.raw_path),
+                style.c(&style.raw_path).stroke_width(2),
+            )))
+            .map_err(draw_err)?;
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                line(&p.corridor),
+                style
+                    .c(&style.corridor)
+                    .stroke_width(style.corridor_width + 1),
+            )))
+            .map_err(draw_err)?;
+    }
+    if let (Some(s), Some(g)) = (p.samples.first(), p.samples.get(1)) {
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (s[0], s[1]),
+                6,
+                GREEN.filled(),
+            )))
+            .map_err(draw_err)?;
+        chart
+            .draw_series(std::iter::once(Circle::new((g[0], g[1]), 6, RED.filled())))
+            .map_err(draw_err)?;
+    }
+    root.present().map_err(draw_err)?;
+    Ok(())
+}
+
+/// Renders the planner view to RGB pixels.
+pub fn render_rgb(log: &SimulationLog, style: &Style) -> Result<(Vec<u8>, u32, u32), VizError> {
+    fonts();
+    let p = plan(log)?;
+    let [w, h] = style.frame_size;
+    check_size(w, h)?;
+    let mut buf = vec![0u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let title = format!(
+            "FMT*: {} samples, {} edges, r = {:.2} m{}",
+            p.samples.len().saturating_sub(2),
+            p.edges.len(),
+            p.radius,
+            if p.smoothed {
+                ""
+            } else {
+                " (corridor not smoothed)"
+            }
+        );
+        draw_plan(&root, log, style, usize::MAX, &title)?;
+    }
+    Ok((buf, w, h))
+}
+
+/// Writes the planner view as PNG.
+pub fn write_png(log: &SimulationLog, style: &Style, path: &Path) -> Result<(), VizError> {
+    let (buf, w, h) = render_rgb(log, style)?;
+    write_atomic(path, &encode_png(&buf, w, h)?)
+}
+
+/// Writes the exploration GIF: edges in acceptance order over at most
+/// `max_frames` frames (200 ms each), then the corridor.
+pub fn write_exploration_gif(
+    log: &SimulationLog,
+    style: &Style,
+    path: &Path,
+    max_frames: usize,
+) -> Result<usize, VizError> {
+    fonts();
+    let p = plan(log)?;
+    let [w, h] = style.frame_size;
+    check_size(w, h)?;
+    let frames = max_frames.clamp(2, 1000);
+    let per = p.edges.len().div_ceil(frames - 1).max(1);
+    let tmp = temp_sibling(path)?;
+    let mut n = 0;
+    {
+        let root = BitMapBackend::gif(&tmp, (w, h), 200)
+            .map_err(draw_err)?
+            .into_drawing_area();
+        let mut upto = 0;
+        loop {
+            upto = (upto + per).min(p.edges.len());
+            let done = upto >= p.edges.len();
+            let title = format!("FMT* exploration: {upto} / {} edges", p.edges.len());
+            draw_plan(
+                &root,
+                log,
+                style,
+                if done { usize::MAX } else { upto },
+                &title,
+            )?;
+            n += 1;
+            if done {
+                break;
+            }
+        }
+    }
+    tmp.persist(path).map_err(|e| VizError::Io {
+        path: path.display().to_string(),
+        message: e.to_string(),
+    })?;
+    Ok(n)
+}
