@@ -69,94 +69,97 @@ pub fn write_gif(
     let x_range = times.first().zip(times.last()).map(|(a, b)| (*a, *b));
     let mut frames = 0;
     {
-        let root = BitMapBackend::gif(&tmp, (w, h), delay)
-            .map_err(draw_err)?
-            .into_drawing_area();
+        let mut out = crate::gif_out::GifOut::create(&tmp, w, h, delay, style)?;
+        let mut buf = vec![0u8; (w * h * 3) as usize];
         let mut i = 0;
         while i < n {
-            root.fill(&style.c(&style.background)).map_err(draw_err)?;
-            let (left, right) = root.split_horizontally((w as f64 * 0.64) as u32);
-            let mut chart =
-                map_chart(&left, log, &format!("t = {:.2} s", times[i]), style, bounds)?;
-            let trail: Vec<(f64, f64)> = t.state.x[..=i]
-                .iter()
-                .copied()
-                .zip(t.state.y[..=i].iter().copied())
-                .collect();
-            chart
-                .draw_series(std::iter::once(PathElement::new(
-                    trail,
-                    style.c(&style.trajectory).stroke_width(style.line_width),
-                )))
-                .map_err(draw_err)?;
-            if let Some(tr) = &log.tracking {
-                // The latest MPC cycle at or before this frame.
-                let c = tr.tick.partition_point(|k| *k <= t.tick[i]);
-                if c > 0 {
-                    let pred: Vec<(f64, f64)> =
-                        tr.predictions[c - 1].iter().map(|z| (z[0], z[1])).collect();
-                    let hc = style.c(&style.horizon);
-                    chart
-                        .draw_series(std::iter::once(PathElement::new(
-                            pred.clone(),
-                            hc.stroke_width(2),
-                        )))
-                        .map_err(draw_err)?;
-                    chart
-                        .draw_series(pred.into_iter().map(|p| Circle::new(p, 2, hc.filled())))
-                        .map_err(draw_err)?;
-                }
-            }
-            for other in log.tracks.iter().filter(|o| o.id != t.id) {
-                if let Some(j) = other.tick.iter().position(|k| *k == t.tick[i]) {
-                    draw_vehicle(
-                        &mut chart,
-                        other.state.x[j],
-                        other.state.y[j],
-                        other.state.yaw[j],
-                        other.length,
-                        other.width,
-                        0.0,
-                        RGBColor(120, 120, 120),
-                    )?;
-                }
-            }
-            let steer = t.control.steering_angle[i];
-            draw_vehicle(
-                &mut chart,
-                t.state.x[i],
-                t.state.y[i],
-                t.state.yaw[i],
-                t.length,
-                t.width,
-                steer,
-                style.c(&style.vehicle),
-            )?;
-            let (top, bottom) = right.split_vertically(h / 2);
-            let upto = |v: &[f64]| {
-                times[..=i]
+            {
+                let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+                root.fill(&style.c(&style.background)).map_err(draw_err)?;
+                let (left, right) = root.split_horizontally((w as f64 * 0.64) as u32);
+                let mut chart =
+                    map_chart(&left, log, &format!("t = {:.2} s", times[i]), style, bounds)?;
+                let trail: Vec<(f64, f64)> = t.state.x[..=i]
                     .iter()
                     .copied()
-                    .zip(v[..=i].iter().copied())
-                    .collect::<Vec<_>>()
-            };
-            series_panel(
-                &top,
-                "speed",
-                "v [m/s]",
-                &[("v".into(), style.series(0), upto(&t.state.speed))],
-                style,
-                x_range,
-            )?;
-            series_panel(
-                &bottom,
-                "steering",
-                "δ [rad]",
-                &[("δ".into(), style.series(1), upto(&t.control.steering_angle))],
-                style,
-                x_range,
-            )?;
-            root.present().map_err(draw_err)?;
+                    .zip(t.state.y[..=i].iter().copied())
+                    .collect();
+                chart
+                    .draw_series(std::iter::once(PathElement::new(
+                        trail,
+                        style.c(&style.trajectory).stroke_width(style.line_width),
+                    )))
+                    .map_err(draw_err)?;
+                if let Some(tr) = &log.tracking {
+                    // The latest MPC cycle at or before this frame.
+                    let c = tr.tick.partition_point(|k| *k <= t.tick[i]);
+                    if c > 0 {
+                        let pred: Vec<(f64, f64)> =
+                            tr.predictions[c - 1].iter().map(|z| (z[0], z[1])).collect();
+                        let hc = style.c(&style.horizon);
+                        chart
+                            .draw_series(std::iter::once(PathElement::new(
+                                pred.clone(),
+                                hc.stroke_width(2),
+                            )))
+                            .map_err(draw_err)?;
+                        chart
+                            .draw_series(pred.into_iter().map(|p| Circle::new(p, 2, hc.filled())))
+                            .map_err(draw_err)?;
+                    }
+                }
+                for other in log.tracks.iter().filter(|o| o.id != t.id) {
+                    if let Some(j) = other.tick.iter().position(|k| *k == t.tick[i]) {
+                        draw_vehicle(
+                            &mut chart,
+                            other.state.x[j],
+                            other.state.y[j],
+                            other.state.yaw[j],
+                            other.length,
+                            other.width,
+                            0.0,
+                            RGBColor(120, 120, 120),
+                        )?;
+                    }
+                }
+                let steer = t.control.steering_angle[i];
+                draw_vehicle(
+                    &mut chart,
+                    t.state.x[i],
+                    t.state.y[i],
+                    t.state.yaw[i],
+                    t.length,
+                    t.width,
+                    steer,
+                    style.c(&style.vehicle),
+                )?;
+                let (top, bottom) = right.split_vertically(h / 2);
+                let upto = |v: &[f64]| {
+                    times[..=i]
+                        .iter()
+                        .copied()
+                        .zip(v[..=i].iter().copied())
+                        .collect::<Vec<_>>()
+                };
+                series_panel(
+                    &top,
+                    "speed",
+                    "v [m/s]",
+                    &[("v".into(), style.series(0), upto(&t.state.speed))],
+                    style,
+                    x_range,
+                )?;
+                series_panel(
+                    &bottom,
+                    "steering",
+                    "δ [rad]",
+                    &[("δ".into(), style.series(1), upto(&t.control.steering_angle))],
+                    style,
+                    x_range,
+                )?;
+                root.present().map_err(draw_err)?;
+            }
+            out.push(&buf)?;
             frames += 1;
             i += stride;
         }

@@ -19,6 +19,7 @@
 pub mod animation;
 pub mod dashboard;
 mod draw;
+mod gif_out;
 pub mod planner;
 pub mod replay;
 pub mod style;
@@ -77,6 +78,8 @@ pub fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, VizErr
         let mut enc = png::Encoder::new(&mut out, width, height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
+        // Fast deflate: a dashboard compresses 30 → ~8 ms, files grow ~20 %.
+        enc.set_compression(png::Compression::Fast);
         let mut w = enc.write_header().map_err(draw_err)?;
         w.write_image_data(rgb).map_err(draw_err)?;
     }

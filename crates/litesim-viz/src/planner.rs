@@ -129,21 +129,24 @@ pub fn write_exploration_gif(
     let tmp = temp_sibling(path)?;
     let mut n = 0;
     {
-        let root = BitMapBackend::gif(&tmp, (w, h), 200)
-            .map_err(draw_err)?
-            .into_drawing_area();
+        let mut out = crate::gif_out::GifOut::create(&tmp, w, h, 200, style)?;
+        let mut buf = vec![0u8; (w * h * 3) as usize];
         let mut upto = 0;
         loop {
             upto = (upto + per).min(p.edges.len());
             let done = upto >= p.edges.len();
             let title = format!("FMT* exploration: {upto} / {} edges", p.edges.len());
-            draw_plan(
-                &root,
-                log,
-                style,
-                if done { usize::MAX } else { upto },
-                &title,
-            )?;
+            {
+                let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+                draw_plan(
+                    &root,
+                    log,
+                    style,
+                    if done { usize::MAX } else { upto },
+                    &title,
+                )?;
+            }
+            out.push(&buf)?;
             n += 1;
             if done {
                 break;

@@ -144,19 +144,21 @@ pub fn write_gif(
     let tmp = temp_sibling(path)?;
     let mut n = 0;
     {
-        let root = BitMapBackend::gif(&tmp, (w, h), delay)
-            .map_err(draw_err)?
-            .into_drawing_area();
-        for (k, (tick, time)) in log.tick.iter().zip(&log.time).enumerate().step_by(stride) {
-            let _ = k;
-            frame(
-                &root,
-                log,
-                lanes,
-                style,
-                Some(*tick),
-                &format!("t = {time:.2} s"),
-            )?;
+        let mut out = crate::gif_out::GifOut::create(&tmp, w, h, delay, style)?;
+        let mut buf = vec![0u8; (w * h * 3) as usize];
+        for (tick, time) in log.tick.iter().zip(&log.time).step_by(stride) {
+            {
+                let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+                frame(
+                    &root,
+                    log,
+                    lanes,
+                    style,
+                    Some(*tick),
+                    &format!("t = {time:.2} s"),
+                )?;
+            }
+            out.push(&buf)?;
             n += 1;
         }
     }
