@@ -101,6 +101,9 @@ enum Command {
         /// Draw every actor's track (scenario replay overview) instead.
         #[arg(long)]
         replay: bool,
+        /// OpenDRIVE map whose lanes are drawn under a replay.
+        #[arg(long)]
+        map: Option<PathBuf>,
         /// Stylesheet (TOML).
         #[arg(long)]
         style: Option<PathBuf>,
@@ -121,6 +124,9 @@ enum Command {
         /// A multi-actor replay instead of the ego view.
         #[arg(long)]
         replay: bool,
+        /// OpenDRIVE map whose lanes are drawn under a replay.
+        #[arg(long)]
+        map: Option<PathBuf>,
         /// Stylesheet (TOML).
         #[arg(long)]
         style: Option<PathBuf>,
@@ -254,16 +260,33 @@ fn run(cli: Cli) -> Result<()> {
             out,
             planner,
             replay,
+            map,
             style,
-        } => viz::plot(&log, &out, planner, replay, style.as_deref()),
+        } => viz::plot(
+            &log,
+            &out,
+            planner,
+            replay,
+            map.as_deref(),
+            style.as_deref(),
+        ),
         Command::Animate {
             log,
             out,
             max_frames,
             planner,
             replay,
+            map,
             style,
-        } => viz::animate(&log, &out, max_frames, planner, replay, style.as_deref()),
+        } => viz::animate(
+            &log,
+            &out,
+            max_frames,
+            planner,
+            replay,
+            map.as_deref(),
+            style.as_deref(),
+        ),
         Command::Models => {
             for m in litesim_ssp::models() {
                 println!("{:<8} {}", m.name(), m.summary());

@@ -21,6 +21,18 @@ fn read(log: &Path) -> Result<SimulationLog> {
     SimulationLog::read_json(log).map_err(|e| anyhow!("{e}"))
 }
 
+/// Lane borders and centres of an OpenDRIVE map, for replays.
+fn lanes(map: Option<&Path>) -> Result<Vec<Vec<(f64, f64)>>> {
+    let Some(p) = map else { return Ok(Vec::new()) };
+    let net = litesim_map::RoadNetwork::load(p).map_err(|e| anyhow!("{e}"))?;
+    Ok(net
+        .lane_polylines(0.1)
+        .into_iter()
+        .flat_map(|l| [l.inner, l.outer])
+        .map(|pts| pts.into_iter().map(|v| (v.x, v.y)).collect())
+        .collect())
+}
+
 fn err(e: VizError) -> anyhow::Error {
     anyhow!("{e}")
 }
@@ -31,6 +43,7 @@ pub fn plot(
     out: &Path,
     planner: bool,
     replay: bool,
+    map: Option<&Path>,
     style: Option<&Path>,
 ) -> Result<()> {
     let style = load_style(style)?;
@@ -40,7 +53,7 @@ pub fn plot(
         (true, true, _) => bail!("--planner and --replay are different views; pick one"),
         (true, false, "png") => litesim_viz::planner::write_png(&log, &style, out).map_err(err)?,
         (false, true, "png") => {
-            litesim_viz::replay::write_png(&log, &[], &style, out).map_err(err)?
+            litesim_viz::replay::write_png(&log, &lanes(map)?, &style, out).map_err(err)?
         }
         (false, false, "png") => {
             litesim_viz::dashboard::write_png(&log, &style, out).map_err(err)?
@@ -64,6 +77,7 @@ pub fn animate(
     max_frames: usize,
     planner: bool,
     replay: bool,
+    map: Option<&Path>,
     style: Option<&Path>,
 ) -> Result<()> {
     if out.extension().and_then(|e| e.to_str()) != Some("gif") {
@@ -82,7 +96,8 @@ pub fn animate(
         (true, false) => litesim_viz::planner::write_exploration_gif(&log, &style, out, max_frames)
             .map_err(err)?,
         (false, true) => {
-            litesim_viz::replay::write_gif(&log, &[], &style, out, max_frames).map_err(err)?
+            litesim_viz::replay::write_gif(&log, &lanes(map)?, &style, out, max_frames)
+                .map_err(err)?
         }
         (false, false) => {
             litesim_viz::animation::write_gif(&log, &style, out, max_frames).map_err(err)?

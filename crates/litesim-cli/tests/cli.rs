@@ -305,3 +305,135 @@ fn plan_runs_configs_from_obstacles_png_and_opendrive() {
     let out = litesim().arg("plan").arg(&bad).output().unwrap();
     assert!(String::from_utf8_lossy(&out.stderr).contains("wat"));
 }
+
+#[test]
+fn plot_and_animate_logs() {
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = workspace().join("examples/plan/narrow_passage.toml");
+    let run = dir.path().join("run");
+    let out = litesim()
+        .arg("plan")
+        .arg(&cfg)
+        .arg("-o")
+        .arg(&run)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for f in ["dashboard.png", "run.gif", "fmt.png", "fmt.gif"] {
+        assert!(run.join(f).exists(), "plan wrote no {f}");
+    }
+    let log = run.join("log.json");
+    let ok = |args: &[&str]| {
+        let out = litesim().args(args).output().unwrap();
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let p = |name: &str| dir.path().join(name).display().to_string();
+    ok(&["plot", &log.display().to_string(), "-o", &p("d.svg")]);
+    assert!(
+        std::fs::read_to_string(p("d.svg"))
+            .unwrap()
+            .starts_with("<svg")
+    );
+    ok(&[
+        "plot",
+        &log.display().to_string(),
+        "--planner",
+        "-o",
+        &p("f.png"),
+    ]);
+    ok(&[
+        "animate",
+        &log.display().to_string(),
+        "-o",
+        &p("a.gif"),
+        "--max-frames",
+        "10",
+    ]);
+    ok(&[
+        "animate",
+        &log.display().to_string(),
+        "--planner",
+        "-o",
+        &p("e.gif"),
+        "--max-frames",
+        "5",
+    ]);
+    let style = dir.path().join("style.toml");
+    std::fs::write(&style, "line_width = 3\ntrajectory = \"#000000\"\n").unwrap();
+    ok(&[
+        "plot",
+        &log.display().to_string(),
+        "--style",
+        &style.display().to_string(),
+        "-o",
+        &p("s.png"),
+    ]);
+    // The demo's multi-actor log replays on its road.
+    let demo = dir.path().join("demo");
+    ok(&["demo", "--in-process", "-o", &demo.display().to_string()]);
+    let map = workspace()
+        .join("examples/maps/straight.xodr")
+        .display()
+        .to_string();
+    ok(&[
+        "animate",
+        &demo.join("log.json").display().to_string(),
+        "--replay",
+        "--map",
+        &map,
+        "-o",
+        &p("r.gif"),
+        "--max-frames",
+        "8",
+    ]);
+    // Bad input: clear messages, exit 1, no panic.
+    let bad = |args: &[&str], expect: &str| {
+        let out = litesim().args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(expect), "{args:?}: {err}");
+    };
+    bad(
+        &[
+            "plot",
+            &demo.join("log.json").display().to_string(),
+            "--planner",
+            "-o",
+            &p("x.png"),
+        ],
+        "no planner data",
+    );
+    bad(
+        &["animate", &log.display().to_string(), "-o", &p("x.mp4")],
+        "animations are GIF",
+    );
+    std::fs::write(
+        dir.path().join("trunc.json"),
+        "{\"format_version\": 1, \"dt\": 0.05, \"tick\": [1, 2",
+    )
+    .unwrap();
+    bad(
+        &["plot", &p("trunc.json"), "-o", &p("x.png")],
+        "trunc.json: line 1",
+    );
+    std::fs::write(&style, "trajectory = \"blue\"\n").unwrap();
+    bad(
+        &[
+            "plot",
+            &log.display().to_string(),
+            "--style",
+            &style.display().to_string(),
+            "-o",
+            &p("y.png"),
+        ],
+        "is not a colour",
+    );
+}
