@@ -326,8 +326,8 @@ impl Corridor {
         (best.1, best.2, best.3)
     }
 
-    /// Time along the profile at arc length `s`.
-    pub fn time_at_s(&self, s: f64) -> f64 {
+    /// The segment `[i, j]` around arc length `s` and the fraction `u` along it.
+    fn locate_s(&self, s: f64) -> (usize, usize, f64) {
         let i = self
             .s
             .partition_point(|x| *x <= s)
@@ -340,23 +340,18 @@ impl Corridor {
         } else {
             0.0
         };
+        (i, j, u)
+    }
+
+    /// Time along the profile at arc length `s`.
+    pub fn time_at_s(&self, s: f64) -> f64 {
+        let (i, j, u) = self.locate_s(s);
         self.time[i] + (self.time[j] - self.time[i]) * u
     }
 
     /// Heading at arc length `s`.
     pub fn heading_at_s(&self, s: f64) -> f64 {
-        let i = self
-            .s
-            .partition_point(|x| *x <= s)
-            .clamp(1, self.s.len().max(2) - 1)
-            - 1;
-        let j = (i + 1).min(self.s.len() - 1);
-        let ds = self.s[j] - self.s[i];
-        let u = if ds > 0.0 {
-            ((s - self.s[i]) / ds).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let (i, j, u) = self.locate_s(s);
         self.heading[i] + wrap_angle(self.heading[j] - self.heading[i]) * u
     }
 

@@ -55,17 +55,8 @@ pub fn write_gif(
     let (stride, delay) = frame_timing(log.dt, n, max_frames)?;
     let bounds = world_bounds(log);
     let tmp = temp_sibling(path)?;
-    let time_of: std::collections::BTreeMap<u64, f64> = log
-        .tick
-        .iter()
-        .copied()
-        .zip(log.time.iter().copied())
-        .collect();
-    let times: Vec<f64> = t
-        .tick
-        .iter()
-        .map(|k| time_of.get(k).copied().unwrap_or(*k as f64 * log.dt))
-        .collect();
+    let time_of = crate::draw::time_of(log);
+    let times = crate::draw::times(&time_of, &t.tick, log.dt);
     let x_range = times.first().zip(times.last()).map(|(a, b)| (*a, *b));
     let mut frames = 0;
     {

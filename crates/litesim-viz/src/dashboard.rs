@@ -23,17 +23,8 @@ fn panels<DB: DrawingBackend>(
         .ok_or_else(|| VizError::Empty("the log has no actor samples: nothing to plot".into()))?;
     root.fill(&style.c(&style.background)).map_err(draw_err)?;
     let areas = root.split_evenly((3, 3));
-    let time_of: std::collections::BTreeMap<u64, f64> = log
-        .tick
-        .iter()
-        .copied()
-        .zip(log.time.iter().copied())
-        .collect();
-    let times: Vec<f64> = t
-        .tick
-        .iter()
-        .map(|k| time_of.get(k).copied().unwrap_or(*k as f64 * log.dt))
-        .collect();
+    let time_of = crate::draw::time_of(log);
+    let times = crate::draw::times(&time_of, &t.tick, log.dt);
     let x_range = times.first().zip(times.last()).map(|(a, b)| (*a, *b));
     let s = |i: usize| style.series(i);
     let zip = |v: &[f64]| {
@@ -120,14 +111,8 @@ fn panels<DB: DrawingBackend>(
     )?;
     // (3) Acceleration: applied and commanded.
     let tr = log.tracking.as_ref();
-    let ctime = |ticks: &[u64]| {
-        ticks
-            .iter()
-            .map(|k| time_of.get(k).copied().unwrap_or(*k as f64 * log.dt))
-            .collect::<Vec<f64>>()
-    };
     let cz = |v: &[f64], ticks: &[u64]| {
-        ctime(ticks)
+        crate::draw::times(&time_of, ticks, log.dt)
             .into_iter()
             .zip(v.iter().copied())
             .collect::<Vec<_>>()

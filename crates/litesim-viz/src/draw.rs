@@ -23,6 +23,23 @@ pub fn ego(log: &SimulationLog) -> Option<&ActorTrack> {
         .filter(|t| !t.is_empty())
 }
 
+/// Simulation time of each recorded tick.
+pub fn time_of(log: &SimulationLog) -> std::collections::BTreeMap<u64, f64> {
+    log.tick
+        .iter()
+        .copied()
+        .zip(log.time.iter().copied())
+        .collect()
+}
+
+/// Times (s) of `ticks`; ticks the log's axis lacks fall back to `tick · dt`.
+pub fn times(time_of: &std::collections::BTreeMap<u64, f64>, ticks: &[u64], dt: f64) -> Vec<f64> {
+    ticks
+        .iter()
+        .map(|k| time_of.get(k).copied().unwrap_or(*k as f64 * dt))
+        .collect()
+}
+
 /// World bounds of what a map view shows: the plan grid, else every track, with a margin.
 pub fn world_bounds(log: &SimulationLog) -> Option<Range2> {
     if let Some(p) = &log.plan {
