@@ -28,7 +28,7 @@ fn lanes(map: Option<&Path>) -> Result<Vec<Vec<(f64, f64)>>> {
     Ok(net
         .lane_polylines(0.1)
         .into_iter()
-        .flat_map(|l| [l.inner, l.outer])
+        .flat_map(|l| [l.inner, l.outer, l.center])
         .map(|pts| pts.into_iter().map(|v| (v.x, v.y)).collect())
         .collect())
 }
