@@ -1,6 +1,7 @@
 //! `litesim`: the command line. It only wires the libraries together and
 //! owns argument parsing, printing and exit codes.
 
+mod check;
 mod demo;
 mod map;
 mod plan;
@@ -131,6 +132,20 @@ enum Command {
         #[arg(long)]
         style: Option<PathBuf>,
     },
+    /// Check an OpenSCENARIO DSL file and its imports: all diagnostics, exit 1 on errors.
+    Check {
+        /// The .osc file.
+        file: PathBuf,
+        /// Import search paths (after the importing file's folder).
+        #[arg(short = 'I', value_name = "DIR")]
+        include: Vec<PathBuf>,
+        /// Diagnostics as JSON lines.
+        #[arg(long)]
+        json: bool,
+        /// Print the syntax tree of the entry file (JSON).
+        #[arg(long)]
+        dump_ast: bool,
+    },
     /// Inspect and export OpenDRIVE maps.
     Map {
         #[command(subcommand)]
@@ -249,6 +264,12 @@ fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Command::Map { command } => map::run(command),
+        Command::Check {
+            file,
+            include,
+            json,
+            dump_ast,
+        } => check::run(&file, &include, json, dump_ast),
         Command::Plan {
             config,
             out,

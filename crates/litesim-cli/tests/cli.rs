@@ -437,3 +437,105 @@ fn plot_and_animate_logs() {
         "is not a colour",
     );
 }
+
+#[test]
+fn check_osc_files() {
+    let osc = workspace().join("osc");
+    let smoke = osc.join("env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc");
+    // The seed's smoke test loads clean with $FTX pointing at litesim's osc/.
+    let out = litesim()
+        .arg("check")
+        .arg(&smoke)
+        .env("FTX", &osc)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stderr).contains("10 file(s), 0 error(s)"));
+    // Without $FTX: a precise error at the import, exit 1.
+    let out = litesim()
+        .arg("check")
+        .arg(&smoke)
+        .env_remove("FTX")
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        String::from_utf8_lossy(&out.stderr)
+            .contains("dummy_smoke.osc:2:1: error[E0201]: environment variable $FTX")
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let w = |name: &str, text: &str| {
+        let p = dir.path().join(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    };
+    // Several errors at once, each with line, column, caret and code; JSON for tools.
+    let bad = w(
+        "bad.osc",
+        "scenario s:\n    x int\n    keep(y == )\n    do car.drive\n",
+    );
+    let out = litesim().arg("check").arg(&bad).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.osc:2:5: error[E0112]")
+            && err.contains("bad.osc:3:15: error[E0107]")
+            && err.contains("bad.osc:4:8: error[E0114]"),
+        "{err}"
+    );
+    assert!(err.contains("  |     ^"), "{err}");
+    let out = litesim()
+        .arg("check")
+        .arg(&bad)
+        .arg("--json")
+        .output()
+        .unwrap();
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 3);
+    assert_eq!(
+        (lines[0]["line"].as_u64(), lines[0]["code"].as_str()),
+        (Some(2), Some("E0112"))
+    );
+    // Import cycles, missing files and search paths.
+    w("a.osc", "import \"b.osc\"\nstruct a\n");
+    w("b.osc", "import \"a.osc\"\nstruct b\n");
+    let out = litesim()
+        .arg("check")
+        .arg(dir.path().join("a.osc"))
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stderr).contains("import cycle: a.osc → b.osc → a.osc"));
+    let lib = tempfile::tempdir().unwrap();
+    std::fs::write(lib.path().join("lib.osc"), "struct from_lib\n").unwrap();
+    let user = w(
+        "user.osc",
+        "import \"lib.osc\"\nimport \"nope.osc\"\nstruct u\n",
+    );
+    let out = litesim()
+        .arg("check")
+        .arg(&user)
+        .arg("-I")
+        .arg(lib.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("user.osc:2:1: error[E0202]: cannot find imported file 'nope.osc'")
+            && err.contains("2 file(s)"),
+        "{err}"
+    );
+    let out = litesim()
+        .arg("check")
+        .arg(&user)
+        .arg("--dump-ast")
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&out.stdout).contains("\"decl\": \"Compound\""));
+}

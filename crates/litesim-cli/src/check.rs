@@ -1,0 +1,38 @@
+//! `litesim check FILE.osc [-I DIR] [--json] [--dump-ast]`.
+
+use anyhow::{Result, anyhow};
+use std::path::{Path, PathBuf};
+
+/// Loads and checks a program; prints every diagnostic; errors exit 1.
+pub fn run(file: &Path, include: &[PathBuf], json: bool, dump_ast: bool) -> Result<()> {
+    let env = |name: &str| std::env::var(name).ok();
+    let prog = litesim_osc::load(file, include, &env).map_err(|e| anyhow!(e))?;
+    if dump_ast && let Some((_, ast)) = prog.files.iter().find(|(id, _)| *id == 0) {
+        println!("{}", serde_json::to_string_pretty(ast)?);
+    }
+    for d in &prog.diagnostics {
+        if json {
+            println!("{}", d.to_json(&prog.sources));
+        } else {
+            eprint!("{}", d.render(&prog.sources));
+        }
+    }
+    let errors = prog
+        .diagnostics
+        .iter()
+        .filter(|d| d.severity == litesim_osc::Severity::Error)
+        .count();
+    let warnings = prog.diagnostics.len() - errors;
+    if !json {
+        eprintln!(
+            "{}: {} file(s), {errors} error(s), {warnings} warning(s)",
+            file.display(),
+            prog.sources.files.len()
+        );
+    }
+    if errors > 0 {
+        // The diagnostics are the message; exit 1 without repeating them.
+        std::process::exit(1);
+    }
+    Ok(())
+}

@@ -1,0 +1,102 @@
+//! Diagnostics: where (file:line:col and the source line with a caret
+//! underline), what, an error code, and a hint where one helps.
+
+use crate::source::{SourceMap, Span};
+use serde::Serialize;
+
+/// Severity.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Severity {
+    /// Stops the program from being run.
+    Error,
+    /// Worth a look.
+    Warning,
+}
+
+/// One diagnostic.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Diagnostic {
+    /// Severity.
+    pub severity: Severity,
+    /// Stable code, e.g. `E0101`.
+    pub code: &'static str,
+    /// What is wrong.
+    pub message: String,
+    /// Where.
+    pub span: Span,
+    /// How to fix it, when known.
+    pub hint: Option<String>,
+}
+
+impl Diagnostic {
+    /// An error.
+    pub fn error(code: &'static str, span: Span, message: impl Into<String>) -> Self {
+        Self {
+            severity: Severity::Error,
+            code,
+            message: message.into(),
+            span,
+            hint: None,
+        }
+    }
+    /// A warning.
+    pub fn warning(code: &'static str, span: Span, message: impl Into<String>) -> Self {
+        Self {
+            severity: Severity::Warning,
+            code,
+            message: message.into(),
+            span,
+            hint: None,
+        }
+    }
+    /// Adds a hint.
+    pub fn with_hint(mut self, hint: impl Into<String>) -> Self {
+        self.hint = Some(hint.into());
+        self
+    }
+
+    /// Renders for a terminal: header, source line, caret underline, hint.
+    pub fn render(&self, sources: &SourceMap) -> String {
+        let f = sources.file(self.span.file);
+        let (line, col) = f.line_col(self.span.start as usize);
+        let (eline, ecol) = f.line_col(self.span.end as usize);
+        let kind = match self.severity {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+        };
+        let src = f.line(line);
+        let width = if eline == line {
+            ecol.saturating_sub(col).max(1)
+        } else {
+            src.chars().count().saturating_sub(col - 1).max(1)
+        };
+        let gutter = line.to_string().len();
+        let mut s = format!(
+            "{}:{line}:{col}: {kind}[{}]: {}\n",
+            f.path, self.code, self.message
+        );
+        s += &format!(
+            "{:gutter$} |\n{line} | {src}\n{:gutter$} | {}{}\n",
+            "",
+            "",
+            " ".repeat(col - 1),
+            "^".repeat(width)
+        );
+        if let Some(h) = &self.hint {
+            s += &format!("{:gutter$} = hint: {h}\n", "");
+        }
+        s
+    }
+
+    /// A JSON object for tools: file, line, column, end, severity, code, message, hint.
+    pub fn to_json(&self, sources: &SourceMap) -> serde_json::Value {
+        let f = sources.file(self.span.file);
+        let (line, col) = f.line_col(self.span.start as usize);
+        let (eline, ecol) = f.line_col(self.span.end as usize);
+        serde_json::json!({
+            "file": f.path, "line": line, "column": col, "end_line": eline, "end_column": ecol,
+            "severity": self.severity, "code": self.code, "message": self.message, "hint": self.hint,
+        })
+    }
+}

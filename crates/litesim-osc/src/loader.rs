@@ -1,0 +1,192 @@
+//! Loading a program: the entry file and everything it imports.
+//!
+//! Import paths expand `$VAR` and `${VAR}` from the environment (the seed's
+//! `$FTX/...`), are resolved relative to the importing file, then against the
+//! search paths (`-I`) in order. Each file is parsed once; an import cycle,
+//! a missing file or an unreadable one is a diagnostic at the import.
+
+use crate::ast::FileAst;
+use crate::diag::Diagnostic;
+use crate::source::{SourceMap, Span};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A loaded program.
+#[derive(Debug, Default)]
+pub struct Program {
+    /// All files.
+    pub sources: SourceMap,
+    /// Parsed files, in load order (imports before importers).
+    pub files: Vec<(u32, FileAst)>,
+    /// Every diagnostic.
+    pub diagnostics: Vec<Diagnostic>,
+}
+
+impl Program {
+    /// True when some diagnostic is an error.
+    pub fn has_errors(&self) -> bool {
+        self.diagnostics
+            .iter()
+            .any(|d| d.severity == crate::Severity::Error)
+    }
+}
+
+/// Expands `$VAR` / `${VAR}`; returns the name of an unset variable on failure.
+pub fn expand_env(path: &str, env: &dyn Fn(&str) -> Option<String>) -> Result<String, String> {
+    let mut out = String::new();
+    let mut rest = path;
+    while let Some(i) = rest.find('$') {
+        out.push_str(&rest[..i]);
+        let after = &rest[i + 1..];
+        let (name, len) = if let Some(stripped) = after.strip_prefix('{') {
+            match stripped.find('}') {
+                Some(j) => (&stripped[..j], j + 2),
+                None => return Err(after.to_string()),
+            }
+        } else {
+            let j = after
+                .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+                .unwrap_or(after.len());
+            (&after[..j], j)
+        };
+        if name.is_empty() {
+            out.push('$');
+            rest = after;
+            continue;
+        }
+        out.push_str(&env(name).ok_or_else(|| name.to_string())?);
+        rest = &after[len..];
+    }
+    out.push_str(rest);
+    Ok(out)
+}
+
+struct Loader<'a> {
+    prog: Program,
+    search: &'a [PathBuf],
+    loaded: BTreeMap<PathBuf, u32>,
+    stack: Vec<PathBuf>,
+    env: &'a dyn Fn(&str) -> Option<String>,
+}
+
+impl Loader<'_> {
+    fn load_file(&mut self, path: &Path, text: String) {
+        let canon = path.canonicalize().unwrap_or_else(|_| path.to_path_buf());
+        let id = self.prog.sources.add(path.display().to_string(), text);
+        self.loaded.insert(canon.clone(), id);
+        self.stack.push(canon);
+        let text = self.prog.sources.file(id).text.clone();
+        let (toks, mut diags) = crate::lexer::lex(&text, id);
+        let (ast, d2) = crate::parser::parse(&toks);
+        diags.extend(d2);
+        self.prog.diagnostics.extend(diags);
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        for imp in &ast.imports {
+            self.import(&dir, &imp.path, imp.span);
+        }
+        self.stack.pop();
+        self.prog.files.push((id, ast));
+    }
+
+    fn import(&mut self, dir: &Path, raw: &str, span: Span) {
+        let expanded = match expand_env(raw, self.env) {
+            Ok(p) => p,
+            Err(var) => {
+                self.prog.diagnostics.push(
+                    Diagnostic::error(
+                        "E0201",
+                        span,
+                        format!("environment variable ${var} in import path is not set"),
+                    )
+                    .with_hint(format!(
+                        "set {var}, e.g. `export {var}=/path/to/litesim/osc`"
+                    )),
+                );
+                return;
+            }
+        };
+        // `import a.b.c` names a file a/b/c.osc.
+        let rel = if expanded.ends_with(".osc") || expanded.contains('/') {
+            PathBuf::from(&expanded)
+        } else {
+            PathBuf::from(expanded.replace('.', "/") + ".osc")
+        };
+        let mut candidates = Vec::new();
+        if rel.is_absolute() {
+            candidates.push(rel.clone());
+        } else {
+            candidates.push(dir.join(&rel));
+            candidates.extend(self.search.iter().map(|s| s.join(&rel)));
+        }
+        let Some(found) = candidates.into_iter().find(|c| c.is_file()) else {
+            self.prog.diagnostics.push(
+                Diagnostic::error(
+                    "E0202",
+                    span,
+                    format!("cannot find imported file '{}'", rel.display()),
+                )
+                .with_hint("paths are relative to the importing file, then to each -I search path"),
+            );
+            return;
+        };
+        let canon = found.canonicalize().unwrap_or_else(|_| found.clone());
+        if let Some(pos) = self.stack.iter().position(|p| *p == canon) {
+            let cycle: Vec<String> = self.stack[pos..]
+                .iter()
+                .chain(std::iter::once(&canon))
+                .map(|p| {
+                    p.file_name()
+                        .map_or(String::new(), |f| f.to_string_lossy().to_string())
+                })
+                .collect();
+            self.prog.diagnostics.push(Diagnostic::error(
+                "E0203",
+                span,
+                format!("import cycle: {}", cycle.join(" → ")),
+            ));
+            return;
+        }
+        if self.loaded.contains_key(&canon) {
+            return; // parsed once
+        }
+        match std::fs::read(&found) {
+            Ok(bytes) => match String::from_utf8(bytes) {
+                Ok(text) => self.load_file(&found, text),
+                Err(_) => self.prog.diagnostics.push(Diagnostic::error(
+                    "E0204",
+                    span,
+                    format!("'{}' is not UTF-8 text", found.display()),
+                )),
+            },
+            Err(e) => self.prog.diagnostics.push(Diagnostic::error(
+                "E0205",
+                span,
+                format!("cannot read '{}': {e}", found.display()),
+            )),
+        }
+    }
+}
+
+/// Loads `entry` and its imports. `env` looks up environment variables.
+pub fn load(
+    entry: &Path,
+    search: &[PathBuf],
+    env: &dyn Fn(&str) -> Option<String>,
+) -> Result<Program, String> {
+    let bytes = std::fs::read(entry).map_err(|e| format!("{}: {e}", entry.display()))?;
+    let text =
+        String::from_utf8(bytes).map_err(|_| format!("{}: not UTF-8 text", entry.display()))?;
+    let mut l = Loader {
+        prog: Program::default(),
+        search,
+        loaded: BTreeMap::new(),
+        stack: Vec::new(),
+        env,
+    };
+    l.load_file(entry, text);
+    // Report in reading order: by file, then position (stable for equal places).
+    l.prog
+        .diagnostics
+        .sort_by_key(|d| (d.span.file, d.span.start));
+    Ok(l.prog)
+}
