@@ -11,6 +11,7 @@
 #![warn(missing_docs)]
 
 pub mod ast;
+pub mod check;
 pub mod diag;
 pub mod lexer;
 pub mod loader;

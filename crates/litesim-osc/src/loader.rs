@@ -184,6 +184,12 @@ pub fn load(
         env,
     };
     l.load_file(entry, text);
+    // Semantic checks need every file: only run them when all parsed cleanly,
+    // so that a syntax error is not followed by a cascade of unknown names.
+    if !l.prog.has_errors() {
+        let sem = crate::check::check(&l.prog);
+        l.prog.diagnostics.extend(sem);
+    }
     // Report in reading order: by file, then position (stable for equal places).
     l.prog
         .diagnostics
