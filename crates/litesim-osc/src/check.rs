@@ -14,13 +14,16 @@ use std::collections::{BTreeMap, BTreeSet};
 
 const BUILTIN_TYPES: &[&str] = &["int", "uint", "float", "bool", "string"];
 
+/// A compound's kind, own parameters and base.
+type Compound = (DeclKind, Vec<(String, TypeRef)>, Option<String>);
+
 #[derive(Default)]
 struct Model {
     physical: BTreeSet<String>,
     units: BTreeMap<String, String>,
     enums: BTreeMap<String, BTreeSet<String>>,
-    /// compound name (behaviours by their own name) → (kind, parameters)
-    compounds: BTreeMap<String, (DeclKind, Vec<(String, TypeRef)>, Option<String>)>,
+    /// compound name (behaviours by their own name) → what it is
+    compounds: BTreeMap<String, Compound>,
 }
 
 fn close_names<'a>(name: &str, all: impl Iterator<Item = &'a String>) -> String {
@@ -90,10 +93,10 @@ impl Model {
         }
         for (_, f) in &prog.files {
             for d in &f.decls {
-                if let Decl::Extend { target, members } = d {
-                    if let Some(e) = m.compounds.get_mut(&target.name.text) {
-                        e.1.extend(fields(members));
-                    }
+                if let Decl::Extend { target, members } = d
+                    && let Some(e) = m.compounds.get_mut(&target.name.text)
+                {
+                    e.1.extend(fields(members));
                 }
             }
         }
@@ -177,25 +180,23 @@ impl Checker<'_> {
 
     fn expr(&mut self, e: &Expr) {
         match e {
-            Expr::Physical { unit, span, .. } => {
-                if !self.m.units.contains_key(unit) {
-                    let hint = close_names(unit, self.m.units.keys());
-                    let mut d = Diagnostic::error("E0302", *span, format!("unknown unit '{unit}'"));
-                    if !hint.is_empty() {
-                        d = d.with_hint(format!("known units like it: {hint}"));
-                    }
-                    self.diags.push(d);
+            Expr::Physical { unit, span, .. } if !self.m.units.contains_key(unit) => {
+                let hint = close_names(unit, self.m.units.keys());
+                let mut d = Diagnostic::error("E0302", *span, format!("unknown unit '{unit}'"));
+                if !hint.is_empty() {
+                    d = d.with_hint(format!("known units like it: {hint}"));
                 }
+                self.diags.push(d);
             }
             Expr::Range { lo, hi, unit, span } => {
-                if let Some(u) = unit {
-                    if !self.m.units.contains_key(u) {
-                        self.diags.push(Diagnostic::error(
-                            "E0302",
-                            *span,
-                            format!("unknown unit '{u}'"),
-                        ));
-                    }
+                if let Some(u) = unit
+                    && !self.m.units.contains_key(u)
+                {
+                    self.diags.push(Diagnostic::error(
+                        "E0302",
+                        *span,
+                        format!("unknown unit '{u}'"),
+                    ));
                 }
                 for x in lo.iter().chain(hi.iter()) {
                     self.expr(x);
@@ -205,16 +206,15 @@ impl Checker<'_> {
             Expr::Binary { lhs, rhs, op, span } => {
                 self.expr(lhs);
                 self.expr(rhs);
-                if ["+", "-", "<", "<=", ">", ">=", "=="].contains(&op.as_str()) {
-                    if let (Some(a), Some(b)) = (self.m.physical_of(lhs), self.m.physical_of(rhs)) {
-                        if a != b {
-                            self.diags.push(Diagnostic::error(
-                                "E0303",
-                                *span,
-                                format!("'{op}' mixes a {a} and a {b}"),
-                            ));
-                        }
-                    }
+                if ["+", "-", "<", "<=", ">", ">=", "=="].contains(&op.as_str())
+                    && let (Some(a), Some(b)) = (self.m.physical_of(lhs), self.m.physical_of(rhs))
+                    && a != b
+                {
+                    self.diags.push(Diagnostic::error(
+                        "E0303",
+                        *span,
+                        format!("'{op}' mixes a {a} and a {b}"),
+                    ));
                 }
             }
             Expr::Ternary {
@@ -452,26 +452,26 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
                             .with_hint("use `extend` to add to an existing declaration"),
                         );
                     }
-                    if let Some((base, _)) = inherits {
-                        if !m.compounds.contains_key(&base.name.text) {
-                            c.diags.push(Diagnostic::error(
-                                "E0305",
-                                base.name.span,
-                                format!(
-                                    "'{}' inherits from unknown '{}'",
-                                    name.name.text, base.name.text
-                                ),
-                            ));
-                        }
+                    if let Some((base, _)) = inherits
+                        && !m.compounds.contains_key(&base.name.text)
+                    {
+                        c.diags.push(Diagnostic::error(
+                            "E0305",
+                            base.name.span,
+                            format!(
+                                "'{}' inherits from unknown '{}'",
+                                name.name.text, base.name.text
+                            ),
+                        ));
                     }
-                    if let Some(of) = of {
-                        if !m.compounds.contains_key(&of.name.text) {
-                            c.diags.push(Diagnostic::error(
-                                "E0309",
-                                of.name.span,
-                                format!("unknown scenario or action '{}'", of.name.text),
-                            ));
-                        }
+                    if let Some(of) = of
+                        && !m.compounds.contains_key(&of.name.text)
+                    {
+                        c.diags.push(Diagnostic::error(
+                            "E0309",
+                            of.name.span,
+                            format!("unknown scenario or action '{}'", of.name.text),
+                        ));
                     }
                     c.members(members);
                 }
