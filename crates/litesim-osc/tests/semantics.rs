@@ -3,11 +3,10 @@
 use std::path::PathBuf;
 
 fn check(src: &str) -> Vec<(String, usize, usize)> {
-    let dir = std::env::temp_dir().join(format!(
-        "litesim-osc-sem-{}-{}",
-        std::process::id(),
-        src.len()
-    ));
+    // A folder per call: tests run in parallel.
+    static N: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let n = N.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+    let dir = std::env::temp_dir().join(format!("litesim-osc-sem-{}-{n}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("t.osc");
     std::fs::write(&file, format!("import \"config.osc\"\n{src}")).unwrap();
