@@ -455,6 +455,21 @@ fn check_osc_files() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(String::from_utf8_lossy(&out.stderr).contains("10 file(s), 0 error(s)"));
+    // As the README shows it: a relative $FTX, from the repository root.
+    let out = litesim()
+        .current_dir(workspace())
+        .args([
+            "check",
+            "osc/env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc",
+        ])
+        .env("FTX", "osc")
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     // Without $FTX: a precise error at the import, exit 1.
     let out = litesim()
         .arg("check")

@@ -114,6 +114,10 @@ impl Loader<'_> {
         let mut candidates = Vec::new();
         if rel.is_absolute() {
             candidates.push(rel.clone());
+        } else if raw.starts_with('$') {
+            // `$FTX/...` with a relative $FTX means what it means in a shell:
+            // relative to where the user runs litesim, not to the importing file.
+            candidates.push(rel.clone());
         } else {
             candidates.push(dir.join(&rel));
             candidates.extend(self.search.iter().map(|s| s.join(&rel)));
