@@ -125,7 +125,8 @@ impl SspService {
         before - sessions.len()
     }
 
-    fn trace(&self, session: &str, method: &str, args: Value, result: &Result<Value, SspError>) {
+    /// Writes one trace line (no-op without a trace file).
+    fn trace<R: Serialize>(&self, session: &str, method: &str, args: Value, result: &SspResult<R>) {
         if let Some(t) = &self.inner.trace {
             let line = json!({
                 "t_ms": self.inner.started.elapsed().as_secs_f64() * 1000.0,
@@ -133,7 +134,7 @@ impl SspService {
                 "method": method,
                 "args": args,
                 "result": match result {
-                    Ok(v) => json!({ "ok": v }),
+                    Ok(v) => json!({ "ok": serde_json::to_value(v).unwrap_or(Value::Null) }),
                     Err(e) => json!({ "error": { "code": e.code, "message": e.message } }),
                 },
             });
@@ -179,11 +180,7 @@ impl SspService {
             f(&mut s)
         });
         if traced {
-            let v = result
-                .as_ref()
-                .map(|r| serde_json::to_value(r).unwrap_or(Value::Null))
-                .map_err(Clone::clone);
-            self.trace(session_id, method, args, &v);
+            self.trace(session_id, method, args, &result);
         }
         result.map_err(cv::status)
     }
@@ -248,15 +245,11 @@ impl SspService {
             Ok(resp)
         })();
         if let Some(args) = traced_req {
-            let v = result
-                .as_ref()
-                .map(|r| serde_json::to_value(r).unwrap_or(Value::Null))
-                .map_err(Clone::clone);
             self.trace(
                 result.as_ref().map_or("", |r| r.session_id.as_str()),
                 "init",
                 args,
-                &v,
+                &result,
             );
         }
         result
@@ -342,10 +335,6 @@ fn apply_move(s: &mut Session, m: &pb::MoveCommand) -> SspResult<()> {
             "move command is empty: give xy, dynamic or external",
         )),
     }
-}
-
-fn states_json(v: &[litesim_ssp::ReportedState]) -> Value {
-    json!(v.len())
 }
 
 type StepStreamOut = Pin<Box<dyn Stream<Item = Result<pb::StepResult, Status>> + Send + 'static>>;
@@ -791,7 +780,7 @@ struct StatesOut(Vec<litesim_ssp::ReportedState>);
 
 impl Serialize for StatesOut {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        states_json(&self.0).serialize(s)
+        self.0.len().serialize(s)
     }
 }
 

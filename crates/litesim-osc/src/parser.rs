@@ -269,11 +269,13 @@ impl<'a> P<'a> {
         self.depth -= 1;
         e
     }
-    fn binary(&mut self, ops: &[&str], words: bool, next: fn(&mut Self) -> Expr) -> Expr {
+    /// A left-associative level: `next (op next)*`, where an op is a
+    /// punctuation token or a word (`and`, `or`, `in`) listed in `ops`.
+    fn binary(&mut self, ops: &[&str], next: fn(&mut Self) -> Expr) -> Expr {
         let mut lhs = next(self);
         loop {
             let op = match self.tok() {
-                Tok::Punct(p) if !words && ops.contains(p) => p.to_string(),
+                Tok::Punct(p) if ops.contains(p) => p.to_string(),
                 Tok::Ident(w) if ops.contains(&w.as_str()) => w.clone(),
                 _ => break,
             };
@@ -290,13 +292,13 @@ impl<'a> P<'a> {
         lhs
     }
     fn implication(&mut self) -> Expr {
-        self.binary(&["=>"], false, Self::disjunction)
+        self.binary(&["=>"], Self::disjunction)
     }
     fn disjunction(&mut self) -> Expr {
-        self.binary(&["or"], true, Self::conjunction)
+        self.binary(&["or"], Self::conjunction)
     }
     fn conjunction(&mut self) -> Expr {
-        self.binary(&["and"], true, Self::inversion)
+        self.binary(&["and"], Self::inversion)
     }
     fn inversion(&mut self) -> Expr {
         if self.is_kw("not") {
@@ -312,30 +314,14 @@ impl<'a> P<'a> {
         self.relation()
     }
     fn relation(&mut self) -> Expr {
-        let mut lhs = self.sum();
-        loop {
-            let op = match self.tok() {
-                Tok::Punct(p) if ["==", "!=", "<", "<=", ">", ">="].contains(p) => p.to_string(),
-                Tok::Ident(w) if w == "in" => w.clone(),
-                _ => break,
-            };
-            self.bump();
-            let rhs = self.sum();
-            let span = join(lhs.span(), rhs.span());
-            lhs = Expr::Binary {
-                op,
-                lhs: Box::new(lhs),
-                rhs: Box::new(rhs),
-                span,
-            };
-        }
-        lhs
+        // One level for all comparisons and `in`.
+        self.binary(&["==", "!=", "<", "<=", ">", ">=", "in"], Self::sum)
     }
     fn sum(&mut self) -> Expr {
-        self.binary(&["+", "-"], false, Self::term)
+        self.binary(&["+", "-"], Self::term)
     }
     fn term(&mut self) -> Expr {
-        self.binary(&["*", "/", "%"], false, Self::factor)
+        self.binary(&["*", "/", "%"], Self::factor)
     }
     fn factor(&mut self) -> Expr {
         if self.is_p("-") {
