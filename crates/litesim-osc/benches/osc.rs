@@ -1,5 +1,6 @@
 //! Front-end speed (`cargo bench -p litesim-osc --bench osc`): lex and parse
-//! 10,000 lines, and load the seed's smoke test with all its imports.
+//! 10,000 lines; read, parse and semantically check the same 10,000 lines
+//! against the domain library; load the seed's smoke test with all its imports.
 
 use criterion::Criterion;
 use std::hint::black_box;
@@ -28,6 +29,16 @@ fn main() {
         b.iter(|| litesim_osc::parse_str("big.osc", black_box(&text)))
     });
     let osc = std::path::PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../osc"));
+    let dir = std::env::temp_dir().join(format!("litesim-osc-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let big = dir.join("big.osc");
+    std::fs::write(&big, format!("import \"config.osc\"\n{text}")).unwrap();
+    let domain = [osc.join("domain")];
+    let p = litesim_osc::load(&big, &domain, &|_| None).unwrap();
+    assert!(p.diagnostics.is_empty(), "{:?}", &p.diagnostics[..1]);
+    c.bench_function("parse_and_check_10k_lines", |b| {
+        b.iter(|| litesim_osc::load(&big, &domain, &|_| None).unwrap())
+    });
     let smoke = osc.join("env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc");
     let ftx = osc.display().to_string();
     let env = move |n: &str| (n == "FTX").then(|| ftx.clone());
@@ -37,4 +48,5 @@ fn main() {
         b.iter(|| litesim_osc::load(&smoke, &[], &env).unwrap())
     });
     c.final_summary();
+    let _ = std::fs::remove_dir_all(&dir);
 }

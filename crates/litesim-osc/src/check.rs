@@ -1,21 +1,70 @@
-//! First semantic checks over a loaded program: names of types, units,
-//! modifiers and behaviours resolve; physical values have the dimension the
-//! parameter asks for (a speed given in seconds is an error; kph and mps mix
-//! freely, being the same physical type); named arguments exist.
+//! Semantic checks over a loaded program: names resolve (types, units,
+//! modifiers, behaviours, fields along a path such as `s.r1`, labels, enum
+//! members), expressions are typed (a speed given in seconds is an error;
+//! kph and mps mix freely, being the same physical type), arguments of
+//! actions and modifiers match their parameters (name, count, type, and
+//! subtype for actors and structs), and constraints are boolean.
 //!
 //! Declarations from every file are collected first (imports and the
 //! importer see each other), `extend` merges fields into its target, and
-//! `inherits` makes a compound see its bases' fields.
+//! `inherits` makes a compound see its bases' fields. Names an expression
+//! may use, innermost first: locals (`it`, method parameters), labels of
+//! the compound's `do` tree, the compound's fields (own, extended,
+//! inherited), `actor` in a scenario declared on an actor, globals, actor
+//! names used as their instance (`sut.car`), and enum members where the
+//! expected type is that enum (or unambiguous).
 
 use crate::ast::*;
 use crate::diag::Diagnostic;
 use crate::loader::Program;
+use crate::source::Span;
 use std::collections::{BTreeMap, BTreeSet};
 
 const BUILTIN_TYPES: &[&str] = &["int", "uint", "float", "bool", "string"];
 
+/// Members every scenario and action has (standard §7: events and timing).
+const BEHAVIOUR_MEMBERS: &[&str] = &[
+    "start",
+    "end",
+    "fail",
+    "actor",
+    "start_time",
+    "end_time",
+    "duration",
+];
+
 /// A compound's kind, own parameters and base.
 type Compound = (DeclKind, Vec<(String, TypeRef)>, Option<String>);
+
+/// The type of an expression, as far as the checker can tell.
+#[derive(Clone, Debug, PartialEq)]
+enum Ty {
+    /// Not known (builtin function results, method calls): never an error.
+    Unknown,
+    Bool,
+    /// `int`, `uint` and `float` mix freely.
+    Number,
+    Str,
+    Physical(String),
+    Enum(String),
+    Compound(String),
+    List(Box<Ty>),
+}
+
+impl Ty {
+    fn describe(&self) -> String {
+        match self {
+            Ty::Unknown => "a value".into(),
+            Ty::Bool => "a bool".into(),
+            Ty::Number => "a plain number".into(),
+            Ty::Str => "a string".into(),
+            Ty::Physical(p) => format!("a {p}"),
+            Ty::Enum(e) => format!("a value of enum {e}"),
+            Ty::Compound(c) => format!("a {c}"),
+            Ty::List(t) => format!("a list of {}", t.describe().trim_start_matches("a ")),
+        }
+    }
+}
 
 #[derive(Default)]
 struct Model {
@@ -24,6 +73,15 @@ struct Model {
     enums: BTreeMap<String, BTreeSet<String>>,
     /// compound name (behaviours by their own name) → what it is
     compounds: BTreeMap<String, Compound>,
+    /// actor a scenario or action is declared on (`smoke` → `sut`)
+    owner: BTreeMap<String, String>,
+    globals: BTreeMap<String, TypeRef>,
+    /// Every compound's visible fields (own, extended, inherited) and their
+    /// types, built once: field lookups are the checker's hot path.
+    field_types: BTreeMap<String, BTreeMap<String, Ty>>,
+    /// Every compound's parameters in declaration order (for positional
+    /// arguments), with their types.
+    param_types: BTreeMap<String, Vec<(String, Ty)>>,
 }
 
 fn close_names<'a>(name: &str, all: impl Iterator<Item = &'a String>) -> String {
@@ -33,6 +91,7 @@ fn close_names<'a>(name: &str, all: impl Iterator<Item = &'a String>) -> String 
         .take(5)
         .collect();
     v.sort();
+    v.dedup();
     v.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
 }
 
@@ -79,13 +138,24 @@ impl Model {
                         ..
                     } => {
                         let params = fields(members);
-                        let entry = m.compounds.entry(name.name.text.clone()).or_insert((
-                            *kind,
-                            Vec::new(),
-                            None,
-                        ));
+                        let key = if *kind == DeclKind::Modifier {
+                            modifier_key(&name.name.text)
+                        } else {
+                            name.name.text.clone()
+                        };
+                        let entry = m.compounds.entry(key).or_insert((*kind, Vec::new(), None));
                         entry.1.extend(params);
-                        entry.2 = inherits.as_ref().map(|(b, _)| b.name.text.clone());
+                        if let Some((b, _)) = inherits {
+                            entry.2 = Some(b.name.text.clone());
+                        }
+                        if let Some(a) = &name.actor {
+                            m.owner.insert(name.name.text.clone(), a.text.clone());
+                        }
+                    }
+                    Decl::Global(f) => {
+                        for n in &f.names {
+                            m.globals.insert(n.text.clone(), f.ty.clone());
+                        }
                     }
                     _ => {}
                 }
@@ -100,6 +170,24 @@ impl Model {
                 }
             }
         }
+        let names: Vec<String> = m.compounds.keys().cloned().collect();
+        for n in names {
+            let mut map = BTreeMap::new();
+            let params: Vec<(String, Ty)> = m
+                .params(&n)
+                .into_iter()
+                .map(|(f, t)| {
+                    let ty = m.ty_of(&t);
+                    (f, ty)
+                })
+                .collect();
+            // Own fields first win over a base's field of the same name.
+            for (f, t) in &params {
+                map.entry(f.clone()).or_insert_with(|| t.clone());
+            }
+            m.field_types.insert(n.clone(), map);
+            m.param_types.insert(n, params);
+        }
         m
     }
     fn is_type(&self, t: &str) -> bool {
@@ -108,7 +196,7 @@ impl Model {
             || self.enums.contains_key(t)
             || self.compounds.contains_key(t)
     }
-    /// Parameters of a compound including inherited ones.
+    /// Parameters of a compound including inherited ones (own first).
     fn params(&self, name: &str) -> Vec<(String, TypeRef)> {
         let mut out = Vec::new();
         let mut cur = Some(name.to_string());
@@ -128,17 +216,47 @@ impl Model {
         }
         out
     }
-    /// The physical type of an expression's value, when it has one.
-    fn physical_of(&self, e: &Expr) -> Option<String> {
-        match e {
-            Expr::Physical { unit, .. } => self.units.get(unit).cloned(),
-            Expr::Range { unit: Some(u), .. } => self.units.get(u).cloned(),
-            Expr::Range { lo, hi, .. } => lo
-                .as_deref()
-                .or(hi.as_deref())
-                .and_then(|x| self.physical_of(x)),
-            Expr::Unary { op, expr, .. } if op == "-" => self.physical_of(expr),
-            _ => None,
+    /// `sub` is `sup` or inherits from it (directly or not).
+    fn is_a(&self, sub: &str, sup: &str) -> bool {
+        let mut cur = Some(sub.to_string());
+        for _ in 0..64 {
+            match cur {
+                Some(n) if n == sup => return true,
+                Some(n) => cur = self.compounds.get(&n).and_then(|c| c.2.clone()),
+                None => return false,
+            }
+        }
+        false
+    }
+    fn ty_of(&self, t: &TypeRef) -> Ty {
+        let n = t.base.name.text.as_str();
+        let base = match n {
+            "int" | "uint" | "float" => Ty::Number,
+            "bool" => Ty::Bool,
+            "string" => Ty::Str,
+            _ if self.physical.contains(n) => Ty::Physical(n.into()),
+            _ if self.enums.contains_key(n) => Ty::Enum(n.into()),
+            _ if self.compounds.contains_key(n) => Ty::Compound(n.into()),
+            _ => Ty::Unknown,
+        };
+        if t.list {
+            Ty::List(Box::new(base))
+        } else {
+            base
+        }
+    }
+    fn field(&self, compound: &str, name: &str) -> Option<Ty> {
+        self.field_types.get(compound)?.get(name).cloned()
+    }
+    /// Whether a value of type `got` may be given where `want` is expected.
+    fn fits(&self, got: &Ty, want: &Ty) -> bool {
+        match (got, want) {
+            (Ty::Unknown, _) | (_, Ty::Unknown) => true,
+            (Ty::Compound(a), Ty::Compound(b)) => self.is_a(a, b),
+            (Ty::List(a), Ty::List(b)) => self.fits(a, b),
+            // A list value constrains a scalar parameter to one of its items.
+            (Ty::List(a), b) => self.fits(a, b),
+            (a, b) => a == b,
         }
     }
 }
@@ -146,19 +264,78 @@ impl Model {
 fn fields(members: &[Member]) -> Vec<(String, TypeRef)> {
     let mut out = Vec::new();
     for m in members {
-        if let Member::Field(f) = m {
-            out.extend(f.names.iter().map(|n| (n.text.clone(), f.ty.clone())));
+        match m {
+            Member::Field(f) => out.extend(f.names.iter().map(|n| (n.text.clone(), f.ty.clone()))),
+            // Events and methods are names too; their type is not tracked.
+            Member::Event { name, .. } | Member::Method { name, .. } => out.push((
+                name.text.clone(),
+                TypeRef {
+                    list: false,
+                    base: QualName {
+                        actor: None,
+                        name: Name {
+                            text: "?".into(),
+                            span: name.span,
+                        },
+                    },
+                },
+            )),
+            _ => {}
         }
     }
     out
 }
 
+/// Names visible while checking one declaration's body.
+#[derive(Default)]
+struct Scope {
+    /// The compound whose fields are visible.
+    this: Option<String>,
+    /// The actor of a scenario declared on one (`actor`).
+    actor: Option<String>,
+    /// Labels and locals, innermost last.
+    locals: Vec<(String, Ty)>,
+}
+
 struct Checker<'a> {
     m: &'a Model,
     diags: Vec<Diagnostic>,
+    scope: Scope,
+}
+
+fn labels(d: &DoMember, m: &Model, out: &mut Vec<(String, Ty)>) {
+    match &d.kind {
+        DoKind::Composition { children, .. } => {
+            if let Some(l) = &d.label {
+                out.push((l.text.clone(), Ty::Unknown));
+            }
+            children.iter().for_each(|c| labels(c, m, out));
+        }
+        DoKind::Invoke { call, .. } => {
+            if let Some(l) = &d.label {
+                let ty = call_target(call)
+                    .filter(|(n, _)| m.compounds.contains_key(&n.text))
+                    .map_or(Ty::Unknown, |(n, _)| Ty::Compound(n.text));
+                out.push((l.text.clone(), ty));
+            }
+        }
+        _ => {
+            if let Some(l) = &d.label {
+                out.push((l.text.clone(), Ty::Unknown));
+            }
+        }
+    }
 }
 
 impl Checker<'_> {
+    fn err(&mut self, code: &'static str, span: Span, msg: String, hint: Option<String>) {
+        let mut d = Diagnostic::error(code, span, msg);
+        if let Some(h) = hint.filter(|h| !h.is_empty()) {
+            d = d.with_hint(h);
+        }
+        self.diags.push(d);
+    }
+
     fn type_ref(&mut self, t: &TypeRef) {
         let n = &t.base.name;
         if t.base.actor.is_none() && !self.m.is_type(&n.text) {
@@ -170,148 +347,472 @@ impl Checker<'_> {
                     .chain(self.m.physical.iter())
                     .chain(self.m.enums.keys()),
             );
-            let mut d = Diagnostic::error("E0301", n.span, format!("unknown type '{}'", n.text));
-            if !hint.is_empty() {
-                d = d.with_hint(format!("did you mean one of: {hint}?"));
-            }
-            self.diags.push(d);
+            self.err(
+                "E0301",
+                n.span,
+                format!("unknown type '{}'", n.text),
+                (!hint.is_empty()).then(|| format!("did you mean one of: {hint}?")),
+            );
         }
     }
 
-    fn expr(&mut self, e: &Expr) {
+    /// Resolves a bare name; `want` lets an enum member be written unqualified.
+    fn ident(&mut self, name: &str, span: Span, want: Option<&Ty>) -> Ty {
+        if let Some(Ty::Enum(e)) = want
+            && self.m.enums.get(e).is_some_and(|s| s.contains(name))
+        {
+            return Ty::Enum(e.clone());
+        }
+        if let Some((_, t)) = self.scope.locals.iter().rev().find(|(n, _)| n == name) {
+            return t.clone();
+        }
+        if let Some(this) = &self.scope.this
+            && let Some(t) = self.m.field(this, name)
+        {
+            return t;
+        }
+        if name == "actor"
+            && let Some(a) = &self.scope.actor
+        {
+            return Ty::Compound(a.clone());
+        }
+        if let Some(t) = self.m.globals.get(name) {
+            return self.m.ty_of(t);
+        }
+        if matches!(self.m.compounds.get(name), Some((DeclKind::Actor, ..))) {
+            return Ty::Compound(name.into());
+        }
+        let owners: Vec<&String> = self
+            .m
+            .enums
+            .iter()
+            .filter(|(_, ms)| ms.contains(name))
+            .map(|(e, _)| e)
+            .collect();
+        if let Some(Ty::Enum(e)) = want {
+            let members: Vec<&str> = self
+                .m
+                .enums
+                .get(e)
+                .map(|s| s.iter().map(String::as_str).collect())
+                .unwrap_or_default();
+            self.err(
+                "E0311",
+                span,
+                format!("'{name}' is not a member of enum {e}"),
+                Some(format!("its members: {}", members.join(", "))),
+            );
+            return Ty::Unknown;
+        }
+        if owners.len() == 1 {
+            return Ty::Enum(owners[0].clone());
+        }
+        if !owners.is_empty() {
+            return Ty::Unknown;
+        }
+        let mut visible: Vec<String> = self.scope.locals.iter().map(|(n, _)| n.clone()).collect();
+        if let Some(this) = &self.scope.this {
+            visible.extend(self.m.params(this).into_iter().map(|(n, _)| n));
+        }
+        let hint = close_names(name, visible.iter());
+        let place = self
+            .scope
+            .this
+            .as_ref()
+            .map_or(String::new(), |t| format!(" in '{t}'"));
+        self.err(
+            "E0310",
+            span,
+            format!("unknown name '{name}'{place}"),
+            (!hint.is_empty()).then(|| format!("did you mean: {hint}?")),
+        );
+        Ty::Unknown
+    }
+
+    /// Checks an expression and returns its type.
+    fn expr(&mut self, e: &Expr, want: Option<&Ty>) -> Ty {
         match e {
-            Expr::Physical { unit, span, .. } if !self.m.units.contains_key(unit) => {
-                let hint = close_names(unit, self.m.units.keys());
-                let mut d = Diagnostic::error("E0302", *span, format!("unknown unit '{unit}'"));
-                if !hint.is_empty() {
-                    d = d.with_hint(format!("known units like it: {hint}"));
-                }
-                self.diags.push(d);
-            }
-            Expr::Range { lo, hi, unit, span } => {
-                if let Some(u) = unit
-                    && !self.m.units.contains_key(u)
-                {
-                    self.diags.push(Diagnostic::error(
+            Expr::Int { .. } | Expr::Float { .. } => Ty::Number,
+            Expr::Str { .. } => Ty::Str,
+            Expr::Bool { .. } => Ty::Bool,
+            Expr::Physical { unit, span, .. } => match self.m.units.get(unit) {
+                Some(p) => Ty::Physical(p.clone()),
+                None if unit.contains('/') || unit.contains('*') => Ty::Unknown,
+                None => {
+                    let hint = close_names(unit, self.m.units.keys());
+                    self.err(
                         "E0302",
                         *span,
-                        format!("unknown unit '{u}'"),
-                    ));
+                        format!("unknown unit '{unit}'"),
+                        (!hint.is_empty()).then(|| format!("known units like it: {hint}")),
+                    );
+                    Ty::Unknown
+                }
+            },
+            Expr::Range { lo, hi, unit, span } => {
+                let mut ty = Ty::Unknown;
+                if let Some(u) = unit {
+                    match self.m.units.get(u) {
+                        Some(p) => ty = Ty::Physical(p.clone()),
+                        None => self.err("E0302", *span, format!("unknown unit '{u}'"), None),
+                    }
                 }
                 for x in lo.iter().chain(hi.iter()) {
-                    self.expr(x);
+                    let t = self.expr(x, None);
+                    if ty == Ty::Unknown {
+                        ty = t;
+                    } else if matches!((&ty, &t), (Ty::Physical(_), Ty::Physical(_))) && ty != t {
+                        self.err(
+                            "E0303",
+                            x.span(),
+                            format!(
+                                "range bound is {}, the range is {}",
+                                t.describe(),
+                                ty.describe()
+                            ),
+                            None,
+                        );
+                    }
                 }
+                ty
             }
-            Expr::Unary { expr, .. } => self.expr(expr),
-            Expr::Binary { lhs, rhs, op, span } => {
-                self.expr(lhs);
-                self.expr(rhs);
-                if ["+", "-", "<", "<=", ">", ">=", "=="].contains(&op.as_str())
-                    && let (Some(a), Some(b)) = (self.m.physical_of(lhs), self.m.physical_of(rhs))
-                    && a != b
-                {
-                    self.diags.push(Diagnostic::error(
-                        "E0303",
+            Expr::Ident { name, span } => {
+                if name == "it" || name == "null" {
+                    return self
+                        .scope
+                        .locals
+                        .iter()
+                        .rev()
+                        .find(|(n, _)| n == name)
+                        .map_or(Ty::Unknown, |(_, t)| t.clone());
+                }
+                self.ident(name, *span, want)
+            }
+            Expr::EnumRef {
+                enum_name,
+                member,
+                span,
+            } => match self.m.enums.get(enum_name) {
+                Some(ms) if ms.contains(member) => Ty::Enum(enum_name.clone()),
+                Some(ms) => {
+                    let list: Vec<&str> = ms.iter().map(String::as_str).collect();
+                    self.err(
+                        "E0311",
                         *span,
-                        format!("'{op}' mixes a {a} and a {b}"),
-                    ));
+                        format!("'{member}' is not a member of enum {enum_name}"),
+                        Some(format!("its members: {}", list.join(", "))),
+                    );
+                    Ty::Unknown
+                }
+                None => {
+                    self.err("E0301", *span, format!("unknown enum '{enum_name}'"), None);
+                    Ty::Unknown
+                }
+            },
+            Expr::Unary { op, expr, span } => {
+                let t = self.expr(expr, if op == "-" { want } else { None });
+                match op.as_str() {
+                    "not" => {
+                        self.want_bool(&t, expr.span(), "'not'");
+                        let _ = span;
+                        Ty::Bool
+                    }
+                    "-" => t,
+                    _ => Ty::Unknown,
                 }
             }
+            Expr::Binary { lhs, rhs, op, span } => self.binary(op, lhs, rhs, *span),
             Expr::Ternary {
                 cond,
                 then,
                 otherwise,
                 ..
             } => {
-                self.expr(cond);
-                self.expr(then);
-                self.expr(otherwise);
+                let c = self.expr(cond, None);
+                self.want_bool(&c, cond.span(), "a condition");
+                let a = self.expr(then, want);
+                let b = self.expr(otherwise, want);
+                if a == Ty::Unknown { b } else { a }
             }
-            Expr::Field { base, .. } | Expr::Cast { base, .. } => self.expr(base),
-            Expr::Index { base, index, .. } => {
-                self.expr(base);
-                self.expr(index);
-            }
-            Expr::Call { callee, args, .. } => {
-                self.expr(callee);
-                for a in args {
-                    self.expr(&a.value);
+            Expr::Field { base, name, .. } => {
+                let bt = self.expr(base, None);
+                match bt {
+                    Ty::Compound(c) => match self.m.field(&c, &name.text) {
+                        Some(t) => t,
+                        // Behaviours have builtin members (events, their actor, timing).
+                        None if BEHAVIOUR_MEMBERS.contains(&name.text.as_str())
+                            && matches!(
+                                self.m.compounds.get(&c),
+                                Some((DeclKind::Scenario | DeclKind::Action, ..))
+                            ) =>
+                        {
+                            Ty::Unknown
+                        }
+                        None => {
+                            let names: Vec<String> =
+                                self.m.params(&c).into_iter().map(|(n, _)| n).collect();
+                            let hint = close_names(&name.text, names.iter());
+                            self.err(
+                                "E0310",
+                                name.span,
+                                format!("'{c}' has no field '{}'", name.text),
+                                Some(if hint.is_empty() {
+                                    format!("its fields: {}", names.join(", "))
+                                } else {
+                                    format!("did you mean: {hint}?")
+                                }),
+                            );
+                            Ty::Unknown
+                        }
+                    },
+                    _ => Ty::Unknown,
                 }
             }
-            Expr::List { items, .. } => items.iter().for_each(|x| self.expr(x)),
-            _ => {}
+            Expr::Cast { base, test, ty, .. } => {
+                self.expr(base, None);
+                self.type_ref(ty);
+                if *test { Ty::Bool } else { self.m.ty_of(ty) }
+            }
+            Expr::Index { base, index, .. } => {
+                let b = self.expr(base, None);
+                self.expr(index, None);
+                match b {
+                    Ty::List(t) => *t,
+                    _ => Ty::Unknown,
+                }
+            }
+            Expr::Call { callee, args, .. } => {
+                // Functions and methods are not typed; their receivers and
+                // arguments are still checked.
+                if let Expr::Field { base, .. } = &**callee {
+                    self.expr(base, None);
+                }
+                for a in args {
+                    self.expr(&a.value, None);
+                }
+                Ty::Unknown
+            }
+            Expr::List { items, .. } => {
+                let inner = match want {
+                    Some(Ty::List(t)) => Some((**t).clone()),
+                    w => w.cloned(),
+                };
+                let mut ty = Ty::Unknown;
+                for x in items {
+                    let t = self.expr(x, inner.as_ref());
+                    if ty == Ty::Unknown {
+                        ty = t;
+                    }
+                }
+                Ty::List(Box::new(ty))
+            }
+            Expr::Error { .. } => Ty::Unknown,
         }
     }
 
+    fn want_bool(&mut self, t: &Ty, span: Span, what: &str) {
+        if !matches!(t, Ty::Bool | Ty::Unknown) {
+            self.err(
+                "E0312",
+                span,
+                format!("{what} needs a bool, this is {}", t.describe()),
+                None,
+            );
+        }
+    }
+
+    fn binary(&mut self, op: &str, lhs: &Expr, rhs: &Expr, span: Span) -> Ty {
+        match op {
+            "and" | "or" | "=>" => {
+                for x in [lhs, rhs] {
+                    let t = self.expr(x, None);
+                    self.want_bool(&t, x.span(), &format!("'{op}'"));
+                }
+                Ty::Bool
+            }
+            "in" => {
+                let a = self.expr(lhs, None);
+                let b = self.expr(rhs, Some(&a));
+                let inner = match &b {
+                    Ty::List(t) => (**t).clone(),
+                    t => t.clone(),
+                };
+                if !self.m.fits(&inner, &a) && !self.m.fits(&a, &inner) {
+                    self.mismatch(op, &a, &inner, span);
+                }
+                Ty::Bool
+            }
+            _ => {
+                let a = self.expr(lhs, None);
+                let b = self.expr(rhs, Some(&a));
+                let comparable = self.m.fits(&a, &b) || self.m.fits(&b, &a);
+                match op {
+                    "==" | "!=" | "<" | "<=" | ">" | ">=" => {
+                        if !comparable {
+                            self.mismatch(op, &a, &b, span);
+                        }
+                        Ty::Bool
+                    }
+                    "+" | "-" => {
+                        if !comparable {
+                            self.mismatch(op, &a, &b, span);
+                        }
+                        if a == Ty::Unknown { b } else { a }
+                    }
+                    // Products and quotients change the dimension; the
+                    // algebra of dimensions is not tracked.
+                    _ => match (&a, &b) {
+                        (Ty::Number, Ty::Number) => Ty::Number,
+                        (Ty::Physical(_), Ty::Number) if op == "*" || op == "/" => a,
+                        (Ty::Number, Ty::Physical(_)) if op == "*" => b,
+                        _ => Ty::Unknown,
+                    },
+                }
+            }
+        }
+    }
+
+    fn mismatch(&mut self, op: &str, a: &Ty, b: &Ty, span: Span) {
+        let code = if matches!((a, b), (Ty::Physical(_), Ty::Physical(_))) {
+            "E0303"
+        } else {
+            "E0313"
+        };
+        let what = match (a, b) {
+            (Ty::Physical(x), Ty::Physical(y)) => format!("a {x} and a {y}"),
+            _ => format!("{} and {}", a.describe(), b.describe()),
+        };
+        self.err(code, span, format!("'{op}' mixes {what}"), None);
+    }
+
+    /// Checks one value against a parameter's declared type.
+    fn value_for(&mut self, v: &Expr, want: &Ty, what: impl FnOnce() -> String) {
+        let got = self.expr(v, Some(want));
+        if self.m.fits(&got, want) {
+            return;
+        }
+        let (code, hint) = match (&got, want) {
+            (Ty::Physical(_), Ty::Physical(w)) => (
+                "E0303",
+                Some(format!("give a {w}: a number with a unit of {w}")),
+            ),
+            (Ty::Number, Ty::Physical(w)) => (
+                "E0314",
+                Some(format!("a {w} needs a unit, e.g. 20kph, 3s or 1.5m")),
+            ),
+            _ => ("E0313", None),
+        };
+        self.err(
+            code,
+            v.span(),
+            format!(
+                "{} is {}, but this value is {}",
+                what(),
+                want.describe(),
+                got.describe()
+            ),
+            hint,
+        );
+    }
+
     /// `name(args)` against a modifier's or behaviour's parameters.
-    fn call_args(&mut self, what: &str, name: &Name, args: &[Arg]) {
-        let params = self.m.params(&name.text);
+    fn call_args(&mut self, what: &str, key: &str, name: &Name, args: &[Arg]) {
+        let empty = Vec::new();
+        let params = self.m.param_types.get(key).unwrap_or(&empty);
+        let positional = args.iter().filter(|a| a.name.is_none()).count();
+        if positional > params.len() {
+            self.err(
+                "E0315",
+                args[params.len().min(args.len() - 1)].value.span(),
+                format!(
+                    "{what} '{}' takes at most {} positional argument(s), {} given",
+                    name.text,
+                    params.len(),
+                    positional
+                ),
+                Some(format!(
+                    "its parameters: {}",
+                    params
+                        .iter()
+                        .map(|(p, _)| p.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )),
+            );
+        }
+        let mut given: BTreeSet<String> = BTreeSet::new();
         for (i, a) in args.iter().enumerate() {
             let param = match &a.name {
                 Some(n) => match params.iter().find(|(p, _)| *p == n.text) {
                     Some(p) => Some(p),
                     None => {
                         let names: Vec<&str> = params.iter().map(|(p, _)| p.as_str()).collect();
-                        self.diags.push(
-                            Diagnostic::error(
-                                "E0308",
-                                n.span,
-                                format!("{what} '{}' has no parameter '{}'", name.text, n.text),
-                            )
-                            .with_hint(format!("its parameters: {}", names.join(", "))),
+                        self.err(
+                            "E0308",
+                            n.span,
+                            format!("{what} '{}' has no parameter '{}'", name.text, n.text),
+                            Some(format!("its parameters: {}", names.join(", "))),
                         );
                         None
                     }
                 },
                 None => params.get(i),
             };
-            if let (Some((pname, ty)), Some(got)) = (param, self.m.physical_of(&a.value)) {
-                let want = &ty.base.name.text;
-                if self.m.physical.contains(want) && *want != got && !ty.list {
-                    self.diags.push(
-                        Diagnostic::error(
-                            "E0303",
+            match param {
+                Some((pname, ty)) => {
+                    if !given.insert(pname.clone()) {
+                        self.err(
+                            "E0316",
                             a.value.span(),
-                            format!(
-                                "'{pname}' of {what} '{}' is a {want}, but this value is a {got}",
-                                name.text
-                            ),
-                        )
-                        .with_hint(format!("give a {want}: a number with a unit of {want}")),
-                    );
+                            format!("'{pname}' of {what} '{}' is given twice", name.text),
+                            None,
+                        );
+                    }
+                    let want = ty.clone();
+                    self.value_for(&a.value, &want, || {
+                        format!("'{pname}' of {what} '{}'", name.text)
+                    });
+                }
+                None => {
+                    self.expr(&a.value, None);
                 }
             }
         }
     }
 
     fn modifier(&mut self, call: &Expr) {
-        self.expr(call);
         let Some((name, args)) = call_target(call) else {
+            self.expr(call, None);
             return;
         };
-        match self.m.compounds.get(&name.text) {
-            Some((DeclKind::Modifier, ..)) => self.call_args("modifier", &name, args),
-            Some(_) => {}
+        if let Expr::Call { callee, .. } = call
+            && let Expr::Field { base, .. } = &**callee
+        {
+            self.expr(base, None);
+        }
+        match self.m.compounds.get(&modifier_key(&name.text)) {
+            Some(_) => self.call_args("modifier", &modifier_key(&name.text), &name, args),
             None => {
-                let mods: Vec<&String> = self
+                let mods: Vec<String> = self
                     .m
                     .compounds
-                    .iter()
-                    .filter(|(_, v)| v.0 == DeclKind::Modifier)
-                    .map(|(k, _)| k)
+                    .keys()
+                    .filter_map(|k| k.strip_prefix("modifier ").map(String::from))
                     .collect();
-                let hint = close_names(&name.text, mods.into_iter());
-                let mut d = Diagnostic::error(
+                let hint = close_names(&name.text, mods.iter());
+                self.err(
                     "E0304",
                     name.span,
                     format!("unknown modifier '{}'", name.text),
+                    (!hint.is_empty()).then(|| format!("did you mean: {hint}?")),
                 );
-                if !hint.is_empty() {
-                    d = d.with_hint(format!("did you mean: {hint}?"));
-                }
-                self.diags.push(d);
             }
         }
+    }
+
+    fn keep(&mut self, expr: &Expr) {
+        let t = self.expr(expr, None);
+        self.want_bool(&t, expr.span(), "a constraint");
     }
 
     fn members(&mut self, members: &[Member]) {
@@ -319,34 +820,83 @@ impl Checker<'_> {
             match m {
                 Member::Field(f) => {
                     self.type_ref(&f.ty);
+                    let want = self.m.ty_of(&f.ty);
                     if let Some(d) = &f.default {
-                        self.expr(d);
-                        if let Some(got) = self.m.physical_of(d) {
-                            let want = &f.ty.base.name.text;
-                            if self.m.physical.contains(want) && *want != got {
-                                self.diags.push(Diagnostic::error(
-                                    "E0303",
-                                    d.span(),
-                                    format!(
-                                        "'{}' is a {want}, but its default is a {got}",
-                                        f.names[0].text
-                                    ),
-                                ));
-                            }
-                        }
+                        self.value_for(d, &want, || format!("'{}'", f.names[0].text));
                     }
+                    self.scope.locals.push(("it".into(), want));
                     self.members(&f.with);
+                    self.scope.locals.pop();
                 }
-                Member::Keep { expr, .. } => self.expr(expr),
+                Member::Keep { expr, .. } => self.keep(expr),
+                Member::RemoveDefault { path, .. } => {
+                    self.expr(path, None);
+                }
                 Member::Modifier { call, .. } => self.modifier(call),
                 Member::Do(d) => self.do_member(d),
-                Member::On { body, .. } => body.iter().for_each(|d| self.do_member(d)),
-                Member::Event { params, .. } | Member::Method { params, .. } => {
-                    params.iter().for_each(|p| self.type_ref(&p.ty))
+                Member::On { event, body } => {
+                    self.event_spec(event);
+                    body.iter().for_each(|d| self.do_member(d))
                 }
-                Member::Set { value, .. } => self.expr(value),
-                _ => {}
+                Member::Until(spec) => self.event_spec(spec),
+                Member::Event { params, is, .. } => {
+                    params.iter().for_each(|p| self.type_ref(&p.ty));
+                    if let Some(s) = is {
+                        self.event_spec(s);
+                    }
+                }
+                Member::Method {
+                    params, ret, expr, ..
+                } => {
+                    params.iter().for_each(|p| self.type_ref(&p.ty));
+                    if let Some(r) = ret {
+                        self.type_ref(r);
+                    }
+                    if let Some(e) = expr {
+                        let n = self.scope.locals.len();
+                        for p in params {
+                            let t = self.m.ty_of(&p.ty);
+                            for name in &p.names {
+                                self.scope.locals.push((name.text.clone(), t.clone()));
+                            }
+                        }
+                        let got = self.expr(e, None);
+                        if let Some(r) = ret {
+                            let want = self.m.ty_of(r);
+                            if !self.m.fits(&got, &want) {
+                                self.err(
+                                    "E0313",
+                                    e.span(),
+                                    format!(
+                                        "the method returns {}, but this is {}",
+                                        want.describe(),
+                                        got.describe()
+                                    ),
+                                    None,
+                                );
+                            }
+                        }
+                        self.scope.locals.truncate(n);
+                    }
+                }
+                Member::Set { path, value, .. } => {
+                    let want = self.expr(path, None);
+                    self.value_for(value, &want, || "this field".into());
+                }
+                Member::Coverage { args, .. } => {
+                    // The first argument names what is covered; the rest are options.
+                    for a in args.iter().skip(1) {
+                        self.expr(&a.value, None);
+                    }
+                }
             }
+        }
+    }
+
+    fn event_spec(&mut self, s: &EventSpec) {
+        if let Some(c) = &s.cond {
+            let t = self.expr(c, None);
+            self.want_bool(&t, c.span(), "an event condition");
         }
     }
 
@@ -358,16 +908,22 @@ impl Checker<'_> {
                 args,
                 ..
             } => {
-                args.iter().for_each(|a| self.expr(&a.value));
+                for a in args {
+                    self.expr(&a.value, None);
+                }
                 children.iter().for_each(|c| self.do_member(c));
                 self.members(with);
             }
             DoKind::Invoke { call, with } => {
-                self.expr(call);
                 if let Some((name, args)) = call_target(call) {
+                    if let Expr::Call { callee, .. } = call
+                        && let Expr::Field { base, .. } = &**callee
+                    {
+                        self.expr(base, None);
+                    }
                     match self.m.compounds.get(&name.text) {
                         Some((DeclKind::Scenario | DeclKind::Action, ..)) => {
-                            self.call_args("behaviour", &name, args)
+                            self.call_args("behaviour", &name.text, &name, args)
                         }
                         _ => {
                             let bs: Vec<&String> = self
@@ -380,23 +936,49 @@ impl Checker<'_> {
                                 .map(|(k, _)| k)
                                 .collect();
                             let hint = close_names(&name.text, bs.into_iter());
-                            let mut e = Diagnostic::error(
+                            self.err(
                                 "E0309",
                                 name.span,
                                 format!("unknown scenario or action '{}'", name.text),
+                                (!hint.is_empty()).then(|| format!("did you mean: {hint}?")),
                             );
-                            if !hint.is_empty() {
-                                e = e.with_hint(format!("did you mean: {hint}?"));
-                            }
-                            self.diags.push(e);
                         }
                     }
+                } else {
+                    self.expr(call, None);
                 }
                 self.members(with);
             }
-            _ => {}
+            DoKind::Wait(spec) => self.event_spec(spec),
+            DoKind::Emit { .. } | DoKind::Call { .. } => {}
         }
     }
+
+    /// Checks a compound or extend body with the right names in scope.
+    fn body(&mut self, this: Option<String>, actor: Option<String>, members: &[Member]) {
+        let mut locals = Vec::new();
+        for m in members {
+            if let Member::Do(d) = m {
+                labels(d, self.m, &mut locals);
+            }
+        }
+        let saved = std::mem::replace(
+            &mut self.scope,
+            Scope {
+                this,
+                actor,
+                locals,
+            },
+        );
+        self.members(members);
+        self.scope = saved;
+    }
+}
+
+/// Modifiers live in their own namespace (`lane` is both a struct and a
+/// modifier in the domain model).
+fn modifier_key(name: &str) -> String {
+    format!("modifier {name}")
 }
 
 /// The name and arguments of `name(args)` or `x.name(args)`.
@@ -423,8 +1005,9 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
     let mut c = Checker {
         m: &m,
         diags: Vec::new(),
+        scope: Scope::default(),
     };
-    let mut seen: BTreeMap<String, ()> = BTreeMap::new();
+    let mut seen: BTreeSet<String> = BTreeSet::new();
     for (_, f) in &prog.files {
         for d in &f.decls {
             match d {
@@ -442,7 +1025,7 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
                             .map_or(String::new(), |a| format!("{}.", a.text)),
                         name.name.text
                     );
-                    if seen.insert(key.clone(), ()).is_some() && *kind != DeclKind::Modifier {
+                    if !seen.insert(key.clone()) && *kind != DeclKind::Modifier {
                         c.diags.push(
                             Diagnostic::error(
                                 "E0307",
@@ -452,49 +1035,89 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
                             .with_hint("use `extend` to add to an existing declaration"),
                         );
                     }
-                    if let Some((base, _)) = inherits
-                        && !m.compounds.contains_key(&base.name.text)
+                    if let Some(a) = &name.actor
+                        && !matches!(m.compounds.get(&a.text), Some((DeclKind::Actor, ..)))
                     {
-                        c.diags.push(Diagnostic::error(
-                            "E0305",
-                            base.name.span,
+                        let actors: Vec<&String> = m
+                            .compounds
+                            .iter()
+                            .filter(|(_, v)| v.0 == DeclKind::Actor)
+                            .map(|(k, _)| k)
+                            .collect();
+                        let hint = close_names(&a.text, actors.into_iter());
+                        c.err(
+                            "E0317",
+                            a.span,
                             format!(
-                                "'{}' inherits from unknown '{}'",
-                                name.name.text, base.name.text
+                                "'{}' is declared on '{}', which is not an actor",
+                                name.name.text, a.text
                             ),
-                        ));
+                            (!hint.is_empty()).then(|| format!("did you mean: {hint}?")),
+                        );
+                    }
+                    if let Some((base, cond)) = inherits {
+                        if !m.compounds.contains_key(&base.name.text) {
+                            c.err(
+                                "E0305",
+                                base.name.span,
+                                format!(
+                                    "'{}' inherits from unknown '{}'",
+                                    name.name.text, base.name.text
+                                ),
+                                None,
+                            );
+                        } else if let Some(cond) = cond {
+                            // Conditional inheritance: the condition reads the base's fields.
+                            c.scope = Scope {
+                                this: Some(base.name.text.clone()),
+                                ..Scope::default()
+                            };
+                            let t = c.expr(cond, None);
+                            c.want_bool(&t, cond.span(), "an inheritance condition");
+                        }
                     }
                     if let Some(of) = of
                         && !m.compounds.contains_key(&of.name.text)
                     {
-                        c.diags.push(Diagnostic::error(
+                        c.err(
                             "E0309",
                             of.name.span,
                             format!("unknown scenario or action '{}'", of.name.text),
-                        ));
+                            None,
+                        );
                     }
-                    c.members(members);
+                    let key = if *kind == DeclKind::Modifier {
+                        modifier_key(&name.name.text)
+                    } else {
+                        name.name.text.clone()
+                    };
+                    let this = m.compounds.contains_key(&key).then_some(key);
+                    c.body(this, name.actor.as_ref().map(|a| a.text.clone()), members);
                 }
                 Decl::Extend { target, members } => {
                     let builtin = target.actor.as_ref().is_some_and(|a| a.text == "top")
                         && target.name.text == "main";
-                    if !builtin && !m.compounds.contains_key(&target.name.text) {
-                        c.diags.push(Diagnostic::error(
+                    let known = m.compounds.contains_key(&target.name.text);
+                    if !builtin && !known {
+                        c.err(
                             "E0306",
                             target.name.span,
                             format!("cannot extend unknown '{}'", target.name.text),
-                        ));
+                            None,
+                        );
                     }
-                    c.members(members);
+                    let actor = target.actor.as_ref().map(|a| a.text.clone());
+                    c.body(known.then(|| target.name.text.clone()), actor, members);
                 }
                 Decl::Unit { of, .. } if !m.physical.contains(&of.text) => {
-                    c.diags.push(Diagnostic::error(
+                    c.err(
                         "E0301",
                         of.span,
                         format!("unknown physical type '{}'", of.text),
-                    ));
+                        None,
+                    );
                 }
-                Decl::Global(f) => c.members(&[Member::Field(f.clone())]),
+                Decl::Global(f) => c.body(None, None, &[Member::Field(f.clone())]),
                 _ => {}
             }
         }

@@ -287,7 +287,12 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
                     i += 1;
                 }
             }
-            b'0'..=b'9' => {
+            // `.5` (but not the `.` of a field access before a digit, `a.5`).
+            b'0'..=b'9' | b'.'
+                if c != b'.'
+                    || (b.get(i + 1).is_some_and(|d| d.is_ascii_digit())
+                        && toks.last().is_none_or(|t| t.tok != Tok::Punct("."))) =>
+            {
                 let s = i;
                 let mut is_float = false;
 
@@ -402,22 +407,6 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
                         span: sp(i, i + len),
                     });
                     i += len;
-                    continue;
-                }
-                if c == b'.'
-                    && b.get(i + 1).is_some_and(|d| d.is_ascii_digit())
-                    && toks.last().is_none_or(|t| t.tok != Tok::Punct("."))
-                {
-                    // `.5`
-                    let s = i;
-                    i += 1;
-                    while i < b.len() && b[i].is_ascii_digit() {
-                        i += 1;
-                    }
-                    toks.push(Token {
-                        tok: Tok::Float(text[s..i].parse().unwrap_or(f64::NAN)),
-                        span: sp(s, i),
-                    });
                     continue;
                 }
                 match PUNCT.iter().find(|p| rest.starts_with(**p)) {
