@@ -5,6 +5,7 @@ mod check;
 mod demo;
 mod map;
 mod plan;
+mod scenario;
 mod viz;
 
 use anyhow::{Context, Result};
@@ -145,6 +146,78 @@ enum Command {
         /// Print the syntax tree of the entry file (JSON).
         #[arg(long)]
         dump_ast: bool,
+    },
+    /// Run an OpenSCENARIO DSL test: solve, plan, drive the SSP, check; write log, summary, pictures.
+    Run {
+        /// The test (.osc).
+        test: PathBuf,
+        #[command(flatten)]
+        common: scenario::Common,
+        /// Seed (default: the test's, else 1).
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Simulator: in-process (default) or grpc://HOST:PORT.
+        #[arg(long)]
+        sim: Option<String>,
+        /// Output folder (default runs/TEST-seedN).
+        #[arg(short, long)]
+        out: Option<PathBuf>,
+        /// Print (and draw) the plan; run nothing.
+        #[arg(long)]
+        plan_only: bool,
+        /// Skip the pictures.
+        #[arg(long)]
+        no_pictures: bool,
+        /// Also write an animated replay (GIF).
+        #[arg(long)]
+        gif: bool,
+        /// Driver gains from `litesim calibrate` (TOML).
+        #[arg(long)]
+        calibration: Option<PathBuf>,
+    },
+    /// Run tests × seeds in parallel; JSON lines and CSV; resumable; shardable (i/N).
+    Batch {
+        /// Tests (.osc).
+        #[arg(required = true)]
+        tests: Vec<PathBuf>,
+        #[command(flatten)]
+        common: scenario::Common,
+        /// Seeds, inclusive: A..B or one seed.
+        #[arg(long, default_value = "1..10")]
+        seeds: String,
+        /// Shard i/N of the job list (Kubernetes Indexed Job, Slurm array).
+        #[arg(long, default_value = "0/1")]
+        shard: String,
+        /// Worker threads (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Output folder.
+        #[arg(short, long, default_value = "batch")]
+        out: PathBuf,
+        /// Skip runs already in OUT/results.jsonl.
+        #[arg(long)]
+        resume: bool,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
+    },
+    /// Merge batch folders (shards) into one sorted result.
+    Merge {
+        /// Shard folders.
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Output folder.
+        #[arg(short, long)]
+        out: PathBuf,
+    },
+    /// Tune the dynamic drivers' gains for a profile; write its calibration file.
+    Calibrate {
+        /// Profile.
+        #[arg(long, default_value = "dummy")]
+        profile: String,
+        /// Output file (default calibration/PROFILE.toml).
+        #[arg(short, long)]
+        out: Option<PathBuf>,
     },
     /// Inspect and export OpenDRIVE maps.
     Map {
@@ -308,6 +381,46 @@ fn run(cli: Cli) -> Result<()> {
             map.as_deref(),
             style.as_deref(),
         ),
+        Command::Run {
+            test,
+            common,
+            seed,
+            sim,
+            out,
+            plan_only,
+            no_pictures,
+            gif,
+            calibration,
+        } => {
+            let pass = scenario::run(
+                &test,
+                &common,
+                seed,
+                sim.as_deref(),
+                out,
+                plan_only,
+                no_pictures,
+                gif,
+                calibration.as_deref(),
+            )?;
+            if !pass {
+                // A failed check is an outcome, not a crash: exit 2.
+                std::process::exit(2);
+            }
+            Ok(())
+        }
+        Command::Batch {
+            tests,
+            common,
+            seeds,
+            shard,
+            threads,
+            out,
+            resume,
+            quiet,
+        } => scenario::batch(tests, &common, &seeds, &shard, threads, out, resume, quiet),
+        Command::Merge { dirs, out } => scenario::merge(&dirs, &out),
+        Command::Calibrate { profile, out } => scenario::calibrate_cmd(&profile, out),
         Command::Models => {
             for m in litesim_ssp::models() {
                 println!("{:<8} {}", m.name(), m.summary());

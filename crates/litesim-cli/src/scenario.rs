@@ -1,0 +1,303 @@
+//! `litesim run`, `litesim batch`, `litesim merge`, `litesim calibrate`.
+
+use anyhow::{Result, anyhow, bail};
+use litesim_log::{ActorSample, LogRecorder, SimulationLog};
+use litesim_scenario::{DriveMode, LoadOptions, RunOptions, batch, calibrate, plan::Plan};
+use std::path::{Path, PathBuf};
+
+/// Options shared by `run` and `batch`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct Common {
+    /// Import search paths.
+    #[arg(short = 'I', value_name = "DIR")]
+    pub include: Vec<PathBuf>,
+    /// Map file overriding the test's `test_config.map`.
+    #[arg(long)]
+    pub map: Option<PathBuf>,
+    /// Drive actors dynamically (pedals and steering) instead of kinematically.
+    #[arg(long)]
+    pub dynamic: bool,
+}
+
+impl Common {
+    fn load(&self) -> LoadOptions {
+        LoadOptions {
+            include: self.include.clone(),
+            map: self.map.clone(),
+            env: None,
+        }
+    }
+    fn mode(&self) -> DriveMode {
+        if self.dynamic {
+            DriveMode::Dynamic
+        } else {
+            DriveMode::Kinematic
+        }
+    }
+}
+
+/// The plan as a log (one sample per plan step), for pictures.
+pub fn plan_log(plan: &Plan) -> SimulationLog {
+    let mut rec = LogRecorder::new(plan.dt);
+    rec.meta("source", "plan");
+    for a in &plan.actors {
+        rec.actor(&a.id, &format!("{:?}", a.kind).to_lowercase(), &a.category, a.length, a.width, 1500.0);
+    }
+    let n = plan.actors.iter().map(|a| a.samples.len()).max().unwrap_or(0);
+    for k in 0..n {
+        rec.begin(k as u64, k as f64 * plan.dt);
+        for a in &plan.actors {
+            let s = a.samples[k.min(a.samples.len() - 1)];
+            let (sy, cy) = s.yaw.sin_cos();
+            let sample = ActorSample::from_kinematics(
+                litesim_core::geometry::Pose::planar(s.x, s.y, s.yaw),
+                litesim_core::geometry::Vec3::new(s.v * cy, s.v * sy, 0.0),
+                litesim_core::geometry::Vec3::new(s.a * cy, s.a * sy, 0.0),
+                0.0,
+                s.v,
+                1500.0,
+            );
+            rec.sample(&a.id, "plan", &sample);
+        }
+    }
+    rec.finish()
+}
+
+fn lanes(net: Option<&litesim_map::RoadNetwork>) -> Vec<Vec<(f64, f64)>> {
+    net.map(|n| {
+        n.lane_polylines(0.1)
+            .into_iter()
+            .flat_map(|l| [l.inner, l.outer])
+            .map(|pts| pts.into_iter().map(|v| (v.x, v.y)).collect())
+            .collect()
+    })
+    .unwrap_or_default()
+}
+
+/// `litesim run`.
+#[allow(clippy::too_many_arguments)]
+pub fn run(
+    test: &Path,
+    common: &Common,
+    seed: Option<u64>,
+    sim: Option<&str>,
+    out: Option<PathBuf>,
+    plan_only: bool,
+    no_pictures: bool,
+    gif: bool,
+    calibration: Option<&Path>,
+) -> Result<bool> {
+    let prep = litesim_scenario::prepare(test, &common.load()).map_err(|e| anyhow!("{e}"))?;
+    let calibration = match calibration {
+        Some(p) => Some(
+            calibrate::from_toml(&std::fs::read_to_string(p).map_err(|e| anyhow!("{}: {e}", p.display()))?)
+                .map_err(|e| anyhow!("{}: {e}", p.display()))?,
+        ),
+        None => None,
+    };
+    let opts = RunOptions {
+        seed,
+        mode: common.mode(),
+        record: true,
+        plan_only,
+        calibration,
+        ..RunOptions::default()
+    };
+    let result = match sim {
+        None | Some("inprocess") | Some("in-process") => {
+            litesim_scenario::run(&prep, &mut litesim_scenario::in_process(), &opts)
+        }
+        Some(url) => {
+            let addr = url
+                .strip_prefix("grpc://")
+                .ok_or_else(|| anyhow!("--sim {url}: expected grpc://HOST:PORT or in-process"))?;
+            let mut remote = litesim_grpc::RemoteSsp::connect(addr).map_err(|e| anyhow!("{e}"))?;
+            litesim_scenario::run(&prep, &mut remote, &opts)
+        }
+    }
+    .map_err(|e| anyhow!("{e}"))?;
+    let stem = test
+        .file_stem()
+        .map_or("test".into(), |s| s.to_string_lossy().into_owned());
+    let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{stem}-seed{}", result.summary.seed)));
+    std::fs::create_dir_all(&out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    let s = &result.summary;
+    if plan_only {
+        println!("plan of {} (seed {}), {:.2} s, sampled every {:.2} s:", s.test, s.seed, result.plan.duration, result.plan.dt);
+        for (k, v) in &s.roads {
+            println!("  {k} = road {v}");
+        }
+        for p in &result.plan.phases {
+            println!(
+                "  [{:6.2} s .. {:6.2} s] {} {}{}",
+                p.t0,
+                p.t1,
+                p.actor,
+                p.action,
+                p.label.as_ref().map_or(String::new(), |l| format!(" ({l})"))
+            );
+        }
+        for a in &result.plan.actors {
+            let (f, l) = (a.samples[0], a.samples[a.samples.len() - 1]);
+            println!(
+                "  {:<10} from ({:8.2}, {:8.2}) at {:5.2} m/s to ({:8.2}, {:8.2}) at {:5.2} m/s",
+                a.id, f.x, f.y, f.v, l.x, l.y, l.v
+            );
+        }
+        let path = out.join("plan.json");
+        std::fs::write(&path, serde_json::to_string_pretty(&result.plan)?)?;
+        println!("wrote {}", path.display());
+        if !no_pictures {
+            let log = plan_log(&result.plan);
+            let pic = out.join("plan.png");
+            litesim_viz::replay::write_png(&log, &lanes(prep.net.as_deref()), &litesim_viz::style::Style::default(), &pic)
+                .map_err(|e| anyhow!("{e}"))?;
+            println!("wrote {}", pic.display());
+        }
+        return Ok(true);
+    }
+    if let Some(log) = &result.log {
+        let p = out.join("log.json");
+        log.write_json(&p).map_err(|e| anyhow!("{e}"))?;
+        println!("wrote {}", p.display());
+        if !no_pictures {
+            let style = litesim_viz::style::Style::default();
+            let l = lanes(prep.net.as_deref());
+            let pic = out.join("replay.png");
+            litesim_viz::replay::write_png(log, &l, &style, &pic).map_err(|e| anyhow!("{e}"))?;
+            println!("wrote {}", pic.display());
+            if gif {
+                let g = out.join("replay.gif");
+                litesim_viz::replay::write_gif(log, &l, &style, &g, 150).map_err(|e| anyhow!("{e}"))?;
+                println!("wrote {}", g.display());
+            }
+        }
+    }
+    let p = out.join("summary.json");
+    std::fs::write(&p, serde_json::to_string_pretty(s)? + "\n")?;
+    println!("wrote {}", p.display());
+    println!(
+        "{} {} seed {}: {} ({} steps, {:.2} s, profile {}, model {}, {:?})",
+        if s.pass { "PASS" } else { "FAIL" },
+        s.test,
+        s.seed,
+        if s.pass { "all checks hold".to_string() } else { s.failures.join("; ") },
+        s.steps,
+        s.duration,
+        s.profile,
+        s.model,
+        s.mode
+    );
+    for n in &s.notes {
+        println!("note: {n}");
+    }
+    Ok(s.pass)
+}
+
+/// Parses `A..B` (inclusive) or a single seed.
+pub fn seeds(text: &str) -> Result<(u64, u64)> {
+    let parse = |s: &str| s.trim().parse::<u64>().map_err(|_| anyhow!("--seeds {text}: '{s}' is not a seed (expected A..B)"));
+    match text.split_once("..") {
+        Some((a, b)) => {
+            let (a, b) = (parse(a)?, parse(b.trim_start_matches('='))?);
+            if b < a {
+                bail!("--seeds {text}: the range is empty");
+            }
+            Ok((a, b))
+        }
+        None => {
+            let a = parse(text)?;
+            Ok((a, a))
+        }
+    }
+}
+
+/// Parses `i/N`.
+pub fn shard(text: &str) -> Result<(u64, u64)> {
+    let bad = || anyhow!("--shard {text}: expected i/N with 0 ≤ i < N");
+    let (i, n) = text.split_once('/').ok_or_else(bad)?;
+    let (i, n) = (i.trim().parse::<u64>().map_err(|_| bad())?, n.trim().parse::<u64>().map_err(|_| bad())?);
+    if n == 0 || i >= n {
+        return Err(bad());
+    }
+    Ok((i, n))
+}
+
+/// `litesim batch`.
+#[allow(clippy::too_many_arguments)]
+pub fn batch(
+    tests: Vec<PathBuf>,
+    common: &Common,
+    seed_range: &str,
+    shard_text: &str,
+    threads: Option<usize>,
+    out: PathBuf,
+    resume: bool,
+    quiet: bool,
+) -> Result<()> {
+    let (a, b) = seeds(seed_range)?;
+    let spec = batch::BatchSpec {
+        tests,
+        seed_from: a,
+        seed_to: b,
+        shard: shard(shard_text)?,
+        threads,
+        out: out.clone(),
+        resume,
+        mode: common.mode(),
+        load: common.load(),
+    };
+    let bar = indicatif::ProgressBar::new(0);
+    if quiet {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs  {per_sec}  eta {eta}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let started = std::time::Instant::now();
+    let report = batch::run_batch(&spec, &|done, total| {
+        if bar.length() != Some(total) {
+            bar.set_length(total);
+        }
+        bar.set_position(done);
+    })
+    .map_err(|e| anyhow!("{e}"))?;
+    bar.finish_and_clear();
+    let secs = started.elapsed().as_secs_f64();
+    println!(
+        "{} runs in this shard ({} resumed, {} run now in {:.2} s, {:.0} runs/s); {} passed, {} failed",
+        report.total,
+        report.skipped,
+        report.ran,
+        secs,
+        report.ran as f64 / secs.max(1e-9),
+        report.passed,
+        report.failed
+    );
+    println!("wrote {}/results.jsonl and results.csv", out.display());
+    Ok(())
+}
+
+/// `litesim merge`.
+pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
+    let n = batch::merge(dirs, out).map_err(|e| anyhow!("{e}"))?;
+    println!("merged {n} runs into {}/results.jsonl and results.csv", out.display());
+    Ok(())
+}
+
+/// `litesim calibrate`.
+pub fn calibrate_cmd(profile: &str, out: Option<PathBuf>) -> Result<()> {
+    let c = calibrate::calibrate(profile).map_err(|e| anyhow!("{e}"))?;
+    let path = out.unwrap_or_else(|| PathBuf::from("calibration").join(format!("{}.toml", c.profile)));
+    if let Some(d) = path.parent() {
+        std::fs::create_dir_all(d)?;
+    }
+    std::fs::write(&path, calibrate::to_toml(&c))?;
+    println!(
+        "profile {}: {} candidates; rms path error {:.4} → {:.4} m, max speed error {:.4} → {:.4} m/s",
+        c.profile, c.trials, c.before.rms_path_error, c.best.rms_path_error, c.before.max_speed_error, c.best.max_speed_error
+    );
+    println!("wrote {}", path.display());
+    Ok(())
+}

@@ -1,0 +1,903 @@
+//! Elaboration: from a checked OSC program to a [`Test`] — the run
+//! configuration, the actors, the variables with their constraints, and
+//! the behaviour tree of `top.main` with every name resolved to an absolute
+//! path (`s.r1`, `sut.car`, `s.car1.vehicle_category`).
+//!
+//! Scenario instances get a namespace: the label of the invocation (`s` in
+//! `do s: sut.smoke()`), or a generated one. Fields of the instance live
+//! under it; `keep`s of the instance, of its fields' `with:` blocks and of
+//! the invocation's `with:` block become [`Constraint`]s over paths.
+
+use crate::error::ScenarioError;
+use litesim_osc::ast::{Arg, Decl, DeclKind, DoKind, DoMember, Expr, Member};
+use litesim_osc::{Program, Span};
+use serde::Serialize;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// A constant value (physical values in SI units).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(untagged)]
+pub enum Value {
+    /// A number in SI units (m, s, m/s, m/s², rad, kg).
+    Num(f64),
+    /// Text.
+    Str(String),
+    /// Truth value.
+    Bool(bool),
+    /// An enum member (`best_effort`).
+    Enum(String),
+}
+
+impl Value {
+    /// The number, when it is one.
+    pub fn num(&self) -> Option<f64> {
+        match self {
+            Value::Num(v) => Some(*v),
+            _ => None,
+        }
+    }
+    /// The text of a string or enum member.
+    pub fn text(&self) -> Option<&str> {
+        match self {
+            Value::Str(s) | Value::Enum(s) => Some(s),
+            _ => None,
+        }
+    }
+}
+
+/// A constraint or argument expression with names resolved to paths.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub enum CExpr {
+    /// A constant.
+    Const(Value),
+    /// A variable by absolute path (`s.r1`, `s.car1.bbox.length`).
+    Var(String),
+    /// A range `[lo..hi]` in SI units; open bounds are `None`.
+    Range(Option<f64>, Option<f64>),
+    /// A list of values.
+    List(Vec<CExpr>),
+    /// Unary operator.
+    Unary(String, Box<CExpr>),
+    /// Binary operator.
+    Binary(String, Box<CExpr>, Box<CExpr>),
+    /// Something the engine does not evaluate (a method call, an event);
+    /// the text says what.
+    Opaque(String),
+}
+
+/// A `keep`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Constraint {
+    /// `keep(default …)`: a preference that yields to hard constraints.
+    pub soft: bool,
+    /// The expression.
+    pub expr: CExpr,
+    /// Where it was written (`file:line:col`).
+    pub at: String,
+}
+
+/// What kind of thing an actor is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActorKind {
+    /// A vehicle (cars, trucks, …; the ego is one).
+    Vehicle,
+    /// A pedestrian.
+    Person,
+    /// A cyclist.
+    Cyclist,
+    /// An animal.
+    Animal,
+    /// A stationary object (obstacle, cone, parked box).
+    Stationary,
+}
+
+/// An actor of the test.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ActorDef {
+    /// Id used with the simulator and in logs (`sut.car`, `car1`).
+    pub id: String,
+    /// Path of the field that declared it (`s.car1`).
+    pub path: String,
+    /// Declared type (`vehicle`, `person`, `fire_truck`).
+    pub type_name: String,
+    /// Kind.
+    pub kind: ActorKind,
+    /// The system under test's car.
+    pub ego: bool,
+}
+
+/// Map-element variable kinds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RoadKind {
+    /// Any road.
+    Road,
+    /// A road whose drivable lanes all run one way.
+    OneWay,
+    /// A road with lanes in both directions.
+    TwoWay,
+}
+
+/// A scalar or map-element variable.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VarDef {
+    /// Declared type name.
+    pub type_name: String,
+    /// For map elements: which kind of road.
+    pub road: Option<RoadKind>,
+    /// Default value.
+    pub default: Option<CExpr>,
+}
+
+/// A modifier application with its arguments bound to parameter names.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Modifier {
+    /// Modifier name (`speed`, `along`, …).
+    pub name: String,
+    /// Arguments by parameter name.
+    pub args: BTreeMap<String, CExpr>,
+    /// Where.
+    pub at: String,
+}
+
+/// A node of the behaviour tree.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "node", rename_all = "snake_case")]
+pub enum Node {
+    /// Children one after another.
+    Serial {
+        /// Label.
+        label: Option<String>,
+        /// Children.
+        children: Vec<Node>,
+        /// Modifiers of the composition (`duration`).
+        mods: Vec<Modifier>,
+    },
+    /// Children at the same time.
+    Parallel {
+        /// Label.
+        label: Option<String>,
+        /// Children.
+        children: Vec<Node>,
+        /// Modifiers.
+        mods: Vec<Modifier>,
+        /// `overlap:` (`equal` by default).
+        overlap: String,
+    },
+    /// One child, chosen under the seed.
+    OneOf {
+        /// Label.
+        label: Option<String>,
+        /// Children.
+        children: Vec<Node>,
+        /// Modifiers.
+        mods: Vec<Modifier>,
+    },
+    /// An action of one actor.
+    Action {
+        /// Label.
+        label: Option<String>,
+        /// Actor id.
+        actor: String,
+        /// `drive`, `remain_stationary`, `walk`, `move`.
+        action: String,
+        /// Modifiers.
+        mods: Vec<Modifier>,
+        /// Where.
+        at: String,
+    },
+    /// `wait elapsed(t)` (other waits end immediately in a plan).
+    Wait {
+        /// Duration (s), when it is `elapsed(t)`.
+        duration: Option<CExpr>,
+    },
+    /// `emit e`.
+    Emit {
+        /// Event name.
+        event: String,
+    },
+}
+
+/// Run configuration from `test_config` and `sim_info`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct RunConfig {
+    /// Map path as written (after `$ENV` expansion), relative to the test file.
+    pub map: Option<String>,
+    /// Seed from the test (`--seed` wins).
+    pub seed: Option<u64>,
+    /// Step (ms).
+    pub step_ms: Option<u32>,
+    /// `sim_info.simulator_name`.
+    pub simulator_name: String,
+    /// `sim_info.profile`.
+    pub profile: String,
+}
+
+/// An elaborated test.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Test {
+    /// Configuration.
+    pub config: RunConfig,
+    /// Actors, ego first, then in declaration order.
+    pub actors: Vec<ActorDef>,
+    /// Variables by path.
+    pub vars: BTreeMap<String, VarDef>,
+    /// Constraints.
+    pub constraints: Vec<Constraint>,
+    /// `top.main`'s behaviour.
+    pub root: Option<Node>,
+    /// Things the engine saw but does not execute (reported, never silent).
+    pub notes: Vec<String>,
+}
+
+/// Physical-type knowledge from the program.
+struct Lib<'a> {
+    prog: &'a Program,
+    /// unit → SI factor
+    units: BTreeMap<String, f64>,
+    /// compound → base
+    bases: BTreeMap<String, String>,
+    /// scenario name → members (declaration and extensions), owner actor
+    scenarios: BTreeMap<String, Vec<&'a Member>>,
+    /// modifier / action / scenario → parameter names in order
+    params: BTreeMap<String, Vec<String>>,
+    enums: BTreeSet<String>,
+}
+
+const ACTION_NAMES: &[&str] = &["drive", "remain_stationary", "walk", "move"];
+
+impl<'a> Lib<'a> {
+    fn new(prog: &'a Program) -> Self {
+        let mut l = Lib {
+            prog,
+            units: BTreeMap::new(),
+            bases: BTreeMap::new(),
+            scenarios: BTreeMap::new(),
+            params: BTreeMap::new(),
+            enums: BTreeSet::new(),
+        };
+        for (_, f) in &prog.files {
+            for d in &f.decls {
+                match d {
+                    Decl::Unit { name, args, .. } => {
+                        let factor = args
+                            .iter()
+                            .find(|a| a.name.as_ref().is_some_and(|n| n.text == "factor"))
+                            .and_then(|a| const_num(&a.value))
+                            .unwrap_or(1.0);
+                        l.units.insert(name.text.clone(), factor);
+                    }
+                    Decl::Enum { members, .. } | Decl::ExtendEnum { members, .. } => {
+                        l.enums.extend(members.iter().map(|(n, _)| n.text.clone()));
+                    }
+                    Decl::Compound {
+                        kind,
+                        name,
+                        inherits,
+                        members,
+                        ..
+                    } => {
+                        if let Some((b, _)) = inherits {
+                            l.bases.insert(name.name.text.clone(), b.name.text.clone());
+                        }
+                        let names: Vec<String> = members
+                            .iter()
+                            .filter_map(|m| match m {
+                                Member::Field(f) => Some(f.names.iter().map(|n| n.text.clone())),
+                                _ => None,
+                            })
+                            .flatten()
+                            .collect();
+                        let key = if *kind == DeclKind::Modifier {
+                            format!("modifier {}", name.name.text)
+                        } else {
+                            name.name.text.clone()
+                        };
+                        l.params.entry(key).or_default().extend(names);
+                        if *kind == DeclKind::Scenario {
+                            l.scenarios
+                                .entry(name.name.text.clone())
+                                .or_default()
+                                .extend(members.iter());
+                        }
+                    }
+                    _ => {}
+                }
+            }
+        }
+        for (_, f) in &prog.files {
+            for d in &f.decls {
+                if let Decl::Extend { target, members } = d
+                    && let Some(s) = l.scenarios.get_mut(&target.name.text)
+                {
+                    s.extend(members.iter());
+                }
+            }
+        }
+        l
+    }
+
+    fn is_a(&self, t: &str, base: &str) -> bool {
+        let mut cur = t;
+        for _ in 0..64 {
+            if cur == base {
+                return true;
+            }
+            match self.bases.get(cur) {
+                Some(b) => cur = b,
+                None => return false,
+            }
+        }
+        false
+    }
+
+    fn at(&self, span: Span) -> String {
+        let f = self.prog.sources.file(span.file);
+        let (l, c) = f.line_col(span.start as usize);
+        format!("{}:{l}:{c}", f.path)
+    }
+}
+
+fn const_num(e: &Expr) -> Option<f64> {
+    match e {
+        Expr::Int { value, .. } => Some(*value as f64),
+        Expr::Float { value, .. } => Some(*value),
+        Expr::Unary { op, expr, .. } if op == "-" => const_num(expr).map(|v| -v),
+        _ => None,
+    }
+}
+
+/// Names visible in one scenario instance.
+#[derive(Clone, Default)]
+struct Scope {
+    /// Namespace of the instance (`s`); fields are `ns.field`.
+    ns: String,
+    /// Field names of the instance.
+    fields: BTreeSet<String>,
+    /// Labels of the instance's `do` tree → namespace of a scenario instance.
+    labels: BTreeMap<String, String>,
+    /// The actor the scenario runs on (`actor`).
+    actor: Option<String>,
+    /// `it` inside a field's `with:`.
+    it: Option<String>,
+}
+
+struct Elab<'a> {
+    lib: Lib<'a>,
+    test: Test,
+    /// actor path → id
+    actor_ids: BTreeMap<String, String>,
+    counter: usize,
+    depth: usize,
+}
+
+/// Elaborates `top.main` of a program that loaded without errors.
+pub fn elaborate(prog: &Program) -> Result<Test, ScenarioError> {
+    if prog.has_errors() {
+        return Err(ScenarioError::Elaboration(
+            "the program has errors; run `litesim check` for the diagnostics".into(),
+        ));
+    }
+    let mut e = Elab {
+        lib: Lib::new(prog),
+        test: Test::default(),
+        actor_ids: BTreeMap::new(),
+        counter: 0,
+        depth: 0,
+    };
+    // The ego: `sut.car`.
+    e.test.actors.push(ActorDef {
+        id: "sut.car".into(),
+        path: "sut.car".into(),
+        type_name: "vehicle".into(),
+        kind: ActorKind::Vehicle,
+        ego: true,
+    });
+    e.actor_ids.insert("sut.car".into(), "sut.car".into());
+    let mut main: Vec<&Member> = Vec::new();
+    for (_, f) in &prog.files {
+        for d in &f.decls {
+            if let Decl::Extend { target, members } = d {
+                match (
+                    target.actor.as_ref().map(|a| a.text.as_str()),
+                    target.name.text.as_str(),
+                ) {
+                    (Some("top"), "main") => main.extend(members.iter()),
+                    (None, "test_config") | (None, "sim_info") => e.config(members)?,
+                    _ => {}
+                }
+            }
+        }
+    }
+    let scope = Scope {
+        ns: "top".into(),
+        ..Scope::default()
+    };
+    let root = e.body(&main, scope)?;
+    e.test.root = root;
+    Ok(e.test)
+}
+
+impl Elab<'_> {
+    fn config(&mut self, members: &[Member]) -> Result<(), ScenarioError> {
+        for m in members {
+            if let Member::Set { path, value, span } = m {
+                let Expr::Ident { name, .. } = path else {
+                    continue;
+                };
+                let v = self.constant(value)?;
+                let bad = || {
+                    ScenarioError::Elaboration(format!(
+                        "{}: '{name}' has the wrong type",
+                        self.lib.at(*span)
+                    ))
+                };
+                match name.as_str() {
+                    "map" => self.test.config.map = Some(v.text().ok_or_else(bad)?.to_string()),
+                    "seed" => self.test.config.seed = Some(v.num().ok_or_else(bad)? as u64),
+                    "step_ms" => self.test.config.step_ms = Some(v.num().ok_or_else(bad)? as u32),
+                    "simulator_name" => {
+                        self.test.config.simulator_name = v.text().ok_or_else(bad)?.to_string()
+                    }
+                    "profile" => self.test.config.profile = v.text().ok_or_else(bad)?.to_string(),
+                    _ => {}
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn constant(&self, e: &Expr) -> Result<Value, ScenarioError> {
+        match self.cexpr(e, &Scope::default()) {
+            CExpr::Const(v) => Ok(v),
+            other => Err(ScenarioError::Elaboration(format!(
+                "{}: expected a constant, found {other:?}",
+                self.lib.at(e.span())
+            ))),
+        }
+    }
+
+    /// The SI factor of a unit.
+    fn unit(&self, u: &str) -> f64 {
+        self.lib.units.get(u).copied().unwrap_or(1.0)
+    }
+
+    /// Resolves an expression in a scope.
+    fn cexpr(&self, e: &Expr, sc: &Scope) -> CExpr {
+        match e {
+            Expr::Int { value, .. } => CExpr::Const(Value::Num(*value as f64)),
+            Expr::Float { value, .. } => CExpr::Const(Value::Num(*value)),
+            Expr::Physical { value, unit, .. } => {
+                CExpr::Const(Value::Num(value * self.unit(unit)))
+            }
+            Expr::Str { value, .. } => CExpr::Const(Value::Str(value.clone())),
+            Expr::Bool { value, .. } => CExpr::Const(Value::Bool(*value)),
+            Expr::EnumRef { member, .. } => CExpr::Const(Value::Enum(member.clone())),
+            Expr::Range { lo, hi, unit, .. } => {
+                let f = unit.as_deref().map_or(1.0, |u| self.unit(u));
+                let bound = |b: &Option<Box<Expr>>| {
+                    b.as_deref().and_then(|x| match self.cexpr(x, sc) {
+                        CExpr::Const(Value::Num(v)) => Some(v * f),
+                        _ => None,
+                    })
+                };
+                CExpr::Range(bound(lo), bound(hi))
+            }
+            Expr::List { items, .. } => {
+                CExpr::List(items.iter().map(|x| self.cexpr(x, sc)).collect())
+            }
+            Expr::Unary { op, expr, .. } => {
+                let inner = self.cexpr(expr, sc);
+                match (op.as_str(), &inner) {
+                    ("-", CExpr::Const(Value::Num(v))) => CExpr::Const(Value::Num(-v)),
+                    ("-", CExpr::Range(a, b)) => CExpr::Range(b.map(|v| -v), a.map(|v| -v)),
+                    _ => CExpr::Unary(op.clone(), Box::new(inner)),
+                }
+            }
+            Expr::Binary { op, lhs, rhs, .. } => CExpr::Binary(
+                op.clone(),
+                Box::new(self.cexpr(lhs, sc)),
+                Box::new(self.cexpr(rhs, sc)),
+            ),
+            Expr::Ident { .. } | Expr::Field { .. } => match self.path(e, sc) {
+                Some(p) => p,
+                None => CExpr::Opaque(format!("{e:?}")),
+            },
+            Expr::Ternary { span, .. }
+            | Expr::Cast { span, .. }
+            | Expr::Index { span, .. }
+            | Expr::Call { span, .. }
+            | Expr::Error { span } => {
+                let f = self.lib.prog.sources.file(span.file);
+                CExpr::Opaque(f.text[span.start as usize..span.end as usize].to_string())
+            }
+        }
+    }
+
+    /// `a.b.c` → an absolute path or an enum constant.
+    fn path(&self, e: &Expr, sc: &Scope) -> Option<CExpr> {
+        match e {
+            Expr::Ident { name, .. } => {
+                if name == "it" {
+                    return sc.it.clone().map(CExpr::Var);
+                }
+                if sc.fields.contains(name) {
+                    return Some(CExpr::Var(format!("{}.{name}", sc.ns)));
+                }
+                if let Some(ns) = sc.labels.get(name) {
+                    return Some(CExpr::Var(ns.clone()));
+                }
+                if name == "actor" {
+                    return sc.actor.clone().map(CExpr::Var);
+                }
+                if name == "sut" || name == "top" {
+                    return Some(CExpr::Var(name.clone()));
+                }
+                if self.lib.enums.contains(name) {
+                    return Some(CExpr::Const(Value::Enum(name.clone())));
+                }
+                Some(CExpr::Var(format!("{}.{name}", sc.ns)))
+            }
+            Expr::Field { base, name, .. } => match self.path(base, sc)? {
+                CExpr::Var(p) => Some(CExpr::Var(format!("{p}.{}", name.text))),
+                _ => None,
+            },
+            _ => None,
+        }
+    }
+
+    /// Resolves an actor reference to its id.
+    fn actor_of(&self, e: &Expr, sc: &Scope) -> Option<String> {
+        match self.path(e, sc)? {
+            CExpr::Var(p) => self.actor_ids.get(&p).cloned(),
+            _ => None,
+        }
+    }
+
+    /// Declares a scenario's fields under `sc.ns`.
+    fn fields(&mut self, members: &[&Member], sc: &mut Scope) -> Result<(), ScenarioError> {
+        for m in members {
+            let Member::Field(f) = m else { continue };
+            for n in &f.names {
+                sc.fields.insert(n.text.clone());
+            }
+        }
+        for m in members {
+            let Member::Field(f) = m else { continue };
+            let t = f.ty.base.name.text.clone();
+            for n in &f.names {
+                let path = format!("{}.{}", sc.ns, n.text);
+                let kind = [
+                    ("vehicle", ActorKind::Vehicle),
+                    ("person", ActorKind::Person),
+                    ("cyclist", ActorKind::Cyclist),
+                    ("animal", ActorKind::Animal),
+                    ("stationary_object", ActorKind::Stationary),
+                    ("physical_object", ActorKind::Stationary),
+                ]
+                .into_iter()
+                .find(|(b, _)| self.lib.is_a(&t, b))
+                .map(|(_, k)| k);
+                if let Some(kind) = kind {
+                    let mut id = n.text.clone();
+                    if self.test.actors.iter().any(|a| a.id == id) {
+                        id = path.clone();
+                    }
+                    self.actor_ids.insert(path.clone(), id.clone());
+                    self.test.actors.push(ActorDef {
+                        id,
+                        path: path.clone(),
+                        type_name: t.clone(),
+                        kind,
+                        ego: false,
+                    });
+                } else {
+                    let road = if self.lib.is_a(&t, "one_way_road") {
+                        Some(RoadKind::OneWay)
+                    } else if self.lib.is_a(&t, "two_way_road") {
+                        Some(RoadKind::TwoWay)
+                    } else if self.lib.is_a(&t, "road_element") {
+                        Some(RoadKind::Road)
+                    } else {
+                        None
+                    };
+                    let default = f.default.as_ref().map(|d| self.cexpr(d, sc));
+                    self.test.vars.insert(
+                        path.clone(),
+                        VarDef {
+                            type_name: t.clone(),
+                            road,
+                            default,
+                        },
+                    );
+                }
+                // `with:` constraints on the field, with `it` bound.
+                let mut inner = sc.clone();
+                inner.it = Some(path.clone());
+                for w in &f.with {
+                    if let Member::Keep {
+                        strength,
+                        expr,
+                        span,
+                    } = w
+                    {
+                        self.keep(strength.as_deref(), expr, *span, &inner);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn keep(&mut self, strength: Option<&str>, expr: &Expr, span: Span, sc: &Scope) {
+        let c = Constraint {
+            soft: strength == Some("default"),
+            expr: self.cexpr(expr, sc),
+            at: self.lib.at(span),
+        };
+        self.test.constraints.push(c);
+    }
+
+    /// A scenario body (or `top.main`'s): fields, keeps, then its `do`.
+    fn body(&mut self, members: &[&Member], mut sc: Scope) -> Result<Option<Node>, ScenarioError> {
+        self.depth += 1;
+        if self.depth > 32 {
+            return Err(ScenarioError::Elaboration(
+                "scenarios invoke each other more than 32 levels deep (recursion?)".into(),
+            ));
+        }
+        self.fields(members, &mut sc)?;
+        // Labels first: keeps may name them before the `do`.
+        for m in members {
+            if let Member::Do(d) = m {
+                self.collect_labels(d, &mut sc);
+            }
+        }
+        let mut root = None;
+        for m in members {
+            match m {
+                Member::Keep {
+                    strength,
+                    expr,
+                    span,
+                } => self.keep(strength.as_deref(), expr, *span, &sc),
+                Member::Do(d) => {
+                    let n = self.node(d, &sc)?;
+                    if root.is_some() {
+                        self.test
+                            .notes
+                            .push("a second `do` in one scenario is ignored".into());
+                    } else {
+                        root = n;
+                    }
+                }
+                Member::Method { name, .. } | Member::Event { name, .. } => self
+                    .test
+                    .notes
+                    .push(format!("'{}' in {}: not executed by the engine", name.text, sc.ns)),
+                Member::On { .. } => self
+                    .test
+                    .notes
+                    .push(format!("`on` in {}: not executed by the engine", sc.ns)),
+                _ => {}
+            }
+        }
+        self.depth -= 1;
+        Ok(root)
+    }
+
+    fn collect_labels(&mut self, d: &DoMember, sc: &mut Scope) {
+        if let Some(l) = &d.label {
+            let ns = if sc.ns == "top" {
+                l.text.clone()
+            } else {
+                format!("{}.{}", sc.ns, l.text)
+            };
+            sc.labels.insert(l.text.clone(), ns);
+        }
+        if let DoKind::Composition { children, .. } = &d.kind {
+            for c in children {
+                self.collect_labels(c, sc);
+            }
+        }
+    }
+
+    fn mods(&mut self, with: &[Member], sc: &Scope, out: &mut Vec<Modifier>) {
+        for m in with {
+            match m {
+                Member::Modifier { call, .. } => {
+                    let Expr::Call { callee, args, span } = call else {
+                        continue;
+                    };
+                    let name = match &**callee {
+                        Expr::Ident { name, .. } => name.clone(),
+                        Expr::Field { name, .. } => name.text.clone(),
+                        _ => continue,
+                    };
+                    let params = self
+                        .lib
+                        .params
+                        .get(&format!("modifier {name}"))
+                        .cloned()
+                        .unwrap_or_default();
+                    out.push(Modifier {
+                        args: self.bind(args, &params, sc),
+                        name,
+                        at: self.lib.at(*span),
+                    });
+                }
+                Member::Keep {
+                    strength,
+                    expr,
+                    span,
+                } => self.keep(strength.as_deref(), expr, *span, sc),
+                Member::Until(_) => self.test.notes.push(
+                    "`until` is not evaluated: the phase runs for its planned duration".into(),
+                ),
+                _ => {}
+            }
+        }
+    }
+
+    fn bind(&self, args: &[Arg], params: &[String], sc: &Scope) -> BTreeMap<String, CExpr> {
+        let mut out = BTreeMap::new();
+        for (i, a) in args.iter().enumerate() {
+            let name = match &a.name {
+                Some(n) => n.text.clone(),
+                None => params.get(i).cloned().unwrap_or_else(|| format!("#{i}")),
+            };
+            out.insert(name, self.cexpr(&a.value, sc));
+        }
+        out
+    }
+
+    fn node(&mut self, d: &DoMember, sc: &Scope) -> Result<Option<Node>, ScenarioError> {
+        let label = d.label.as_ref().map(|l| l.text.clone());
+        Ok(match &d.kind {
+            DoKind::Composition {
+                op,
+                args,
+                children,
+                with,
+            } => {
+                let mut kids = Vec::new();
+                for c in children {
+                    if let Some(n) = self.node(c, sc)? {
+                        kids.push(n);
+                    }
+                }
+                let mut mods = Vec::new();
+                let bound = self.bind(args, &["duration".into()], sc);
+                let overlap = match bound.get("overlap") {
+                    Some(CExpr::Const(v)) => v.text().unwrap_or("equal").to_string(),
+                    _ => "equal".to_string(),
+                };
+                if let Some(dur) = bound.get("duration") {
+                    mods.push(Modifier {
+                        name: "duration".into(),
+                        args: BTreeMap::from([("duration".to_string(), dur.clone())]),
+                        at: self.lib.at(d.span),
+                    });
+                }
+                self.mods(with, sc, &mut mods);
+                Some(match op.as_str() {
+                    "parallel" => Node::Parallel {
+                        label,
+                        children: kids,
+                        mods,
+                        overlap,
+                    },
+                    "one_of" => Node::OneOf {
+                        label,
+                        children: kids,
+                        mods,
+                    },
+                    _ => Node::Serial {
+                        label,
+                        children: kids,
+                        mods,
+                    },
+                })
+            }
+            DoKind::Invoke { call, with } => {
+                let Expr::Call { callee, args, span } = call else {
+                    return Ok(None);
+                };
+                let (base, name) = match &**callee {
+                    Expr::Field { base, name, .. } => (Some(&**base), name.text.clone()),
+                    Expr::Ident { name, .. } => (None, name.clone()),
+                    _ => return Ok(None),
+                };
+                let at = self.lib.at(*span);
+                let mut mods = Vec::new();
+                if ACTION_NAMES.contains(&name.as_str()) {
+                    let actor = base.and_then(|b| self.actor_of(b, sc)).ok_or_else(|| {
+                        ScenarioError::Elaboration(format!(
+                            "{at}: '{name}' needs an actor, e.g. `car1.{name}()`"
+                        ))
+                    })?;
+                    self.mods(with, sc, &mut mods);
+                    Some(Node::Action {
+                        label,
+                        actor,
+                        action: name,
+                        mods,
+                        at,
+                    })
+                } else if let Some(members) = self.lib.scenarios.get(&name).cloned() {
+                    self.counter += 1;
+                    let ns = match &label {
+                        Some(l) if sc.ns == "top" => l.clone(),
+                        Some(l) => format!("{}.{l}", sc.ns),
+                        None => format!("{}.{name}#{}", sc.ns, self.counter),
+                    };
+                    let actor = base.and_then(|b| match self.path(b, sc) {
+                        Some(CExpr::Var(p)) => Some(self.actor_ids.get(&p).cloned().unwrap_or(p)),
+                        _ => None,
+                    });
+                    let inner = Scope {
+                        ns: ns.clone(),
+                        actor,
+                        ..Scope::default()
+                    };
+                    let sub = self.body(&members, inner)?;
+                    // Arguments bind the instance's fields; the invocation's
+                    // `with:` keeps see the caller's names (`s.r1`).
+                    let params = self.lib.params.get(&name).cloned().unwrap_or_default();
+                    for (p, v) in self.bind(args, &params, sc) {
+                        self.test.constraints.push(Constraint {
+                            soft: false,
+                            expr: CExpr::Binary(
+                                "==".into(),
+                                Box::new(CExpr::Var(format!("{ns}.{p}"))),
+                                Box::new(v),
+                            ),
+                            at: at.clone(),
+                        });
+                    }
+                    self.mods(with, sc, &mut mods);
+                    Some(Node::Serial {
+                        label,
+                        children: sub.into_iter().collect(),
+                        mods,
+                    })
+                } else {
+                    return Err(ScenarioError::Elaboration(format!(
+                        "{at}: the engine cannot execute '{name}' (known actions: {})",
+                        ACTION_NAMES.join(", ")
+                    )));
+                }
+            }
+            DoKind::Wait(spec) => {
+                let duration = match &spec.cond {
+                    Some(Expr::Call { callee, args, .. })
+                        if matches!(&**callee, Expr::Ident { name, .. } if name == "elapsed") =>
+                    {
+                        args.first().map(|a| self.cexpr(&a.value, sc))
+                    }
+                    _ => {
+                        self.test.notes.push(format!(
+                            "{}: `wait` on an event ends at once in a plan",
+                            self.lib.at(spec.span)
+                        ));
+                        None
+                    }
+                };
+                Some(Node::Wait { duration })
+            }
+            DoKind::Emit { event } => Some(Node::Emit {
+                event: match event {
+                    Expr::Call { callee, .. } => format!("{:?}", self.path(callee, sc)),
+                    other => format!("{:?}", self.path(other, sc)),
+                },
+            }),
+            DoKind::Call { .. } => {
+                self.test
+                    .notes
+                    .push("`call` is not executed by the engine".into());
+                None
+            }
+        })
+    }
+}

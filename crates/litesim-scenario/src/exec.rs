@@ -1,0 +1,367 @@
+//! Execution: drive a plan through any [`Ssp`] step by step.
+//!
+//! Kinematic mode sends each actor xy-trajectory moves ahead (every 200 ms,
+//! covering the coming 400 ms of the plan, with point times, headings and
+//! speeds). Dynamic mode drives vehicles with pedals and steering: a PID on
+//! the speed error (with the planned acceleration as feed-forward) for
+//! throttle and brake, and a curvature feed-forward plus PD on lateral and
+//! heading error for steering; the gains are the profile's calibration.
+//! People and objects stay kinematic. After each step the states are read
+//! back, checked ([`crate::kpi`]) and, when asked, logged.
+
+use crate::error::ScenarioError;
+use crate::kpi::{BoxState, Kpis};
+use crate::plan::Plan;
+use litesim_core::geometry::wrap_angle;
+use litesim_log::{ActorSample, ControlSample, LogRecorder, SimulationLog};
+use litesim_map::RoadNetwork;
+use litesim_ssp::api::*;
+use litesim_ssp::profile::Calibration;
+use serde::{Deserialize, Serialize};
+
+/// How actors are moved.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DriveMode {
+    /// xy trajectories sent ahead.
+    #[default]
+    Kinematic,
+    /// Pedals and steering from the drivers.
+    Dynamic,
+}
+
+/// What the execution needs besides the plan.
+#[derive(Clone, Debug)]
+pub struct ExecConfig<'a> {
+    /// SSP profile.
+    pub profile: String,
+    /// SSP model.
+    pub model: String,
+    /// Seed passed to the simulator.
+    pub seed: u64,
+    /// Step (ms).
+    pub step_ms: u32,
+    /// OpenDRIVE text sent to the simulator (traffic lights), if any.
+    pub map_text: Option<&'a str>,
+    /// Drive mode.
+    pub mode: DriveMode,
+    /// Driver gains (the profile's calibration when `None`).
+    pub calibration: Option<Calibration>,
+    /// Record a [`SimulationLog`].
+    pub record: bool,
+}
+
+/// What an execution produced.
+#[derive(Clone, Debug)]
+pub struct Executed {
+    /// KPIs.
+    pub kpis: Kpis,
+    /// Steps run.
+    pub steps: u64,
+    /// The log, when recorded.
+    pub log: Option<SimulationLog>,
+    /// Profile and model the simulator used.
+    pub profile: String,
+    /// Model.
+    pub model: String,
+}
+
+fn ssp_err(e: litesim_ssp::SspError) -> ScenarioError {
+    ScenarioError::Ssp(e.to_string())
+}
+
+struct Driver {
+    integral: f64,
+    last_err: f64,
+    wheelbase: f64,
+    max_steer: f64,
+    max_accel: f64,
+    max_decel: f64,
+}
+
+/// Runs `plan` on `ssp`.
+pub fn execute(
+    ssp: &mut dyn Ssp,
+    plan: &Plan,
+    net: Option<&RoadNetwork>,
+    cfg: &ExecConfig,
+) -> Result<Executed, ScenarioError> {
+    let init = ssp
+        .init(InitRequest {
+            client_name: "litesim scenario".into(),
+            step_size_ms: cfg.step_ms,
+            map: cfg.map_text.map(String::from),
+            profile: cfg.profile.clone(),
+            model: cfg.model.clone(),
+            seed: cfg.seed,
+            ..InitRequest::default()
+        })
+        .map_err(ssp_err)?;
+    let caps = init.capabilities;
+    let step_ms = u64::from(caps.step_size_ms.max(1));
+    let dt = step_ms as f64 / 1000.0;
+    let calibration = cfg.calibration.clone().unwrap_or_else(|| {
+        litesim_ssp::profile::Profile::builtin(&caps.profile)
+            .map(|p| p.calibration)
+            .unwrap_or_default()
+    });
+    ssp.start_simulation(0).map_err(ssp_err)?;
+    ssp.wait_start_simulation(1000).map_err(ssp_err)?;
+    let mut rec = cfg.record.then(|| LogRecorder::new(dt));
+    if let Some(r) = rec.as_mut() {
+        r.meta("profile", &caps.profile);
+        r.meta("model", &caps.model);
+        r.meta("mode", format!("{:?}", cfg.mode).to_lowercase());
+        r.meta("seed", cfg.seed);
+    }
+    let mut dims = Vec::new();
+    let mut drivers: Vec<Option<Driver>> = Vec::new();
+    for a in &plan.actors {
+        let s0 = a.samples[0];
+        let (category, actor_type) = match a.kind {
+            crate::elab::ActorKind::Vehicle => (
+                ActorCategory::Vehicle,
+                if a.ego { "Ego" } else { "Vehicle" },
+            ),
+            crate::elab::ActorKind::Person => (ActorCategory::Pedestrian, "Pedestrian"),
+            crate::elab::ActorKind::Cyclist => (ActorCategory::Cyclist, "Cyclist"),
+            crate::elab::ActorKind::Animal => (ActorCategory::Animal, "Animal"),
+            crate::elab::ActorKind::Stationary => (ActorCategory::StaticObject, "Object"),
+        };
+        // A catalogue entry of the asked category, else the default vehicle.
+        let entry = caps
+            .catalog
+            .iter()
+            .find(|e| e.category == a.category)
+            .or_else(|| {
+                caps.catalog.iter().find(|e| match category {
+                    ActorCategory::Pedestrian => e.category == "pedestrian",
+                    ActorCategory::StaticObject => e.category == "static",
+                    _ => false,
+                })
+            });
+        let dynamic = cfg.mode == DriveMode::Dynamic
+            && a.kind == crate::elab::ActorKind::Vehicle
+            && a.samples.iter().any(|s| s.v > 0.0);
+        let (sy, cy) = s0.yaw.sin_cos();
+        let desc = ssp
+            .create_actor(CreateActor {
+                actor_id: a.id.clone(),
+                spec: ActorSpec {
+                    actor_type: actor_type.into(),
+                    category,
+                    model_id: entry.map(|e| e.model_id.clone()).unwrap_or_default(),
+                    length: Some(a.length),
+                    width: Some(a.width),
+                    ..ActorSpec::default()
+                },
+                position: Coord6::xy_yaw(s0.x, s0.y, s0.yaw),
+                speed: Coord6 {
+                    x: Some(s0.v * cy),
+                    y: Some(s0.v * sy),
+                    ..Coord6::default()
+                },
+                initial_mode: if dynamic {
+                    MoveMode::Dynamic
+                } else {
+                    MoveMode::Kinematic
+                },
+                ..CreateActor::default()
+            })
+            .map_err(ssp_err)?;
+        let e = caps.catalog.iter().find(|e| e.model_id == desc.model_id);
+        if let Some(r) = rec.as_mut() {
+            r.actor(
+                &a.id,
+                actor_type,
+                &desc.model_id,
+                desc.length,
+                desc.width,
+                e.map_or(1500.0, |e| e.mass),
+            );
+        }
+        dims.push((desc.length, desc.width, e.map_or(1500.0, |e| e.mass)));
+        drivers.push(dynamic.then(|| Driver {
+            integral: 0.0,
+            last_err: 0.0,
+            wheelbase: e.map_or(0.6 * desc.length, |e| e.effective_wheelbase()),
+            max_steer: e.map_or(35f64, |e| e.max_steer_angle_deg).to_radians(),
+            max_accel: e.map_or(4.0, |e| e.max_accel),
+            max_decel: e.map_or(8.0, |e| e.max_decel),
+        }));
+    }
+    let ids: Vec<String> = plan.actors.iter().map(|a| a.id.clone()).collect();
+    let mut kpis = Kpis::new(&ids);
+    let steps = litesim_core::steps_for_horizon(plan.duration, dt);
+    let send_every = (200 / step_ms).max(1);
+    let horizon_ms = 400;
+    let filter = ActorFilter::default();
+    let mut boxes = Vec::with_capacity(ids.len());
+    let mut speeds = Vec::with_capacity(ids.len());
+    let mut planned = Vec::with_capacity(ids.len());
+    let mut off = Vec::with_capacity(ids.len());
+    let mut controls = vec![ControlSample::default(); ids.len()];
+    let mut states: Vec<Option<ReportedState>> = vec![None; ids.len()];
+    for k in 0..steps {
+        let now_ms = k * step_ms;
+        let t_next = (now_ms + step_ms) as f64 / 1000.0;
+        for (i, a) in plan.actors.iter().enumerate() {
+            match drivers[i].as_mut() {
+                None => {
+                    if k % send_every != 0 {
+                        continue;
+                    }
+                    let n = horizon_ms / step_ms + 1;
+                    let mut points = Vec::with_capacity(n as usize + 1);
+                    let mut times = Vec::with_capacity(n as usize + 1);
+                    let mut sp = Vec::with_capacity(n as usize + 1);
+                    for j in 0..=n {
+                        let tm = now_ms + j * step_ms;
+                        let p = a.at(tm as f64 / 1000.0, plan.dt);
+                        points.push(Coord6::xy_yaw(p.x, p.y, p.yaw));
+                        times.push(tm);
+                        sp.push(p.v);
+                    }
+                    ssp.set_xy_trajectory(
+                        &a.id,
+                        XyTrajectory {
+                            start_time_ms: now_ms,
+                            end_time_ms: now_ms + n * step_ms,
+                            points,
+                            point_times_ms: times,
+                            speeds: sp,
+                        },
+                    )
+                    .map_err(ssp_err)?;
+                }
+                Some(d) => {
+                    let Some(st) = &states[i] else {
+                        // First step: the actor starts at the plan's speed; hold it.
+                        let p = a.at(t_next, plan.dt);
+                        let u = p.a / d.max_accel;
+                        send_dynamic(ssp, &a.id, u, 0.0, d, &mut controls[i])?;
+                        continue;
+                    };
+                    let p = a.at(t_next, plan.dt);
+                    let here = a.at(now_ms as f64 / 1000.0, plan.dt);
+                    let err = p.v - st.speed;
+                    d.integral = (d.integral + err * dt).clamp(-5.0, 5.0);
+                    let derr = (err - d.last_err) / dt;
+                    d.last_err = err;
+                    let g = &calibration;
+                    let u = p.a / d.max_accel
+                        + g.throttle.kp * err
+                        + g.throttle.ki * d.integral
+                        + g.throttle.kd * derr;
+                    // Lateral error: planned point relative to the car, left positive.
+                    let (sy, cy) = st.pose.yaw.sin_cos();
+                    let ex = here.x - st.pose.position.x;
+                    let ey = here.y - st.pose.position.y;
+                    let e_lat = -sy * ex + cy * ey;
+                    let e_yaw = wrap_angle(here.yaw - st.pose.yaw);
+                    let ahead = a.at(t_next + 0.2, plan.dt);
+                    let ds = (p.v.max(0.5)) * 0.2;
+                    let kappa = wrap_angle(ahead.yaw - p.yaw) / ds;
+                    let delta = (d.wheelbase * kappa).atan()
+                        + g.steering.kp * e_lat
+                        + g.steering.kd * e_yaw / dt.max(1e-3) * 0.02
+                        + 0.5 * e_yaw;
+                    let steer = (delta / d.max_steer).clamp(-1.0, 1.0);
+                    send_dynamic(ssp, &a.id, u, steer, d, &mut controls[i])?;
+                }
+            }
+        }
+        let (info, got) = ssp.step(None, &filter).map_err(ssp_err)?;
+        let t = info.sim_time_ms as f64 / 1000.0;
+        boxes.clear();
+        speeds.clear();
+        planned.clear();
+        off.clear();
+        for (i, a) in plan.actors.iter().enumerate() {
+            let st = got.iter().find(|s| s.actor_id == a.id).ok_or_else(|| {
+                ScenarioError::Ssp(format!("the simulator lost actor '{}'", a.id))
+            })?;
+            let p = a.at(t, plan.dt);
+            boxes.push(BoxState {
+                x: st.pose.position.x,
+                y: st.pose.position.y,
+                yaw: st.pose.yaw,
+                length: dims[i].0,
+                width: dims[i].1,
+                vx: st.velocity.x,
+                vy: st.velocity.y,
+            });
+            speeds.push(st.speed);
+            planned.push((p.x, p.y, p.v));
+            off.push(
+                a.kind == crate::elab::ActorKind::Vehicle
+                    && net.is_some_and(|n| n.to_road(st.pose.position.xy()).is_none()),
+            );
+            if let Some(r) = rec.as_mut() {
+                if i == 0 {
+                    r.begin(info.step_index, t);
+                }
+                let mut s = ActorSample::from_kinematics(
+                    st.pose,
+                    st.velocity,
+                    st.acceleration,
+                    st.yaw_rate,
+                    st.speed,
+                    dims[i].2,
+                );
+                s.control = controls[i];
+                let mode = if drivers[i].is_some() {
+                    "dynamic"
+                } else {
+                    "trajectory"
+                };
+                r.sample(&a.id, mode, &s);
+            }
+            if drivers[i].is_some() {
+                states[i] = Some(st.clone());
+            }
+        }
+        kpis.step(t, &boxes, &speeds, &planned, &off);
+    }
+    ssp.end_simulation("plan finished").map_err(ssp_err)?;
+    Ok(Executed {
+        kpis,
+        steps,
+        log: rec.map(LogRecorder::finish),
+        profile: caps.profile,
+        model: caps.model,
+    })
+}
+
+fn send_dynamic(
+    ssp: &mut dyn Ssp,
+    id: &str,
+    u: f64,
+    steer: f64,
+    d: &Driver,
+    control: &mut ControlSample,
+) -> Result<(), ScenarioError> {
+    // `u` is in units of the maximum acceleration; braking rescales it to
+    // the brake's own maximum deceleration.
+    let (throttle, brake) = if u >= 0.0 {
+        (u.clamp(0.0, 1.0), 0.0)
+    } else {
+        (0.0, (-u * d.max_accel / d.max_decel).clamp(0.0, 1.0))
+    };
+    *control = ControlSample {
+        throttle,
+        brake,
+        steering: steer,
+        ..ControlSample::default()
+    };
+    ssp.set_dynamic_move(
+        id,
+        DynamicMove::Normalized {
+            throttle,
+            brake,
+            steering: steer,
+        },
+        0,
+    )
+    .map_err(ssp_err)
+}

@@ -1,0 +1,327 @@
+//! # litesim-scenario
+//!
+//! The scenario engine: a test file (OpenSCENARIO DSL 2.0) brings a
+//! configuration, a map and a scenario; [`elab`] resolves `top.main` into
+//! actors, variables, constraints and a behaviour tree; [`solve`] fixes
+//! every variable under a seed (roads from the OpenDRIVE map included);
+//! [`plan`] gives every actor a trajectory before anything runs;
+//! [`postplan`] checks it against the profile's limits; [`exec`] drives
+//! the actors through any SSP (in-process or remote) step by step and
+//! [`kpi`] checks the result; [`batch`] runs tests × seeds in parallel and
+//! in shards; [`calibrate`] tunes the drivers.
+//!
+//! Invariant: a run is a pure function of (test, map, seed, profile, model,
+//! mode): summaries and logs are byte-identical across runs, threads,
+//! shards and transports (golden tests in `tests/`).
+#![warn(missing_docs)]
+
+pub mod batch;
+pub mod calibrate;
+pub mod elab;
+pub mod error;
+pub mod exec;
+pub mod kpi;
+pub mod plan;
+pub mod postplan;
+pub mod solve;
+
+pub use error::ScenarioError;
+pub use exec::DriveMode;
+
+use litesim_map::RoadNetwork;
+use litesim_plan::rng::Rng;
+use litesim_ssp::Ssp;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// How to load a test.
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Import search paths (`-I`).
+    pub include: Vec<PathBuf>,
+    /// Map file overriding the test's (`--map`).
+    pub map: Option<PathBuf>,
+    /// Environment lookups (`$FTX`); `None` reads the process environment.
+    pub env: Option<BTreeMap<String, String>>,
+}
+
+/// A loaded, elaborated test with its map, ready to run under many seeds.
+#[derive(Clone, Debug)]
+pub struct Prepared {
+    /// The test file.
+    pub path: PathBuf,
+    /// The elaborated test.
+    pub test: elab::Test,
+    /// The map, shared between runs.
+    pub net: Option<Arc<RoadNetwork>>,
+    /// The map's text (sent to the simulator for its traffic lights).
+    pub map_text: Option<Arc<String>>,
+    /// The map's file name (for messages).
+    pub map_name: String,
+}
+
+/// Loads, checks and elaborates a test; loads its map.
+pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioError> {
+    let env = |k: &str| match &opts.env {
+        Some(m) => m.get(k).cloned(),
+        None => std::env::var(k).ok(),
+    };
+    let prog = litesim_osc::load(path, &opts.include, &env).map_err(ScenarioError::Load)?;
+    if prog.has_errors() {
+        let text: Vec<String> = prog
+            .diagnostics
+            .iter()
+            .filter(|d| d.severity == litesim_osc::Severity::Error)
+            .map(|d| d.render(&prog.sources))
+            .collect();
+        return Err(ScenarioError::Load(text.join("\n")));
+    }
+    let test = elab::elaborate(&prog)?;
+    let map_path = match (&opts.map, &test.config.map) {
+        (Some(p), _) => Some(p.clone()),
+        (None, Some(m)) if !m.is_empty() => {
+            let expanded = litesim_osc::loader::expand_env(m, &env).map_err(|v| {
+                ScenarioError::Map(format!("test_config.map '{m}' uses ${v}, which is not set"))
+            })?;
+            let p = PathBuf::from(&expanded);
+            Some(if p.is_relative() {
+                let beside = path.parent().unwrap_or(Path::new(".")).join(&p);
+                if beside.exists() { beside } else { p }
+            } else {
+                p
+            })
+        }
+        _ => None,
+    };
+    let (net, map_text, map_name) = match map_path {
+        Some(p) => {
+            let text = std::fs::read_to_string(&p)
+                .map_err(|e| ScenarioError::Map(format!("{}: {e}", p.display())))?;
+            let name = p.display().to_string();
+            let net = RoadNetwork::from_xodr(&text, &name)
+                .map_err(|e| ScenarioError::Map(e.to_string()))?;
+            (Some(Arc::new(net)), Some(Arc::new(text)), name)
+        }
+        None => (None, None, String::new()),
+    };
+    Ok(Prepared {
+        path: path.to_path_buf(),
+        test,
+        net,
+        map_text,
+        map_name,
+    })
+}
+
+/// How to run a prepared test.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    /// Seed (`None`: the test's, else 1).
+    pub seed: Option<u64>,
+    /// Drive mode.
+    pub mode: DriveMode,
+    /// Profile override (`None`: the test's `sim_info`).
+    pub profile: Option<String>,
+    /// Driver gains override (from `litesim calibrate`).
+    pub calibration: Option<litesim_ssp::profile::Calibration>,
+    /// Record the log.
+    pub record: bool,
+    /// Stop after planning.
+    pub plan_only: bool,
+}
+
+/// The run summary: deterministic (no wall-clock fields).
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    /// Test file name.
+    pub test: String,
+    /// Seed.
+    pub seed: u64,
+    /// Passed every check.
+    pub pass: bool,
+    /// Why not.
+    pub failures: Vec<String>,
+    /// Map file.
+    pub map: String,
+    /// Profile and model used.
+    pub profile: String,
+    /// Model.
+    pub model: String,
+    /// Drive mode.
+    pub mode: DriveMode,
+    /// Planned duration (s).
+    pub duration: f64,
+    /// Steps executed.
+    pub steps: u64,
+    /// Roads chosen for map variables.
+    pub roads: BTreeMap<String, String>,
+    /// Per-actor KPIs.
+    pub actors: Vec<kpi::ActorKpi>,
+    /// Per-pair KPIs.
+    pub pairs: Vec<kpi::PairKpi>,
+    /// What the engine saw but did not execute, and solver remarks.
+    pub notes: Vec<String>,
+}
+
+/// Tolerances a run must hold to pass (path error m, speed error m/s).
+pub fn tolerances(mode: DriveMode) -> (f64, f64) {
+    match mode {
+        DriveMode::Kinematic => (0.05, 0.05),
+        DriveMode::Dynamic => (1.5, 2.0),
+    }
+}
+
+/// Everything one run produced.
+#[derive(Clone, Debug)]
+pub struct RunResult {
+    /// Summary.
+    pub summary: Summary,
+    /// The plan.
+    pub plan: plan::Plan,
+    /// The log, when recorded.
+    pub log: Option<litesim_log::SimulationLog>,
+}
+
+/// Profile and model named by a test's `sim_info`.
+pub fn simulator_of(test: &elab::Test) -> (String, String) {
+    let name = &test.config.simulator_name;
+    let model = name
+        .strip_prefix("model_ssp_")
+        .unwrap_or(if name.is_empty() { "dummy" } else { name })
+        .to_string();
+    let profile = if test.config.profile.is_empty() {
+        "dummy".to_string()
+    } else {
+        test.config.profile.clone()
+    };
+    (profile, model)
+}
+
+/// Solves and plans under a seed (no simulator).
+pub fn plan_test(prep: &Prepared, seed: u64, step_ms: u32) -> Result<(solve::Solution, plan::Plan), ScenarioError> {
+    let mut rng = Rng::new(seed);
+    let sol = solve::solve(&prep.test, prep.net.as_deref(), &prep.map_name, &mut rng)?;
+    let net = prep.net.as_deref().ok_or_else(|| {
+        ScenarioError::Map(
+            "the test has no map: set `test_config.map` or pass --map FILE.xodr".into(),
+        )
+    })?;
+    let plan = plan::plan(&prep.test, &sol, net, f64::from(step_ms) / 1000.0, &mut rng)?;
+    Ok((sol, plan))
+}
+
+/// Runs a prepared test on `ssp` under a seed.
+pub fn run(prep: &Prepared, ssp: &mut dyn Ssp, opts: &RunOptions) -> Result<RunResult, ScenarioError> {
+    let seed = opts.seed.or(prep.test.config.seed).unwrap_or(1);
+    let (profile, model) = simulator_of(&prep.test);
+    let profile = opts.profile.clone().unwrap_or(profile);
+    let prof = litesim_ssp::Profile::builtin(&profile).ok();
+    let step_ms = prep
+        .test
+        .config
+        .step_ms
+        .or(prof.as_ref().map(|p| p.step_ms))
+        .unwrap_or(20);
+    let (sol, plan) = plan_test(prep, seed, step_ms)?;
+    let mut notes = prep.test.notes.clone();
+    notes.extend(sol.notes.iter().cloned());
+    notes.extend(plan.notes.iter().cloned());
+    let violations = postplan::check(&plan, prof.as_ref(), prep.net.as_deref());
+    if !violations.is_empty() {
+        return Err(ScenarioError::PostPlan(violations));
+    }
+    let test_name = prep
+        .path
+        .file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    if opts.plan_only {
+        return Ok(RunResult {
+            summary: Summary {
+                test: test_name,
+                seed,
+                pass: true,
+                failures: Vec::new(),
+                map: prep.map_name.clone(),
+                profile,
+                model,
+                mode: opts.mode,
+                duration: plan.duration,
+                steps: 0,
+                roads: sol.roads.clone(),
+                actors: Vec::new(),
+                pairs: Vec::new(),
+                notes,
+            },
+            plan,
+            log: None,
+        });
+    }
+    let cfg = exec::ExecConfig {
+        profile: profile.clone(),
+        model: model.clone(),
+        seed,
+        step_ms,
+        map_text: prep.map_text.as_deref().map(String::as_str),
+        mode: opts.mode,
+        calibration: opts.calibration.clone(),
+        record: opts.record,
+    };
+    let ex = exec::execute(ssp, &plan, prep.net.as_deref(), &cfg)?;
+    let (tol_path, tol_speed) = tolerances(opts.mode);
+    let mut failures = Vec::new();
+    for p in &ex.kpis.pairs {
+        if let Some(t) = p.collision_at {
+            failures.push(format!("collision between {} and {} at {t:.2} s", p.a, p.b));
+        }
+    }
+    for a in &ex.kpis.actors {
+        if let Some(t) = a.off_road_at {
+            failures.push(format!("{} off the road at {t:.2} s", a.id));
+        }
+        if a.max_path_error > tol_path {
+            failures.push(format!(
+                "{} strays {:.3} m from its plan (tolerance {tol_path} m)",
+                a.id, a.max_path_error
+            ));
+        }
+        if a.max_speed_error > tol_speed {
+            failures.push(format!(
+                "{} misses its planned speed by {:.3} m/s (tolerance {tol_speed} m/s)",
+                a.id, a.max_speed_error
+            ));
+        }
+    }
+    let mut pairs = ex.kpis.pairs;
+    for p in &mut pairs {
+        if !p.min_distance.is_finite() {
+            p.min_distance = -1.0;
+        }
+    }
+    Ok(RunResult {
+        summary: Summary {
+            test: test_name,
+            seed,
+            pass: failures.is_empty(),
+            failures,
+            map: prep.map_name.clone(),
+            profile: ex.profile,
+            model: ex.model,
+            mode: opts.mode,
+            duration: plan.duration,
+            steps: ex.steps,
+            roads: sol.roads,
+            actors: ex.kpis.actors,
+            pairs,
+            notes,
+        },
+        plan,
+        log: ex.log,
+    })
+}
+
+/// A fresh in-process Model SSP session.
+pub fn in_process() -> litesim_ssp::Session {
+    litesim_ssp::Session::new("dummy", "dummy", litesim_ssp::SessionLimits::default())
+}

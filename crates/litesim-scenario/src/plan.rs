@@ -1,0 +1,1048 @@
+//! Planning: the behaviour tree in time (serial, parallel with overlap,
+//! one_of, durations, waits), each actor's placement (along a road, in a
+//! lane, ahead of or behind another actor, beside it) and motion (speed,
+//! change_speed, acceleration, position at the end of a phase, lane
+//! changes, standing still, walking across), sampled into a trajectory for
+//! every actor *before* anything runs.
+//!
+//! Conventions (documented because the standard leaves them open):
+//! - a leaf without a duration takes its parent's; with none at all, 5 s;
+//! - `position(d, ahead_of: x)` is a bumper-to-bumper gap along x's lane;
+//!   `position(time: t, …)` means d = t · x's speed;
+//! - lane numbers count from 1 at the rightmost lane of the direction of
+//!   travel; `left_of`/`right_of` are one lane over;
+//! - speed changes use the `acceleration` modifier, else 2.5 m/s² up and
+//!   4 m/s² down; `best_effort` accepts what those rates reach, `strict`
+//!   turns a miss into a post-plan violation;
+//! - a lane change takes the whole phase, clipped to [2 s, 6 s], with a
+//!   smoothstep lateral profile;
+//! - a person with `lateral(d, side_of: x, side: …)` starts d beside x's
+//!   lane centre and walks across, perpendicular to the lane.
+
+use crate::elab::{ActorDef, ActorKind, CExpr, Modifier, Node, Test, Value};
+use crate::error::ScenarioError;
+use crate::solve::{Solution, sample};
+use litesim_core::geometry::{Pose, wrap_angle};
+use litesim_map::{Direction, LaneRef, RoadNetwork};
+use litesim_plan::rng::Rng;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// Default leaf duration when nothing gives one (s).
+pub const DEFAULT_PHASE_S: f64 = 5.0;
+const ACCEL_UP: f64 = 2.5;
+const ACCEL_DOWN: f64 = 4.0;
+const WALK_SPEED: f64 = 1.4;
+
+/// One planned sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct PlanSample {
+    /// Time (s).
+    pub t: f64,
+    /// Position x (m).
+    pub x: f64,
+    /// Position y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub yaw: f64,
+    /// Speed (m/s).
+    pub v: f64,
+    /// Longitudinal acceleration (m/s²).
+    pub a: f64,
+}
+
+/// One actor's plan.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ActorPlan {
+    /// Id.
+    pub id: String,
+    /// Kind.
+    pub kind: ActorKind,
+    /// The ego.
+    pub ego: bool,
+    /// Vehicle category asked for (`car`, `truck`, …).
+    pub category: String,
+    /// Length (m) and width (m) assumed by the plan.
+    pub length: f64,
+    /// Width (m).
+    pub width: f64,
+    /// Samples every [`Plan::dt`].
+    pub samples: Vec<PlanSample>,
+}
+
+impl ActorPlan {
+    /// The planned state at time `t` (linear interpolation, held at the ends).
+    pub fn at(&self, t: f64, dt: f64) -> PlanSample {
+        let n = self.samples.len();
+        if n == 0 {
+            return PlanSample::default();
+        }
+        let k = (t / dt).floor();
+        if k < 0.0 {
+            return self.samples[0];
+        }
+        let i = k as usize;
+        if i + 1 >= n {
+            return self.samples[n - 1];
+        }
+        let u = t / dt - k;
+        let (a, b) = (&self.samples[i], &self.samples[i + 1]);
+        PlanSample {
+            t,
+            x: a.x + (b.x - a.x) * u,
+            y: a.y + (b.y - a.y) * u,
+            yaw: a.yaw + wrap_angle(b.yaw - a.yaw) * u,
+            v: a.v + (b.v - a.v) * u,
+            a: a.a,
+        }
+    }
+}
+
+/// A timed phase of the behaviour tree.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Phase {
+    /// Label path, when labelled.
+    pub label: Option<String>,
+    /// Actor.
+    pub actor: String,
+    /// Action.
+    pub action: String,
+    /// Start (s).
+    pub t0: f64,
+    /// End (s).
+    pub t1: f64,
+}
+
+/// The whole plan.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Plan {
+    /// Sample spacing (s).
+    pub dt: f64,
+    /// Duration (s).
+    pub duration: f64,
+    /// Actors.
+    pub actors: Vec<ActorPlan>,
+    /// Phases in time order.
+    pub phases: Vec<Phase>,
+    /// Violations of `strict` modifiers (reported with the post-plan checks).
+    pub violations: Vec<String>,
+    /// Remarks.
+    pub notes: Vec<String>,
+}
+
+struct Leaf<'a> {
+    actor: String,
+    action: String,
+    label: Option<String>,
+    mods: Vec<&'a Modifier>,
+    at: String,
+    t0: f64,
+    t1: f64,
+}
+
+struct Timer<'a> {
+    rng: &'a mut Rng,
+    sol: &'a Solution,
+    leaves: Vec<Leaf<'a>>,
+}
+
+/// Evaluates an argument to a value: variables from the solution, ranges sampled.
+pub fn eval(e: &CExpr, sol: &Solution, rng: &mut Rng) -> Option<Value> {
+    match e {
+        CExpr::Const(v) => Some(v.clone()),
+        CExpr::Var(p) => sol
+            .values
+            .get(p)
+            .cloned()
+            .or_else(|| sol.roads.get(p).map(|r| Value::Str(r.clone()))),
+        CExpr::Range(a, b) => Some(Value::Num(sample(
+            a.unwrap_or(f64::NEG_INFINITY),
+            b.unwrap_or(f64::INFINITY),
+            rng,
+        ))),
+        CExpr::List(items) if !items.is_empty() => {
+            let i = (rng.next_u64() % items.len() as u64) as usize;
+            eval(&items[i], sol, rng)
+        }
+        CExpr::Unary(op, x) if op == "-" => eval(x, sol, rng)?.num().map(|v| Value::Num(-v)),
+        _ => None,
+    }
+}
+
+fn mods_of(n: &Node) -> &[Modifier] {
+    match n {
+        Node::Serial { mods, .. }
+        | Node::Parallel { mods, .. }
+        | Node::OneOf { mods, .. }
+        | Node::Action { mods, .. } => mods,
+        _ => &[],
+    }
+}
+
+impl<'a> Timer<'a> {
+    fn explicit(&mut self, n: &Node) -> Option<f64> {
+        let m = mods_of(n).iter().find(|m| m.name == "duration")?;
+        let e = m.args.get("duration")?;
+        eval(e, self.sol, self.rng)?.num().filter(|d| *d >= 0.0)
+    }
+
+    /// Natural duration: explicit, or from the children.
+    fn natural(&mut self, n: &Node, memo: &mut BTreeMap<*const Node, Option<f64>>) -> Option<f64> {
+        let key = n as *const Node;
+        if let Some(v) = memo.get(&key) {
+            return *v;
+        }
+        let v = if let Some(d) = self.explicit(n) {
+            Some(d)
+        } else {
+            match n {
+                Node::Serial { children, .. } => {
+                    let mut sum = 0.0;
+                    let mut any = false;
+                    for c in children {
+                        if let Some(d) = self.natural(c, memo) {
+                            sum += d;
+                            any = true;
+                        }
+                    }
+                    any.then_some(sum)
+                }
+                Node::Parallel { children, .. } | Node::OneOf { children, .. } => children
+                    .iter()
+                    .filter_map(|c| self.natural(c, memo))
+                    .reduce(f64::max),
+                Node::Wait { duration } => duration
+                    .as_ref()
+                    .and_then(|e| eval(e, self.sol, self.rng))
+                    .and_then(|v| v.num()),
+                Node::Emit { .. } => Some(0.0),
+                Node::Action { .. } => None,
+            }
+        };
+        memo.insert(key, v);
+        v
+    }
+
+    /// Lays `n` out from `t0`; `forced` is the duration a parent imposes.
+    fn assign(
+        &mut self,
+        n: &'a Node,
+        t0: f64,
+        forced: Option<f64>,
+        memo: &mut BTreeMap<*const Node, Option<f64>>,
+    ) -> f64 {
+        let own = memo.get(&(n as *const Node)).copied().flatten();
+        let dur = forced.or(own);
+        match n {
+            Node::Action {
+                actor,
+                action,
+                label,
+                mods,
+                at,
+            } => {
+                let d = dur.unwrap_or(DEFAULT_PHASE_S);
+                self.leaves.push(Leaf {
+                    actor: actor.clone(),
+                    action: action.clone(),
+                    label: label.clone(),
+                    mods: mods.iter().collect(),
+                    at: at.clone(),
+                    t0,
+                    t1: t0 + d,
+                });
+                t0 + d
+            }
+            Node::Serial { children, .. } => {
+                // Children without their own duration share what is left.
+                let known: f64 = children
+                    .iter()
+                    .filter_map(|c| memo.get(&(c as *const Node)).copied().flatten())
+                    .sum();
+                let open = children
+                    .iter()
+                    .filter(|c| memo.get(&(*c as *const Node)).copied().flatten().is_none())
+                    .count();
+                let share = match dur {
+                    Some(d) if open > 0 => Some(((d - known) / open as f64).max(0.0)),
+                    _ => None,
+                };
+                let mut t = t0;
+                for c in children {
+                    let cd = memo.get(&(c as *const Node)).copied().flatten();
+                    t = self.assign(c, t, cd.or(share), memo);
+                }
+                t
+            }
+            Node::Parallel {
+                children, overlap, ..
+            } => {
+                let d = dur.unwrap_or(DEFAULT_PHASE_S);
+                for c in children {
+                    let cd = memo.get(&(c as *const Node)).copied().flatten();
+                    match overlap.as_str() {
+                        "equal" | "full" => {
+                            self.assign(c, t0, Some(d), memo);
+                        }
+                        "end" | "final" => {
+                            let cd = cd.unwrap_or(d).min(d);
+                            self.assign(c, t0 + d - cd, Some(cd), memo);
+                        }
+                        _ => {
+                            self.assign(c, t0, Some(cd.unwrap_or(d).min(d)), memo);
+                        }
+                    }
+                }
+                t0 + d
+            }
+            Node::OneOf { children, .. } => {
+                if children.is_empty() {
+                    return t0;
+                }
+                let i = (self.rng.next_u64() % children.len() as u64) as usize;
+                self.assign(&children[i], t0, dur, memo)
+            }
+            Node::Wait { .. } | Node::Emit { .. } => t0 + dur.unwrap_or(0.0),
+        }
+    }
+}
+
+/// Where an actor is on the lane graph.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LanePos {
+    road: usize,
+    lane: i32,
+    s: f64,
+}
+
+fn forward(net: &RoadNetwork, p: LanePos) -> bool {
+    net.roads()[p.road].lane_direction(p.s, p.lane) != Direction::Backward
+}
+
+/// Moves `ds` metres along the direction of travel (negative = back),
+/// across road ends through the lane graph.
+fn advance(net: &RoadNetwork, mut p: LanePos, mut ds: f64) -> LanePos {
+    for _ in 0..64 {
+        let road = &net.roads()[p.road];
+        let dir = if forward(net, p) { 1.0 } else { -1.0 };
+        let s_new = p.s + dir * ds;
+        if (0.0..=road.length).contains(&s_new) {
+            p.s = s_new;
+            return p;
+        }
+        // Leaving this road: the remaining distance continues on the next lane.
+        let (edge, rest) = if s_new > road.length {
+            (road.length, s_new - road.length)
+        } else {
+            (0.0, -s_new)
+        };
+        let leaving_forward = (s_new > road.length) == (dir > 0.0);
+        let here = LaneRef {
+            road: p.road,
+            section: road.section_index(edge.clamp(0.0, road.length)),
+            lane: p.lane,
+        };
+        let next = if leaving_forward {
+            net.successors(here).into_iter().next()
+        } else {
+            predecessor(net, here)
+        };
+        let Some(n) = next else {
+            p.s = edge;
+            return p;
+        };
+        let nr = &net.roads()[n.road];
+        let probe = LanePos {
+            road: n.road,
+            lane: n.lane,
+            s: nr.sections[n.section].s + 0.01,
+        };
+        let nf = forward(net, probe);
+        p = LanePos {
+            road: n.road,
+            lane: n.lane,
+            s: if nf == leaving_forward { 0.0 } else { nr.length },
+        };
+        ds = rest;
+    }
+    p
+}
+
+fn predecessor(net: &RoadNetwork, to: LaneRef) -> Option<LaneRef> {
+    for (ri, r) in net.roads().iter().enumerate() {
+        for (si, sec) in r.sections.iter().enumerate() {
+            for l in sec.left.iter().chain(sec.right.iter()) {
+                let from = LaneRef {
+                    road: ri,
+                    section: si,
+                    lane: l.id,
+                };
+                if from != to && net.successors(from).contains(&to) {
+                    return Some(from);
+                }
+            }
+        }
+    }
+    None
+}
+
+/// Driving lanes of a road at `s` that run the same way as `lane`, ordered
+/// from the rightmost (number 1) to the leftmost in the direction of travel.
+fn lanes_same_way(net: &RoadNetwork, road: usize, s: f64, fwd: bool) -> Vec<i32> {
+    let r = &net.roads()[road];
+    let mut v: Vec<i32> = r
+        .lane_spans(s)
+        .into_iter()
+        .filter(|sp| r.lane(s, sp.id).is_some_and(|l| l.is_drivable()))
+        .map(|sp| sp.id)
+        .filter(|id| (r.lane_direction(s, *id) != Direction::Backward) == fwd)
+        .collect();
+    // Rightmost first: in the direction of travel, right is smaller t.
+    v.sort_by(|a, b| {
+        let ta = r.lane_span(s, *a).map_or(0.0, |x| x.t_center());
+        let tb = r.lane_span(s, *b).map_or(0.0, |x| x.t_center());
+        if fwd { ta.total_cmp(&tb) } else { tb.total_cmp(&ta) }
+    });
+    v
+}
+
+/// The lane `n` lanes to the left (negative: right) of `p`'s lane.
+fn lane_beside(net: &RoadNetwork, p: LanePos, n: i32) -> Option<i32> {
+    let lanes = lanes_same_way(net, p.road, p.s, forward(net, p));
+    let i = lanes.iter().position(|l| *l == p.lane)? as i32 + n;
+    (0..lanes.len() as i32).contains(&i).then(|| lanes[i as usize])
+}
+
+fn pose(net: &RoadNetwork, p: LanePos, offset: f64) -> Pose {
+    let id = &net.roads()[p.road].id;
+    net.lane_pose(id, p.lane, p.s, offset)
+        .unwrap_or_else(|| Pose::planar(0.0, 0.0, 0.0))
+}
+
+/// Per-actor motion state while sampling.
+#[derive(Clone, Debug)]
+struct Motion {
+    pos: LanePos,
+    v: f64,
+    /// Lateral offset from the lane centre (persons beside the road).
+    lateral: f64,
+    /// Walking direction across the lane (+1 left, −1 right, 0 along).
+    across: f64,
+    /// Lane change in progress: (from lane, to lane, t start, t end).
+    change: Option<(i32, i32, f64, f64)>,
+}
+
+fn at_kind(m: &Modifier) -> String {
+    match m.args.get("at") {
+        Some(CExpr::Const(v)) => v.text().unwrap_or("all").to_string(),
+        _ => "all".into(),
+    }
+}
+
+fn actor_ref(e: Option<&CExpr>, ids: &BTreeMap<String, String>) -> Option<String> {
+    match e? {
+        CExpr::Var(p) => ids.get(p).cloned().or_else(|| {
+            // `sut.car` is its own id; ids are also paths' last segments.
+            ids.values().find(|v| *v == p).cloned()
+        }),
+        _ => None,
+    }
+}
+
+/// Plans a solved test on a map.
+pub fn plan(
+    test: &Test,
+    sol: &Solution,
+    net: &RoadNetwork,
+    step_s: f64,
+    rng: &mut Rng,
+) -> Result<Plan, ScenarioError> {
+    let Some(root) = &test.root else {
+        return Err(ScenarioError::Plan(
+            "top.main has no behaviour (add `extend top.main: do …`)".into(),
+        ));
+    };
+    let mut timer = Timer {
+        rng,
+        sol,
+        leaves: Vec::new(),
+    };
+    let mut memo = BTreeMap::new();
+    fn visit<'a>(t: &mut Timer<'a>, n: &'a Node, memo: &mut BTreeMap<*const Node, Option<f64>>) {
+        t.natural(n, memo);
+        if let Node::Serial { children, .. }
+        | Node::Parallel { children, .. }
+        | Node::OneOf { children, .. } = n
+        {
+            for c in children {
+                visit(t, c, memo);
+            }
+        }
+    }
+    visit(&mut timer, root, &mut memo);
+    let duration = timer.assign(root, 0.0, None, &mut memo).max(step_s);
+    let Timer { rng, leaves, .. } = timer;
+    let ids: BTreeMap<String, String> = test
+        .actors
+        .iter()
+        .map(|a| (a.path.clone(), a.id.clone()))
+        .collect();
+    let mut notes = Vec::new();
+    let mut violations = Vec::new();
+
+    // Resolve each leaf's modifier arguments once, in time order (seeded).
+    let mut leaves = leaves;
+    leaves.sort_by(|a, b| a.t0.total_cmp(&b.t0).then(a.actor.cmp(&b.actor)));
+    struct RLeaf {
+        actor: String,
+        action: String,
+        label: Option<String>,
+        t0: f64,
+        t1: f64,
+        at: String,
+        mods: Vec<(String, String, BTreeMap<String, Value>, BTreeMap<String, String>)>,
+    }
+    let mut rleaves = Vec::new();
+    for l in &leaves {
+        let mut mods = Vec::new();
+        for m in &l.mods {
+            let mut vals = BTreeMap::new();
+            let mut refs = BTreeMap::new();
+            for (k, e) in &m.args {
+                if let Some(a) = actor_ref(Some(e), &ids) {
+                    refs.insert(k.clone(), a);
+                } else if let Some(v) = eval(e, sol, rng) {
+                    vals.insert(k.clone(), v);
+                }
+            }
+            mods.push((m.name.clone(), at_kind(m), vals, refs));
+        }
+        rleaves.push(RLeaf {
+            actor: l.actor.clone(),
+            action: l.action.clone(),
+            label: l.label.clone(),
+            t0: l.t0,
+            t1: l.t1,
+            at: l.at.clone(),
+            mods,
+        });
+    }
+    let num = |vals: &BTreeMap<String, Value>, k: &str| vals.get(k).and_then(Value::num);
+
+    // Actor attributes from the solution.
+    let attr = |a: &ActorDef, k: &str| sol.values.get(&format!("{}.{k}", a.path)).cloned();
+    let mut plans: Vec<ActorPlan> = test
+        .actors
+        .iter()
+        .map(|a| {
+            let category = attr(a, "vehicle_category")
+                .and_then(|v| v.text().map(String::from))
+                .unwrap_or_else(|| {
+                    match a.kind {
+                        ActorKind::Vehicle => "car",
+                        ActorKind::Person => "pedestrian",
+                        ActorKind::Cyclist => "bicycle",
+                        ActorKind::Animal => "animal",
+                        ActorKind::Stationary => "static",
+                    }
+                    .into()
+                });
+            let (dl, dw) = match a.kind {
+                ActorKind::Vehicle => match category.as_str() {
+                    "truck" | "semitrailer" => (10.0, 2.5),
+                    "bus" => (12.0, 2.55),
+                    "van" => (5.2, 2.0),
+                    "motorbike" => (2.2, 0.8),
+                    _ => (4.6, 1.9),
+                },
+                ActorKind::Person => (0.5, 0.5),
+                ActorKind::Cyclist => (1.8, 0.6),
+                ActorKind::Animal => (1.2, 0.5),
+                ActorKind::Stationary => (1.0, 1.0),
+            };
+            ActorPlan {
+                id: a.id.clone(),
+                kind: a.kind,
+                ego: a.ego,
+                category,
+                length: attr(a, "bbox.length").and_then(|v| v.num()).unwrap_or(dl),
+                width: attr(a, "bbox.width").and_then(|v| v.num()).unwrap_or(dw),
+                samples: Vec::new(),
+            }
+        })
+        .collect();
+    // Actors that take part in no phase are not planned (nor created).
+    let active: Vec<bool> = plans
+        .iter()
+        .map(|p| rleaves.iter().any(|l| l.actor == p.id))
+        .collect();
+
+    // Placement, in dependency order.
+    let first_leaf = |id: &str| rleaves.iter().find(|l| l.actor == id);
+    let mut placed: BTreeMap<String, Motion> = BTreeMap::new();
+    let roads_ok: Vec<usize> = (0..net.roads().len())
+        .filter(|i| {
+            let r = &net.roads()[*i];
+            r.junction.is_none()
+                && r.sections
+                    .iter()
+                    .any(|s| s.left.iter().chain(s.right.iter()).any(|l| l.is_drivable()))
+        })
+        .collect();
+    if roads_ok.is_empty() {
+        return Err(ScenarioError::Plan("the map has no drivable road outside junctions".into()));
+    }
+    let order: Vec<usize> = (0..plans.len()).filter(|i| active[*i]).collect();
+    let mut pending = order.clone();
+    let mut guard = 0;
+    while !pending.is_empty() {
+        guard += 1;
+        if guard > plans.len() + 2 {
+            let ids: Vec<&str> = pending.iter().map(|i| plans[*i].id.as_str()).collect();
+            return Err(ScenarioError::Plan(format!(
+                "placement depends on itself (position/lane relations form a cycle): {}",
+                ids.join(", ")
+            )));
+        }
+        let mut next = Vec::new();
+        for &i in &pending {
+            let id = plans[i].id.clone();
+            let leaf = first_leaf(&id).expect("active actors have a leaf");
+            let deps: Vec<&String> = leaf
+                .mods
+                .iter()
+                .filter(|(_, at, _, _)| at != "end")
+                .flat_map(|(_, _, _, refs)| refs.values())
+                .collect();
+            if deps.iter().any(|d| **d != id && !placed.contains_key(*d)) {
+                next.push(i);
+                continue;
+            }
+            let m = place(net, &plans, i, leaf.mods.as_slice(), &placed, &plans_index(&plans), sol, rng, &roads_ok, &leaf.at)?;
+            placed.insert(id, m);
+        }
+        pending = next;
+    }
+    let _ = num;
+
+    // Motion, sampled every plan step, actors without dependencies on
+    // others' futures first (position at: end reads the other's plan).
+    let plan_dt = step_s * (0.1 / step_s).round().max(1.0);
+    let n = (duration / plan_dt).ceil() as usize + 1;
+    let mut order = order;
+    order.sort_by_key(|i| {
+        rleaves
+            .iter()
+            .filter(|l| l.actor == plans[*i].id)
+            .flat_map(|l| l.mods.iter())
+            .any(|(name, at, _, refs)| name == "position" && at == "end" && !refs.is_empty())
+    });
+    for i in order {
+        let id = plans[i].id.clone();
+        let mut mo = placed[&id].clone();
+        let my: Vec<&RLeaf> = rleaves.iter().filter(|l| l.actor == id).collect();
+        let mut samples = Vec::with_capacity(n);
+        let mut leaf_i = 0;
+        // Target speed profile state.
+        let mut target: Option<f64> = None;
+        let mut accel_up = ACCEL_UP;
+        let mut accel_down = ACCEL_DOWN;
+        let mut end_speed: Option<(f64, f64, f64)> = None; // (v0, v1, t1) linear
+        let mut strict_speed: Option<(f64, String)> = None;
+        let mut stationary = false;
+        let mut started: Option<usize> = None;
+        for k in 0..n {
+            let t = k as f64 * plan_dt;
+            // Enter phases that start now.
+            while leaf_i < my.len() && my[leaf_i].t0 <= t + 1e-9 {
+                let l = my[leaf_i];
+                started = Some(leaf_i);
+                stationary = l.action == "remain_stationary";
+                end_speed = None;
+                accel_up = ACCEL_UP;
+                accel_down = ACCEL_DOWN;
+                let first = leaf_i == 0;
+                for (name, at, vals, refs) in &l.mods {
+                    match name.as_str() {
+                        "acceleration" => {
+                            if let Some(a) = vals.get("acceleration").and_then(Value::num) {
+                                accel_up = a.abs().max(0.1);
+                                accel_down = a.abs().max(0.1);
+                            }
+                        }
+                        "speed" | "change_speed" => {
+                            let Some(v) = vals.get("speed").and_then(Value::num) else {
+                                continue;
+                            };
+                            let strict = vals.get("run_mode").and_then(|v| v.text().map(String::from))
+                                != Some("best_effort".into())
+                                && name == "speed";
+                            match at.as_str() {
+                                "end" => end_speed = Some((mo.v, v, l.t1)),
+                                _ => {
+                                    if first || (at == "start" && k == 0) {
+                                        mo.v = v;
+                                    }
+                                    target = Some(v);
+                                    if strict && !first {
+                                        strict_speed = Some((v, l.at.clone()));
+                                    }
+                                }
+                            }
+                        }
+                        "position" if at == "end" => {
+                            let other = refs.get("ahead_of").map(|o| (o, 1.0)).or(refs.get("behind").map(|o| (o, -1.0)));
+                            if let Some((o, sign)) = other
+                                && let Some(op) = plans.iter().find(|p| p.id == *o)
+                                && !op.samples.is_empty()
+                            {
+                                let gap = num(vals, "distance").unwrap_or(5.0)
+                                    + (op.length + plans[i].length) / 2.0;
+                                let me = pose(net, mo.pos, 0.0);
+                                let there = op.at(l.t1, plan_dt);
+                                let here_other = op.at(t, plan_dt);
+                                // Distance the other covers plus the change of gap.
+                                let now_gap = (me.position.x - here_other.x) * here_other.yaw.cos()
+                                    + (me.position.y - here_other.y) * here_other.yaw.sin();
+                                let other_travel = travel(op, t, l.t1, plan_dt);
+                                let need = other_travel + sign * gap - now_gap;
+                                let dur = (l.t1 - t).max(plan_dt);
+                                let v1 = (2.0 * need / dur - mo.v).max(0.0);
+                                end_speed = Some((mo.v, v1, l.t1));
+                                let _ = there;
+                            }
+                        }
+                        "change_lane" | "lane" => {
+                            let to = if name == "change_lane" {
+                                let nl = num(vals, "num_of_lanes").unwrap_or(1.0) as i32;
+                                let side = vals.get("side").and_then(|v| v.text().map(String::from)).unwrap_or_else(|| "left".into());
+                                let d = if side == "right" { -nl } else { nl };
+                                Some(lane_beside(net, mo.pos, d).ok_or_else(|| {
+                                    ScenarioError::Plan(format!(
+                                        "{}: {id} cannot change {nl} lane(s) to the {side} on road {} (lane {})",
+                                        l.at, net.roads()[mo.pos.road].id, mo.pos.lane
+                                    ))
+                                })?)
+                            } else if at == "end" {
+                                let rel = refs.iter().next();
+                                match rel {
+                                    Some((k2, o)) => {
+                                        let op = plans.iter().find(|p| p.id == *o);
+                                        let ol = placed.get(o).map(|m| m.pos);
+                                        let _ = op;
+                                        ol.and_then(|olp| {
+                                            let base = LanePos { s: mo.pos.s, road: mo.pos.road, lane: olp.lane };
+                                            match k2.as_str() {
+                                                "left_of" => lane_beside(net, base, 1),
+                                                "right_of" => lane_beside(net, base, -1),
+                                                _ => Some(olp.lane),
+                                            }
+                                        })
+                                    }
+                                    None => num(vals, "lane").and_then(|n| {
+                                        lanes_same_way(net, mo.pos.road, mo.pos.s, forward(net, mo.pos)).get((n as usize).saturating_sub(1)).copied()
+                                    }),
+                                }
+                            } else {
+                                None
+                            };
+                            if let Some(to) = to
+                                && to != mo.pos.lane
+                            {
+                                let len = (l.t1 - l.t0).clamp(2.0, 6.0);
+                                mo.change = Some((mo.pos.lane, to, l.t0, l.t0 + len));
+                            }
+                        }
+                        _ => {}
+                    }
+                }
+                leaf_i += 1;
+            }
+            // Speed this sample.
+            let prev_v = mo.v;
+            if stationary {
+                mo.v = 0.0;
+            } else if let Some((v0, v1, t1)) = end_speed {
+                let l = &my[started.unwrap_or(0)];
+                let u = ((t - l.t0) / (t1 - l.t0).max(1e-9)).clamp(0.0, 1.0);
+                mo.v = v0 + (v1 - v0) * u;
+                if u >= 1.0 {
+                    end_speed = None;
+                    target = Some(v1);
+                }
+            } else if let Some(v) = target {
+                let dv = v - mo.v;
+                let step = if dv > 0.0 { accel_up } else { accel_down } * plan_dt;
+                mo.v += dv.clamp(-step, step);
+                if let Some((sv, at)) = &strict_speed
+                    && (mo.v - sv).abs() < 1e-6
+                {
+                    let _ = at;
+                    strict_speed = None;
+                }
+            }
+            // Lane change.
+            let mut lat_rate = 0.0;
+            let p = if let Some((from, to, c0, c1)) = mo.change {
+                let u = ((t - c0) / (c1 - c0)).clamp(0.0, 1.0);
+                let sm = u * u * (3.0 - 2.0 * u);
+                let a = pose(net, LanePos { lane: from, ..mo.pos }, 0.0);
+                let b = pose(net, LanePos { lane: to, ..mo.pos }, 0.0);
+                let width = a.position.xy().distance(b.position.xy());
+                lat_rate = width * 6.0 * u * (1.0 - u) / (c1 - c0);
+                if b.yaw.is_finite() {
+                    let side = ((b.position.x - a.position.x) * -a.yaw.sin()
+                        + (b.position.y - a.position.y) * a.yaw.cos())
+                    .signum();
+                    lat_rate *= side;
+                }
+                if u >= 1.0 {
+                    mo.pos.lane = to;
+                    mo.change = None;
+                }
+                let mut q = a;
+                q.position.x = a.position.x + (b.position.x - a.position.x) * sm;
+                q.position.y = a.position.y + (b.position.y - a.position.y) * sm;
+                q
+            } else {
+                pose(net, mo.pos, 0.0)
+            };
+            let (s_yaw, c_yaw) = p.yaw.sin_cos();
+            let mut x = p.position.x - s_yaw * mo.lateral;
+            let mut y = p.position.y + c_yaw * mo.lateral;
+            let mut yaw = p.yaw;
+            if mo.across != 0.0 {
+                yaw = wrap_angle(p.yaw + mo.across * std::f64::consts::FRAC_PI_2);
+            } else if mo.v > 0.1 && lat_rate != 0.0 {
+                yaw = wrap_angle(p.yaw + (lat_rate / mo.v).atan());
+            }
+            if plans[i].kind == ActorKind::Stationary {
+                yaw = p.yaw;
+            }
+            let _ = (&mut x, &mut y);
+            samples.push(PlanSample {
+                t,
+                x,
+                y,
+                yaw,
+                v: mo.v,
+                a: (mo.v - prev_v) / plan_dt,
+            });
+            // Move.
+            if mo.across != 0.0 {
+                mo.lateral += mo.across * mo.v * plan_dt;
+            } else {
+                mo.pos = advance(net, mo.pos, mo.v * plan_dt);
+            }
+        }
+        if let Some((v, at)) = strict_speed {
+            violations.push(format!(
+                "{at}: {id} does not reach the strict speed {:.2} m/s within its phase at {ACCEL_UP}/{ACCEL_DOWN} m/s² (use run_mode: best_effort or an acceleration modifier)",
+                v
+            ));
+        }
+        plans[i].samples = samples;
+    }
+    let mut phases: Vec<Phase> = rleaves
+        .iter()
+        .map(|l| Phase {
+            label: l.label.clone(),
+            actor: l.actor.clone(),
+            action: l.action.clone(),
+            t0: l.t0,
+            t1: l.t1,
+        })
+        .collect();
+    phases.sort_by(|a, b| a.t0.total_cmp(&b.t0).then(a.actor.cmp(&b.actor)));
+    let keep: Vec<ActorPlan> = plans
+        .into_iter()
+        .zip(active)
+        .filter_map(|(p, a)| a.then_some(p))
+        .collect();
+    if keep.is_empty() {
+        notes.push("no actor takes part in the behaviour".into());
+    }
+    Ok(Plan {
+        dt: plan_dt,
+        duration,
+        actors: keep,
+        phases,
+        violations,
+        notes,
+    })
+}
+
+fn plans_index(plans: &[ActorPlan]) -> BTreeMap<String, usize> {
+    plans.iter().enumerate().map(|(i, p)| (p.id.clone(), i)).collect()
+}
+
+/// Distance an actor's plan covers between two times.
+fn travel(p: &ActorPlan, t0: f64, t1: f64, dt: f64) -> f64 {
+    let mut d = 0.0;
+    let mut t = t0;
+    while t < t1 - 1e-9 {
+        let h = dt.min(t1 - t);
+        d += p.at(t, dt).v * h;
+        t += h;
+    }
+    d
+}
+
+type ResolvedMod = (String, String, BTreeMap<String, Value>, BTreeMap<String, String>);
+
+#[allow(clippy::too_many_arguments)]
+fn place(
+    net: &RoadNetwork,
+    plans: &[ActorPlan],
+    i: usize,
+    mods: &[ResolvedMod],
+    placed: &BTreeMap<String, Motion>,
+    index: &BTreeMap<String, usize>,
+    sol: &Solution,
+    rng: &mut Rng,
+    roads_ok: &[usize],
+    at: &str,
+) -> Result<Motion, ScenarioError> {
+    let me = &plans[i];
+    let start = |m: &&ResolvedMod| m.1 != "end";
+    let find = |name: &str| mods.iter().filter(start).find(|m| m.0 == name);
+    let mut mo = Motion {
+        pos: LanePos {
+            road: roads_ok[0],
+            lane: 0,
+            s: 0.0,
+        },
+        v: 0.0,
+        lateral: 0.0,
+        across: 0.0,
+        change: None,
+    };
+    // Road: along(road) or the reference actor's, else a seeded choice.
+    let along_road = find("along").and_then(|m| m.2.get("road").and_then(|v| v.text().map(String::from)));
+    let reference = ["ahead_of", "behind", "same_as", "left_of", "right_of", "side_of"]
+        .iter()
+        .find_map(|k| mods.iter().filter(start).find_map(|m| m.3.get(*k).map(|o| (m.0.clone(), k.to_string(), o.clone()))));
+    let _ = (sol, index);
+    if let Some((_, _, o)) = &reference
+        && let Some(om) = placed.get(o)
+    {
+        mo.pos = om.pos;
+    } else {
+        let road = match &along_road {
+            Some(id) => net.road_index(id).ok_or_else(|| {
+                ScenarioError::Plan(format!("{at}: road '{id}' is not in the map"))
+            })?,
+            None => roads_ok[(rng.next_u64() % roads_ok.len() as u64) as usize],
+        };
+        mo.pos.road = road;
+        let r = &net.roads()[road];
+        // Lanes going either way; prefer forward lanes, then any.
+        let mut lanes = lanes_same_way(net, road, 0.01, true);
+        if lanes.is_empty() {
+            lanes = lanes_same_way(net, road, 0.01, false);
+        }
+        if lanes.is_empty() {
+            return Err(ScenarioError::Plan(format!("{at}: road {} has no driving lane", r.id)));
+        }
+        let lane = match find("lane").and_then(|m| m.2.get("lane").and_then(Value::num)) {
+            Some(n) => *lanes.get((n as usize).saturating_sub(1)).ok_or_else(|| {
+                ScenarioError::Plan(format!(
+                    "{at}: lane {n} asked for {} but road {} has {} lane(s) that way",
+                    me.id,
+                    r.id,
+                    lanes.len()
+                ))
+            })?,
+            None => lanes[(rng.next_u64() % lanes.len() as u64) as usize],
+        };
+        mo.pos.lane = lane;
+        let offset = find("along").and_then(|m| m.2.get("start_offset").and_then(Value::num));
+        // A free s: clear of every placed actor on this road by their lengths + 5 m.
+        let margin = me.length / 2.0 + 5.0;
+        let lo = margin.min(r.length / 2.0);
+        let hi = (r.length * 0.5).max(lo);
+        let mut s = offset.unwrap_or_else(|| sample(lo, hi, rng));
+        for _ in 0..50 {
+            let clear = placed.iter().all(|(oid, om)| {
+                let ol = index.get(oid).map_or(4.0, |k| plans[*k].length);
+                om.pos.road != road || om.pos.lane != lane || (om.pos.s - s).abs() > (ol + me.length) / 2.0 + 5.0
+            });
+            if clear {
+                break;
+            }
+            s += (me.length + 10.0).min(r.length / 8.0).max(1.0);
+            if s > r.length - margin.min(r.length / 4.0) {
+                s = lo;
+            }
+        }
+        mo.pos.s = s.clamp(0.0, r.length);
+        // Point the lane's s at its direction of travel: s runs backwards on backward lanes.
+        if !forward(net, mo.pos) {
+            mo.pos.s = (r.length - mo.pos.s).clamp(0.0, r.length);
+        }
+    }
+    // Lane relative to another actor.
+    if let Some(m) = find("lane") {
+        for (k, d) in [("left_of", 1), ("right_of", -1), ("same_as", 0)] {
+            if let Some(o) = m.3.get(k)
+                && let Some(om) = placed.get(o)
+            {
+                let base = LanePos { lane: om.pos.lane, ..mo.pos };
+                mo.pos.lane = if d == 0 {
+                    om.pos.lane
+                } else {
+                    lane_beside(net, base, d).ok_or_else(|| {
+                        ScenarioError::Plan(format!(
+                            "{at}: no lane {} of {o} on road {} for {}",
+                            if d > 0 { "left" } else { "right" },
+                            net.roads()[base.road].id,
+                            me.id
+                        ))
+                    })?
+                };
+            }
+        }
+    }
+    // Longitudinal relation.
+    if let Some(m) = find("position") {
+        for (k, sign) in [("ahead_of", 1.0), ("behind", -1.0)] {
+            if let Some(o) = m.3.get(k)
+                && let Some(om) = placed.get(o)
+            {
+                let ol = index.get(o).map_or(4.6, |j| plans[*j].length);
+                let d = match (m.2.get("distance").and_then(Value::num), m.2.get("time").and_then(Value::num)) {
+                    (Some(d), _) => d,
+                    (None, Some(t)) => t * om.v,
+                    _ => 10.0,
+                };
+                let gap = d + (ol + me.length) / 2.0;
+                let lane = mo.pos.lane;
+                mo.pos = advance(net, LanePos { lane: om.pos.lane, ..om.pos }, sign * gap);
+                mo.pos.lane = lane;
+            }
+        }
+    }
+    // Beside another actor (people, cyclists at the kerb).
+    if let Some(m) = find("lateral") {
+        let d = m.2.get("distance").and_then(Value::num).unwrap_or(2.0);
+        let side = m.2.get("side").and_then(|v| v.text().map(String::from)).unwrap_or_else(|| "right".into());
+        let sgn = if side == "left" { 1.0 } else { -1.0 };
+        mo.lateral = sgn * d;
+        if me.kind == ActorKind::Person || me.kind == ActorKind::Animal {
+            mo.across = -sgn; // walk towards and across the lane
+        }
+    }
+    // Initial speed: a speed modifier of the first phase (at start/all), else
+    // the reference actor's speed, else a seeded 30–50 km/h for vehicles.
+    let v0 = find("speed").and_then(|m| m.2.get("speed").and_then(Value::num));
+    mo.v = match (v0, me.kind) {
+        (Some(v), _) => v,
+        (None, ActorKind::Stationary) => 0.0,
+        (None, ActorKind::Person | ActorKind::Animal) => WALK_SPEED,
+        (None, _) => match &reference {
+            Some((_, _, o)) if placed.contains_key(o) => placed[o].v,
+            _ => sample(30.0 / 3.6, 50.0 / 3.6, rng),
+        },
+    };
+    Ok(mo)
+}
