@@ -41,9 +41,21 @@ pub fn plan_log(plan: &Plan) -> SimulationLog {
     let mut rec = LogRecorder::new(plan.dt);
     rec.meta("source", "plan");
     for a in &plan.actors {
-        rec.actor(&a.id, &format!("{:?}", a.kind).to_lowercase(), &a.category, a.length, a.width, 1500.0);
+        rec.actor(
+            &a.id,
+            &format!("{:?}", a.kind).to_lowercase(),
+            &a.category,
+            a.length,
+            a.width,
+            1500.0,
+        );
     }
-    let n = plan.actors.iter().map(|a| a.samples.len()).max().unwrap_or(0);
+    let n = plan
+        .actors
+        .iter()
+        .map(|a| a.samples.len())
+        .max()
+        .unwrap_or(0);
     for k in 0..n {
         rec.begin(k as u64, k as f64 * plan.dt);
         for a in &plan.actors {
@@ -90,8 +102,10 @@ pub fn run(
     let prep = litesim_scenario::prepare(test, &common.load()).map_err(|e| anyhow!("{e}"))?;
     let calibration = match calibration {
         Some(p) => Some(
-            calibrate::from_toml(&std::fs::read_to_string(p).map_err(|e| anyhow!("{}: {e}", p.display()))?)
-                .map_err(|e| anyhow!("{}: {e}", p.display()))?,
+            calibrate::from_toml(
+                &std::fs::read_to_string(p).map_err(|e| anyhow!("{}: {e}", p.display()))?,
+            )
+            .map_err(|e| anyhow!("{}: {e}", p.display()))?,
         ),
         None => None,
     };
@@ -119,11 +133,16 @@ pub fn run(
     let stem = test
         .file_stem()
         .map_or("test".into(), |s| s.to_string_lossy().into_owned());
-    let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{stem}-seed{}", result.summary.seed)));
+    let out = out.unwrap_or_else(|| {
+        PathBuf::from("runs").join(format!("{stem}-seed{}", result.summary.seed))
+    });
     std::fs::create_dir_all(&out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
     let s = &result.summary;
     if plan_only {
-        println!("plan of {} (seed {}), {:.2} s, sampled every {:.2} s:", s.test, s.seed, result.plan.duration, result.plan.dt);
+        println!(
+            "plan of {} (seed {}), {:.2} s, sampled every {:.2} s:",
+            s.test, s.seed, result.plan.duration, result.plan.dt
+        );
         for (k, v) in &s.roads {
             println!("  {k} = road {v}");
         }
@@ -134,7 +153,9 @@ pub fn run(
                 p.t1,
                 p.actor,
                 p.action,
-                p.label.as_ref().map_or(String::new(), |l| format!(" ({l})"))
+                p.label
+                    .as_ref()
+                    .map_or(String::new(), |l| format!(" ({l})"))
             );
         }
         for a in &result.plan.actors {
@@ -150,8 +171,13 @@ pub fn run(
         if !no_pictures {
             let log = plan_log(&result.plan);
             let pic = out.join("plan.png");
-            litesim_viz::replay::write_png(&log, &lanes(prep.net.as_deref()), &litesim_viz::style::Style::default(), &pic)
-                .map_err(|e| anyhow!("{e}"))?;
+            litesim_viz::replay::write_png(
+                &log,
+                &lanes(prep.net.as_deref()),
+                &litesim_viz::style::Style::default(),
+                &pic,
+            )
+            .map_err(|e| anyhow!("{e}"))?;
             println!("wrote {}", pic.display());
         }
         return Ok(true);
@@ -168,7 +194,8 @@ pub fn run(
             println!("wrote {}", pic.display());
             if gif {
                 let g = out.join("replay.gif");
-                litesim_viz::replay::write_gif(log, &l, &style, &g, 150).map_err(|e| anyhow!("{e}"))?;
+                litesim_viz::replay::write_gif(log, &l, &style, &g, 150)
+                    .map_err(|e| anyhow!("{e}"))?;
                 println!("wrote {}", g.display());
             }
         }
@@ -181,7 +208,11 @@ pub fn run(
         if s.pass { "PASS" } else { "FAIL" },
         s.test,
         s.seed,
-        if s.pass { "all checks hold".to_string() } else { s.failures.join("; ") },
+        if s.pass {
+            "all checks hold".to_string()
+        } else {
+            s.failures.join("; ")
+        },
         s.steps,
         s.duration,
         s.profile,
@@ -196,7 +227,11 @@ pub fn run(
 
 /// Parses `A..B` (inclusive) or a single seed.
 pub fn seeds(text: &str) -> Result<(u64, u64)> {
-    let parse = |s: &str| s.trim().parse::<u64>().map_err(|_| anyhow!("--seeds {text}: '{s}' is not a seed (expected A..B)"));
+    let parse = |s: &str| {
+        s.trim()
+            .parse::<u64>()
+            .map_err(|_| anyhow!("--seeds {text}: '{s}' is not a seed (expected A..B)"))
+    };
     match text.split_once("..") {
         Some((a, b)) => {
             let (a, b) = (parse(a)?, parse(b.trim_start_matches('='))?);
@@ -216,7 +251,10 @@ pub fn seeds(text: &str) -> Result<(u64, u64)> {
 pub fn shard(text: &str) -> Result<(u64, u64)> {
     let bad = || anyhow!("--shard {text}: expected i/N with 0 ≤ i < N");
     let (i, n) = text.split_once('/').ok_or_else(bad)?;
-    let (i, n) = (i.trim().parse::<u64>().map_err(|_| bad())?, n.trim().parse::<u64>().map_err(|_| bad())?);
+    let (i, n) = (
+        i.trim().parse::<u64>().map_err(|_| bad())?,
+        n.trim().parse::<u64>().map_err(|_| bad())?,
+    );
     if n == 0 || i >= n {
         return Err(bad());
     }
@@ -282,21 +320,30 @@ pub fn batch(
 /// `litesim merge`.
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let n = batch::merge(dirs, out).map_err(|e| anyhow!("{e}"))?;
-    println!("merged {n} runs into {}/results.jsonl and results.csv", out.display());
+    println!(
+        "merged {n} runs into {}/results.jsonl and results.csv",
+        out.display()
+    );
     Ok(())
 }
 
 /// `litesim calibrate`.
 pub fn calibrate_cmd(profile: &str, out: Option<PathBuf>) -> Result<()> {
     let c = calibrate::calibrate(profile).map_err(|e| anyhow!("{e}"))?;
-    let path = out.unwrap_or_else(|| PathBuf::from("calibration").join(format!("{}.toml", c.profile)));
+    let path =
+        out.unwrap_or_else(|| PathBuf::from("calibration").join(format!("{}.toml", c.profile)));
     if let Some(d) = path.parent() {
         std::fs::create_dir_all(d)?;
     }
     std::fs::write(&path, calibrate::to_toml(&c))?;
     println!(
         "profile {}: {} candidates; rms path error {:.4} → {:.4} m, max speed error {:.4} → {:.4} m/s",
-        c.profile, c.trials, c.before.rms_path_error, c.best.rms_path_error, c.before.max_speed_error, c.best.max_speed_error
+        c.profile,
+        c.trials,
+        c.before.rms_path_error,
+        c.best.rms_path_error,
+        c.before.max_speed_error,
+        c.best.max_speed_error
     );
     println!("wrote {}", path.display());
     Ok(())

@@ -1,1 +1,120 @@
-fn main() {}
+//! Scenario-engine speed (`cargo bench -p litesim-scenario --bench scenario`):
+//! the seed's smoke test end to end in-process (parse with imports, load
+//! the map, solve, plan, 300 steps, log serialised), the per-seed run alone,
+//! a 2-thread batch of smoke runs (runs per second), and the same run over
+//! a live gRPC server on loopback (the ratio to in-process is the figure).
+#![allow(missing_docs)]
+
+use criterion::Criterion;
+use litesim_scenario::{LoadOptions, Prepared, RunOptions, prepare, run};
+use rayon::prelude::*;
+use std::collections::BTreeMap;
+use std::hint::black_box;
+use std::path::PathBuf;
+
+fn root() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+}
+
+fn load() -> Prepared {
+    let env = BTreeMap::from([("FTX".to_string(), root().join("osc").display().to_string())]);
+    prepare(
+        &root().join("osc/env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc"),
+        &LoadOptions {
+            env: Some(env),
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap()
+}
+
+fn main() {
+    let mut c = Criterion::default().configure_from_args();
+    let prep = load();
+    // The smoke test draws its duration from [3..6] s: take the first seed
+    // whose run is (almost) 6 s, i.e. the 300 steps.
+    let seed = (1..500)
+        .find(|s| {
+            let r = run(&prep, &mut litesim_scenario::in_process(), &RunOptions {
+                seed: Some(*s),
+                ..RunOptions::default()
+            })
+            .unwrap();
+            r.summary.steps >= 295
+        })
+        .unwrap();
+    let opts = RunOptions {
+        seed: Some(seed),
+        record: true,
+        ..RunOptions::default()
+    };
+    let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    eprintln!("smoke seed {seed}: {} steps", r.summary.steps);
+    c.bench_function("smoke_end_to_end_in_process", |b| {
+        b.iter(|| {
+            let prep = load();
+            let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+            let log = r.log.unwrap();
+            black_box(serde_json::to_string(&r.summary).unwrap().len() + log.tick.len())
+        })
+    });
+    let fast = RunOptions {
+        seed: Some(seed),
+        ..RunOptions::default()
+    };
+    c.bench_function("smoke_run_prepared_no_log", |b| {
+        b.iter(|| black_box(run(&prep, &mut litesim_scenario::in_process(), &fast).unwrap()))
+    });
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let mut g = c.benchmark_group("batch");
+    g.sample_size(10);
+    g.bench_function("smoke_200_runs_2_threads", |b| {
+        b.iter(|| {
+            pool.install(|| {
+                (1..=200u64)
+                    .into_par_iter()
+                    .map(|s| {
+                        let l = litesim_scenario::batch::run_line("smoke", &Ok(prep.clone()), s, Default::default());
+                        usize::from(l.pass)
+                    })
+                    .sum::<usize>()
+            })
+        })
+    });
+    g.finish();
+    // Over gRPC: a server on loopback in this process.
+    let (tx, rx) = std::sync::mpsc::channel();
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let server = std::thread::spawn(move || {
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async move {
+            let l = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+            tx.send(l.local_addr().unwrap()).unwrap();
+            litesim_grpc::serve(l, litesim_grpc::ServerConfig::default(), async {
+                let _ = stopped.await;
+            })
+            .await
+            .unwrap();
+        });
+    });
+    let addr = rx.recv().unwrap().to_string();
+    let mut g = c.benchmark_group("grpc");
+    g.sample_size(10);
+    g.bench_function("smoke_end_to_end_over_grpc", |b| {
+        b.iter(|| {
+            let prep = load();
+            let mut remote = litesim_grpc::RemoteSsp::connect(&addr).unwrap();
+            let r = run(&prep, &mut remote, &opts).unwrap();
+            let log = r.log.unwrap();
+            black_box(serde_json::to_string(&r.summary).unwrap().len() + log.tick.len())
+        })
+    });
+    g.finish();
+    let _ = stop.send(());
+    server.join().unwrap();
+    c.final_summary();
+}

@@ -84,7 +84,12 @@ pub struct BatchReport {
 }
 
 /// Runs one test under one seed in-process and condenses the result.
-pub fn run_line(name: &str, prep: &Result<Prepared, String>, seed: u64, mode: DriveMode) -> RunLine {
+pub fn run_line(
+    name: &str,
+    prep: &Result<Prepared, String>,
+    seed: u64,
+    mode: DriveMode,
+) -> RunLine {
     let mut line = RunLine {
         test: name.to_string(),
         seed,
@@ -297,11 +302,15 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, ScenarioError> {
     for d in dirs {
         let p = d.join("results.jsonl");
         if !p.exists() {
-            return Err(ScenarioError::Io(format!("{}: no results.jsonl", d.display())));
+            return Err(ScenarioError::Io(format!(
+                "{}: no results.jsonl",
+                d.display()
+            )));
         }
         all.extend(read_lines(&p));
     }
-    std::fs::create_dir_all(out).map_err(|e| ScenarioError::Io(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(out)
+        .map_err(|e| ScenarioError::Io(format!("{}: {e}", out.display())))?;
     write_sorted(out, &all)?;
     Ok(all.len())
 }

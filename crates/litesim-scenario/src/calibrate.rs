@@ -5,10 +5,10 @@
 //! steering gains (path tracking). The result is the `[calibration]` table
 //! a profile uses, written as TOML.
 
+use crate::ScenarioError;
 use crate::elab::ActorKind;
 use crate::exec::{DriveMode, ExecConfig, execute};
 use crate::plan::{ActorPlan, Plan, PlanSample};
-use crate::ScenarioError;
 use litesim_ssp::profile::{Calibration, PidGains, Profile};
 use serde::Serialize;
 
@@ -97,17 +97,21 @@ fn trial(profile: &Profile, plan: &Plan, c: &Calibration) -> Result<Trial, Scena
         step_ms: profile.step_ms,
         map_text: None,
         mode: DriveMode::Dynamic,
-        calibration: Some(c.clone()),
+        calibration: Some(*c),
         record: false,
     };
     let ex = execute(&mut ssp, plan, None, &cfg)?;
     let a = &ex.kpis.actors[0];
     let score = a.rms_path_error + 0.3 * a.max_speed_error;
     Ok(Trial {
-        calibration: c.clone(),
+        calibration: *c,
         max_speed_error: a.max_speed_error,
         rms_path_error: a.rms_path_error,
-        score: if score.is_finite() { score } else { f64::INFINITY },
+        score: if score.is_finite() {
+            score
+        } else {
+            f64::INFINITY
+        },
     })
 }
 
@@ -121,7 +125,7 @@ pub fn calibrate(profile_name: &str) -> Result<Calibrated, ScenarioError> {
     let g = |kp: f64, ki: f64, kd: f64| PidGains { kp, ki, kd };
     for kp in [0.05, 0.1, 0.2, 0.4, 0.8, 1.6] {
         for ki in [0.0, 0.02, 0.05, 0.1, 0.2] {
-            let mut c = best.calibration.clone();
+            let mut c = best.calibration;
             c.throttle = g(kp, ki, 0.0);
             c.brake = g(kp, 0.0, 0.0);
             let t = trial(&profile, &plan, &c)?;
@@ -133,7 +137,7 @@ pub fn calibrate(profile_name: &str) -> Result<Calibrated, ScenarioError> {
     }
     for kp in [0.02, 0.05, 0.1, 0.2, 0.4, 0.8] {
         for kd in [0.0, 0.05, 0.1, 0.2] {
-            let mut c = best.calibration.clone();
+            let mut c = best.calibration;
             c.steering = g(kp, 0.0, kd);
             let t = trial(&profile, &plan, &c)?;
             trials += 1;

@@ -468,9 +468,7 @@ impl Elab<'_> {
         match e {
             Expr::Int { value, .. } => CExpr::Const(Value::Num(*value as f64)),
             Expr::Float { value, .. } => CExpr::Const(Value::Num(*value)),
-            Expr::Physical { value, unit, .. } => {
-                CExpr::Const(Value::Num(value * self.unit(unit)))
-            }
+            Expr::Physical { value, unit, .. } => CExpr::Const(Value::Num(value * self.unit(unit))),
             Expr::Str { value, .. } => CExpr::Const(Value::Str(value.clone())),
             Expr::Bool { value, .. } => CExpr::Const(Value::Bool(*value)),
             Expr::EnumRef { member, .. } => CExpr::Const(Value::Enum(member.clone())),
@@ -672,10 +670,9 @@ impl Elab<'_> {
                         root = n;
                     }
                 }
-                Member::Method { name, .. } | Member::Event { name, .. } => self
-                    .test
-                    .notes
-                    .push(format!("'{}' in {}: not executed by the engine", name.text, sc.ns)),
+                Member::Method { name, .. } | Member::Event { name, .. } => self.test.notes.push(
+                    format!("'{}' in {}: not executed by the engine", name.text, sc.ns),
+                ),
                 Member::On { .. } => self
                     .test
                     .notes
@@ -871,9 +868,7 @@ impl Elab<'_> {
             }
             DoKind::Wait(spec) => {
                 let duration = match &spec.cond {
-                    Some(Expr::Call { callee, args, .. })
-                        if matches!(&**callee, Expr::Ident { name, .. } if name == "elapsed") =>
-                    {
+                    Some(Expr::Call { callee, args, .. }) if matches!(&**callee, Expr::Ident { name, .. } if name == "elapsed") => {
                         args.first().map(|a| self.cexpr(&a.value, sc))
                     }
                     _ => {

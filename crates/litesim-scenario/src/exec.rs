@@ -100,7 +100,7 @@ pub fn execute(
     let caps = init.capabilities;
     let step_ms = u64::from(caps.step_size_ms.max(1));
     let dt = step_ms as f64 / 1000.0;
-    let calibration = cfg.calibration.clone().unwrap_or_else(|| {
+    let calibration = cfg.calibration.unwrap_or_else(|| {
         litesim_ssp::profile::Profile::builtin(&caps.profile)
             .map(|p| p.calibration)
             .unwrap_or_default()

@@ -42,10 +42,11 @@ pub fn overlap(a: &BoxState, b: &BoxState) -> bool {
             // (sin, cos) → axis (cos, sin)
             let (ux, uy) = (ay, ax);
             let proj = |c: &[(f64, f64); 4]| {
-                c.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-                    let d = p.0 * ux + p.1 * uy;
-                    (lo.min(d), hi.max(d))
-                })
+                c.iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                        let d = p.0 * ux + p.1 * uy;
+                        (lo.min(d), hi.max(d))
+                    })
             };
             let (a0, a1) = proj(&ca);
             let (b0, b1) = proj(&cb);
@@ -159,7 +160,11 @@ impl Kpis {
             sq: vec![0.0; ids.len()],
             n: 0,
             last: vec![None; ids.len()],
-            index: ids.iter().enumerate().map(|(i, s)| (s.clone(), i)).collect(),
+            index: ids
+                .iter()
+                .enumerate()
+                .map(|(i, s)| (s.clone(), i))
+                .collect(),
         }
     }
 

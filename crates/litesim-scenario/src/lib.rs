@@ -200,7 +200,11 @@ pub fn simulator_of(test: &elab::Test) -> (String, String) {
 }
 
 /// Solves and plans under a seed (no simulator).
-pub fn plan_test(prep: &Prepared, seed: u64, step_ms: u32) -> Result<(solve::Solution, plan::Plan), ScenarioError> {
+pub fn plan_test(
+    prep: &Prepared,
+    seed: u64,
+    step_ms: u32,
+) -> Result<(solve::Solution, plan::Plan), ScenarioError> {
     let mut rng = Rng::new(seed);
     let sol = solve::solve(&prep.test, prep.net.as_deref(), &prep.map_name, &mut rng)?;
     let net = prep.net.as_deref().ok_or_else(|| {
@@ -213,7 +217,11 @@ pub fn plan_test(prep: &Prepared, seed: u64, step_ms: u32) -> Result<(solve::Sol
 }
 
 /// Runs a prepared test on `ssp` under a seed.
-pub fn run(prep: &Prepared, ssp: &mut dyn Ssp, opts: &RunOptions) -> Result<RunResult, ScenarioError> {
+pub fn run(
+    prep: &Prepared,
+    ssp: &mut dyn Ssp,
+    opts: &RunOptions,
+) -> Result<RunResult, ScenarioError> {
     let seed = opts.seed.or(prep.test.config.seed).unwrap_or(1);
     let (profile, model) = simulator_of(&prep.test);
     let profile = opts.profile.clone().unwrap_or(profile);
@@ -265,7 +273,7 @@ pub fn run(prep: &Prepared, ssp: &mut dyn Ssp, opts: &RunOptions) -> Result<RunR
         step_ms,
         map_text: prep.map_text.as_deref().map(String::as_str),
         mode: opts.mode,
-        calibration: opts.calibration.clone(),
+        calibration: opts.calibration,
         record: opts.record,
     };
     let ex = exec::execute(ssp, &plan, prep.net.as_deref(), &cfg)?;

@@ -361,11 +361,32 @@ fn advance(net: &RoadNetwork, mut p: LanePos, mut ds: f64) -> LanePos {
         p = LanePos {
             road: n.road,
             lane: n.lane,
-            s: if nf == leaving_forward { 0.0 } else { nr.length },
+            s: if nf == leaving_forward {
+                0.0
+            } else {
+                nr.length
+            },
         };
         ds = rest;
     }
     p
+}
+
+/// Moves `dist` metres of *travelled path* along the lane: `s` runs along
+/// the road's reference line, so on a curve a lane centre away from it is
+/// longer or shorter than `ds`; one secant correction makes the path
+/// length match (the planned speed is then the speed a car really has).
+fn advance_path(net: &RoadNetwork, p: LanePos, dist: f64) -> LanePos {
+    let q = advance(net, p, dist);
+    let (a, b) = (pose(net, p, 0.0), pose(net, q, 0.0));
+    let chord = a.position.xy().distance(b.position.xy());
+    // Chords of long placement moves (tens of metres) are shorter than
+    // arcs; the error stays below 0.1 % on lanes of radius > 50 m.
+    if chord > 1e-6 && q.road == p.road {
+        advance(net, p, dist * dist.abs() / chord)
+    } else {
+        q
+    }
 }
 
 fn predecessor(net: &RoadNetwork, to: LaneRef) -> Option<LaneRef> {
@@ -401,16 +422,33 @@ fn lanes_same_way(net: &RoadNetwork, road: usize, s: f64, fwd: bool) -> Vec<i32>
     v.sort_by(|a, b| {
         let ta = r.lane_span(s, *a).map_or(0.0, |x| x.t_center());
         let tb = r.lane_span(s, *b).map_or(0.0, |x| x.t_center());
-        if fwd { ta.total_cmp(&tb) } else { tb.total_cmp(&ta) }
+        if fwd {
+            ta.total_cmp(&tb)
+        } else {
+            tb.total_cmp(&ta)
+        }
     });
     v
 }
 
-/// The lane `n` lanes to the left (negative: right) of `p`'s lane.
+/// The lane `n` lanes to the left (negative: right) of `p`'s lane. Left of
+/// the leftmost lane of a direction is the nearest lane of the opposite
+/// direction (across the centre line), as on a two-way road.
 fn lane_beside(net: &RoadNetwork, p: LanePos, n: i32) -> Option<i32> {
-    let lanes = lanes_same_way(net, p.road, p.s, forward(net, p));
+    let fwd = forward(net, p);
+    let lanes = lanes_same_way(net, p.road, p.s, fwd);
     let i = lanes.iter().position(|l| *l == p.lane)? as i32 + n;
-    (0..lanes.len() as i32).contains(&i).then(|| lanes[i as usize])
+    if (0..lanes.len() as i32).contains(&i) {
+        return Some(lanes[i as usize]);
+    }
+    if n > 0 {
+        let opposite = lanes_same_way(net, p.road, p.s, !fwd);
+        let k = (i - lanes.len() as i32) as usize;
+        // Opposite lanes are listed rightmost (outermost) first: the
+        // innermost is last.
+        return opposite.iter().rev().nth(k).copied();
+    }
+    None
 }
 
 fn pose(net: &RoadNetwork, p: LanePos, offset: f64) -> Pose {
@@ -500,7 +538,7 @@ pub fn plan(
         t0: f64,
         t1: f64,
         at: String,
-        mods: Vec<(String, String, BTreeMap<String, Value>, BTreeMap<String, String>)>,
+        mods: Vec<ResolvedMod>,
     }
     let mut rleaves = Vec::new();
     for l in &leaves {
@@ -590,7 +628,9 @@ pub fn plan(
         })
         .collect();
     if roads_ok.is_empty() {
-        return Err(ScenarioError::Plan("the map has no drivable road outside junctions".into()));
+        return Err(ScenarioError::Plan(
+            "the map has no drivable road outside junctions".into(),
+        ));
     }
     let order: Vec<usize> = (0..plans.len()).filter(|i| active[*i]).collect();
     let mut pending = order.clone();
@@ -618,7 +658,18 @@ pub fn plan(
                 next.push(i);
                 continue;
             }
-            let m = place(net, &plans, i, leaf.mods.as_slice(), &placed, &plans_index(&plans), sol, rng, &roads_ok, &leaf.at)?;
+            let m = place(
+                net,
+                &plans,
+                i,
+                leaf.mods.as_slice(),
+                &placed,
+                &plans_index(&plans),
+                sol,
+                rng,
+                &roads_ok,
+                &leaf.at,
+            )?;
             placed.insert(id, m);
         }
         pending = next;
@@ -674,7 +725,9 @@ pub fn plan(
                             let Some(v) = vals.get("speed").and_then(Value::num) else {
                                 continue;
                             };
-                            let strict = vals.get("run_mode").and_then(|v| v.text().map(String::from))
+                            let strict = vals
+                                .get("run_mode")
+                                .and_then(|v| v.text().map(String::from))
                                 != Some("best_effort".into())
                                 && name == "speed";
                             match at.as_str() {
@@ -691,7 +744,10 @@ pub fn plan(
                             }
                         }
                         "position" if at == "end" => {
-                            let other = refs.get("ahead_of").map(|o| (o, 1.0)).or(refs.get("behind").map(|o| (o, -1.0)));
+                            let other = refs
+                                .get("ahead_of")
+                                .map(|o| (o, 1.0))
+                                .or(refs.get("behind").map(|o| (o, -1.0)));
                             if let Some((o, sign)) = other
                                 && let Some(op) = plans.iter().find(|p| p.id == *o)
                                 && !op.samples.is_empty()
@@ -715,7 +771,10 @@ pub fn plan(
                         "change_lane" | "lane" => {
                             let to = if name == "change_lane" {
                                 let nl = num(vals, "num_of_lanes").unwrap_or(1.0) as i32;
-                                let side = vals.get("side").and_then(|v| v.text().map(String::from)).unwrap_or_else(|| "left".into());
+                                let side = vals
+                                    .get("side")
+                                    .and_then(|v| v.text().map(String::from))
+                                    .unwrap_or_else(|| "left".into());
                                 let d = if side == "right" { -nl } else { nl };
                                 Some(lane_beside(net, mo.pos, d).ok_or_else(|| {
                                     ScenarioError::Plan(format!(
@@ -731,7 +790,11 @@ pub fn plan(
                                         let ol = placed.get(o).map(|m| m.pos);
                                         let _ = op;
                                         ol.and_then(|olp| {
-                                            let base = LanePos { s: mo.pos.s, road: mo.pos.road, lane: olp.lane };
+                                            let base = LanePos {
+                                                s: mo.pos.s,
+                                                road: mo.pos.road,
+                                                lane: olp.lane,
+                                            };
                                             match k2.as_str() {
                                                 "left_of" => lane_beside(net, base, 1),
                                                 "right_of" => lane_beside(net, base, -1),
@@ -740,7 +803,14 @@ pub fn plan(
                                         })
                                     }
                                     None => num(vals, "lane").and_then(|n| {
-                                        lanes_same_way(net, mo.pos.road, mo.pos.s, forward(net, mo.pos)).get((n as usize).saturating_sub(1)).copied()
+                                        lanes_same_way(
+                                            net,
+                                            mo.pos.road,
+                                            mo.pos.s,
+                                            forward(net, mo.pos),
+                                        )
+                                        .get((n as usize).saturating_sub(1))
+                                        .copied()
                                     }),
                                 }
                             } else {
@@ -786,7 +856,14 @@ pub fn plan(
             let p = if let Some((from, to, c0, c1)) = mo.change {
                 let u = ((t - c0) / (c1 - c0)).clamp(0.0, 1.0);
                 let sm = u * u * (3.0 - 2.0 * u);
-                let a = pose(net, LanePos { lane: from, ..mo.pos }, 0.0);
+                let a = pose(
+                    net,
+                    LanePos {
+                        lane: from,
+                        ..mo.pos
+                    },
+                    0.0,
+                );
                 let b = pose(net, LanePos { lane: to, ..mo.pos }, 0.0);
                 let width = a.position.xy().distance(b.position.xy());
                 lat_rate = width * 6.0 * u * (1.0 - u) / (c1 - c0);
@@ -832,7 +909,7 @@ pub fn plan(
             if mo.across != 0.0 {
                 mo.lateral += mo.across * mo.v * plan_dt;
             } else {
-                mo.pos = advance(net, mo.pos, mo.v * plan_dt);
+                mo.pos = advance_path(net, mo.pos, mo.v * plan_dt);
             }
         }
         if let Some((v, at)) = strict_speed {
@@ -873,7 +950,11 @@ pub fn plan(
 }
 
 fn plans_index(plans: &[ActorPlan]) -> BTreeMap<String, usize> {
-    plans.iter().enumerate().map(|(i, p)| (p.id.clone(), i)).collect()
+    plans
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.id.clone(), i))
+        .collect()
 }
 
 /// Distance an actor's plan covers between two times.
@@ -888,7 +969,12 @@ fn travel(p: &ActorPlan, t0: f64, t1: f64, dt: f64) -> f64 {
     d
 }
 
-type ResolvedMod = (String, String, BTreeMap<String, Value>, BTreeMap<String, String>);
+type ResolvedMod = (
+    String,
+    String,
+    BTreeMap<String, Value>,
+    BTreeMap<String, String>,
+);
 
 #[allow(clippy::too_many_arguments)]
 fn place(
@@ -918,10 +1004,17 @@ fn place(
         change: None,
     };
     // Road: along(road) or the reference actor's, else a seeded choice.
-    let along_road = find("along").and_then(|m| m.2.get("road").and_then(|v| v.text().map(String::from)));
-    let reference = ["ahead_of", "behind", "same_as", "left_of", "right_of", "side_of"]
-        .iter()
-        .find_map(|k| mods.iter().filter(start).find_map(|m| m.3.get(*k).map(|o| (m.0.clone(), k.to_string(), o.clone()))));
+    let along_road =
+        find("along").and_then(|m| m.2.get("road").and_then(|v| v.text().map(String::from)));
+    let reference = [
+        "ahead_of", "behind", "same_as", "left_of", "right_of", "side_of",
+    ]
+    .iter()
+    .find_map(|k| {
+        mods.iter()
+            .filter(start)
+            .find_map(|m| m.3.get(*k).map(|o| (m.0.clone(), k.to_string(), o.clone())))
+    });
     let _ = (sol, index);
     if let Some((_, _, o)) = &reference
         && let Some(om) = placed.get(o)
@@ -942,7 +1035,10 @@ fn place(
             lanes = lanes_same_way(net, road, 0.01, false);
         }
         if lanes.is_empty() {
-            return Err(ScenarioError::Plan(format!("{at}: road {} has no driving lane", r.id)));
+            return Err(ScenarioError::Plan(format!(
+                "{at}: road {} has no driving lane",
+                r.id
+            )));
         }
         let lane = match find("lane").and_then(|m| m.2.get("lane").and_then(Value::num)) {
             Some(n) => *lanes.get((n as usize).saturating_sub(1)).ok_or_else(|| {
@@ -965,7 +1061,9 @@ fn place(
         for _ in 0..50 {
             let clear = placed.iter().all(|(oid, om)| {
                 let ol = index.get(oid).map_or(4.0, |k| plans[*k].length);
-                om.pos.road != road || om.pos.lane != lane || (om.pos.s - s).abs() > (ol + me.length) / 2.0 + 5.0
+                om.pos.road != road
+                    || om.pos.lane != lane
+                    || (om.pos.s - s).abs() > (ol + me.length) / 2.0 + 5.0
             });
             if clear {
                 break;
@@ -987,7 +1085,10 @@ fn place(
             if let Some(o) = m.3.get(k)
                 && let Some(om) = placed.get(o)
             {
-                let base = LanePos { lane: om.pos.lane, ..mo.pos };
+                let base = LanePos {
+                    lane: om.pos.lane,
+                    ..mo.pos
+                };
                 mo.pos.lane = if d == 0 {
                     om.pos.lane
                 } else {
@@ -1010,14 +1111,24 @@ fn place(
                 && let Some(om) = placed.get(o)
             {
                 let ol = index.get(o).map_or(4.6, |j| plans[*j].length);
-                let d = match (m.2.get("distance").and_then(Value::num), m.2.get("time").and_then(Value::num)) {
+                let d = match (
+                    m.2.get("distance").and_then(Value::num),
+                    m.2.get("time").and_then(Value::num),
+                ) {
                     (Some(d), _) => d,
                     (None, Some(t)) => t * om.v,
                     _ => 10.0,
                 };
                 let gap = d + (ol + me.length) / 2.0;
                 let lane = mo.pos.lane;
-                mo.pos = advance(net, LanePos { lane: om.pos.lane, ..om.pos }, sign * gap);
+                mo.pos = advance_path(
+                    net,
+                    LanePos {
+                        lane: om.pos.lane,
+                        ..om.pos
+                    },
+                    sign * gap,
+                );
                 mo.pos.lane = lane;
             }
         }
@@ -1025,7 +1136,10 @@ fn place(
     // Beside another actor (people, cyclists at the kerb).
     if let Some(m) = find("lateral") {
         let d = m.2.get("distance").and_then(Value::num).unwrap_or(2.0);
-        let side = m.2.get("side").and_then(|v| v.text().map(String::from)).unwrap_or_else(|| "right".into());
+        let side =
+            m.2.get("side")
+                .and_then(|v| v.text().map(String::from))
+                .unwrap_or_else(|| "right".into());
         let sgn = if side == "left" { 1.0 } else { -1.0 };
         mo.lateral = sgn * d;
         if me.kind == ActorKind::Person || me.kind == ActorKind::Animal {

@@ -28,26 +28,57 @@ pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) 
             let (p, q) = (&w[0], &w[1]);
             if let Some(l) = limits {
                 if q.v > l.max_speed + 1e-9 {
-                    report(0, format!("{}: speed {:.2} m/s at t = {:.2} s exceeds the profile's {:.2} m/s", a.id, q.v, q.t, l.max_speed));
+                    report(
+                        0,
+                        format!(
+                            "{}: speed {:.2} m/s at t = {:.2} s exceeds the profile's {:.2} m/s",
+                            a.id, q.v, q.t, l.max_speed
+                        ),
+                    );
                 }
                 if q.a > l.max_acceleration + 1e-6 {
-                    report(1, format!("{}: acceleration {:.2} m/s² at t = {:.2} s exceeds the profile's {:.2} m/s²", a.id, q.a, q.t, l.max_acceleration));
+                    report(
+                        1,
+                        format!(
+                            "{}: acceleration {:.2} m/s² at t = {:.2} s exceeds the profile's {:.2} m/s²",
+                            a.id, q.a, q.t, l.max_acceleration
+                        ),
+                    );
                 }
                 if -q.a > l.max_deceleration + 1e-6 {
-                    report(2, format!("{}: deceleration {:.2} m/s² at t = {:.2} s exceeds the profile's {:.2} m/s²", a.id, -q.a, q.t, l.max_deceleration));
+                    report(
+                        2,
+                        format!(
+                            "{}: deceleration {:.2} m/s² at t = {:.2} s exceeds the profile's {:.2} m/s²",
+                            a.id, -q.a, q.t, l.max_deceleration
+                        ),
+                    );
                 }
                 let ds = ((q.x - p.x).powi(2) + (q.y - p.y).powi(2)).sqrt();
                 if ds > 0.05 {
                     let k = wrap_angle(q.yaw - p.yaw).abs() / ds;
                     if k > l.max_curvature + 1e-9 {
-                        report(3, format!("{}: curvature {:.3} 1/m at t = {:.2} s exceeds the profile's {:.3} 1/m", a.id, k, q.t, l.max_curvature));
+                        report(
+                            3,
+                            format!(
+                                "{}: curvature {:.3} 1/m at t = {:.2} s exceeds the profile's {:.3} 1/m",
+                                a.id, k, q.t, l.max_curvature
+                            ),
+                        );
                     }
                 }
             }
             if let Some(n) = net
-                && n.to_road(litesim_core::geometry::Vec2::new(q.x, q.y)).is_none()
+                && n.to_road(litesim_core::geometry::Vec2::new(q.x, q.y))
+                    .is_none()
             {
-                report(4, format!("{}: planned position ({:.1}, {:.1}) at t = {:.2} s is in no lane of the map", a.id, q.x, q.y, q.t));
+                report(
+                    4,
+                    format!(
+                        "{}: planned position ({:.1}, {:.1}) at t = {:.2} s is in no lane of the map",
+                        a.id, q.x, q.y, q.t
+                    ),
+                );
             }
         }
     }

@@ -104,7 +104,9 @@ impl Solver<'_> {
         if d1.eq.is_none() {
             d1.eq = d2.eq;
         } else if d2.eq.is_some() && d1.eq != d2.eq {
-            return Err(format!("{at}: {a} and {b} are kept equal but fixed to different values"));
+            return Err(format!(
+                "{at}: {a} and {b} are kept equal but fixed to different values"
+            ));
         }
         d1.why.extend(d2.why);
         d1.why.push(at.to_string());
@@ -206,13 +208,16 @@ impl Solver<'_> {
                     Ok(())
                 }
             },
-            CExpr::Var(x) => self.narrow_or_fail(x, "==", &CExpr::Const(Value::Bool(true)), at, soft),
+            CExpr::Var(x) => {
+                self.narrow_or_fail(x, "==", &CExpr::Const(Value::Bool(true)), at, soft)
+            }
             CExpr::Unary(op, inner) if op == "not" => match &**inner {
                 CExpr::Var(x) => {
                     self.narrow_or_fail(x, "==", &CExpr::Const(Value::Bool(false)), at, soft)
                 }
                 _ => {
-                    self.notes.push(format!("{at}: constraint not solved; ignored"));
+                    self.notes
+                        .push(format!("{at}: constraint not solved; ignored"));
                     Ok(())
                 }
             },
@@ -327,10 +332,7 @@ pub fn solve(
         let length = attr(&mut s, "length");
         let min_lanes = attr(&mut s, "min_lanes");
         let max_lanes = attr(&mut s, "max_lanes");
-        let kinds: Vec<RoadKind> = members
-            .iter()
-            .filter_map(|m| s.test.vars[m].road)
-            .collect();
+        let kinds: Vec<RoadKind> = members.iter().filter_map(|m| s.test.vars[m].road).collect();
         let need_min = min_lanes.lo.max(1.0);
         let need_max = max_lanes.hi;
         if net.is_none() {
@@ -342,7 +344,9 @@ pub fn solve(
             r.junction.is_none()
                 && kinds.iter().all(|k| match k {
                     RoadKind::OneWay => r.one_way,
-                    RoadKind::TwoWay => !r.one_way && r.min_forward_lanes > 0 && r.min_backward_lanes > 0,
+                    RoadKind::TwoWay => {
+                        !r.one_way && r.min_forward_lanes > 0 && r.min_backward_lanes > 0
+                    }
                     RoadKind::Road => r.max_driving_lanes > 0,
                 })
                 && kinds.iter().all(|k| {
@@ -352,7 +356,8 @@ pub fn solve(
                 && r.length >= length.lo
                 && r.length <= length.hi
         };
-        let cands: Vec<&litesim_map::network::RoadSummary> = summaries.iter().filter(fits).collect();
+        let cands: Vec<&litesim_map::network::RoadSummary> =
+            summaries.iter().filter(fits).collect();
         if cands.is_empty() {
             let kind_name = match kinds.first().copied().unwrap_or(RoadKind::Road) {
                 RoadKind::OneWay => "one_way_road",
@@ -364,7 +369,11 @@ pub fn solve(
                 asked.push(format!("≤ {need_max} lanes"));
             }
             if length.lo.is_finite() || length.hi.is_finite() {
-                asked.push(format!("length in [{:.1}, {:.1}] m", length.lo.max(0.0), length.hi));
+                asked.push(format!(
+                    "length in [{:.1}, {:.1}] m",
+                    length.lo.max(0.0),
+                    length.hi
+                ));
             }
             let have: Vec<String> = summaries
                 .iter()
@@ -386,7 +395,9 @@ pub fn solve(
                 have.join("; ")
             )));
         }
-        let pick = cands[(rng.next_u64() % cands.len() as u64) as usize].id.clone();
+        let pick = cands[(rng.next_u64() % cands.len() as u64) as usize]
+            .id
+            .clone();
         chosen.insert(root, pick.clone());
         sol.roads.insert(path.clone(), pick);
     }
@@ -431,7 +442,9 @@ pub fn solve(
             match def {
                 Some(Value::Num(x)) if x >= d.lo && x <= d.hi => Some(Value::Num(x)),
                 Some(v) if v.num().is_none() => Some(v),
-                _ if d.lo.is_finite() || d.hi.is_finite() => Some(Value::Num(sample(d.lo, d.hi, rng))),
+                _ if d.lo.is_finite() || d.hi.is_finite() => {
+                    Some(Value::Num(sample(d.lo, d.hi, rng)))
+                }
                 _ => None,
             }
         };

@@ -1,0 +1,470 @@
+//! The project's example scenarios (`examples/scenarios`) with assertions
+//! on their outcomes, kinematic and dynamic; the seed's smoke test with only
+//! `$FTX` set; determinism across runs, seeds, threads, shards and
+//! transports (in-process vs a live gRPC server).
+
+use litesim_scenario::{
+    DriveMode, LoadOptions, Prepared, RunOptions, RunResult, Summary, batch, prepare, run,
+};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
+}
+
+fn example(name: &str) -> Prepared {
+    let p = root().join(format!("examples/scenarios/{name}.osc"));
+    prepare(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn go(name: &str, seed: u64, mode: DriveMode) -> RunResult {
+    let prep = example(name);
+    let opts = RunOptions {
+        seed: Some(seed),
+        mode,
+        record: true,
+        ..RunOptions::default()
+    };
+    run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn pair<'a>(s: &'a Summary, a: &str, b: &str) -> &'a litesim_scenario::kpi::PairKpi {
+    s.pairs
+        .iter()
+        .find(|p| (p.a == a && p.b == b) || (p.a == b && p.b == a))
+        .unwrap_or_else(|| panic!("no pair {a}/{b}"))
+}
+
+fn actor<'a>(s: &'a Summary, id: &str) -> &'a litesim_scenario::kpi::ActorKpi {
+    s.actors.iter().find(|a| a.id == id).unwrap()
+}
+
+/// Final planned position of an actor.
+fn last(r: &RunResult, id: &str) -> (f64, f64, f64) {
+    let a = r.plan.actors.iter().find(|a| a.id == id).unwrap();
+    let s = a.samples.last().unwrap();
+    (s.x, s.y, s.v)
+}
+
+const ALL: &[&str] = &[
+    "accelerate",
+    "curvy_road",
+    "cut_in",
+    "cyclist_ahead",
+    "follow",
+    "lane_change",
+    "lead_brakes",
+    "obstacle_avoidance",
+    "oncoming",
+    "one_of_speed",
+    "overtake",
+    "pedestrian_crossing",
+    "random_duration",
+    "ring_follow",
+    "same_road_pair",
+    "speed_profile",
+    "stationary_obstacle",
+    "stop_at_junction",
+    "three_abreast",
+    "truck_follow",
+    "wait_then_go",
+];
+
+#[test]
+fn outcomes_of_the_example_scenarios() {
+    assert!(ALL.len() >= 20);
+    let mut r = BTreeMap::new();
+    for n in ALL {
+        r.insert(*n, go(n, 1, DriveMode::Kinematic));
+    }
+    let s = |n: &str| &r[n].summary;
+    // Everything but the unavoidable obstacle passes, kinematic paths exact.
+    for n in ALL {
+        let sum = s(n);
+        if *n == "stationary_obstacle" {
+            continue;
+        }
+        assert!(sum.pass, "{n}: {:?}", sum.failures);
+        for a in &sum.actors {
+            assert!(
+                a.max_path_error < 0.05,
+                "{n}/{}: {}",
+                a.id,
+                a.max_path_error
+            );
+        }
+    }
+    // Follow: the gap stays at 20 m.
+    let d = pair(s("follow"), "sut.car", "lead").min_distance;
+    assert!((d - 20.0).abs() < 0.5, "follow gap {d}");
+    assert!(pair(s("follow"), "sut.car", "lead").min_ttc.is_none());
+    // Cut-in: the other ends 5 m ahead in the ego's lane, closing laterally.
+    let c = pair(s("cut_in"), "sut.car", "other");
+    assert!(
+        c.collision_at.is_none() && c.min_ttc.is_some_and(|t| t < 2.0),
+        "{c:?}"
+    );
+    let (ex, ey, _) = last(&r["cut_in"], "sut.car");
+    let (ox, oy, _) = last(&r["cut_in"], "other");
+    let gap = ((ox - ex).powi(2) + (oy - ey).powi(2)).sqrt() - 4.6;
+    assert!((gap - 5.0).abs() < 0.6, "cut-in gap at end {gap}");
+    // Lane change: 3.5 m sideways at the end.
+    let a = &r["lane_change"].plan.actors[0];
+    let (f, l) = (a.samples[0], a.samples[a.samples.len() - 1]);
+    let lateral = -(l.x - f.x) * f.yaw.sin() + (l.y - f.y) * f.yaw.cos();
+    assert!((lateral - 3.5).abs() < 0.1, "lateral {lateral}");
+    // Overtake: the ego ends ahead of the slow car, back in its lane.
+    let (ex, ey, _) = last(&r["overtake"], "sut.car");
+    let (sx, sy, _) = last(&r["overtake"], "slow");
+    let yaw = r["overtake"].plan.actors[0].samples[0].yaw;
+    assert!(
+        (ex - sx) * yaw.cos() + (ey - sy) * yaw.sin() > 5.0,
+        "overtake"
+    );
+    assert!(
+        pair(s("overtake"), "sut.car", "slow")
+            .collision_at
+            .is_none()
+    );
+    // The obstacle: the checker sees the collision (50 m at 40 km/h ≈ 4.5 s).
+    let o = pair(s("stationary_obstacle"), "sut.car", "box");
+    let t = o.collision_at.expect("collision");
+    assert!((4.0..5.0).contains(&t), "{t}");
+    assert!(!s("stationary_obstacle").pass);
+    // Avoidance: passes the box with a lane of room.
+    let o = pair(s("obstacle_avoidance"), "sut.car", "box");
+    assert!(o.collision_at.is_none() && o.min_distance > 0.5, "{o:?}");
+    // Pedestrian: crosses ahead of the slow ego, never touched.
+    let p = pair(s("pedestrian_crossing"), "sut.car", "ped");
+    assert!(p.collision_at.is_none() && p.min_distance > 5.0, "{p:?}");
+    let ped = actor(s("pedestrian_crossing"), "ped");
+    assert!(ped.distance > 8.0, "the pedestrian walks: {}", ped.distance);
+    // Junction: the ego stops, on the road.
+    assert!(last(&r["stop_at_junction"], "sut.car").2.abs() < 1e-9);
+    assert!(
+        actor(s("stop_at_junction"), "sut.car")
+            .off_road_at
+            .is_none()
+    );
+    // Lead brakes: TTC falls below 3 s.
+    let b = pair(s("lead_brakes"), "sut.car", "lead");
+    assert!(b.min_ttc.is_some_and(|t| t < 3.0), "{b:?}");
+    // Oncoming: passes in the other lane.
+    let o = pair(s("oncoming"), "sut.car", "other");
+    assert!(
+        o.collision_at.is_none() && o.min_distance > 1.0 && o.min_distance < 3.0,
+        "{o:?}"
+    );
+    // Ring: 15 m kept around the ring; both travel 83 m.
+    let ring = pair(s("ring_follow"), "sut.car", "lead").min_distance;
+    assert!((ring - 15.0).abs() < 0.5, "ring gap {ring}");
+    assert!((actor(s("ring_follow"), "lead").distance - 83.3).abs() < 1.0);
+    // Curvy: on the road all the way at 60 km/h.
+    assert!(actor(s("curvy_road"), "sut.car").off_road_at.is_none());
+    assert!((actor(s("curvy_road"), "sut.car").max_speed - 16.67).abs() < 0.05);
+    // Accelerate: 0 → 50 km/h at 2 m/s² takes 6.9 s.
+    assert!((actor(s("accelerate"), "sut.car").max_speed - 13.89).abs() < 0.05);
+    // Three abreast: one lane apart, no contact.
+    assert!(pair(s("three_abreast"), "sut.car", "middle").min_distance > 1.0);
+    assert!(pair(s("three_abreast"), "left", "middle").min_distance > 1.0);
+    // Truck: 12 m long, 2 s behind at 40 km/h ≈ 22.2 m.
+    let tk = r["truck_follow"]
+        .plan
+        .actors
+        .iter()
+        .find(|a| a.id == "truck1")
+        .unwrap();
+    assert_eq!((tk.length, tk.category.as_str()), (12.0, "truck"));
+    assert!((pair(s("truck_follow"), "sut.car", "truck1").min_distance - 22.2).abs() < 0.3);
+    // Wait then go: still for 2 s, then off.
+    let w = &r["wait_then_go"].plan.actors[0].samples;
+    assert!(w.iter().take(20).all(|x| x.v == 0.0) && w.last().unwrap().v > 8.0);
+    // Speed profile: 30, 60, 40 km/h.
+    let sp = &r["speed_profile"].plan.actors[0].samples;
+    let at = |t: f64| sp[(t / r["speed_profile"].plan.dt).round() as usize].v * 3.6;
+    assert!(
+        (at(2.0) - 30.0).abs() < 0.1
+            && (at(7.5) - 60.0).abs() < 0.1
+            && (at(11.5) - 40.0).abs() < 0.1
+    );
+    // Same road: both cars on the one road chosen.
+    let roads = &s("same_road_pair").roads;
+    assert_eq!(
+        roads
+            .values()
+            .collect::<std::collections::BTreeSet<_>>()
+            .len(),
+        1
+    );
+    // Cyclist: closes in but never reaches.
+    assert!(pair(s("cyclist_ahead"), "sut.car", "bike").min_distance > 15.0);
+}
+
+#[test]
+fn seeds_draw_within_the_constraints_and_change_the_run() {
+    let mut durations = std::collections::BTreeSet::new();
+    let mut speeds = std::collections::BTreeSet::new();
+    for seed in 1..=8 {
+        let r = go("random_duration", seed, DriveMode::Kinematic);
+        let d = r.plan.duration;
+        assert!((3.0..=6.0).contains(&d), "{d}");
+        let v = r.plan.actors[0].samples[0].v * 3.6;
+        assert!((30.0 - 1e-9..=50.0 + 1e-9).contains(&v), "{v}");
+        durations.insert((d * 1000.0) as i64);
+        speeds.insert((v * 1000.0) as i64);
+        let c = go("one_of_speed", seed, DriveMode::Kinematic);
+        let v = (c.plan.actors[0].samples[0].v * 3.6).round();
+        assert!(v == 30.0 || v == 70.0);
+    }
+    assert!(durations.len() >= 6 && speeds.len() >= 6);
+}
+
+#[test]
+fn dynamic_runs_follow_the_plan() {
+    for n in ALL {
+        let r = go(n, 1, DriveMode::Dynamic);
+        // From standstill at 2 m/s² the dummy model's throttle saturates
+        // (4 m/s² minus its 2 m/s² free deceleration): the lag is physical.
+        let tol = if *n == "accelerate" { 1.5 } else { 1.0 };
+        for a in &r.summary.actors {
+            assert!(
+                a.max_path_error < tol,
+                "{n}/{}: path error {}",
+                a.id,
+                a.max_path_error
+            );
+            assert!(
+                a.max_speed_error < 1.0,
+                "{n}/{}: speed error {}",
+                a.id,
+                a.max_speed_error
+            );
+        }
+    }
+}
+
+#[test]
+fn contradictions_and_bad_tests_are_precise_errors() {
+    let p = example("too_many_lanes");
+    let e = run(
+        &p,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("no one_way_road in") && e.contains("circ.xodr has ≥ 3 lanes"),
+        "{e}"
+    );
+    assert!(e.contains("road 1 (one-way, 2 lanes"), "{e}");
+    // A test with a type error does not run; the diagnostics say why.
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("bad.osc");
+    std::fs::write(
+        &f,
+        format!(
+            "import \"{}\"\nscenario sut.x:\n    do sut.car.drive() with:\n        speed(3s)\n",
+            root().join("osc/domain/config.osc").display()
+        ),
+    )
+    .unwrap();
+    let e = prepare(&f, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("bad.osc:4:15") && e.contains("E0303"), "{e}");
+    // Missing map file.
+    let f2 = dir.path().join("nomap.osc");
+    std::fs::write(
+        &f2,
+        format!(
+            "import \"{}\"\nextend test_config:\n    set map = \"nowhere.xodr\"\n",
+            root().join("osc/domain/config.osc").display()
+        ),
+    )
+    .unwrap();
+    let e = prepare(&f2, &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("nowhere.xodr"), "{e}");
+    // Strict speed that cannot be reached is a post-plan violation.
+    let f3 = dir.path().join("strict.osc");
+    std::fs::write(
+        &f3,
+        format!(
+            "import \"{}\"\nextend test_config:\n    set map = \"{}\"\nextend top.main:\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            duration(1s)\n        sut.car.drive() with:\n            speed(100kph)\n            duration(1s)\n",
+            root().join("osc/domain/config.osc").display(),
+            root().join("examples/maps/straight.xodr").display()
+        ),
+    )
+    .unwrap();
+    let p = prepare(&f3, &LoadOptions::default()).unwrap();
+    let e = run(
+        &p,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("post-plan") && e.contains("strict speed"), "{e}");
+}
+
+fn smoke() -> Prepared {
+    let env = BTreeMap::from([("FTX".to_string(), root().join("osc").display().to_string())]);
+    prepare(
+        &root().join("osc/env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc"),
+        &LoadOptions {
+            env: Some(env),
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap()
+}
+
+fn fnv(bytes: &[u8]) -> u64 {
+    litesim_ssp::testkit::fnv1a(bytes)
+}
+
+fn digest(r: &RunResult) -> (String, u64) {
+    let log = r.log.as_ref().unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("log.json");
+    log.write_json(&p).unwrap();
+    let bytes = std::fs::read(&p).unwrap();
+    (serde_json::to_string(&r.summary).unwrap(), fnv(&bytes))
+}
+
+#[test]
+fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
+    let prep = smoke();
+    let opts = RunOptions {
+        record: true,
+        ..RunOptions::default()
+    };
+    let a = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    assert!(a.summary.pass, "{:?}", a.summary.failures);
+    assert_eq!(a.summary.roads["s.r1"], a.summary.roads["s.r2"]);
+    assert!((3.0..=6.0).contains(&a.summary.duration));
+    assert_eq!(a.summary.profile, "dummy");
+    let b = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    assert_eq!(digest(&a), digest(&b));
+    // Other threads, same bytes.
+    let t = std::thread::spawn(move || {
+        let prep = smoke();
+        let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+        digest(&r)
+    })
+    .join()
+    .unwrap();
+    assert_eq!(digest(&a), t);
+    // Golden: guards determinism across commits and machines (libm maths).
+    let (_, d) = digest(&a);
+    assert_eq!(d, GOLDEN_SMOKE_LOG, "smoke log digest changed: {d:#018x}");
+}
+
+/// FNV-1a of the smoke run's log JSON (seed 1, kinematic, dummy).
+const GOLDEN_SMOKE_LOG: u64 = 0xfffe_14c2_4222_d624;
+
+#[test]
+fn in_process_and_grpc_runs_are_identical() {
+    let (tx, rx) = std::sync::mpsc::channel();
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    let server = std::thread::spawn(move || {
+        let rt = tokio::runtime::Builder::new_multi_thread()
+            .worker_threads(1)
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async move {
+            let l = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+            tx.send(l.local_addr().unwrap()).unwrap();
+            litesim_grpc::serve(l, litesim_grpc::ServerConfig::default(), async {
+                let _ = stopped.await;
+            })
+            .await
+            .unwrap();
+        });
+    });
+    let addr = rx.recv().unwrap();
+    for (name, mode) in [
+        ("cut_in", DriveMode::Kinematic),
+        ("overtake", DriveMode::Dynamic),
+    ] {
+        let local = go(name, 3, mode);
+        let prep = example(name);
+        let mut remote = litesim_grpc::RemoteSsp::connect(&addr.to_string()).unwrap();
+        let opts = RunOptions {
+            seed: Some(3),
+            mode,
+            record: true,
+            ..RunOptions::default()
+        };
+        let over = run(&prep, &mut remote, &opts).unwrap();
+        drop(remote);
+        assert_eq!(digest(&local), digest(&over), "{name} {mode:?}");
+    }
+    let _ = stop.send(());
+    server.join().unwrap();
+}
+
+fn batch_spec(
+    out: &Path,
+    shard: (u64, u64),
+    threads: usize,
+    seeds: (u64, u64),
+) -> batch::BatchSpec {
+    batch::BatchSpec {
+        tests: ["follow", "cut_in", "random_duration", "too_many_lanes"]
+            .iter()
+            .map(|n| root().join(format!("examples/scenarios/{n}.osc")))
+            .collect(),
+        seed_from: seeds.0,
+        seed_to: seeds.1,
+        shard,
+        threads: Some(threads),
+        out: out.to_path_buf(),
+        resume: false,
+        mode: DriveMode::Kinematic,
+        load: LoadOptions::default(),
+    }
+}
+
+#[test]
+fn batch_results_are_identical_across_threads_shards_and_resumes() {
+    let dir = tempfile::tempdir().unwrap();
+    let one = dir.path().join("one");
+    let r = batch::run_batch(&batch_spec(&one, (0, 1), 1, (1, 6)), &|_, _| {}).unwrap();
+    assert_eq!((r.total, r.ran), (24, 24));
+    // too_many_lanes fails every seed with the solver's message.
+    let text = std::fs::read_to_string(one.join("results.jsonl")).unwrap();
+    assert_eq!(text.lines().filter(|l| l.contains("≥ 3 lanes")).count(), 6);
+    let two = dir.path().join("two");
+    batch::run_batch(&batch_spec(&two, (0, 1), 2, (1, 6)), &|_, _| {}).unwrap();
+    let mut shards = Vec::new();
+    for i in 0..3 {
+        let d = dir.path().join(format!("shard{i}"));
+        batch::run_batch(&batch_spec(&d, (i, 3), 2, (1, 6)), &|_, _| {}).unwrap();
+        shards.push(d);
+    }
+    let merged = dir.path().join("merged");
+    assert_eq!(batch::merge(&shards, &merged).unwrap(), 24);
+    // Resume: half the seeds first, then all with --resume.
+    let res = dir.path().join("resumed");
+    batch::run_batch(&batch_spec(&res, (0, 1), 2, (1, 3)), &|_, _| {}).unwrap();
+    let mut spec = batch_spec(&res, (0, 1), 2, (1, 6));
+    spec.resume = true;
+    let r = batch::run_batch(&spec, &|_, _| {}).unwrap();
+    assert_eq!((r.skipped, r.ran), (12, 12));
+    for f in ["results.jsonl", "results.csv"] {
+        let a = std::fs::read(one.join(f)).unwrap();
+        for d in [&two, &merged, &res] {
+            assert_eq!(
+                a,
+                std::fs::read(d.join(f)).unwrap(),
+                "{f} in {}",
+                d.display()
+            );
+        }
+    }
+}
