@@ -17,6 +17,16 @@ pub struct RemoteSsp {
     rt: tokio::runtime::Runtime,
     client: SimulatorSupportClient<Channel>,
     session_id: String,
+    /// `shutdown` was sent.
+    closed: bool,
+}
+
+impl Drop for RemoteSsp {
+    /// A client that goes away frees its session at once instead of
+    /// holding a slot until the server's idle reaper runs.
+    fn drop(&mut self) {
+        let _ = self.shutdown();
+    }
 }
 
 impl std::fmt::Debug for RemoteSsp {
@@ -61,6 +71,7 @@ impl RemoteSsp {
             rt,
             client,
             session_id: String::new(),
+            closed: false,
         })
     }
 
@@ -79,8 +90,12 @@ impl RemoteSsp {
         (&self.rt, &mut self.client)
     }
 
-    /// Ends the session on the server.
+    /// Ends the session on the server (also done when the client is dropped).
     pub fn shutdown(&mut self) -> SspResult<()> {
+        if self.session_id.is_empty() || self.closed {
+            return Ok(());
+        }
+        self.closed = true;
         let req = pb::ShutdownRequest {
             session_id: self.session_id.clone(),
         };
@@ -131,6 +146,7 @@ impl Ssp for RemoteSsp {
             }
         )?;
         self.session_id = r.session_id.clone();
+        self.closed = false;
         Ok(InitResponse {
             session_id: r.session_id,
             capabilities: cv::capabilities(r.capabilities.unwrap_or_default())?,

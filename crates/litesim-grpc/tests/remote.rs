@@ -474,7 +474,9 @@ fn trace_rpc_writes_every_call_as_json_lines() {
             "wait_start_simulation",
             "create_actor",
             "destroy_actor",
-            "step"
+            "step",
+            // The client frees its session when dropped.
+            "shutdown"
         ]
     );
     assert_eq!(lines[3]["args"]["actor_id"], "a");

@@ -35,10 +35,14 @@ fn main() {
     // whose run is (almost) 6 s, i.e. the 300 steps.
     let seed = (1..500)
         .find(|s| {
-            let r = run(&prep, &mut litesim_scenario::in_process(), &RunOptions {
-                seed: Some(*s),
-                ..RunOptions::default()
-            })
+            let r = run(
+                &prep,
+                &mut litesim_scenario::in_process(),
+                &RunOptions {
+                    seed: Some(*s),
+                    ..RunOptions::default()
+                },
+            )
             .unwrap();
             r.summary.steps >= 295
         })
@@ -65,7 +69,10 @@ fn main() {
     c.bench_function("smoke_run_prepared_no_log", |b| {
         b.iter(|| black_box(run(&prep, &mut litesim_scenario::in_process(), &fast).unwrap()))
     });
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
     let mut g = c.benchmark_group("batch");
     g.sample_size(10);
     g.bench_function("smoke_200_runs_2_threads", |b| {
@@ -74,7 +81,12 @@ fn main() {
                 (1..=200u64)
                     .into_par_iter()
                     .map(|s| {
-                        let l = litesim_scenario::batch::run_line("smoke", &Ok(prep.clone()), s, Default::default());
+                        let l = litesim_scenario::batch::run_line(
+                            "smoke",
+                            &Ok(prep.clone()),
+                            s,
+                            Default::default(),
+                        );
                         usize::from(l.pass)
                     })
                     .sum::<usize>()

@@ -60,6 +60,8 @@ pub struct Prepared {
     pub map_text: Option<Arc<String>>,
     /// The map's file name (for messages).
     pub map_name: String,
+    /// The map has dynamic signals (traffic lights) the simulator must know.
+    pub has_lights: bool,
 }
 
 /// Loads, checks and elaborates a test; loads its map.
@@ -106,7 +108,13 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
         }
         None => (None, None, String::new()),
     };
+    let has_lights = net.as_ref().is_some_and(|n| {
+        n.roads()
+            .iter()
+            .any(|r| r.signals.iter().any(|s| s.dynamic))
+    });
     Ok(Prepared {
+        has_lights,
         path: path.to_path_buf(),
         test,
         net,
@@ -271,7 +279,14 @@ pub fn run(
         model: model.clone(),
         seed,
         step_ms,
-        map_text: prep.map_text.as_deref().map(String::as_str),
+        // The Model SSP reads the map for its traffic lights only; a map
+        // without dynamic signals is not sent (it would be parsed again
+        // for every run of a batch, for nothing).
+        map_text: prep
+            .map_text
+            .as_deref()
+            .map(String::as_str)
+            .filter(|_| prep.has_lights),
         mode: opts.mode,
         calibration: opts.calibration,
         record: opts.record,

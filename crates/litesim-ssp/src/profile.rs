@@ -141,10 +141,16 @@ impl Profile {
     }
 
     /// A built-in profile by name; an unknown name is an error listing what exists.
+    ///
+    /// Each built-in is parsed once per process (sessions start by the
+    /// thousand in bulk runs) and cloned from then on.
     pub fn builtin(name: &str) -> SspResult<Self> {
+        static PARSED: std::sync::OnceLock<Vec<SspResult<Profile>>> = std::sync::OnceLock::new();
         let name = if name.is_empty() { "dummy" } else { name };
-        match BUILTIN.iter().find(|(n, _)| *n == name) {
-            Some((_, text)) => Self::from_toml(text),
+        let parsed =
+            PARSED.get_or_init(|| BUILTIN.iter().map(|(_, t)| Self::from_toml(t)).collect());
+        match BUILTIN.iter().position(|(n, _)| *n == name) {
+            Some(i) => parsed[i].clone(),
             None => Err(SspError::not_found(format!(
                 "unknown profile '{name}'; available: {}",
                 builtin_names().join(", ")

@@ -219,7 +219,9 @@ fn positive_dim(field: &str, v: Option<f64>) -> SspResult<Option<f64>> {
 /// interpolation and integration finite.
 const MAX_COORD: f64 = 1e9;
 
-fn check_coord(field: &str, c: &Coord6) -> SspResult<()> {
+/// Checks the six coordinates; `field` names the place in messages and is
+/// only built on error (this runs for every trajectory point).
+fn check_coord(field: &dyn Fn() -> String, c: &Coord6) -> SspResult<()> {
     for (name, v) in [
         ("x", c.x),
         ("y", c.y),
@@ -228,10 +230,14 @@ fn check_coord(field: &str, c: &Coord6) -> SspResult<()> {
         ("pitch", c.pitch),
         ("yaw", c.yaw),
     ] {
-        if let Some(x) = opt_finite(&format!("{field}.{name}"), v)?.filter(|x| x.abs() > MAX_COORD)
-        {
+        let Some(x) = v else { continue };
+        if !x.is_finite() {
+            opt_finite(&format!("{}.{name}", field()), v)?;
+        }
+        if x.abs() > MAX_COORD {
             return Err(SspError::invalid(format!(
-                "{field}.{name} = {x} is beyond ±{MAX_COORD:e}"
+                "{}.{name} = {x} is beyond ±{MAX_COORD:e}",
+                field()
             )));
         }
     }
@@ -675,9 +681,9 @@ impl Ssp for Session {
         let (Some(_), Some(_)) = (req.position.x, req.position.y) else {
             return Err(SspError::invalid("position.x and position.y are mandatory"));
         };
-        check_coord("position", &req.position)?;
-        check_coord("speed", &req.speed)?;
-        check_coord("acceleration", &req.acceleration)?;
+        check_coord(&|| "position".into(), &req.position)?;
+        check_coord(&|| "speed".into(), &req.speed)?;
+        check_coord(&|| "acceleration".into(), &req.acceleration)?;
         let length = positive_dim("description.length", req.spec.length)?;
         let width = positive_dim("description.width", req.spec.width)?;
         let height = positive_dim("description.height", req.spec.height)?;
@@ -1017,7 +1023,7 @@ impl Ssp for Session {
                     "polyline[{i}]: x and y are mandatory"
                 )));
             };
-            check_coord(&format!("polyline[{i}]"), c)?;
+            check_coord(&|| format!("polyline[{i}]"), c)?;
             let c = self.frame(*c);
             let speed = traj.speeds.get(i).copied();
             if let Some(s) = speed
