@@ -554,3 +554,180 @@ fn check_osc_files() {
         .unwrap();
     assert!(String::from_utf8_lossy(&out.stdout).contains("\"decl\": \"Compound\""));
 }
+
+#[test]
+fn run_writes_log_summary_and_pictures_and_the_smoke_test_runs_with_ftx() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cut");
+    let o = litesim()
+        .current_dir(workspace())
+        .args(["run", "examples/scenarios/cut_in.osc", "--gif", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("PASS cut_in.osc seed 1"), "{text}");
+    for f in ["log.json", "summary.json", "replay.png", "replay.gif"] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    let png = std::fs::read(out.join("replay.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["pass"], true);
+    // The seed's smoke test with only $FTX set.
+    let o = litesim()
+        .current_dir(workspace())
+        .env("FTX", "osc")
+        .args([
+            "run",
+            "osc/env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc",
+            "--no-pictures",
+            "-o",
+        ])
+        .arg(dir.path().join("smoke"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // A collision is an outcome: exit 2, summary says so.
+    let o = litesim()
+        .current_dir(workspace())
+        .args([
+            "run",
+            "examples/scenarios/stationary_obstacle.osc",
+            "--no-pictures",
+            "-o",
+        ])
+        .arg(dir.path().join("obstacle"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("collision between sut.car and box"));
+    // Plan only: printed, drawn, nothing run.
+    let o = litesim()
+        .current_dir(workspace())
+        .args([
+            "run",
+            "examples/scenarios/overtake.osc",
+            "--plan-only",
+            "-o",
+        ])
+        .arg(dir.path().join("plan"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && text.contains("sut.car drive"),
+        "{text}"
+    );
+    assert!(dir.path().join("plan/plan.png").exists());
+    // Bad input: precise errors, exit 1.
+    let o = litesim()
+        .current_dir(workspace())
+        .args(["run", "examples/scenarios/too_many_lanes.osc"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("has ≥ 3 lanes"));
+    let o = litesim()
+        .args(["run", "/no/such/test.osc"])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let o = litesim()
+        .current_dir(workspace())
+        .args(["run", "examples/scenarios/cut_in.osc", "--sim", "tcp://x"])
+        .output()
+        .unwrap();
+    assert!(String::from_utf8_lossy(&o.stderr).contains("expected grpc://HOST:PORT"));
+}
+
+#[test]
+fn batch_shards_merge_and_calibrate_from_the_command_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let tests = [
+        "examples/scenarios/follow.osc",
+        "examples/scenarios/random_duration.osc",
+    ];
+    let full = dir.path().join("full");
+    let o = litesim()
+        .current_dir(workspace())
+        .arg("batch")
+        .args(tests)
+        .args(["--seeds", "1..5", "-q", "-o"])
+        .arg(&full)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut shards = Vec::new();
+    for i in 0..2 {
+        let d = dir.path().join(format!("s{i}"));
+        let o = litesim()
+            .current_dir(workspace())
+            .arg("batch")
+            .args(tests)
+            .args([
+                "--seeds",
+                "1..5",
+                "-q",
+                "--threads",
+                "1",
+                "--shard",
+                &format!("{i}/2"),
+                "-o",
+            ])
+            .arg(&d)
+            .output()
+            .unwrap();
+        assert!(o.status.success());
+        shards.push(d);
+    }
+    let merged = dir.path().join("merged");
+    let o = litesim()
+        .arg("merge")
+        .args(&shards)
+        .arg("-o")
+        .arg(&merged)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    assert_eq!(
+        std::fs::read(full.join("results.csv")).unwrap(),
+        std::fs::read(merged.join("results.csv")).unwrap()
+    );
+    let csv = std::fs::read_to_string(full.join("results.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 11);
+    for bad in [["--shard", "3/2"], ["--seeds", "9..1"]] {
+        let o = litesim()
+            .current_dir(workspace())
+            .arg("batch")
+            .args(tests)
+            .args(bad)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(1), "{bad:?}");
+    }
+    let cal = dir.path().join("dummy.toml");
+    let o = litesim()
+        .args(["calibrate", "--profile", "dummy", "-o"])
+        .arg(&cal)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = litesim()
+        .current_dir(workspace())
+        .args([
+            "run",
+            "examples/scenarios/lane_change.osc",
+            "--dynamic",
+            "--no-pictures",
+            "--calibration",
+        ])
+        .arg(&cal)
+        .arg("-o")
+        .arg(dir.path().join("lc"))
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
+}
