@@ -28,6 +28,10 @@ use litesim_plan::rng::Rng;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
+/// Longest test the planner accepts (s): a typo such as `duration(9999999s)`
+/// is an error, not hours of sampling.
+pub const MAX_DURATION_S: f64 = 3600.0;
+
 /// Default leaf duration when nothing gives one (s).
 pub const DEFAULT_PHASE_S: f64 = 5.0;
 const ACCEL_UP: f64 = 2.5;
@@ -519,6 +523,11 @@ pub fn plan(
     }
     visit(&mut timer, root, &mut memo);
     let duration = timer.assign(root, 0.0, None, &mut memo).max(step_s);
+    if !(duration <= MAX_DURATION_S) {
+        return Err(ScenarioError::Plan(format!(
+            "the behaviour lasts {duration} s; litesim plans at most {MAX_DURATION_S} s per test (check the `duration` modifiers)"
+        )));
+    }
     let Timer { rng, leaves, .. } = timer;
     let ids: BTreeMap<String, String> = test
         .actors

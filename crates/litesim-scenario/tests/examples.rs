@@ -468,3 +468,31 @@ fn batch_results_are_identical_across_threads_shards_and_resumes() {
         }
     }
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+    /// Mangled tests never crash the engine: they fail to load with
+    /// diagnostics, or fail to solve or plan with an error, or run.
+    #[test]
+    fn mangled_tests_never_panic(
+        which in 0usize..ALL.len(),
+        pos in 0usize..2000,
+        ins in proptest::sample::select(vec![
+            "(", ")", ":", "\n", "    ", "-", "0", "999999kph", "-5m", "[9..1]s", "speed(", "lane(9)",
+            "keep(r.min_lanes == 0)\n    ", "position(-1000m, ahead_of: sut.car)", "duration(0s)", "duration(99999999s)", "x", "\"", "\n        duration(9999999s)",
+        ]),
+    ) {
+        let name = ALL[which];
+        let mut text = std::fs::read_to_string(root().join(format!("examples/scenarios/{name}.osc"))).unwrap();
+        let p = pos.min(text.len());
+        if text.is_char_boundary(p) {
+            text.insert_str(p, ins);
+        }
+        let dir = root().join("examples/scenarios");
+        let file = tempfile::Builder::new().suffix(".osc").tempfile_in(&dir).unwrap();
+        std::fs::write(file.path(), &text).unwrap();
+        if let Ok(prep) = prepare(file.path(), &LoadOptions::default()) {
+            let _ = run(&prep, &mut litesim_scenario::in_process(), &RunOptions::default());
+        }
+    }
+}
