@@ -34,35 +34,14 @@ fn e(err: SspError) -> anyhow::Error {
 
 /// Starts a server on a free loopback port in this process and runs the demo against it over gRPC.
 pub fn run_with_local_server(opts: &DemoOptions) -> Result<()> {
-    let (tx, rx) = std::sync::mpsc::channel();
-    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-    let server = std::thread::spawn(move || -> Result<()> {
-        let rt = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .enable_all()
-            .build()?;
-        rt.block_on(async move {
-            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await?;
-            tx.send(listener.local_addr()?)?;
-            litesim_grpc::serve(listener, litesim_grpc::ServerConfig::default(), async {
-                let _ = stopped.await;
-            })
-            .await
-            .map_err(|e| anyhow!(e))
-        })
-    });
-    let addr = rx
-        .recv()
-        .map_err(|_| anyhow!("the demo server did not start"))?;
+    let server = litesim_grpc::LoopbackServer::start(litesim_grpc::ServerConfig::default(), 1)?;
+    let addr = server.addr;
     println!("litesim demo: server on {addr}, client over gRPC");
     let mut client = litesim_grpc::RemoteSsp::connect(&addr.to_string()).map_err(e)?;
     let result = run(&mut client, opts, &format!("gRPC {addr}"));
     // Graceful shutdown waits for open connections: close ours first.
     drop(client);
-    let _ = stop.send(());
-    server
-        .join()
-        .map_err(|_| anyhow!("server thread panicked"))??;
+    server.stop().map_err(|e| anyhow!(e))?;
     result
 }
 

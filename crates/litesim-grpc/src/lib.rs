@@ -21,4 +21,4 @@ pub mod convert;
 pub mod server;
 
 pub use client::RemoteSsp;
-pub use server::{ServerConfig, SspService, serve};
+pub use server::{LoopbackServer, ServerConfig, SspService, serve};

@@ -7,47 +7,10 @@ use litesim_ssp::testkit::{encode, mixed_scenario};
 use litesim_ssp::*;
 use std::net::SocketAddr;
 
-struct Server {
-    addr: SocketAddr,
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    thread: Option<std::thread::JoinHandle<()>>,
-}
-
-impl Drop for Server {
-    fn drop(&mut self) {
-        if let Some(s) = self.stop.take() {
-            let _ = s.send(());
-        }
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-    }
-}
+type Server = litesim_grpc::LoopbackServer;
 
 fn start(cfg: ServerConfig) -> Server {
-    let (tx_addr, rx_addr) = std::sync::mpsc::channel();
-    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-    let thread = std::thread::spawn(move || {
-        let rt = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(2)
-            .enable_all()
-            .build()
-            .unwrap();
-        rt.block_on(async move {
-            let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-            tx_addr.send(listener.local_addr().unwrap()).unwrap();
-            litesim_grpc::serve(listener, cfg, async {
-                let _ = stopped.await;
-            })
-            .await
-            .unwrap();
-        });
-    });
-    Server {
-        addr: rx_addr.recv().unwrap(),
-        stop: Some(stop),
-        thread: Some(thread),
-    }
+    litesim_grpc::LoopbackServer::start(cfg, 2).unwrap()
 }
 
 fn running(addr: SocketAddr) -> RemoteSsp {

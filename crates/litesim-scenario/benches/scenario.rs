@@ -95,25 +95,8 @@ fn main() {
     });
     g.finish();
     // Over gRPC: a server on loopback in this process.
-    let (tx, rx) = std::sync::mpsc::channel();
-    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-    let server = std::thread::spawn(move || {
-        let rt = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .enable_all()
-            .build()
-            .unwrap();
-        rt.block_on(async move {
-            let l = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-            tx.send(l.local_addr().unwrap()).unwrap();
-            litesim_grpc::serve(l, litesim_grpc::ServerConfig::default(), async {
-                let _ = stopped.await;
-            })
-            .await
-            .unwrap();
-        });
-    });
-    let addr = rx.recv().unwrap().to_string();
+    let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();
+    let addr = server.addr.to_string();
     let mut g = c.benchmark_group("grpc");
     g.sample_size(10);
     g.bench_function("smoke_end_to_end_over_grpc", |b| {
@@ -126,7 +109,6 @@ fn main() {
         })
     });
     g.finish();
-    let _ = stop.send(());
-    server.join().unwrap();
+    server.stop().unwrap();
     c.final_summary();
 }

@@ -523,7 +523,7 @@ pub fn plan(
     }
     visit(&mut timer, root, &mut memo);
     let duration = timer.assign(root, 0.0, None, &mut memo).max(step_s);
-    if !(duration <= MAX_DURATION_S) {
+    if duration.is_nan() || duration > MAX_DURATION_S {
         return Err(ScenarioError::Plan(format!(
             "the behaviour lasts {duration} s; litesim plans at most {MAX_DURATION_S} s per test (check the `duration` modifiers)"
         )));

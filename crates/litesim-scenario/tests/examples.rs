@@ -368,25 +368,8 @@ const GOLDEN_SMOKE_LOG: u64 = 0xfffe_14c2_4222_d624;
 
 #[test]
 fn in_process_and_grpc_runs_are_identical() {
-    let (tx, rx) = std::sync::mpsc::channel();
-    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-    let server = std::thread::spawn(move || {
-        let rt = tokio::runtime::Builder::new_multi_thread()
-            .worker_threads(1)
-            .enable_all()
-            .build()
-            .unwrap();
-        rt.block_on(async move {
-            let l = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-            tx.send(l.local_addr().unwrap()).unwrap();
-            litesim_grpc::serve(l, litesim_grpc::ServerConfig::default(), async {
-                let _ = stopped.await;
-            })
-            .await
-            .unwrap();
-        });
-    });
-    let addr = rx.recv().unwrap();
+    let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();
+    let addr = server.addr;
     for (name, mode) in [
         ("cut_in", DriveMode::Kinematic),
         ("overtake", DriveMode::Dynamic),
@@ -404,8 +387,7 @@ fn in_process_and_grpc_runs_are_identical() {
         drop(remote);
         assert_eq!(digest(&local), digest(&over), "{name} {mode:?}");
     }
-    let _ = stop.send(());
-    server.join().unwrap();
+    server.stop().unwrap();
 }
 
 fn batch_spec(
