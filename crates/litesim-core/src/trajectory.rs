@@ -221,8 +221,18 @@ impl Trajectory {
     fn segment_speed(&self, i: usize) -> f64 {
         match (self.points.get(i), self.points.get(i + 1)) {
             (Some(a), Some(b)) => {
-                let d = math::hypot(b.position.x - a.position.x, b.position.y - a.position.y);
-                d / (b.t - a.t)
+                let (dx, dy) = (b.position.x - a.position.x, b.position.y - a.position.y);
+                let d = math::hypot(dx, dy);
+                // x² overflows beyond ~1e154 m: rescale only then, so
+                // ordinary values keep their bits.
+                let d = if d.is_finite() {
+                    d
+                } else {
+                    libm::hypot(dx, dy)
+                };
+                // Absurd inputs (1e300 m in a nanosecond) saturate instead of
+                // becoming infinite.
+                (d / (b.t - a.t)).min(f64::MAX)
             }
             _ => 0.0,
         }

@@ -347,6 +347,34 @@ impl Ssp for RemoteSsp {
             .collect()
     }
 
+    fn step_many(
+        &mut self,
+        steps: u32,
+        filter: &ActorFilter,
+    ) -> SspResult<Vec<(StepInfo, Vec<ReportedState>)>> {
+        let req = pb::StepManyRequest {
+            session_id: self.sid(),
+            steps,
+            state_filter: Some(cv::filter_pb(filter)),
+        };
+        call!(self, step_many, req)?
+            .steps
+            .into_iter()
+            .map(|r| {
+                Ok((
+                    StepInfo {
+                        sim_time_ms: r.sim_time_ms,
+                        step_index: r.step_index,
+                    },
+                    r.states
+                        .into_iter()
+                        .map(cv::state)
+                        .collect::<SspResult<_>>()?,
+                ))
+            })
+            .collect()
+    }
+
     fn step(
         &mut self,
         requested_sim_time_ms: Option<u64>,

@@ -517,6 +517,35 @@ impl SimulatorSupport for SspService {
         }))
     }
 
+    async fn step_many(
+        &self,
+        req: Request<pb::StepManyRequest>,
+    ) -> Result<Response<pb::StepManyResponse>, Status> {
+        let r = req.into_inner();
+        let filter = r.state_filter;
+        let steps = r.steps;
+        let out = self.with(
+            &r.session_id,
+            "step_many",
+            || json!({ "steps": steps }),
+            true,
+            |s| {
+                let f = cv::filter(filter)?;
+                s.step_many(steps, &f)
+            },
+        )?;
+        Ok(Response::new(pb::StepManyResponse {
+            steps: out
+                .iter()
+                .map(|(info, states)| pb::StepResponse {
+                    sim_time_ms: info.sim_time_ms,
+                    step_index: info.step_index,
+                    states: states.iter().map(cv::state_pb).collect(),
+                })
+                .collect(),
+        }))
+    }
+
     type StepStreamStream = StepStreamOut;
 
     async fn step_stream(

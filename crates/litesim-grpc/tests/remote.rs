@@ -445,3 +445,42 @@ fn trace_rpc_writes_every_call_as_json_lines() {
     assert_eq!(lines[3]["args"]["actor_id"], "a");
     assert_eq!(lines[4]["result"]["error"]["code"], "NOT_FOUND");
 }
+
+#[test]
+fn step_many_equals_repeated_steps_and_refuses_bad_counts() {
+    let server = start(ServerConfig::default());
+    let mut a = running(server.addr);
+    let mut local = Session::new("dummy", "dummy", SessionLimits::default());
+    local.init(InitRequest::default()).unwrap();
+    local.start_simulation(0).unwrap();
+    local.wait_start_simulation(100).unwrap();
+    for s in [&mut a as &mut dyn Ssp, &mut local] {
+        let mut c = car("c");
+        c.speed = Coord6 {
+            x: Some(5.0),
+            ..Coord6::default()
+        };
+        s.create_actor(c).unwrap();
+        s.set_external_controller(
+            "c",
+            ExternalMove {
+                controller: "cruise".into(),
+                desired_speed: Some(10.0),
+                ..ExternalMove::default()
+            },
+        )
+        .unwrap();
+    }
+    let f = ActorFilter::default();
+    let many = a.step_many(25, &f).unwrap();
+    let one_by_one: Vec<_> = (0..25).map(|_| local.step(None, &f).unwrap()).collect();
+    assert_eq!(many.len(), 25);
+    assert_eq!(many, one_by_one);
+    for bad in [0, MAX_STEPS_PER_CALL + 1] {
+        let e = a.step_many(bad, &f).unwrap_err();
+        assert_eq!(e.code, ErrorCode::InvalidArgument, "{e:?}");
+        assert!(e.message.contains("1 to 10000"), "{}", e.message);
+    }
+    // The session is intact after the refusals.
+    assert_eq!(a.step(None, &f).unwrap().0.step_index, 26);
+}

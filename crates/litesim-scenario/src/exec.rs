@@ -1,8 +1,9 @@
 //! Execution: drive a plan through any [`Ssp`] step by step.
 //!
-//! Kinematic mode sends each actor xy-trajectory moves ahead (every 200 ms,
-//! covering the coming 400 ms of the plan, with point times, headings and
-//! speeds). Dynamic mode drives vehicles with pedals and steering: a PID on
+//! Kinematic mode sends each actor xy-trajectory moves ahead with point
+//! times, headings and speeds: when no actor is driven in closed loop, a
+//! chunk of up to 60 s at once, stepped with one `step_many` call; beside
+//! dynamic actors, every 200 ms covering the coming 400 ms. Dynamic mode drives vehicles with pedals and steering: a PID on
 //! the speed error (with the planned acceleration as feed-forward) for
 //! throttle and brake, and a curvature feed-forward plus PD on lateral and
 //! heading error for steering; the gains are the profile's calibration.
@@ -202,16 +203,34 @@ pub fn execute(
     let mut off = Vec::with_capacity(ids.len());
     let mut controls = vec![ControlSample::default(); ids.len()];
     let mut states: Vec<Option<ReportedState>> = vec![None; ids.len()];
-    for k in 0..steps {
+    // Without closed-loop drivers nothing needs the states before the next
+    // command: the plan is known, so trajectories go out a chunk (up to
+    // 60 s) ahead and the chunk's steps run in one `step_many` call — a
+    // handful of round trips per test over gRPC instead of one per step.
+    // Replies stay bounded: ≤ 20,000 actor states per call.
+    let open_loop = drivers.iter().all(Option::is_none);
+    let chunk = if open_loop {
+        (60_000 / step_ms).clamp(1, (20_000 / ids.len().max(1)) as u64)
+    } else {
+        1
+    };
+    let mut k = 0;
+    while k < steps {
+        let n_steps = chunk.min(steps - k);
         let now_ms = k * step_ms;
         let t_next = (now_ms + step_ms) as f64 / 1000.0;
         for (i, a) in plan.actors.iter().enumerate() {
             match drivers[i].as_mut() {
                 None => {
-                    if k % send_every != 0 {
+                    if !open_loop && k % send_every != 0 {
                         continue;
                     }
-                    let n = horizon_ms / step_ms + 1;
+                    let ahead = if open_loop {
+                        n_steps * step_ms + 200
+                    } else {
+                        horizon_ms
+                    };
+                    let n = ahead / step_ms + 1;
                     let mut points = Vec::with_capacity(n as usize + 1);
                     let mut times = Vec::with_capacity(n as usize + 1);
                     let mut sp = Vec::with_capacity(n as usize + 1);
@@ -271,57 +290,64 @@ pub fn execute(
                 }
             }
         }
-        let (info, got) = ssp.step(None, &filter).map_err(ssp_err)?;
-        let t = info.sim_time_ms as f64 / 1000.0;
-        boxes.clear();
-        speeds.clear();
-        planned.clear();
-        off.clear();
-        for (i, a) in plan.actors.iter().enumerate() {
-            let st = got.iter().find(|s| s.actor_id == a.id).ok_or_else(|| {
-                ScenarioError::Ssp(format!("the simulator lost actor '{}'", a.id))
-            })?;
-            let p = a.at(t, plan.dt);
-            boxes.push(BoxState {
-                x: st.pose.position.x,
-                y: st.pose.position.y,
-                yaw: st.pose.yaw,
-                length: dims[i].0,
-                width: dims[i].1,
-                vx: st.velocity.x,
-                vy: st.velocity.y,
-            });
-            speeds.push(st.speed);
-            planned.push((p.x, p.y, p.v));
-            off.push(
-                a.kind == crate::elab::ActorKind::Vehicle
-                    && net.is_some_and(|n| n.to_road(st.pose.position.xy()).is_none()),
-            );
-            if let Some(r) = rec.as_mut() {
-                if i == 0 {
-                    r.begin(info.step_index, t);
-                }
-                let mut s = ActorSample::from_kinematics(
-                    st.pose,
-                    st.velocity,
-                    st.acceleration,
-                    st.yaw_rate,
-                    st.speed,
-                    dims[i].2,
+        let results = if n_steps == 1 {
+            vec![ssp.step(None, &filter).map_err(ssp_err)?]
+        } else {
+            ssp.step_many(n_steps as u32, &filter).map_err(ssp_err)?
+        };
+        k += n_steps;
+        for (info, got) in results {
+            let t = info.sim_time_ms as f64 / 1000.0;
+            boxes.clear();
+            speeds.clear();
+            planned.clear();
+            off.clear();
+            for (i, a) in plan.actors.iter().enumerate() {
+                let st = got.iter().find(|s| s.actor_id == a.id).ok_or_else(|| {
+                    ScenarioError::Ssp(format!("the simulator lost actor '{}'", a.id))
+                })?;
+                let p = a.at(t, plan.dt);
+                boxes.push(BoxState {
+                    x: st.pose.position.x,
+                    y: st.pose.position.y,
+                    yaw: st.pose.yaw,
+                    length: dims[i].0,
+                    width: dims[i].1,
+                    vx: st.velocity.x,
+                    vy: st.velocity.y,
+                });
+                speeds.push(st.speed);
+                planned.push((p.x, p.y, p.v));
+                off.push(
+                    a.kind == crate::elab::ActorKind::Vehicle
+                        && net.is_some_and(|n| n.to_road(st.pose.position.xy()).is_none()),
                 );
-                s.control = controls[i];
-                let mode = if drivers[i].is_some() {
-                    "dynamic"
-                } else {
-                    "trajectory"
-                };
-                r.sample(&a.id, mode, &s);
+                if let Some(r) = rec.as_mut() {
+                    if i == 0 {
+                        r.begin(info.step_index, t);
+                    }
+                    let mut s = ActorSample::from_kinematics(
+                        st.pose,
+                        st.velocity,
+                        st.acceleration,
+                        st.yaw_rate,
+                        st.speed,
+                        dims[i].2,
+                    );
+                    s.control = controls[i];
+                    let mode = if drivers[i].is_some() {
+                        "dynamic"
+                    } else {
+                        "trajectory"
+                    };
+                    r.sample(&a.id, mode, &s);
+                }
+                if drivers[i].is_some() {
+                    states[i] = Some(st.clone());
+                }
             }
-            if drivers[i].is_some() {
-                states[i] = Some(st.clone());
-            }
+            kpis.step(t, &boxes, &speeds, &planned, &off);
         }
-        kpis.step(t, &boxes, &speeds, &planned, &off);
     }
     ssp.end_simulation("plan finished").map_err(ssp_err)?;
     Ok(Executed {

@@ -465,6 +465,19 @@ pub struct StepInfo {
     pub step_index: u64,
 }
 
+/// Most steps one [`Ssp::step_many`] call may run (bounds the reply's size).
+pub const MAX_STEPS_PER_CALL: u32 = 10_000;
+
+/// Refuses a step count outside `1..=MAX_STEPS_PER_CALL`, naming the range.
+pub fn check_step_count(steps: u32) -> SspResult<()> {
+    if steps == 0 || steps > MAX_STEPS_PER_CALL {
+        return Err(crate::SspError::invalid(format!(
+            "steps = {steps}: step_many runs 1 to {MAX_STEPS_PER_CALL} steps per call"
+        )));
+    }
+    Ok(())
+}
+
 /// The simulator-support API.
 ///
 /// Calls are refused with `FAILED_PRECONDITION` when the session's life-cycle
@@ -525,6 +538,19 @@ pub trait Ssp {
         target: LightTarget,
         states: Vec<BulbState>,
     ) -> SspResult<Vec<TrafficLightBox>>;
+
+    /// Runs `steps` steps back to back, with no commands in between, and
+    /// returns what [`Ssp::step`] returns for each. A client whose commands
+    /// are already sent (xy trajectories ahead, external controllers) moves
+    /// many steps per round trip; `1..=MAX_STEPS_PER_CALL` steps.
+    fn step_many(
+        &mut self,
+        steps: u32,
+        filter: &ActorFilter,
+    ) -> SspResult<Vec<(StepInfo, Vec<ReportedState>)>> {
+        check_step_count(steps)?;
+        (0..steps).map(|_| self.step(None, filter)).collect()
+    }
 
     /// Start-step, wait-step and get-states in one call.
     fn step(
