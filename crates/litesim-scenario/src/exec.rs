@@ -78,6 +78,7 @@ struct Driver {
     max_steer: f64,
     max_accel: f64,
     max_decel: f64,
+    mirror: bool,
 }
 
 /// Runs `plan` on `ssp`.
@@ -106,6 +107,10 @@ pub fn execute(
             .map(|p| p.calibration)
             .unwrap_or_default()
     });
+    // Profiles with a left-handed frame (CARLA) see y and yaw mirrored; the
+    // engine works in the map's frame and converts at the boundary, so the
+    // simulator's world matches its map (traffic lights, its own roads).
+    let mirror = litesim_ssp::profile::Profile::builtin(&caps.profile).is_ok_and(|p| p.mirror_y);
     ssp.start_simulation(0).map_err(ssp_err)?;
     ssp.wait_start_simulation(1000).map_err(ssp_err)?;
     let mut rec = cfg.record.then(|| LogRecorder::new(dt));
@@ -156,12 +161,15 @@ pub fn execute(
                     width: Some(a.width),
                     ..ActorSpec::default()
                 },
-                position: Coord6::xy_yaw(s0.x, s0.y, s0.yaw),
-                speed: Coord6 {
-                    x: Some(s0.v * cy),
-                    y: Some(s0.v * sy),
-                    ..Coord6::default()
-                },
+                position: to_sim(Coord6::xy_yaw(s0.x, s0.y, s0.yaw), mirror),
+                speed: to_sim(
+                    Coord6 {
+                        x: Some(s0.v * cy),
+                        y: Some(s0.v * sy),
+                        ..Coord6::default()
+                    },
+                    mirror,
+                ),
                 initial_mode: if dynamic {
                     MoveMode::Dynamic
                 } else {
@@ -189,6 +197,7 @@ pub fn execute(
             max_steer: e.map_or(35f64, |e| e.max_steer_angle_deg).to_radians(),
             max_accel: e.map_or(4.0, |e| e.max_accel),
             max_decel: e.map_or(8.0, |e| e.max_decel),
+            mirror,
         }));
     }
     let ids: Vec<String> = plan.actors.iter().map(|a| a.id.clone()).collect();
@@ -237,7 +246,7 @@ pub fn execute(
                     for j in 0..=n {
                         let tm = now_ms + j * step_ms;
                         let p = a.at(tm as f64 / 1000.0, plan.dt);
-                        points.push(Coord6::xy_yaw(p.x, p.y, p.yaw));
+                        points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), mirror));
                         times.push(tm);
                         sp.push(p.v);
                     }
@@ -296,7 +305,10 @@ pub fn execute(
             ssp.step_many(n_steps as u32, &filter).map_err(ssp_err)?
         };
         k += n_steps;
-        for (info, got) in results {
+        for (info, mut got) in results {
+            if mirror {
+                got.iter_mut().for_each(from_sim);
+            }
             let t = info.sim_time_ms as f64 / 1000.0;
             boxes.clear();
             speeds.clear();
@@ -359,6 +371,25 @@ pub fn execute(
     })
 }
 
+/// Map frame → the simulator's frame.
+fn to_sim(mut c: Coord6, mirror: bool) -> Coord6 {
+    if mirror {
+        c.y = c.y.map(|v| -v);
+        c.yaw = c.yaw.map(|v| -v);
+    }
+    c
+}
+
+/// The simulator's frame → map frame.
+fn from_sim(s: &mut ReportedState) {
+    s.pose.position.y = -s.pose.position.y;
+    s.pose.yaw = -s.pose.yaw;
+    s.pose.roll = -s.pose.roll;
+    s.velocity.y = -s.velocity.y;
+    s.acceleration.y = -s.acceleration.y;
+    s.yaw_rate = -s.yaw_rate;
+}
+
 fn send_dynamic(
     ssp: &mut dyn Ssp,
     id: &str,
@@ -385,7 +416,9 @@ fn send_dynamic(
         DynamicMove::Normalized {
             throttle,
             brake,
-            steering: steer,
+            // + = left in the map's frame; a mirrored (left-handed) profile
+            // turns the other way for the same sign.
+            steering: if d.mirror { -steer } else { steer },
         },
         0,
     )

@@ -478,3 +478,117 @@ proptest::proptest! {
         }
     }
 }
+
+/// A test file beside the seed's smoke test that imports `config` and runs
+/// `body` on the seed's map.
+fn beside_smoke(config: &str, body: &str) -> (tempfile::NamedTempFile, Prepared) {
+    let dir = root().join("osc/env/basic/exe_platforms/model_ssp/test");
+    let file = tempfile::Builder::new()
+        .suffix(".osc")
+        .tempfile_in(&dir)
+        .unwrap();
+    std::fs::write(
+        file.path(),
+        format!(
+            "import \"$FTX/env/basic/exe_platforms/model_ssp/config/{config}\"\nextend test_config:\n    set map = \"$FTX/smoke/maps/circ_fix.xodr\"\n{body}"
+        ),
+    )
+    .unwrap();
+    let env = BTreeMap::from([("FTX".to_string(), root().join("osc").display().to_string())]);
+    let prep = prepare(
+        file.path(),
+        &LoadOptions {
+            env: Some(env),
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap();
+    (file, prep)
+}
+
+const PAIR: &str = "extend top.main:\n    do s: sut.pair() with:\n        keep(s.r1 == s.r2)\nscenario sut.pair:\n    r1: one_way_road\n    r2: one_way_road\n    car1: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(30kph)\n            along(r1, at: start)\n        car1.drive() with:\n            speed(30kph)\n            along(r2, at: start)\n    with: duration(5s)\n";
+
+#[test]
+fn every_profile_and_model_config_runs_the_smoke_shape() {
+    let configs = [
+        ("profile_carla_0_9_12_config.osc", "carla-0.9.12", "dummy"),
+        ("profile_carla_0_9_13_config.osc", "carla-0.9.13", "dummy"),
+        ("profile_carla_0_9_15_config.osc", "carla-0.9.15", "dummy"),
+        ("profile_sumo_config.osc", "sumo", "dummy"),
+        ("profile_dspace_config.osc", "dspace", "dummy"),
+        ("profile_carmaker_config.osc", "carmaker", "dummy"),
+        ("profile_drivesim_config.osc", "drivesim", "dummy"),
+        ("profile_simian_config.osc", "simian", "dummy"),
+        ("profile_aisim_config.osc", "aisim", "dummy"),
+        ("model_ssp_bicycle_config.osc", "dummy", "bicycle"),
+        ("model_ssp_lag_config.osc", "dummy", "lag"),
+    ];
+    for (config, profile, model) in configs {
+        let (_f, prep) = beside_smoke(config, PAIR);
+        for mode in [DriveMode::Kinematic, DriveMode::Dynamic] {
+            let opts = RunOptions {
+                mode,
+                ..RunOptions::default()
+            };
+            let r = run(&prep, &mut litesim_scenario::in_process(), &opts)
+                .unwrap_or_else(|e| panic!("{config} {mode:?}: {e}"));
+            let s = &r.summary;
+            assert_eq!(
+                (s.profile.as_str(), s.model.as_str()),
+                (profile, model),
+                "{config}"
+            );
+            // Mirrored (CARLA) frames convert at the boundary: nobody leaves the road.
+            assert!(s.pass, "{config} {mode:?}: {:?}", s.failures);
+            for a in &s.actors {
+                assert!(a.off_road_at.is_none(), "{config} {mode:?} {}", a.id);
+            }
+        }
+    }
+}
+
+#[test]
+fn post_plan_checks_of_a_profile_stop_an_infeasible_plan_before_it_runs() {
+    let harsh = "extend top.main:\n    do sut.harsh()\nscenario sut.harsh:\n    r: one_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, at: start)\n            duration(2s)\n        sut.car.drive() with:\n            change_speed(0kph)\n            acceleration(12mpsps)\n            duration(3s)\n";
+    let (_f, prep) = beside_smoke("profile_dspace_config.osc", harsh);
+    let e = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("post-plan")
+            && e.contains("sut.car: deceleration 12.00 m/s²")
+            && e.contains("exceeds the profile's 10.00 m/s²"),
+        "{e}"
+    );
+    // The dummy profile has no post-plan limits: the same plan runs.
+    let (_g, prep) = beside_smoke("model_ssp_dummy_config.osc", harsh);
+    run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap();
+}
+
+#[test]
+fn a_left_handed_profile_sees_the_world_mirrored_like_its_map() {
+    let (_f, prep) = beside_smoke("profile_carla_0_9_15_config.osc", PAIR);
+    let mut session = litesim_scenario::in_process();
+    let r = run(&prep, &mut session, &RunOptions::default()).unwrap();
+    // Inside the simulator (CARLA's left-handed frame) y is negated; the
+    // engine converted at the boundary, so the summary is in the map's frame.
+    let world = session.world().unwrap();
+    let car = world.actors().iter().find(|a| a.id == "sut.car").unwrap();
+    let planned = r.plan.actors.iter().find(|a| a.id == "sut.car").unwrap();
+    let at = planned.at(r.summary.steps as f64 * 0.02, r.plan.dt);
+    let p = car.state.pose.position;
+    assert!(
+        (p.x - at.x).abs() < 1e-6 && (p.y - at.y).abs() < 1e-6,
+        "{p:?} vs {at:?}"
+    );
+    assert!(at.y.abs() > 1.0, "the test needs a point off the x axis");
+}
