@@ -187,10 +187,13 @@ pub enum Node {
         /// Where.
         at: String,
     },
-    /// `wait elapsed(t)` (other waits end immediately in a plan).
+    /// `wait elapsed(t)` or `wait @event` (the event's planned time);
+    /// conditions over states end at once in a plan.
     Wait {
         /// Duration (s), when it is `elapsed(t)`.
         duration: Option<CExpr>,
+        /// Event path (`go`, `first.end`), when it waits for one.
+        event: Option<String>,
     },
     /// `emit e`.
     Emit {
@@ -729,9 +732,27 @@ impl Elab<'_> {
                     expr,
                     span,
                 } => self.keep(strength.as_deref(), expr, *span, sc),
-                Member::Until(_) => self.test.notes.push(
-                    "`until` is not evaluated: the phase runs for its planned duration".into(),
-                ),
+                Member::Until(spec) => {
+                    let at = self.lib.at(spec.span);
+                    let arg = match (&spec.event, &spec.cond) {
+                        (Some(e), _) => event_name(e)
+                            .map(|n| ("event".to_string(), CExpr::Const(Value::Str(n)))),
+                        (None, Some(c)) => {
+                            elapsed_arg(c).map(|a| ("elapsed".to_string(), self.cexpr(a, sc)))
+                        }
+                        _ => None,
+                    };
+                    match arg {
+                        Some((k, v)) => out.push(Modifier {
+                            name: "until".into(),
+                            args: BTreeMap::from([(k, v)]),
+                            at,
+                        }),
+                        None => self.test.notes.push(format!(
+                            "{at}: `until` on a condition over states is not evaluated in a plan"
+                        )),
+                    }
+                }
                 _ => {}
             }
         }
@@ -867,26 +888,31 @@ impl Elab<'_> {
                 }
             }
             DoKind::Wait(spec) => {
+                let event = spec.event.as_ref().and_then(event_name);
                 let duration = match &spec.cond {
-                    Some(Expr::Call { callee, args, .. }) if matches!(&**callee, Expr::Ident { name, .. } if name == "elapsed") => {
-                        args.first().map(|a| self.cexpr(&a.value, sc))
-                    }
-                    _ => {
-                        self.test.notes.push(format!(
-                            "{}: `wait` on an event ends at once in a plan",
-                            self.lib.at(spec.span)
-                        ));
-                        None
-                    }
+                    Some(c) => match elapsed_arg(c) {
+                        Some(a) => Some(self.cexpr(a, sc)),
+                        None => {
+                            self.test.notes.push(format!(
+                                "{}: `wait` on a condition over states ends at once in a plan",
+                                self.lib.at(spec.span)
+                            ));
+                            None
+                        }
+                    },
+                    None => None,
                 };
-                Some(Node::Wait { duration })
+                Some(Node::Wait { duration, event })
             }
-            DoKind::Emit { event } => Some(Node::Emit {
-                event: match event {
-                    Expr::Call { callee, .. } => format!("{:?}", self.path(callee, sc)),
-                    other => format!("{:?}", self.path(other, sc)),
-                },
-            }),
+            DoKind::Emit { event } => {
+                let e = match event {
+                    Expr::Call { callee, .. } => &**callee,
+                    other => other,
+                };
+                Some(Node::Emit {
+                    event: event_name(e).unwrap_or_default(),
+                })
+            }
             DoKind::Call { .. } => {
                 self.test
                     .notes
@@ -894,5 +920,25 @@ impl Elab<'_> {
                 None
             }
         })
+    }
+}
+
+/// `go`, `first.end`: the dotted path of an event reference.
+fn event_name(e: &Expr) -> Option<String> {
+    match e {
+        Expr::Ident { name, .. } => Some(name.clone()),
+        Expr::Field { base, name, .. } => Some(format!("{}.{}", event_name(base)?, name.text)),
+        Expr::Unary { op, expr, .. } if op == "@" => event_name(expr),
+        _ => None,
+    }
+}
+
+/// The argument of `elapsed(t)`.
+fn elapsed_arg(e: &Expr) -> Option<&Expr> {
+    match e {
+        Expr::Call { callee, args, .. } if matches!(&**callee, Expr::Ident { name, .. } if name == "elapsed") => {
+            args.first().map(|a| &a.value)
+        }
+        _ => None,
     }
 }

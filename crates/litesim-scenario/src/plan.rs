@@ -148,6 +148,14 @@ struct Timer<'a> {
     rng: &'a mut Rng,
     sol: &'a Solution,
     leaves: Vec<Leaf<'a>>,
+    /// Event times known from the previous pass (labels' start/end, emits).
+    events: BTreeMap<String, f64>,
+    /// Event times of this pass.
+    seen: BTreeMap<String, f64>,
+    /// `one_of` choices and `until elapsed` values, drawn once and kept
+    /// across passes so that the passes converge.
+    choice: BTreeMap<*const Node, usize>,
+    until_after: BTreeMap<*const Node, Option<f64>>,
 }
 
 /// Evaluates an argument to a value: variables from the solution, ranges sampled.
@@ -215,7 +223,7 @@ impl<'a> Timer<'a> {
                     .iter()
                     .filter_map(|c| self.natural(c, memo))
                     .reduce(f64::max),
-                Node::Wait { duration } => duration
+                Node::Wait { duration, .. } => duration
                     .as_ref()
                     .and_then(|e| eval(e, self.sol, self.rng))
                     .and_then(|v| v.num()),
@@ -236,7 +244,49 @@ impl<'a> Timer<'a> {
         memo: &mut BTreeMap<*const Node, Option<f64>>,
     ) -> f64 {
         let own = memo.get(&(n as *const Node)).copied().flatten();
-        let dur = forced.or(own);
+        let mut dur = forced.or(own);
+        // `until`: an event's planned time or an elapsed time ends the node early.
+        for m in mods_of(n).iter().filter(|m| m.name == "until") {
+            let cut = match (m.args.get("event"), m.args.get("elapsed")) {
+                (Some(CExpr::Const(Value::Str(e))), _) => {
+                    self.events.get(e).map(|te| te - t0).filter(|d| *d >= 0.0)
+                }
+                (_, Some(e)) => {
+                    let key = n as *const Node;
+                    if !self.until_after.contains_key(&key) {
+                        let v = eval(e, self.sol, self.rng).and_then(|v| v.num());
+                        self.until_after.insert(key, v);
+                    }
+                    self.until_after[&key].filter(|d| *d >= 0.0)
+                }
+                _ => None,
+            };
+            if let Some(c) = cut {
+                dur = Some(dur.map_or(c, |d| d.min(c)));
+            }
+        }
+        let end = self.assign_inner(n, t0, dur, memo);
+        let label = match n {
+            Node::Serial { label, .. }
+            | Node::Parallel { label, .. }
+            | Node::OneOf { label, .. }
+            | Node::Action { label, .. } => label.as_ref(),
+            _ => None,
+        };
+        if let Some(l) = label {
+            self.seen.entry(format!("{l}.start")).or_insert(t0);
+            self.seen.entry(format!("{l}.end")).or_insert(end);
+        }
+        end
+    }
+
+    fn assign_inner(
+        &mut self,
+        n: &'a Node,
+        t0: f64,
+        dur: Option<f64>,
+        memo: &mut BTreeMap<*const Node, Option<f64>>,
+    ) -> f64 {
         match n {
             Node::Action {
                 actor,
@@ -303,10 +353,26 @@ impl<'a> Timer<'a> {
                 if children.is_empty() {
                     return t0;
                 }
-                let i = (self.rng.next_u64() % children.len() as u64) as usize;
+                let key = n as *const Node;
+                let i = match self.choice.get(&key) {
+                    Some(i) => *i,
+                    None => {
+                        let i = (self.rng.next_u64() % children.len() as u64) as usize;
+                        self.choice.insert(key, i);
+                        i
+                    }
+                };
                 self.assign(&children[i], t0, dur, memo)
             }
-            Node::Wait { .. } | Node::Emit { .. } => t0 + dur.unwrap_or(0.0),
+            Node::Wait { event: Some(e), .. } => match self.events.get(e) {
+                Some(te) if *te > t0 => *te,
+                _ => t0 + dur.unwrap_or(0.0),
+            },
+            Node::Emit { event } => {
+                self.seen.entry(event.clone()).or_insert(t0);
+                t0
+            }
+            Node::Wait { .. } => t0 + dur.unwrap_or(0.0),
         }
     }
 }
@@ -508,6 +574,10 @@ pub fn plan(
         rng,
         sol,
         leaves: Vec::new(),
+        events: BTreeMap::new(),
+        seen: BTreeMap::new(),
+        choice: BTreeMap::new(),
+        until_after: BTreeMap::new(),
     };
     let mut memo = BTreeMap::new();
     fn visit<'a>(t: &mut Timer<'a>, n: &'a Node, memo: &mut BTreeMap<*const Node, Option<f64>>) {
@@ -522,7 +592,18 @@ pub fn plan(
         }
     }
     visit(&mut timer, root, &mut memo);
-    let duration = timer.assign(root, 0.0, None, &mut memo).max(step_s);
+    // Waits and untils read event times that the layout itself produces:
+    // lay out again with the last pass's times until they stop changing.
+    let mut duration = 0.0;
+    for _ in 0..16 {
+        timer.leaves.clear();
+        timer.seen.clear();
+        duration = timer.assign(root, 0.0, None, &mut memo).max(step_s);
+        if timer.seen == timer.events {
+            break;
+        }
+        timer.events = std::mem::take(&mut timer.seen);
+    }
     if duration.is_nan() || duration > MAX_DURATION_S {
         return Err(ScenarioError::Plan(format!(
             "the behaviour lasts {duration} s; litesim plans at most {MAX_DURATION_S} s per test (check the `duration` modifiers)"

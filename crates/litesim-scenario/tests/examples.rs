@@ -52,6 +52,7 @@ const ALL: &[&str] = &[
     "curvy_road",
     "cut_in",
     "cyclist_ahead",
+    "emit_wait_until",
     "follow",
     "lane_change",
     "lead_brakes",
@@ -197,6 +198,33 @@ fn outcomes_of_the_example_scenarios() {
             .len(),
         1
     );
+    // Events: the parked car waits for `clear` (emitted at 3 s); `until
+    // elapsed(2s)` cuts the ego's 10 s phase to 2 s.
+    let ewu = &r["emit_wait_until"].plan;
+    let ph = |actor: &str, action: &str| {
+        ewu.phases
+            .iter()
+            .find(|p| p.actor == actor && p.action == action)
+            .map(|p| (p.t0, p.t1))
+            .unwrap()
+    };
+    assert_eq!(ph("parked", "remain_stationary"), (0.0, 3.0));
+    assert_eq!(ph("parked", "drive"), (3.0, 7.0));
+    let second = ewu
+        .phases
+        .iter()
+        .find(|p| p.label.as_deref() == Some("second"))
+        .unwrap();
+    assert_eq!((second.t0, second.t1), (3.0, 5.0));
+    let parked = ewu.actors.iter().find(|a| a.id == "parked").unwrap();
+    assert!(
+        parked
+            .samples
+            .iter()
+            .filter(|x| x.t < 3.0 - 1e-9)
+            .all(|x| x.v == 0.0)
+    );
+    assert!(parked.samples.last().unwrap().v > 8.0);
     // Cyclist: closes in but never reaches.
     assert!(pair(s("cyclist_ahead"), "sut.car", "bike").min_distance > 15.0);
 }
