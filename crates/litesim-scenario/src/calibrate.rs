@@ -84,6 +84,7 @@ pub fn reference_plan(step_s: f64) -> Plan {
         }],
         phases: Vec::new(),
         violations: Vec::new(),
+        lights: Vec::new(),
         notes: Vec::new(),
     }
 }

@@ -195,6 +195,15 @@ pub enum Node {
         /// Event path (`go`, `first.end`), when it waits for one.
         event: Option<String>,
     },
+    /// `light.switch(color)`: a traffic light changes colour at this time.
+    Switch {
+        /// Path of the `traffic_light` variable.
+        light: String,
+        /// The colour (an enum member).
+        color: CExpr,
+        /// Where.
+        at: String,
+    },
     /// `emit e`.
     Emit {
         /// Event name.
@@ -829,6 +838,30 @@ impl Elab<'_> {
                 };
                 let at = self.lib.at(*span);
                 let mut mods = Vec::new();
+                let light = base.and_then(|b| match self.path(b, sc) {
+                    Some(CExpr::Var(p))
+                        if self
+                            .test
+                            .vars
+                            .get(&p)
+                            .is_some_and(|v| self.lib.is_a(&v.type_name, "traffic_light")) =>
+                    {
+                        Some(p)
+                    }
+                    _ => None,
+                });
+                if let Some(light) = light {
+                    if name != "switch" {
+                        return Err(ScenarioError::Elaboration(format!(
+                            "{at}: a traffic light can only `switch(color)`, not '{name}'"
+                        )));
+                    }
+                    let bound = self.bind(args, &["color".to_string()], sc);
+                    let color = bound.get("color").cloned().ok_or_else(|| {
+                        ScenarioError::Elaboration(format!("{at}: switch needs a color"))
+                    })?;
+                    return Ok(Some(Node::Switch { light, color, at }));
+                }
                 if ACTION_NAMES.contains(&name.as_str()) {
                     let actor = base.and_then(|b| self.actor_of(b, sc)).ok_or_else(|| {
                         ScenarioError::Elaboration(format!(

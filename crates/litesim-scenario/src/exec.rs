@@ -18,6 +18,9 @@ use litesim_log::{ActorSample, ControlSample, LogRecorder, SimulationLog};
 use litesim_map::RoadNetwork;
 use litesim_ssp::api::*;
 use litesim_ssp::profile::Calibration;
+use litesim_ssp::traffic::{
+    BulbColor, BulbMode, BulbState, LightTarget, TrafficLightBox, TrafficLights,
+};
 use serde::{Deserialize, Serialize};
 
 /// How actors are moved.
@@ -223,9 +226,38 @@ pub fn execute(
     } else {
         1
     };
+    // Traffic lights: the simulator's boxes, and which show red (tracked
+    // here from the listing and every switch the plan makes).
+    let mut lights = if !plan.lights.is_empty() || cfg.map_text.is_some() {
+        Some(ssp.list_traffic_lights().map_err(ssp_err)?)
+    } else {
+        None
+    };
+    let mut red: Vec<bool> = lights
+        .as_ref()
+        .map(|l| l.boxes.iter().map(shows_red).collect())
+        .unwrap_or_default();
+    let mut last_pos: Vec<Option<litesim_map::RoadPosition>> = vec![None; ids.len()];
+    let switch_tick = |t: f64| (t * 1000.0 / step_ms as f64).round() as u64;
+    let mut next_switch = 0;
     let mut k = 0;
     while k < steps {
-        let n_steps = chunk.min(steps - k);
+        while next_switch < plan.lights.len() && switch_tick(plan.lights[next_switch].t) <= k {
+            let sw = &plan.lights[next_switch];
+            let info = lights.as_mut().ok_or_else(|| {
+                ScenarioError::Plan(format!(
+                    "traffic light '{}': the map has no traffic lights",
+                    sw.light
+                ))
+            })?;
+            switch_light(ssp, info, &mut red, sw)?;
+            next_switch += 1;
+        }
+        let mut n_steps = chunk.min(steps - k);
+        if let Some(sw) = plan.lights.get(next_switch) {
+            // A chunk ends where the next switch happens.
+            n_steps = n_steps.min(switch_tick(sw.t).saturating_sub(k).max(1));
+        }
         let now_ms = k * step_ms;
         let t_next = (now_ms + step_ms) as f64 / 1000.0;
         for (i, a) in plan.actors.iter().enumerate() {
@@ -330,10 +362,26 @@ pub fn execute(
                 });
                 speeds.push(st.speed);
                 planned.push((p.x, p.y, p.v));
-                off.push(
-                    a.kind == crate::elab::ActorKind::Vehicle
-                        && net.is_some_and(|n| n.to_road(st.pose.position.xy()).is_none()),
-                );
+                let vehicle = a.kind == crate::elab::ActorKind::Vehicle;
+                let pos = if vehicle {
+                    net.and_then(|n| n.to_road(st.pose.position.xy()))
+                } else {
+                    None
+                };
+                off.push(vehicle && net.is_some() && pos.is_none());
+                // Red light: the car's s passes a red box's s on a lane it controls.
+                if let (Some(info), Some(p), Some(q)) = (lights.as_ref(), &pos, &last_pos[i]) {
+                    for (b, is_red) in info.boxes.iter().zip(&red) {
+                        let lane_ok = b.valid_lanes.is_empty() || b.valid_lanes.contains(&p.lane);
+                        let crossed = p.road == b.road_id
+                            && q.road == b.road_id
+                            && ((q.s < b.s && p.s >= b.s) || (q.s > b.s && p.s <= b.s));
+                        if *is_red && lane_ok && crossed {
+                            kpis.red_light(i, &b.id, t);
+                        }
+                    }
+                }
+                last_pos[i] = pos;
                 if let Some(r) = rec.as_mut() {
                     if i == 0 {
                         r.begin(info.step_index, t);
@@ -369,6 +417,78 @@ pub fn execute(
         profile: caps.profile,
         model: caps.model,
     })
+}
+
+/// Whether a box shows red (a red bulb on or flashing).
+fn shows_red(b: &TrafficLightBox) -> bool {
+    b.bulbs
+        .iter()
+        .any(|x| x.color == BulbColor::Red && matches!(x.mode, BulbMode::On | BulbMode::Flashing))
+}
+
+/// Sets a light (logical by preference, else a box) to one colour: that
+/// colour's bulbs on, the others off.
+fn switch_light(
+    ssp: &mut dyn Ssp,
+    info: &mut TrafficLights,
+    red: &mut [bool],
+    sw: &crate::plan::LightSwitch,
+) -> Result<(), ScenarioError> {
+    let (target, boxes): (LightTarget, Vec<String>) = match info
+        .logical
+        .iter()
+        .find(|l| l.id == sw.light || l.controller_id == sw.light)
+    {
+        Some(l) => (LightTarget::Logical(l.id.clone()), l.box_ids.clone()),
+        None if info.boxes.iter().any(|b| b.id == sw.light) => {
+            (LightTarget::Box(sw.light.clone()), vec![sw.light.clone()])
+        }
+        None => {
+            let known: Vec<&str> = info
+                .logical
+                .iter()
+                .map(|l| l.id.as_str())
+                .chain(info.boxes.iter().map(|b| b.id.as_str()))
+                .collect();
+            return Err(ScenarioError::Plan(format!(
+                "traffic light '{}' is not in the map (lights: {})",
+                sw.light,
+                known.join(", ")
+            )));
+        }
+    };
+    let want = match sw.color.as_str() {
+        "red" => BulbColor::Red,
+        "yellow" => BulbColor::Yellow,
+        _ => BulbColor::Green,
+    };
+    let mut states: Vec<BulbState> = Vec::new();
+    for b in info.boxes.iter().filter(|b| boxes.contains(&b.id)) {
+        for bulb in &b.bulbs {
+            let s = BulbState {
+                icon: bulb.icon,
+                color: bulb.color,
+                mode: if bulb.color == want {
+                    BulbMode::On
+                } else {
+                    BulbMode::Off
+                },
+            };
+            if !states.contains(&s) {
+                states.push(s);
+            }
+        }
+    }
+    let changed = ssp
+        .set_traffic_light_state(target, states)
+        .map_err(ssp_err)?;
+    for c in changed {
+        if let Some(k) = info.boxes.iter().position(|b| b.id == c.id) {
+            red[k] = shows_red(&c);
+            info.boxes[k] = c;
+        }
+    }
+    Ok(())
 }
 
 /// Map frame → the simulator's frame.

@@ -119,6 +119,8 @@ pub struct ActorKpi {
     pub distance: f64,
     /// Top speed (m/s).
     pub max_speed: f64,
+    /// The first red light run: (box id, time s).
+    pub ran_red_light: Option<(String, f64)>,
 }
 
 /// Accumulates KPIs step by step.
@@ -165,6 +167,14 @@ impl Kpis {
                 .enumerate()
                 .map(|(i, s)| (s.clone(), i))
                 .collect(),
+        }
+    }
+
+    /// Records that actor `i` passed the red light `box_id` at `t` (the first one counts).
+    pub fn red_light(&mut self, i: usize, box_id: &str, t: f64) {
+        let a = &mut self.actors[i];
+        if a.ran_red_light.is_none() {
+            a.ran_red_light = Some((box_id.to_string(), t));
         }
     }
 

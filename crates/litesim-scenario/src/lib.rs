@@ -303,6 +303,9 @@ pub fn run(
         if let Some(t) = a.off_road_at {
             failures.push(format!("{} off the road at {t:.2} s", a.id));
         }
+        if let Some((light, t)) = &a.ran_red_light {
+            failures.push(format!("{} ran the red light {light} at {t:.2} s", a.id));
+        }
         if a.max_path_error > tol_path {
             failures.push(format!(
                 "{} strays {:.3} m from its plan (tolerance {tol_path} m)",

@@ -130,8 +130,21 @@ pub struct Plan {
     pub phases: Vec<Phase>,
     /// Violations of `strict` modifiers (reported with the post-plan checks).
     pub violations: Vec<String>,
+    /// Traffic-light switches in time order.
+    pub lights: Vec<LightSwitch>,
     /// Remarks.
     pub notes: Vec<String>,
+}
+
+/// A traffic light changes colour.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LightSwitch {
+    /// When (s).
+    pub t: f64,
+    /// Box (signal) or logical light (controller) id in the map.
+    pub light: String,
+    /// `red`, `yellow` or `green`.
+    pub color: String,
 }
 
 struct Leaf<'a> {
@@ -156,6 +169,8 @@ struct Timer<'a> {
     /// across passes so that the passes converge.
     choice: BTreeMap<*const Node, usize>,
     until_after: BTreeMap<*const Node, Option<f64>>,
+    /// Traffic-light switches: time, light path, colour, place.
+    switches: Vec<(f64, String, &'a CExpr, String)>,
 }
 
 /// Evaluates an argument to a value: variables from the solution, ranges sampled.
@@ -227,7 +242,7 @@ impl<'a> Timer<'a> {
                     .as_ref()
                     .and_then(|e| eval(e, self.sol, self.rng))
                     .and_then(|v| v.num()),
-                Node::Emit { .. } => Some(0.0),
+                Node::Emit { .. } | Node::Switch { .. } => Some(0.0),
                 Node::Action { .. } => None,
             }
         };
@@ -370,6 +385,10 @@ impl<'a> Timer<'a> {
             },
             Node::Emit { event } => {
                 self.seen.entry(event.clone()).or_insert(t0);
+                t0
+            }
+            Node::Switch { light, color, at } => {
+                self.switches.push((t0, light.clone(), color, at.clone()));
                 t0
             }
             Node::Wait { .. } => t0 + dur.unwrap_or(0.0),
@@ -578,6 +597,7 @@ pub fn plan(
         seen: BTreeMap::new(),
         choice: BTreeMap::new(),
         until_after: BTreeMap::new(),
+        switches: Vec::new(),
     };
     let mut memo = BTreeMap::new();
     fn visit<'a>(t: &mut Timer<'a>, n: &'a Node, memo: &mut BTreeMap<*const Node, Option<f64>>) {
@@ -598,6 +618,7 @@ pub fn plan(
     for _ in 0..16 {
         timer.leaves.clear();
         timer.seen.clear();
+        timer.switches.clear();
         duration = timer.assign(root, 0.0, None, &mut memo).max(step_s);
         if timer.seen == timer.events {
             break;
@@ -609,7 +630,31 @@ pub fn plan(
             "the behaviour lasts {duration} s; litesim plans at most {MAX_DURATION_S} s per test (check the `duration` modifiers)"
         )));
     }
-    let Timer { rng, leaves, .. } = timer;
+    let Timer {
+        rng,
+        leaves,
+        switches,
+        ..
+    } = timer;
+    let mut lights = Vec::new();
+    for (t, path, color, at) in switches {
+        let light = sol
+            .values
+            .get(&format!("{path}.light_id"))
+            .and_then(|v| v.text().map(String::from))
+            .ok_or_else(|| {
+                ScenarioError::Plan(format!(
+                    "{at}: traffic light '{path}' names no light: add `keep(it.light_id == \"…\")` with a signal or controller id of the map"
+                ))
+            })?;
+        let color = eval(color, sol, rng)
+            .and_then(|v| v.text().map(String::from))
+            .ok_or_else(|| {
+                ScenarioError::Plan(format!("{at}: switch needs red, yellow or green"))
+            })?;
+        lights.push(LightSwitch { t, light, color });
+    }
+    lights.sort_by(|a, b| a.t.total_cmp(&b.t));
     let ids: BTreeMap<String, String> = test
         .actors
         .iter()
@@ -1035,6 +1080,7 @@ pub fn plan(
         actors: keep,
         phases,
         violations,
+        lights,
         notes,
     })
 }

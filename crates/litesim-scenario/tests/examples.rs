@@ -62,6 +62,7 @@ const ALL: &[&str] = &[
     "overtake",
     "pedestrian_crossing",
     "random_duration",
+    "red_light_run",
     "ring_follow",
     "same_road_pair",
     "speed_profile",
@@ -83,7 +84,7 @@ fn outcomes_of_the_example_scenarios() {
     // Everything but the unavoidable obstacle passes, kinematic paths exact.
     for n in ALL {
         let sum = s(n);
-        if *n == "stationary_obstacle" {
+        if *n == "stationary_obstacle" || *n == "red_light_run" {
             continue;
         }
         assert!(sum.pass, "{n}: {:?}", sum.failures);
@@ -148,6 +149,21 @@ fn outcomes_of_the_example_scenarios() {
             .off_road_at
             .is_none()
     );
+    // Traffic lights: stopping at red passes; running it is caught, with the box and the time.
+    assert!(
+        actor(s("stop_at_junction"), "sut.car")
+            .ran_red_light
+            .is_none()
+    );
+    let (light, t) = actor(s("red_light_run"), "sut.car")
+        .ran_red_light
+        .clone()
+        .unwrap();
+    assert!(
+        light.starts_with("tl") && (t - 9.0).abs() < 0.05,
+        "{light} {t}"
+    );
+    assert!(!s("red_light_run").pass);
     // Lead brakes: TTC falls below 3 s.
     let b = pair(s("lead_brakes"), "sut.car", "lead");
     assert!(b.min_ttc.is_some_and(|t| t < 3.0), "{b:?}");
@@ -227,6 +243,43 @@ fn outcomes_of_the_example_scenarios() {
     assert!(parked.samples.last().unwrap().v > 8.0);
     // Cyclist: closes in but never reaches.
     assert!(pair(s("cyclist_ahead"), "sut.car", "bike").min_distance > 15.0);
+}
+
+#[test]
+fn a_green_light_is_not_a_violation_and_unknown_lights_are_errors() {
+    let text =
+        std::fs::read_to_string(root().join("examples/scenarios/red_light_run.osc")).unwrap();
+    let dir = root().join("examples/scenarios");
+    let write = |t: &str| {
+        let f = tempfile::Builder::new()
+            .suffix(".osc")
+            .tempfile_in(&dir)
+            .unwrap();
+        std::fs::write(f.path(), t).unwrap();
+        f
+    };
+    let green = write(&text.replace("switch(red)", "switch(green)"));
+    let prep = prepare(green.path(), &LoadOptions::default()).unwrap();
+    let r = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let wrong = write(&text.replace("\"c1\"", "\"c9\""));
+    let prep = prepare(wrong.path(), &LoadOptions::default()).unwrap();
+    let e = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("traffic light 'c9' is not in the map") && e.contains("c1"),
+        "{e}"
+    );
 }
 
 #[test]
