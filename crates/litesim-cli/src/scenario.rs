@@ -115,6 +115,9 @@ pub fn run(
         record: true,
         plan_only,
         calibration,
+        // `litesim calibrate` writes calibration/PROFILE.toml: runs from
+        // this folder use it (the summary says which gains were used).
+        calibration_dir: Some(PathBuf::from("calibration")),
         ..RunOptions::default()
     };
     let result = match sim {
@@ -219,6 +222,9 @@ pub fn run(
         s.model,
         s.mode
     );
+    if s.mode == DriveMode::Dynamic {
+        println!("driver gains: {}", s.calibration);
+    }
     for n in &s.notes {
         println!("note: {n}");
     }
@@ -284,6 +290,7 @@ pub fn batch(
         resume,
         mode: common.mode(),
         load: common.load(),
+        calibration_dir: Some(PathBuf::from("calibration")),
     };
     let bar = indicatif::ProgressBar::new(0);
     if quiet {

@@ -69,6 +69,7 @@ fn main() {
     c.bench_function("smoke_run_prepared_no_log", |b| {
         b.iter(|| black_box(run(&prep, &mut litesim_scenario::in_process(), &fast).unwrap()))
     });
+    let shared: Result<Prepared, String> = Ok(prep.clone());
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(2)
         .build()
@@ -83,9 +84,10 @@ fn main() {
                     .map(|s| {
                         let l = litesim_scenario::batch::run_line(
                             "smoke",
-                            &Ok(prep.clone()),
+                            &shared,
                             s,
                             Default::default(),
+                            None,
                         );
                         usize::from(l.pass)
                     })

@@ -66,6 +66,8 @@ pub struct BatchSpec {
     pub mode: DriveMode,
     /// Loading options.
     pub load: LoadOptions,
+    /// Folder of calibration files (see [`RunOptions::calibration_dir`]).
+    pub calibration_dir: Option<PathBuf>,
 }
 
 /// What a batch did.
@@ -89,6 +91,7 @@ pub fn run_line(
     prep: &Result<Prepared, String>,
     seed: u64,
     mode: DriveMode,
+    calibration_dir: Option<&Path>,
 ) -> RunLine {
     let mut line = RunLine {
         test: name.to_string(),
@@ -114,6 +117,7 @@ pub fn run_line(
     let opts = RunOptions {
         seed: Some(seed),
         mode,
+        calibration_dir: calibration_dir.map(Path::to_path_buf),
         ..RunOptions::default()
     };
     match crate::run(prep, &mut ssp, &opts) {
@@ -270,7 +274,13 @@ pub fn run_batch(
         jobs.par_iter()
             .map(|(ti, seed)| {
                 let (name, prep) = &preps[*ti];
-                let line = run_line(name, prep, *seed, spec.mode);
+                let line = run_line(
+                    name,
+                    prep,
+                    *seed,
+                    spec.mode,
+                    spec.calibration_dir.as_deref(),
+                );
                 let text = serde_json::to_string(&line).unwrap_or_default();
                 let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
                 let _ = writeln!(g.0, "{text}");

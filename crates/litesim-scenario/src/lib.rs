@@ -134,6 +134,9 @@ pub struct RunOptions {
     pub profile: Option<String>,
     /// Driver gains override (from `litesim calibrate`).
     pub calibration: Option<litesim_ssp::profile::Calibration>,
+    /// Folder of calibration files (`PROFILE.toml`, written by `litesim
+    /// calibrate`); used when `calibration` is `None` and the file exists.
+    pub calibration_dir: Option<PathBuf>,
     /// Record the log.
     pub record: bool,
     /// Stop after planning.
@@ -169,6 +172,8 @@ pub struct Summary {
     pub actors: Vec<kpi::ActorKpi>,
     /// Per-pair KPIs.
     pub pairs: Vec<kpi::PairKpi>,
+    /// Where the drivers' gains came from (`built-in` or a file).
+    pub calibration: String,
     /// What the engine saw but did not execute, and solver remarks.
     pub notes: Vec<String>,
 }
@@ -248,6 +253,23 @@ pub fn run(
     if !violations.is_empty() {
         return Err(ScenarioError::PostPlan(violations));
     }
+    let (calibration, calibration_src) = match (&opts.calibration, &opts.calibration_dir) {
+        (Some(c), _) => (Some(*c), "given".to_string()),
+        (None, Some(dir)) => {
+            let f = dir.join(format!("{profile}.toml"));
+            match std::fs::read_to_string(&f) {
+                Ok(text) => (
+                    Some(
+                        calibrate::from_toml(&text)
+                            .map_err(|e| ScenarioError::Io(format!("{}: {e}", f.display())))?,
+                    ),
+                    f.display().to_string(),
+                ),
+                Err(_) => (None, "built-in".to_string()),
+            }
+        }
+        (None, None) => (None, "built-in".to_string()),
+    };
     let test_name = prep
         .path
         .file_name()
@@ -268,6 +290,7 @@ pub fn run(
                 roads: sol.roads.clone(),
                 actors: Vec::new(),
                 pairs: Vec::new(),
+                calibration: calibration_src,
                 notes,
             },
             plan,
@@ -288,7 +311,7 @@ pub fn run(
             .map(String::as_str)
             .filter(|_| prep.has_lights),
         mode: opts.mode,
-        calibration: opts.calibration,
+        calibration,
         record: opts.record,
     };
     let ex = exec::execute(ssp, &plan, prep.net.as_deref(), &cfg)?;
@@ -340,6 +363,7 @@ pub fn run(
             roads: sol.roads,
             actors: ex.kpis.actors,
             pairs,
+            calibration: calibration_src,
             notes,
         },
         plan,

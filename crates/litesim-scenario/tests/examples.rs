@@ -490,6 +490,7 @@ fn batch_spec(
         resume: false,
         mode: DriveMode::Kinematic,
         load: LoadOptions::default(),
+        calibration_dir: None,
     }
 }
 
