@@ -194,6 +194,9 @@ pub enum Node {
         duration: Option<CExpr>,
         /// Event path (`go`, `first.end`), when it waits for one.
         event: Option<String>,
+        /// A condition over the planned states (`sut.car.speed > 30kph`,
+        /// `rise(…)`), when it waits for one.
+        cond: Option<CExpr>,
     },
     /// `light.switch(color)`: a traffic light changes colour at this time.
     Switch {
@@ -640,6 +643,19 @@ impl Elab<'_> {
         Ok(())
     }
 
+    /// A condition over states: `rise(c)` / `fall(c)` become unary
+    /// operators the planner evaluates on the planned samples.
+    fn condition(&self, e: &Expr, sc: &Scope) -> CExpr {
+        if let Expr::Call { callee, args, .. } = e
+            && let Expr::Ident { name, .. } = &**callee
+            && (name == "rise" || name == "fall")
+            && let Some(a) = args.first()
+        {
+            return CExpr::Unary(name.clone(), Box::new(self.cexpr(&a.value, sc)));
+        }
+        self.cexpr(e, sc)
+    }
+
     fn keep(&mut self, strength: Option<&str>, expr: &Expr, span: Span, sc: &Scope) {
         let c = Constraint {
             soft: strength == Some("default"),
@@ -746,9 +762,10 @@ impl Elab<'_> {
                     let arg = match (&spec.event, &spec.cond) {
                         (Some(e), _) => event_name(e)
                             .map(|n| ("event".to_string(), CExpr::Const(Value::Str(n)))),
-                        (None, Some(c)) => {
-                            elapsed_arg(c).map(|a| ("elapsed".to_string(), self.cexpr(a, sc)))
-                        }
+                        (None, Some(c)) => Some(match elapsed_arg(c) {
+                            Some(a) => ("elapsed".to_string(), self.cexpr(a, sc)),
+                            None => ("cond".to_string(), self.condition(c, sc)),
+                        }),
                         _ => None,
                     };
                     match arg {
@@ -757,9 +774,10 @@ impl Elab<'_> {
                             args: BTreeMap::from([(k, v)]),
                             at,
                         }),
-                        None => self.test.notes.push(format!(
-                            "{at}: `until` on a condition over states is not evaluated in a plan"
-                        )),
+                        None => self
+                            .test
+                            .notes
+                            .push(format!("{at}: `until` without an event or condition")),
                     }
                 }
                 _ => {}
@@ -922,20 +940,18 @@ impl Elab<'_> {
             }
             DoKind::Wait(spec) => {
                 let event = spec.event.as_ref().and_then(event_name);
-                let duration = match &spec.cond {
+                let (duration, cond) = match &spec.cond {
                     Some(c) => match elapsed_arg(c) {
-                        Some(a) => Some(self.cexpr(a, sc)),
-                        None => {
-                            self.test.notes.push(format!(
-                                "{}: `wait` on a condition over states ends at once in a plan",
-                                self.lib.at(spec.span)
-                            ));
-                            None
-                        }
+                        Some(a) => (Some(self.cexpr(a, sc)), None),
+                        None => (None, Some(self.condition(c, sc))),
                     },
-                    None => None,
+                    None => (None, None),
                 };
-                Some(Node::Wait { duration, event })
+                Some(Node::Wait {
+                    duration,
+                    event,
+                    cond,
+                })
             }
             DoKind::Emit { event } => {
                 let e = match event {

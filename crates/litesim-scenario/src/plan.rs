@@ -171,6 +171,10 @@ struct Timer<'a> {
     until_after: BTreeMap<*const Node, Option<f64>>,
     /// Traffic-light switches: time, light path, colour, place.
     switches: Vec<(f64, String, &'a CExpr, String)>,
+    /// Times at which state conditions hold, from the previous plan.
+    cond_events: &'a BTreeMap<String, f64>,
+    /// State conditions met in this layout: key, start time, condition.
+    conds: Vec<(String, f64, &'a CExpr)>,
 }
 
 /// Evaluates an argument to a value: variables from the solution, ranges sampled.
@@ -262,19 +266,24 @@ impl<'a> Timer<'a> {
         let mut dur = forced.or(own);
         // `until`: an event's planned time or an elapsed time ends the node early.
         for m in mods_of(n).iter().filter(|m| m.name == "until") {
-            let cut = match (m.args.get("event"), m.args.get("elapsed")) {
-                (Some(CExpr::Const(Value::Str(e))), _) => {
-                    self.events.get(e).map(|te| te - t0).filter(|d| *d >= 0.0)
+            let cut = if let Some(CExpr::Const(Value::Str(e))) = m.args.get("event") {
+                self.events.get(e).map(|te| te - t0).filter(|d| *d >= 0.0)
+            } else if let Some(e) = m.args.get("elapsed") {
+                let key = n as *const Node;
+                if !self.until_after.contains_key(&key) {
+                    let v = eval(e, self.sol, self.rng).and_then(|v| v.num());
+                    self.until_after.insert(key, v);
                 }
-                (_, Some(e)) => {
-                    let key = n as *const Node;
-                    if !self.until_after.contains_key(&key) {
-                        let v = eval(e, self.sol, self.rng).and_then(|v| v.num());
-                        self.until_after.insert(key, v);
-                    }
-                    self.until_after[&key].filter(|d| *d >= 0.0)
-                }
-                _ => None,
+                self.until_after[&key].filter(|d| *d >= 0.0)
+            } else if let Some(c) = m.args.get("cond") {
+                let key = format!("cond@{}", m as *const Modifier as usize);
+                self.conds.push((key.clone(), t0, c));
+                self.cond_events
+                    .get(&key)
+                    .map(|te| te - t0)
+                    .filter(|d| *d >= 0.0)
+            } else {
+                None
             };
             if let Some(c) = cut {
                 dur = Some(dur.map_or(c, |d| d.min(c)));
@@ -383,6 +392,14 @@ impl<'a> Timer<'a> {
                 Some(te) if *te > t0 => *te,
                 _ => t0 + dur.unwrap_or(0.0),
             },
+            Node::Wait { cond: Some(c), .. } => {
+                let key = format!("cond@{}", n as *const Node as usize);
+                self.conds.push((key.clone(), t0, c));
+                match self.cond_events.get(&key) {
+                    Some(te) if *te > t0 => *te,
+                    _ => t0,
+                }
+            }
             Node::Emit { event } => {
                 self.seen.entry(event.clone()).or_insert(t0);
                 t0
@@ -577,6 +594,11 @@ fn actor_ref(e: Option<&CExpr>, ids: &BTreeMap<String, String>) -> Option<String
 }
 
 /// Plans a solved test on a map.
+/// Plans a solved test on a map. `wait` and `until` conditions over states
+/// (`sut.car.speed > 30kph`, `rise(…)`) are evaluated on the planned
+/// samples; the plan is laid out again with the times they give until the
+/// times stop changing (each layout starts from the same generator state,
+/// so the result is a function of the seed).
 pub fn plan(
     test: &Test,
     sol: &Solution,
@@ -584,6 +606,163 @@ pub fn plan(
     step_s: f64,
     rng: &mut Rng,
 ) -> Result<Plan, ScenarioError> {
+    let ids: BTreeMap<String, String> = test
+        .actors
+        .iter()
+        .map(|a| (a.path.clone(), a.id.clone()))
+        .collect();
+    let start = rng.clone();
+    let mut events = BTreeMap::new();
+    for round in 0..8 {
+        let mut r = start.clone();
+        let (mut p, conds) = plan_once(test, sol, net, step_s, &mut r, &events)?;
+        // A time once found is kept: a phase cut at the moment its
+        // condition becomes true may keep it from becoming true in the
+        // next layout (the cut changes the motion from that sample on), so
+        // re-evaluating would oscillate. Times are found in causal order:
+        // each round evaluates the conditions not yet timed on a layout
+        // that already honours the earlier ones.
+        let mut next = events.clone();
+        let mut never = 0;
+        let mut unsupported = 0;
+        for (key, t0, c) in &conds {
+            if next.contains_key(key) {
+                continue;
+            }
+            match cond_time(c, *t0, &p, &ids) {
+                Ok(Some(t)) => {
+                    next.insert(key.clone(), t);
+                }
+                Ok(None) => never += 1,
+                Err(()) => unsupported += 1,
+            }
+        }
+        if next == events || round == 7 {
+            if never > 0 {
+                p.notes.push(format!(
+                    "{never} wait/until condition(s) never hold in the plan: the wait ends at once, the phase runs its full time"
+                ));
+            }
+            if unsupported > 0 {
+                p.notes.push(format!(
+                    "{unsupported} wait/until condition(s) cannot be evaluated on a plan (supported: speed, acceleration, position.x/y of actors, numbers, comparisons, and/or/not, rise/fall)"
+                ));
+            }
+            if next != events {
+                p.notes
+                    .push("wait/until conditions did not settle in 8 layouts".into());
+            }
+            *rng = r;
+            return Ok(p);
+        }
+        events = next;
+    }
+    unreachable!("the loop returns on its last round")
+}
+
+/// A planned value of an actor attribute or a number at time `t`.
+fn cond_value(e: &CExpr, p: &Plan, ids: &BTreeMap<String, String>, t: f64) -> Result<f64, ()> {
+    match e {
+        CExpr::Const(Value::Num(v)) => Ok(*v),
+        CExpr::Unary(op, x) if op == "-" => Ok(-cond_value(x, p, ids, t)?),
+        CExpr::Binary(op, a, b) if ["+", "-", "*", "/"].contains(&op.as_str()) => {
+            let (a, b) = (cond_value(a, p, ids, t)?, cond_value(b, p, ids, t)?);
+            Ok(match op.as_str() {
+                "+" => a + b,
+                "-" => a - b,
+                "*" => a * b,
+                _ => a / b,
+            })
+        }
+        CExpr::Var(path) => {
+            for (suffix, field) in [
+                (".speed", 0),
+                (".acceleration", 1),
+                (".position.x", 2),
+                (".position.y", 3),
+            ] {
+                if let Some(actor) = path.strip_suffix(suffix) {
+                    let id = ids.get(actor).map_or(actor, String::as_str);
+                    let a = p.actors.iter().find(|a| a.id == id).ok_or(())?;
+                    let s = a.at(t, p.dt);
+                    return Ok([s.v, s.a, s.x, s.y][field]);
+                }
+            }
+            Err(())
+        }
+        _ => Err(()),
+    }
+}
+
+/// Whether a condition holds at `t` on the plan.
+fn cond_truth(e: &CExpr, p: &Plan, ids: &BTreeMap<String, String>, t: f64) -> Result<bool, ()> {
+    match e {
+        CExpr::Const(Value::Bool(b)) => Ok(*b),
+        CExpr::Unary(op, x) if op == "not" => Ok(!cond_truth(x, p, ids, t)?),
+        CExpr::Binary(op, a, b) if op == "and" || op == "or" => {
+            let (a, b) = (cond_truth(a, p, ids, t)?, cond_truth(b, p, ids, t)?);
+            Ok(if op == "and" { a && b } else { a || b })
+        }
+        CExpr::Binary(op, a, b) => {
+            let (a, b) = (cond_value(a, p, ids, t)?, cond_value(b, p, ids, t)?);
+            match op.as_str() {
+                "<" => Ok(a < b),
+                "<=" => Ok(a <= b),
+                ">" => Ok(a > b),
+                ">=" => Ok(a >= b),
+                "==" => Ok((a - b).abs() < 1e-9),
+                "!=" => Ok((a - b).abs() >= 1e-9),
+                _ => Err(()),
+            }
+        }
+        _ => Err(()),
+    }
+}
+
+/// The first plan sample time at or after `t0` at which a condition holds
+/// (`rise`: becomes true; `fall`: becomes false). `Err` when it cannot be
+/// evaluated on a plan.
+fn cond_time(
+    c: &CExpr,
+    t0: f64,
+    p: &Plan,
+    ids: &BTreeMap<String, String>,
+) -> Result<Option<f64>, ()> {
+    let (edge, inner) = match c {
+        CExpr::Unary(op, x) if op == "rise" || op == "fall" => (op.as_str(), &**x),
+        _ => ("hold", c),
+    };
+    let n = (p.duration / p.dt).ceil() as usize + 1;
+    let mut prev: Option<bool> = None;
+    for k in 0..n {
+        let t = k as f64 * p.dt;
+        if t < t0 - 1e-9 {
+            continue;
+        }
+        let v = cond_truth(inner, p, ids, t)?;
+        let hit = match edge {
+            "rise" => prev == Some(false) && v,
+            "fall" => prev == Some(true) && !v,
+            _ => v,
+        };
+        if hit {
+            return Ok(Some(t));
+        }
+        prev = Some(v);
+    }
+    Ok(None)
+}
+
+/// One layout and sampling with state-condition times `cond_events`.
+#[allow(clippy::type_complexity)]
+fn plan_once(
+    test: &Test,
+    sol: &Solution,
+    net: &RoadNetwork,
+    step_s: f64,
+    rng: &mut Rng,
+    cond_events: &BTreeMap<String, f64>,
+) -> Result<(Plan, Vec<(String, f64, CExpr)>), ScenarioError> {
     let Some(root) = &test.root else {
         return Err(ScenarioError::Plan(
             "top.main has no behaviour (add `extend top.main: do …`)".into(),
@@ -598,6 +777,8 @@ pub fn plan(
         choice: BTreeMap::new(),
         until_after: BTreeMap::new(),
         switches: Vec::new(),
+        cond_events,
+        conds: Vec::new(),
     };
     let mut memo = BTreeMap::new();
     fn visit<'a>(t: &mut Timer<'a>, n: &'a Node, memo: &mut BTreeMap<*const Node, Option<f64>>) {
@@ -619,6 +800,7 @@ pub fn plan(
         timer.leaves.clear();
         timer.seen.clear();
         timer.switches.clear();
+        timer.conds.clear();
         duration = timer.assign(root, 0.0, None, &mut memo).max(step_s);
         if timer.seen == timer.events {
             break;
@@ -634,8 +816,13 @@ pub fn plan(
         rng,
         leaves,
         switches,
+        conds,
         ..
     } = timer;
+    let conds: Vec<(String, f64, CExpr)> = conds
+        .into_iter()
+        .map(|(k, t, c)| (k, t, c.clone()))
+        .collect();
     let mut lights = Vec::new();
     for (t, path, color, at) in switches {
         let light = sol
@@ -1074,15 +1261,18 @@ pub fn plan(
     if keep.is_empty() {
         notes.push("no actor takes part in the behaviour".into());
     }
-    Ok(Plan {
-        dt: plan_dt,
-        duration,
-        actors: keep,
-        phases,
-        violations,
-        lights,
-        notes,
-    })
+    Ok((
+        Plan {
+            dt: plan_dt,
+            duration,
+            actors: keep,
+            phases,
+            violations,
+            lights,
+            notes,
+        },
+        conds,
+    ))
 }
 
 fn plans_index(plans: &[ActorPlan]) -> BTreeMap<String, usize> {
