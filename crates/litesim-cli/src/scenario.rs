@@ -195,6 +195,10 @@ pub fn run(
             let pic = out.join("replay.png");
             litesim_viz::replay::write_png(log, &l, &style, &pic).map_err(|e| anyhow!("{e}"))?;
             println!("wrote {}", pic.display());
+            // The ego's nine-panel dashboard (speed, acceleration, controls, forces, slip).
+            let dash = out.join("dashboard.png");
+            litesim_viz::dashboard::write_png(log, &style, &dash).map_err(|e| anyhow!("{e}"))?;
+            println!("wrote {}", dash.display());
             if gif {
                 let g = out.join("replay.gif");
                 litesim_viz::replay::write_gif(log, &l, &style, &g, 150)

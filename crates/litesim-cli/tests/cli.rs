@@ -568,7 +568,13 @@ fn run_writes_log_summary_and_pictures_and_the_smoke_test_runs_with_ftx() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("PASS cut_in.osc seed 1"), "{text}");
-    for f in ["log.json", "summary.json", "replay.png", "replay.gif"] {
+    for f in [
+        "log.json",
+        "summary.json",
+        "replay.png",
+        "replay.gif",
+        "dashboard.png",
+    ] {
         assert!(out.join(f).exists(), "{f}");
     }
     let png = std::fs::read(out.join("replay.png")).unwrap();

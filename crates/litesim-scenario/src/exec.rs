@@ -529,6 +529,7 @@ fn send_dynamic(
         throttle,
         brake,
         steering: steer,
+        steering_angle: steer * d.max_steer,
         ..ControlSample::default()
     };
     ssp.set_dynamic_move(
