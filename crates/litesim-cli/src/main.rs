@@ -200,6 +200,9 @@ enum Command {
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
+        /// Keep the logs of failed runs in OUT/failed/.
+        #[arg(long)]
+        save_failed: bool,
     },
     /// Merge batch folders (shards) into one sorted result.
     Merge {
@@ -418,7 +421,18 @@ fn run(cli: Cli) -> Result<()> {
             out,
             resume,
             quiet,
-        } => scenario::batch(tests, &common, &seeds, &shard, threads, out, resume, quiet),
+            save_failed,
+        } => scenario::batch(
+            tests,
+            &common,
+            &seeds,
+            &shard,
+            threads,
+            out,
+            resume,
+            quiet,
+            save_failed,
+        ),
         Command::Merge { dirs, out } => scenario::merge(&dirs, &out),
         Command::Calibrate { profile, out } => scenario::calibrate_cmd(&profile, out),
         Command::Models => {

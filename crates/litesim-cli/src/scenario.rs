@@ -185,6 +185,9 @@ pub fn run(
         }
         return Ok(true);
     }
+    let p = out.join("plan.json");
+    std::fs::write(&p, serde_json::to_string_pretty(&result.plan)?)?;
+    println!("wrote {}", p.display());
     if let Some(log) = &result.log {
         let p = out.join("log.json");
         log.write_json(&p).map_err(|e| anyhow!("{e}"))?;
@@ -282,6 +285,7 @@ pub fn batch(
     out: PathBuf,
     resume: bool,
     quiet: bool,
+    save_failed: bool,
 ) -> Result<()> {
     let (a, b) = seeds(seed_range)?;
     let spec = batch::BatchSpec {
@@ -295,6 +299,7 @@ pub fn batch(
         mode: common.mode(),
         load: common.load(),
         calibration_dir: Some(PathBuf::from("calibration")),
+        save_failed,
     };
     let bar = indicatif::ProgressBar::new(0);
     if quiet {

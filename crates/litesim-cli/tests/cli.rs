@@ -714,6 +714,30 @@ fn batch_shards_merge_and_calibrate_from_the_command_line() {
             .unwrap();
         assert_eq!(o.status.code(), Some(1), "{bad:?}");
     }
+    // Failed runs keep their logs for debugging.
+    let failing = dir.path().join("failing");
+    let o = litesim()
+        .current_dir(workspace())
+        .args([
+            "batch",
+            "examples/scenarios/stationary_obstacle.osc",
+            "--seeds",
+            "1..2",
+            "-q",
+            "--save-failed",
+            "-o",
+        ])
+        .arg(&failing)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for seed in [1, 2] {
+        assert!(
+            failing
+                .join(format!("failed/stationary_obstacle-seed{seed}.json"))
+                .exists()
+        );
+    }
     let cal = dir.path().join("dummy.toml");
     let o = litesim()
         .args(["calibrate", "--profile", "dummy", "-o"])

@@ -68,6 +68,9 @@ pub struct BatchSpec {
     pub load: LoadOptions,
     /// Folder of calibration files (see [`RunOptions::calibration_dir`]).
     pub calibration_dir: Option<PathBuf>,
+    /// Keep the log of every failed run as `OUT/failed/TEST-seedN.json`
+    /// (failed runs are run again with a recorder; passing runs cost nothing).
+    pub save_failed: bool,
 }
 
 /// What a batch did.
@@ -281,6 +284,12 @@ pub fn run_batch(
                     spec.mode,
                     spec.calibration_dir.as_deref(),
                 );
+                if spec.save_failed
+                    && !line.pass
+                    && let Ok(p) = prep
+                {
+                    save_log(&spec.out, name, p, *seed, spec);
+                }
                 let text = serde_json::to_string(&line).unwrap_or_default();
                 let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
                 let _ = writeln!(g.0, "{text}");
@@ -304,6 +313,29 @@ pub fn run_batch(
     report.passed = lines.iter().filter(|l| l.pass).count() as u64;
     report.failed = lines.len() as u64 - report.passed;
     Ok(report)
+}
+
+/// Runs a failed job again with a recorder and writes its log (best effort:
+/// a batch does not stop because a debugging aid could not be written).
+fn save_log(out: &Path, name: &str, prep: &Prepared, seed: u64, spec: &BatchSpec) {
+    let opts = RunOptions {
+        seed: Some(seed),
+        mode: spec.mode,
+        record: true,
+        calibration_dir: spec.calibration_dir.clone(),
+        ..RunOptions::default()
+    };
+    if let Ok(r) = crate::run(prep, &mut crate::in_process(), &opts)
+        && let Some(log) = r.log
+    {
+        let stem = Path::new(name)
+            .file_stem()
+            .map_or("test".into(), |s| s.to_string_lossy().into_owned());
+        let dir = out.join("failed");
+        if std::fs::create_dir_all(&dir).is_ok() {
+            let _ = log.write_json(&dir.join(format!("{stem}-seed{seed}.json")));
+        }
+    }
 }
 
 /// Merges shard folders into `out` (sorted JSON lines and CSV).

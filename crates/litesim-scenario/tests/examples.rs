@@ -519,6 +519,7 @@ fn batch_spec(
         mode: DriveMode::Kinematic,
         load: LoadOptions::default(),
         calibration_dir: None,
+        save_failed: false,
     }
 }
 
