@@ -1023,6 +1023,8 @@ fn plan_once(
         let mut end_speed: Option<(f64, f64, f64)> = None; // (v0, v1, t1) linear
         let mut strict_speed: Option<(f64, String)> = None;
         let mut stationary = false;
+        // Reached a lane end with no continuation: stands there from then on.
+        let mut dead_end = false;
         let mut started: Option<usize> = None;
         for k in 0..n {
             let t = k as f64 * plan_dt;
@@ -1152,7 +1154,7 @@ fn plan_once(
             }
             // Speed this sample.
             let prev_v = mo.v;
-            if stationary {
+            if stationary || dead_end {
                 mo.v = 0.0;
             } else if let Some((v0, v1, t1)) = end_speed {
                 let l = &my[started.unwrap_or(0)];
@@ -1231,7 +1233,16 @@ fn plan_once(
             if mo.across != 0.0 {
                 mo.lateral += mo.across * mo.v * plan_dt;
             } else {
+                let before = mo.pos;
                 mo.pos = advance_path(net, mo.pos, mo.v * plan_dt);
+                if mo.v > 0.0 && mo.pos == before && !dead_end {
+                    dead_end = true;
+                    notes.push(format!(
+                        "{id} reaches the end of road {} lane {} at t = {t:.1} s: no lane continues, it stops there",
+                        net.roads()[mo.pos.road].id,
+                        mo.pos.lane
+                    ));
+                }
             }
         }
         if let Some((v, at)) = strict_speed {

@@ -703,3 +703,35 @@ fn a_left_handed_profile_sees_the_world_mirrored_like_its_map() {
     );
     assert!(at.y.abs() > 1.0, "the test needs a point off the x axis");
 }
+
+#[test]
+fn a_car_at_a_dead_end_stops_there_and_the_plan_says_so() {
+    let dir = root().join("examples/scenarios");
+    let f = tempfile::Builder::new()
+        .suffix(".osc")
+        .tempfile_in(&dir)
+        .unwrap();
+    std::fs::write(
+        f.path(),
+        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.end()\nscenario sut.end:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(50kph)\n        along(r, at: start, start_offset: 450m)\n        lane(1, at: start)\n        duration(8s)\n",
+    )
+    .unwrap();
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let r = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        r.summary
+            .notes
+            .iter()
+            .any(|n| n.contains("reaches the end of road 1")),
+        "{:?}",
+        r.summary.notes
+    );
+    let last = r.plan.actors[0].samples.last().unwrap();
+    assert_eq!(last.v, 0.0);
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+}
