@@ -60,7 +60,7 @@ pub fn plan_log(plan: &Plan) -> SimulationLog {
         rec.begin(k as u64, k as f64 * plan.dt);
         for a in &plan.actors {
             let s = a.samples[k.min(a.samples.len() - 1)];
-            let (sy, cy) = s.yaw.sin_cos();
+            let (sy, cy) = litesim_core::math::sin_cos(s.yaw);
             let sample = ActorSample::from_kinematics(
                 litesim_core::geometry::Pose::planar(s.x, s.y, s.yaw),
                 litesim_core::geometry::Vec3::new(s.v * cy, s.v * sy, 0.0),

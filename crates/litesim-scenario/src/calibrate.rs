@@ -9,6 +9,7 @@ use crate::ScenarioError;
 use crate::elab::ActorKind;
 use crate::exec::{DriveMode, ExecConfig, execute};
 use crate::plan::{ActorPlan, Plan, PlanSample};
+use litesim_core::math;
 use litesim_ssp::profile::{Calibration, PidGains, Profile};
 use serde::Serialize;
 
@@ -63,7 +64,7 @@ pub fn reference_plan(step_s: f64) -> Plan {
             t,
             x,
             y,
-            yaw: (dy / v.max(0.1)).atan(),
+            yaw: math::atan(dy / v.max(0.1)),
             v,
             a,
         });

@@ -14,6 +14,7 @@ use crate::error::ScenarioError;
 use crate::kpi::{BoxState, Kpis};
 use crate::plan::Plan;
 use litesim_core::geometry::wrap_angle;
+use litesim_core::math;
 use litesim_log::{ActorSample, ControlSample, LogRecorder, SimulationLog};
 use litesim_map::RoadNetwork;
 use litesim_ssp::api::*;
@@ -152,7 +153,7 @@ pub fn execute(
         let dynamic = cfg.mode == DriveMode::Dynamic
             && a.kind == crate::elab::ActorKind::Vehicle
             && a.samples.iter().any(|s| s.v > 0.0);
-        let (sy, cy) = s0.yaw.sin_cos();
+        let (sy, cy) = math::sin_cos(s0.yaw);
         let desc = ssp
             .create_actor(CreateActor {
                 actor_id: a.id.clone(),
@@ -314,7 +315,7 @@ pub fn execute(
                         + g.throttle.ki * d.integral
                         + g.throttle.kd * derr;
                     // Lateral error: planned point relative to the car, left positive.
-                    let (sy, cy) = st.pose.yaw.sin_cos();
+                    let (sy, cy) = math::sin_cos(st.pose.yaw);
                     let ex = here.x - st.pose.position.x;
                     let ey = here.y - st.pose.position.y;
                     let e_lat = -sy * ex + cy * ey;
@@ -322,7 +323,7 @@ pub fn execute(
                     let ahead = a.at(t_next + 0.2, plan.dt);
                     let ds = (p.v.max(0.5)) * 0.2;
                     let kappa = wrap_angle(ahead.yaw - p.yaw) / ds;
-                    let delta = (d.wheelbase * kappa).atan()
+                    let delta = math::atan(d.wheelbase * kappa)
                         + g.steering.kp * e_lat
                         + g.steering.kd * e_yaw / dt.max(1e-3) * 0.02
                         + 0.5 * e_yaw;

@@ -3,6 +3,7 @@
 //! (box to box) and time-to-collision per pair, and speed and path errors
 //! against the plan.
 
+use litesim_core::math;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -27,7 +28,7 @@ pub struct BoxState {
 
 impl BoxState {
     fn corners(&self) -> [(f64, f64); 4] {
-        let (s, c) = self.yaw.sin_cos();
+        let (s, c) = math::sin_cos(self.yaw);
         let (hl, hw) = (self.length / 2.0, self.width / 2.0);
         let p = |a: f64, b: f64| (self.x + a * c - b * s, self.y + a * s + b * c);
         [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)]
@@ -38,7 +39,10 @@ impl BoxState {
 pub fn overlap(a: &BoxState, b: &BoxState) -> bool {
     let (ca, cb) = (a.corners(), b.corners());
     for yaw in [a.yaw, b.yaw] {
-        for (ax, ay) in [yaw.sin_cos(), (yaw + std::f64::consts::FRAC_PI_2).sin_cos()] {
+        for (ax, ay) in [
+            math::sin_cos(yaw),
+            math::sin_cos(yaw + std::f64::consts::FRAC_PI_2),
+        ] {
             // (sin, cos) → axis (cos, sin)
             let (ux, uy) = (ay, ax);
             let proj = |c: &[(f64, f64); 4]| {

@@ -23,6 +23,7 @@ use crate::elab::{ActorDef, ActorKind, CExpr, Modifier, Node, Test, Value};
 use crate::error::ScenarioError;
 use crate::solve::{Solution, sample};
 use litesim_core::geometry::{Pose, wrap_angle};
+use litesim_core::math;
 use litesim_map::{Direction, LaneRef, RoadNetwork};
 use litesim_plan::rng::Rng;
 use serde::Serialize;
@@ -987,7 +988,6 @@ fn plan_once(
                 leaf.mods.as_slice(),
                 &placed,
                 &plans_index(&plans),
-                sol,
                 rng,
                 &roads_ok,
                 &leaf.at,
@@ -996,7 +996,6 @@ fn plan_once(
         }
         pending = next;
     }
-    let _ = num;
 
     // Motion, sampled every plan step, actors without dependencies on
     // others' futures first (position at: end reads the other's plan).
@@ -1079,17 +1078,16 @@ fn plan_once(
                                 let gap = num(vals, "distance").unwrap_or(5.0)
                                     + (op.length + plans[i].length) / 2.0;
                                 let me = pose(net, mo.pos, 0.0);
-                                let there = op.at(l.t1, plan_dt);
                                 let here_other = op.at(t, plan_dt);
                                 // Distance the other covers plus the change of gap.
-                                let now_gap = (me.position.x - here_other.x) * here_other.yaw.cos()
-                                    + (me.position.y - here_other.y) * here_other.yaw.sin();
+                                let (so, co) = math::sin_cos(here_other.yaw);
+                                let now_gap = (me.position.x - here_other.x) * co
+                                    + (me.position.y - here_other.y) * so;
                                 let other_travel = travel(op, t, l.t1, plan_dt);
                                 let need = other_travel + sign * gap - now_gap;
                                 let dur = (l.t1 - t).max(plan_dt);
                                 let v1 = (2.0 * need / dur - mo.v).max(0.0);
                                 end_speed = Some((mo.v, v1, l.t1));
-                                let _ = there;
                             }
                         }
                         "change_lane" | "lane" => {
@@ -1110,9 +1108,7 @@ fn plan_once(
                                 let rel = refs.iter().next();
                                 match rel {
                                     Some((k2, o)) => {
-                                        let op = plans.iter().find(|p| p.id == *o);
                                         let ol = placed.get(o).map(|m| m.pos);
-                                        let _ = op;
                                         ol.and_then(|olp| {
                                             let base = LanePos {
                                                 s: mo.pos.s,
@@ -1168,10 +1164,9 @@ fn plan_once(
                 let dv = v - mo.v;
                 let step = if dv > 0.0 { accel_up } else { accel_down } * plan_dt;
                 mo.v += dv.clamp(-step, step);
-                if let Some((sv, at)) = &strict_speed
+                if let Some((sv, _)) = &strict_speed
                     && (mo.v - sv).abs() < 1e-6
                 {
-                    let _ = at;
                     strict_speed = None;
                 }
             }
@@ -1192,9 +1187,10 @@ fn plan_once(
                 let width = a.position.xy().distance(b.position.xy());
                 lat_rate = width * 6.0 * u * (1.0 - u) / (c1 - c0);
                 if b.yaw.is_finite() {
-                    let side = ((b.position.x - a.position.x) * -a.yaw.sin()
-                        + (b.position.y - a.position.y) * a.yaw.cos())
-                    .signum();
+                    let (sa, ca) = math::sin_cos(a.yaw);
+                    let side = ((b.position.x - a.position.x) * -sa
+                        + (b.position.y - a.position.y) * ca)
+                        .signum();
                     lat_rate *= side;
                 }
                 if u >= 1.0 {
@@ -1208,19 +1204,18 @@ fn plan_once(
             } else {
                 pose(net, mo.pos, 0.0)
             };
-            let (s_yaw, c_yaw) = p.yaw.sin_cos();
-            let mut x = p.position.x - s_yaw * mo.lateral;
-            let mut y = p.position.y + c_yaw * mo.lateral;
+            let (s_yaw, c_yaw) = math::sin_cos(p.yaw);
+            let x = p.position.x - s_yaw * mo.lateral;
+            let y = p.position.y + c_yaw * mo.lateral;
             let mut yaw = p.yaw;
             if mo.across != 0.0 {
                 yaw = wrap_angle(p.yaw + mo.across * std::f64::consts::FRAC_PI_2);
             } else if mo.v > 0.1 && lat_rate != 0.0 {
-                yaw = wrap_angle(p.yaw + (lat_rate / mo.v).atan());
+                yaw = wrap_angle(p.yaw + math::atan(lat_rate / mo.v));
             }
             if plans[i].kind == ActorKind::Stationary {
                 yaw = p.yaw;
             }
-            let _ = (&mut x, &mut y);
             samples.push(PlanSample {
                 t,
                 x,
@@ -1321,7 +1316,6 @@ fn place(
     mods: &[ResolvedMod],
     placed: &BTreeMap<String, Motion>,
     index: &BTreeMap<String, usize>,
-    sol: &Solution,
     rng: &mut Rng,
     roads_ok: &[usize],
     at: &str,
@@ -1352,7 +1346,6 @@ fn place(
             .filter(start)
             .find_map(|m| m.3.get(*k).map(|o| (m.0.clone(), k.to_string(), o.clone())))
     });
-    let _ = (sol, index);
     if let Some((_, _, o)) = &reference
         && let Some(om) = placed.get(o)
     {
