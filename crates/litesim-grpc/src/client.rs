@@ -360,18 +360,7 @@ impl Ssp for RemoteSsp {
         call!(self, step_many, req)?
             .steps
             .into_iter()
-            .map(|r| {
-                Ok((
-                    StepInfo {
-                        sim_time_ms: r.sim_time_ms,
-                        step_index: r.step_index,
-                    },
-                    r.states
-                        .into_iter()
-                        .map(cv::state)
-                        .collect::<SspResult<_>>()?,
-                ))
-            })
+            .map(step_result)
             .collect()
     }
 
@@ -385,16 +374,20 @@ impl Ssp for RemoteSsp {
             requested_sim_time_ms: requested_sim_time_ms.unwrap_or(0),
             state_filter: Some(cv::filter_pb(filter)),
         };
-        let r = call!(self, step, req)?;
-        Ok((
-            StepInfo {
-                sim_time_ms: r.sim_time_ms,
-                step_index: r.step_index,
-            },
-            r.states
-                .into_iter()
-                .map(cv::state)
-                .collect::<SspResult<_>>()?,
-        ))
+        step_result(call!(self, step, req)?)
     }
+}
+
+/// A step's reply as the trait returns it.
+fn step_result(r: pb::StepResponse) -> SspResult<(StepInfo, Vec<ReportedState>)> {
+    Ok((
+        StepInfo {
+            sim_time_ms: r.sim_time_ms,
+            step_index: r.step_index,
+        },
+        r.states
+            .into_iter()
+            .map(cv::state)
+            .collect::<SspResult<_>>()?,
+    ))
 }

@@ -510,11 +510,7 @@ impl SimulatorSupport for SspService {
                 s.step(t, &f)
             },
         )?;
-        Ok(Response::new(pb::StepResponse {
-            sim_time_ms: info.sim_time_ms,
-            step_index: info.step_index,
-            states: states.iter().map(cv::state_pb).collect(),
-        }))
+        Ok(Response::new(step_pb(&info, &states)))
     }
 
     async fn step_many(
@@ -537,11 +533,7 @@ impl SimulatorSupport for SspService {
         Ok(Response::new(pb::StepManyResponse {
             steps: out
                 .iter()
-                .map(|(info, states)| pb::StepResponse {
-                    sim_time_ms: info.sim_time_ms,
-                    step_index: info.step_index,
-                    states: states.iter().map(cv::state_pb).collect(),
-                })
+                .map(|(info, states)| step_pb(info, states))
                 .collect(),
         }))
     }
@@ -882,6 +874,18 @@ pub async fn serve(
         .await;
     reap_task.abort();
     result.map_err(Into::into)
+}
+
+/// One step's reply on the wire.
+fn step_pb(
+    info: &litesim_ssp::StepInfo,
+    states: &[litesim_ssp::ReportedState],
+) -> pb::StepResponse {
+    pb::StepResponse {
+        sim_time_ms: info.sim_time_ms,
+        step_index: info.step_index,
+        states: states.iter().map(cv::state_pb).collect(),
+    }
 }
 
 /// A server on an ephemeral loopback port, run on its own thread with its

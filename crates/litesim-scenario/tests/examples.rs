@@ -29,6 +29,29 @@ fn go(name: &str, seed: u64, mode: DriveMode) -> RunResult {
     run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
+/// Writes `text` as a test in `examples/scenarios` (so that relative
+/// imports and map paths resolve like the examples'); removed when dropped.
+fn example_file(text: &str) -> tempfile::NamedTempFile {
+    let f = tempfile::Builder::new()
+        .suffix(".osc")
+        .tempfile_in(root().join("examples/scenarios"))
+        .unwrap();
+    std::fs::write(f.path(), text).unwrap();
+    f
+}
+
+/// The header every hand-written test below starts with.
+const HEADER: &str = "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\n";
+
+/// Runs a prepared test in-process with default options.
+fn run_default(p: &Prepared) -> Result<RunResult, litesim_scenario::ScenarioError> {
+    run(
+        p,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+}
+
 fn pair<'a>(s: &'a Summary, a: &str, b: &str) -> &'a litesim_scenario::kpi::PairKpi {
     s.pairs
         .iter()
@@ -273,33 +296,13 @@ fn outcomes_of_the_example_scenarios() {
 fn a_green_light_is_not_a_violation_and_unknown_lights_are_errors() {
     let text =
         std::fs::read_to_string(root().join("examples/scenarios/red_light_run.osc")).unwrap();
-    let dir = root().join("examples/scenarios");
-    let write = |t: &str| {
-        let f = tempfile::Builder::new()
-            .suffix(".osc")
-            .tempfile_in(&dir)
-            .unwrap();
-        std::fs::write(f.path(), t).unwrap();
-        f
-    };
-    let green = write(&text.replace("switch(red)", "switch(green)"));
+    let green = example_file(&text.replace("switch(red)", "switch(green)"));
     let prep = prepare(green.path(), &LoadOptions::default()).unwrap();
-    let r = run(
-        &prep,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
-    .unwrap();
+    let r = run_default(&prep).unwrap();
     assert!(r.summary.pass, "{:?}", r.summary.failures);
-    let wrong = write(&text.replace("\"c1\"", "\"c9\""));
+    let wrong = example_file(&text.replace("\"c1\"", "\"c9\""));
     let prep = prepare(wrong.path(), &LoadOptions::default()).unwrap();
-    let e = run(
-        &prep,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let e = run_default(&prep).unwrap_err().to_string();
     assert!(
         e.contains("traffic light 'c9' is not in the map") && e.contains("c1"),
         "{e}"
@@ -356,66 +359,32 @@ fn dynamic_runs_follow_the_plan() {
 #[test]
 fn contradictions_and_bad_tests_are_precise_errors() {
     let p = example("too_many_lanes");
-    let e = run(
-        &p,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let e = run_default(&p).unwrap_err().to_string();
     assert!(
         e.contains("no one_way_road in") && e.contains("circ.xodr has ≥ 3 lanes"),
         "{e}"
     );
     assert!(e.contains("road 1 (one-way, 2 lanes"), "{e}");
     // A test with a type error does not run; the diagnostics say why.
-    let dir = tempfile::tempdir().unwrap();
-    let f = dir.path().join("bad.osc");
-    std::fs::write(
-        &f,
-        format!(
-            "import \"{}\"\nscenario sut.x:\n    do sut.car.drive() with:\n        speed(3s)\n",
-            root().join("osc/domain/config.osc").display()
-        ),
-    )
-    .unwrap();
-    let e = prepare(&f, &LoadOptions::default())
+    let bad = example_file(&format!(
+        "{HEADER}scenario sut.x:\n    do sut.car.drive() with:\n        speed(3s)\n"
+    ));
+    let e = prepare(bad.path(), &LoadOptions::default())
         .unwrap_err()
         .to_string();
-    assert!(e.contains("bad.osc:4:15") && e.contains("E0303"), "{e}");
+    assert!(e.contains(":6:15") && e.contains("E0303"), "{e}");
     // Missing map file.
-    let f2 = dir.path().join("nomap.osc");
-    std::fs::write(
-        &f2,
-        format!(
-            "import \"{}\"\nextend test_config:\n    set map = \"nowhere.xodr\"\n",
-            root().join("osc/domain/config.osc").display()
-        ),
-    )
-    .unwrap();
-    let e = prepare(&f2, &LoadOptions::default())
+    let nomap = example_file(&HEADER.replace("../maps/straight.xodr", "nowhere.xodr"));
+    let e = prepare(nomap.path(), &LoadOptions::default())
         .unwrap_err()
         .to_string();
     assert!(e.contains("nowhere.xodr"), "{e}");
     // Strict speed that cannot be reached is a post-plan violation.
-    let f3 = dir.path().join("strict.osc");
-    std::fs::write(
-        &f3,
-        format!(
-            "import \"{}\"\nextend test_config:\n    set map = \"{}\"\nextend top.main:\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            duration(1s)\n        sut.car.drive() with:\n            speed(100kph)\n            duration(1s)\n",
-            root().join("osc/domain/config.osc").display(),
-            root().join("examples/maps/straight.xodr").display()
-        ),
-    )
-    .unwrap();
-    let p = prepare(&f3, &LoadOptions::default()).unwrap();
-    let e = run(
-        &p,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let strict = example_file(&format!(
+        "{HEADER}extend top.main:\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            duration(1s)\n        sut.car.drive() with:\n            speed(100kph)\n            duration(1s)\n"
+    ));
+    let p = prepare(strict.path(), &LoadOptions::default()).unwrap();
+    let e = run_default(&p).unwrap_err().to_string();
     assert!(e.contains("post-plan") && e.contains("strict speed"), "{e}");
 }
 
@@ -581,9 +550,7 @@ proptest::proptest! {
         if text.is_char_boundary(p) {
             text.insert_str(p, ins);
         }
-        let dir = root().join("examples/scenarios");
-        let file = tempfile::Builder::new().suffix(".osc").tempfile_in(&dir).unwrap();
-        std::fs::write(file.path(), &text).unwrap();
+        let file = example_file(&text);
         if let Ok(prep) = prepare(file.path(), &LoadOptions::default()) {
             let _ = run(&prep, &mut litesim_scenario::in_process(), &RunOptions::default());
         }
@@ -662,13 +629,7 @@ fn every_profile_and_model_config_runs_the_smoke_shape() {
 fn post_plan_checks_of_a_profile_stop_an_infeasible_plan_before_it_runs() {
     let harsh = "extend top.main:\n    do sut.harsh()\nscenario sut.harsh:\n    r: one_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, at: start)\n            duration(2s)\n        sut.car.drive() with:\n            change_speed(0kph)\n            acceleration(12mpsps)\n            duration(3s)\n";
     let (_f, prep) = beside_smoke("profile_dspace_config.osc", harsh);
-    let e = run(
-        &prep,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let e = run_default(&prep).unwrap_err().to_string();
     assert!(
         e.contains("post-plan")
             && e.contains("sut.car: deceleration 12.00 m/s²")
@@ -677,12 +638,7 @@ fn post_plan_checks_of_a_profile_stop_an_infeasible_plan_before_it_runs() {
     );
     // The dummy profile has no post-plan limits: the same plan runs.
     let (_g, prep) = beside_smoke("model_ssp_dummy_config.osc", harsh);
-    run(
-        &prep,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
-    .unwrap();
+    run_default(&prep).unwrap();
 }
 
 #[test]
@@ -706,23 +662,11 @@ fn a_left_handed_profile_sees_the_world_mirrored_like_its_map() {
 
 #[test]
 fn a_car_at_a_dead_end_stops_there_and_the_plan_says_so() {
-    let dir = root().join("examples/scenarios");
-    let f = tempfile::Builder::new()
-        .suffix(".osc")
-        .tempfile_in(&dir)
-        .unwrap();
-    std::fs::write(
-        f.path(),
-        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.end()\nscenario sut.end:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(50kph)\n        along(r, at: start, start_offset: 450m)\n        lane(1, at: start)\n        duration(8s)\n",
-    )
-    .unwrap();
+    let f = example_file(&format!(
+        "{HEADER}extend top.main:\n    do sut.end()\nscenario sut.end:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(50kph)\n        along(r, at: start, start_offset: 450m)\n        lane(1, at: start)\n        duration(8s)\n"
+    ));
     let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
-    let r = run(
-        &prep,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
-    .unwrap();
+    let r = run_default(&prep).unwrap();
     assert!(
         r.summary
             .notes
