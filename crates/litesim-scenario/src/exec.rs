@@ -239,6 +239,7 @@ pub fn execute(
         .map(|l| l.boxes.iter().map(shows_red).collect())
         .unwrap_or_default();
     let mut last_pos: Vec<Option<litesim_map::RoadPosition>> = vec![None; ids.len()];
+    let mut tracking = Tracking::default();
     let switch_tick = |t: f64| (t * 1000.0 / step_ms as f64).round() as u64;
     let mut next_switch = 0;
     let mut k = 0;
@@ -402,6 +403,9 @@ pub fn execute(
                         "trajectory"
                     };
                     r.sample(&a.id, mode, &s);
+                    if a.ego {
+                        tracking.push(info.step_index, t, st, a, plan, &controls[i]);
+                    }
                 }
                 if drivers[i].is_some() {
                     states[i] = Some(st.clone());
@@ -414,10 +418,74 @@ pub fn execute(
     Ok(Executed {
         kpis,
         steps,
-        log: rec.map(LogRecorder::finish),
+        log: rec.map(|r| {
+            let mut log = r.finish();
+            if !tracking.tick.is_empty() {
+                log.tracking = Some(tracking.columns);
+            }
+            log
+        }),
         profile: caps.profile,
         model: caps.model,
     })
+}
+
+/// The ego against its plan, for the log's tracking columns (the
+/// dashboard's error and progress panels, the animation's look-ahead).
+#[derive(Default)]
+struct Tracking {
+    columns: litesim_log::TrackingColumns,
+    tick: Vec<u64>,
+    /// Planned distance at each plan sample (built on first use).
+    cum: Vec<f64>,
+}
+
+impl Tracking {
+    /// Planned path ahead shown as the "prediction": 2 s in 0.2 s steps.
+    const AHEAD: usize = 10;
+
+    fn push(
+        &mut self,
+        tick: u64,
+        t: f64,
+        st: &ReportedState,
+        a: &crate::plan::ActorPlan,
+        plan: &Plan,
+        control: &ControlSample,
+    ) {
+        let p = a.at(t, plan.dt);
+        let (s, c) = math::sin_cos(p.yaw);
+        let (dx, dy) = (st.pose.position.x - p.x, st.pose.position.y - p.y);
+        let c_ = &mut self.columns;
+        c_.tick.push(tick);
+        c_.lateral_error.push(-s * dx + c * dy);
+        c_.heading_error.push(wrap_angle(st.pose.yaw - p.yaw));
+        // Progress: the planned distance covered by time t.
+        if self.cum.len() != a.samples.len() {
+            let mut acc = 0.0;
+            self.cum = std::iter::once(0.0)
+                .chain(a.samples.windows(2).map(|w| {
+                    acc += ((w[1].x - w[0].x).powi(2) + (w[1].y - w[0].y).powi(2)).sqrt();
+                    acc
+                }))
+                .collect();
+        }
+        let k = ((t / plan.dt) as usize).min(a.samples.len().saturating_sub(1));
+        let d =
+            self.cum[k] + ((p.x - a.samples[k].x).powi(2) + (p.y - a.samples[k].y).powi(2)).sqrt();
+        c_.progress.push(d);
+        c_.cmd_acceleration.push(p.a);
+        c_.cmd_steering.push(control.steering_angle);
+        c_.predictions.push(
+            (1..=Self::AHEAD)
+                .map(|j| {
+                    let q = a.at(t + 0.2 * j as f64, plan.dt);
+                    [q.x, q.y, q.yaw, q.v]
+                })
+                .collect(),
+        );
+        self.tick.push(tick);
+    }
 }
 
 /// Whether a box shows red (a red bulb on or flashing).

@@ -425,6 +425,11 @@ fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
     assert_eq!(a.summary.roads["s.r1"], a.summary.roads["s.r2"]);
     assert!((3.0..=6.0).contains(&a.summary.duration));
     assert_eq!(a.summary.profile, "dummy");
+    // The ego's tracking columns: one per step, errors small in a kinematic run.
+    let tr = a.log.as_ref().unwrap().tracking.as_ref().unwrap();
+    assert_eq!(tr.tick.len() as u64, a.summary.steps);
+    assert!(tr.lateral_error.iter().all(|e| e.abs() < 0.05));
+    assert!(tr.progress.windows(2).all(|w| w[1] >= w[0]));
     let b = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
     assert_eq!(digest(&a), digest(&b));
     // Other threads, same bytes.
@@ -442,7 +447,7 @@ fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
 }
 
 /// FNV-1a of the smoke run's log JSON (seed 1, kinematic, dummy).
-const GOLDEN_SMOKE_LOG: u64 = 0xfffe_14c2_4222_d624;
+const GOLDEN_SMOKE_LOG: u64 = 0x8e81_9c2d_796f_b8b7;
 
 #[test]
 fn in_process_and_grpc_runs_are_identical() {
