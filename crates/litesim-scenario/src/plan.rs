@@ -1025,8 +1025,23 @@ fn plan_once(
         // Reached a lane end with no continuation: stands there from then on.
         let mut dead_end = false;
         let mut started: Option<usize> = None;
+        // `along(road, at: end)`: (phase end, road id, place) to verify.
+        let mut along_end: Vec<(f64, String, String)> = Vec::new();
         for k in 0..n {
             let t = k as f64 * plan_dt;
+            // Phases that end now and asked to end on a road.
+            along_end.retain(|(t1, road, at)| {
+                if *t1 > t + 1e-9 {
+                    return true;
+                }
+                let here = &net.roads()[mo.pos.road].id;
+                if here != road {
+                    violations.push(format!(
+                        "{at}: {id} should end its phase on road {road} (along …, at: end) but is on road {here} at t = {t:.1} s"
+                    ));
+                }
+                false
+            });
             // Enter phases that start now.
             while leaf_i < my.len() && my[leaf_i].t0 <= t + 1e-9 {
                 let l = my[leaf_i];
@@ -1037,6 +1052,12 @@ fn plan_once(
                 accel_down = ACCEL_DOWN;
                 let first = leaf_i == 0;
                 for (name, at, vals, refs) in &l.mods {
+                    if name == "along"
+                        && at == "end"
+                        && let Some(road) = vals.get("road").and_then(|v| v.text())
+                    {
+                        along_end.push((l.t1, road.to_string(), l.at.clone()));
+                    }
                     match name.as_str() {
                         "acceleration" => {
                             if let Some(a) = vals.get("acceleration").and_then(Value::num) {

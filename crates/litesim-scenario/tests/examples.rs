@@ -684,3 +684,22 @@ fn a_car_at_a_dead_end_stops_there_and_the_plan_says_so() {
     assert_eq!(last.v, 0.0);
     assert!(r.summary.pass, "{:?}", r.summary.failures);
 }
+
+#[test]
+fn along_at_end_is_checked_before_the_run() {
+    let body = |secs: u32| {
+        format!(
+            "extend top.main:\n    do sut.ae()\nscenario sut.ae:\n    r: one_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start, start_offset: 10m)\n            duration(2s)\n        sut.car.drive() with:\n            along(r, at: end)\n            duration({secs}s)\n"
+        )
+    };
+    // 5 s more at 50 km/h stays on the 314 m road.
+    let (_f, prep) = beside_smoke("model_ssp_dummy_config.osc", &body(5));
+    assert!(run_default(&prep).unwrap().summary.pass);
+    // 30 s more leaves it for the other half of the ring.
+    let (_g, prep) = beside_smoke("model_ssp_dummy_config.osc", &body(30));
+    let e = run_default(&prep).unwrap_err().to_string();
+    assert!(
+        e.contains("post-plan") && e.contains("should end its phase on road"),
+        "{e}"
+    );
+}
