@@ -703,3 +703,18 @@ fn along_at_end_is_checked_before_the_run() {
         "{e}"
     );
 }
+
+#[test]
+fn calibration_never_does_worse_than_the_profile_and_round_trips() {
+    for profile in ["dummy", "carla-0.9.15", "sumo"] {
+        let c = litesim_scenario::calibrate::calibrate(profile).unwrap();
+        assert!(c.best.score <= c.before.score, "{profile}: {c:?}");
+        assert!(c.trials > 50);
+        let p = litesim_ssp::Profile::builtin(profile).unwrap();
+        assert_eq!(c.best.calibration.calibrated_step_ms, p.step_ms);
+        let text = litesim_scenario::calibrate::to_toml(&c);
+        let back = litesim_scenario::calibrate::from_toml(&text).unwrap();
+        assert_eq!(back, c.best.calibration);
+    }
+    assert!(litesim_scenario::calibrate::calibrate("no-such-profile").is_err());
+}
