@@ -423,6 +423,16 @@ pub fn execute(
             if !tracking.tick.is_empty() {
                 log.tracking = Some(tracking.columns);
             }
+            // The ego's planned path, drawn as the reference ("corridor")
+            // in the dashboard's map panel and the ego animation.
+            if let Some(ego) = plan.actors.iter().find(|a| a.ego) {
+                log.plan = Some(litesim_log::PlanRecord {
+                    corridor: ego.samples.iter().map(|s| [s.x, s.y]).collect(),
+                    corridor_speed: ego.samples.iter().map(|s| s.v).collect(),
+                    smoothed: true,
+                    ..litesim_log::PlanRecord::default()
+                });
+            }
             log
         }),
         profile: caps.profile,

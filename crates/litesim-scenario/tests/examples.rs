@@ -430,6 +430,9 @@ fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
     assert_eq!(tr.tick.len() as u64, a.summary.steps);
     assert!(tr.lateral_error.iter().all(|e| e.abs() < 0.05));
     assert!(tr.progress.windows(2).all(|w| w[1] >= w[0]));
+    // …and its planned path as the reference the dashboard draws.
+    let planned = a.log.as_ref().unwrap().plan.as_ref().unwrap();
+    assert_eq!(planned.corridor.len(), a.plan.actors[0].samples.len());
     let b = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
     assert_eq!(digest(&a), digest(&b));
     // Other threads, same bytes.
@@ -447,7 +450,7 @@ fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
 }
 
 /// FNV-1a of the smoke run's log JSON (seed 1, kinematic, dummy).
-const GOLDEN_SMOKE_LOG: u64 = 0x8e81_9c2d_796f_b8b7;
+const GOLDEN_SMOKE_LOG: u64 = 0x26a6_1e3e_e88e_6aac;
 
 #[test]
 fn in_process_and_grpc_runs_are_identical() {
