@@ -62,6 +62,14 @@ fn is_id_continue(c: char) -> bool {
     c.is_alphanumeric() || c == '_'
 }
 
+/// Length in bytes of the identifier at the start of `s` (identifiers,
+/// glued units `20kph`, range units `]kph`).
+fn ident_len(s: &str) -> usize {
+    s.char_indices()
+        .find(|(_, ch)| !is_id_continue(*ch))
+        .map_or(s.len(), |(k, _)| k)
+}
+
 /// Lexes one file.
 pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
     let b = text.as_bytes();
@@ -357,10 +365,7 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
                             _ => (String::new(), 1),
                         }
                     } else {
-                        let len = rest
-                            .char_indices()
-                            .find(|(_, ch)| !is_id_continue(*ch))
-                            .map_or(rest.len(), |(k, _)| k);
+                        let len = ident_len(rest);
                         (rest[..len].to_string(), len)
                     };
                     i += len;
@@ -398,10 +403,7 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
                 let rest = &text[i..];
                 let ch = rest.chars().next().unwrap_or('\u{fffd}');
                 if is_id_start(ch) {
-                    let len = rest
-                        .char_indices()
-                        .find(|(_, ch)| !is_id_continue(*ch))
-                        .map_or(rest.len(), |(k, _)| k);
+                    let len = ident_len(rest);
                     toks.push(Token {
                         tok: Tok::Ident(rest[..len].to_string()),
                         span: sp(i, i + len),
@@ -432,10 +434,7 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
                         if *p == "]" {
                             let r2 = &text[i..];
                             if r2.chars().next().is_some_and(is_id_start) {
-                                let len = r2
-                                    .char_indices()
-                                    .find(|(_, ch)| !is_id_continue(*ch))
-                                    .map_or(r2.len(), |(k, _)| k);
+                                let len = ident_len(r2);
                                 toks.push(Token {
                                     tok: Tok::CloseUnit(r2[..len].to_string()),
                                     span: sp(s, i + len),
