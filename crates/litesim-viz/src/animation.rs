@@ -7,7 +7,7 @@
 //! `k·dt` is a whole number of GIF time units (10 ms), at least 20 ms (the
 //! shortest delay viewers honour), and the frame count stays within the limit.
 
-use crate::draw::{draw_vehicle, ego, map_chart, series_panel, world_bounds};
+use crate::draw::{draw_track_vehicle, ego, map_chart, series_panel, world_bounds};
 use crate::style::Style;
 use crate::{VizError, check_size, draw_err, fonts, temp_sibling};
 use litesim_log::SimulationLog;
@@ -101,29 +101,11 @@ pub fn write_gif(
                 }
                 for other in log.tracks.iter().filter(|o| o.id != t.id) {
                     if let Some(j) = other.tick.iter().position(|k| *k == t.tick[i]) {
-                        draw_vehicle(
-                            &mut chart,
-                            other.state.x[j],
-                            other.state.y[j],
-                            other.state.yaw[j],
-                            other.length,
-                            other.width,
-                            0.0,
-                            RGBColor(120, 120, 120),
-                        )?;
+                        draw_track_vehicle(&mut chart, other, j, 0.0, RGBColor(120, 120, 120))?;
                     }
                 }
                 let steer = t.control.steering_angle[i];
-                draw_vehicle(
-                    &mut chart,
-                    t.state.x[i],
-                    t.state.y[i],
-                    t.state.yaw[i],
-                    t.length,
-                    t.width,
-                    steer,
-                    style.c(&style.vehicle),
-                )?;
+                draw_track_vehicle(&mut chart, t, i, steer, style.c(&style.vehicle))?;
                 let (top, bottom) = right.split_vertically(h / 2);
                 let upto = |v: &[f64]| {
                     times[..=i]

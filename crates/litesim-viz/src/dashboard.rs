@@ -3,7 +3,7 @@
 //! (5) combined control magnitude, (6) lateral and heading errors,
 //! (7) corridor progress, (8) lateral force estimate, (9) slip indicator.
 
-use crate::draw::{draw_vehicle, ego, map_chart, series_panel};
+use crate::draw::{draw_track_vehicle, ego, map_chart, series_panel};
 use crate::style::Style;
 use crate::{VizError, check_size, draw_err, encode_png, fonts, write_atomic};
 use litesim_log::SimulationLog;
@@ -64,16 +64,7 @@ fn panels<DB: DrawingBackend>(
         for k in 0..5 {
             let i = if n > 1 { k * (n - 1) / 4 } else { 0 };
             let steer = t.control.steering_angle.get(i).copied().unwrap_or(0.0);
-            draw_vehicle(
-                &mut chart,
-                t.state.x[i],
-                t.state.y[i],
-                t.state.yaw[i],
-                t.length,
-                t.width,
-                steer,
-                style.c(&style.vehicle),
-            )?;
+            draw_track_vehicle(&mut chart, t, i, steer, style.c(&style.vehicle))?;
         }
         for other in log.tracks.iter().filter(|o| o.id != t.id && !o.is_empty()) {
             let p: Vec<(f64, f64)> = other

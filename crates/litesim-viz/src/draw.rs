@@ -212,6 +212,29 @@ pub fn map_chart<'a, DB: DrawingBackend + 'a>(
     Ok(chart)
 }
 
+/// Draws an actor of a log at its sample `i` (pose and size from the track).
+pub fn draw_track_vehicle<DB: DrawingBackend>(
+    chart: &mut ChartContext<
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    t: &ActorTrack,
+    i: usize,
+    steer: f64,
+    colour: RGBColor,
+) -> Result<(), VizError> {
+    draw_vehicle(
+        chart,
+        t.state.x[i],
+        t.state.y[i],
+        t.state.yaw[i],
+        t.length,
+        t.width,
+        steer,
+        colour,
+    )
+}
+
 /// Draws a vehicle on a chart (pose, size, steering and colour are all
 /// needed; a parameter struct would only rename them).
 #[allow(clippy::too_many_arguments)]

@@ -2,7 +2,7 @@
 //! map (PNG), and a GIF of all actors' footprints over time.
 
 use crate::animation::frame_timing;
-use crate::draw::{draw_vehicle, equal_aspect, world_bounds};
+use crate::draw::{draw_track_vehicle, equal_aspect, world_bounds};
 use crate::style::Style;
 use crate::{VizError, check_size, draw_err, encode_png, fonts, temp_sibling, write_atomic};
 use litesim_log::SimulationLog;
@@ -76,16 +76,7 @@ fn frame<DB: DrawingBackend>(
             None => t.len().checked_sub(1),
         };
         if let Some(i) = at {
-            draw_vehicle(
-                &mut chart,
-                t.state.x[i],
-                t.state.y[i],
-                t.state.yaw[i],
-                t.length,
-                t.width,
-                t.control.steering_angle[i],
-                c,
-            )?;
+            draw_track_vehicle(&mut chart, t, i, t.control.steering_angle[i], c)?;
         }
     }
     chart
