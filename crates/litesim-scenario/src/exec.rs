@@ -106,15 +106,15 @@ pub fn execute(
     let caps = init.capabilities;
     let step_ms = u64::from(caps.step_size_ms.max(1));
     let dt = step_ms as f64 / 1000.0;
-    let calibration = cfg.calibration.unwrap_or_else(|| {
-        litesim_ssp::profile::Profile::builtin(&caps.profile)
-            .map(|p| p.calibration)
-            .unwrap_or_default()
-    });
+    // The profile the simulator reports (it may differ from the one asked for).
+    let profile = litesim_ssp::profile::Profile::builtin(&caps.profile).ok();
+    let calibration = cfg
+        .calibration
+        .unwrap_or_else(|| profile.as_ref().map(|p| p.calibration).unwrap_or_default());
     // Profiles with a left-handed frame (CARLA) see y and yaw mirrored; the
     // engine works in the map's frame and converts at the boundary, so the
     // simulator's world matches its map (traffic lights, its own roads).
-    let mirror = litesim_ssp::profile::Profile::builtin(&caps.profile).is_ok_and(|p| p.mirror_y);
+    let mirror = profile.as_ref().is_some_and(|p| p.mirror_y);
     ssp.start_simulation(0).map_err(ssp_err)?;
     ssp.wait_start_simulation(1000).map_err(ssp_err)?;
     let mut rec = cfg.record.then(|| LogRecorder::new(dt));

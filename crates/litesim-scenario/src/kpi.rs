@@ -37,8 +37,13 @@ impl BoxState {
 
 /// Whether two oriented boxes overlap (separating axis theorem).
 pub fn overlap(a: &BoxState, b: &BoxState) -> bool {
-    let (ca, cb) = (a.corners(), b.corners());
-    for yaw in [a.yaw, b.yaw] {
+    overlap_corners(a.yaw, b.yaw, &a.corners(), &b.corners())
+}
+
+/// The separating-axis test on corners already computed (the axes are the
+/// two boxes' edge directions).
+fn overlap_corners(ya: f64, yb: f64, ca: &[(f64, f64); 4], cb: &[(f64, f64); 4]) -> bool {
+    for yaw in [ya, yb] {
         for (ax, ay) in [
             math::sin_cos(yaw),
             math::sin_cos(yaw + std::f64::consts::FRAC_PI_2),
@@ -52,8 +57,8 @@ pub fn overlap(a: &BoxState, b: &BoxState) -> bool {
                         (lo.min(d), hi.max(d))
                     })
             };
-            let (a0, a1) = proj(&ca);
-            let (b0, b1) = proj(&cb);
+            let (a0, a1) = proj(ca);
+            let (b0, b1) = proj(cb);
             if a1 < b0 || b1 < a0 {
                 return false;
             }
@@ -76,10 +81,10 @@ fn seg_dist(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
 
 /// Distance between two boxes (0 when they overlap).
 pub fn distance(a: &BoxState, b: &BoxState) -> f64 {
-    if overlap(a, b) {
+    let (ca, cb) = (a.corners(), b.corners());
+    if overlap_corners(a.yaw, b.yaw, &ca, &cb) {
         return 0.0;
     }
-    let (ca, cb) = (a.corners(), b.corners());
     let mut d = f64::INFINITY;
     for (p, q) in [(&ca, &cb), (&cb, &ca)] {
         for c in p.iter() {
