@@ -349,9 +349,14 @@ pub fn execute(
             planned.clear();
             off.clear();
             for (i, a) in plan.actors.iter().enumerate() {
-                let st = got.iter().find(|s| s.actor_id == a.id).ok_or_else(|| {
-                    ScenarioError::Ssp(format!("the simulator lost actor '{}'", a.id))
-                })?;
+                // States usually come back in creation order: look there first
+                // (a search per actor would make a step quadratic in actors).
+                let st = match got.get(i) {
+                    Some(st) if st.actor_id == a.id => st,
+                    _ => got.iter().find(|s| s.actor_id == a.id).ok_or_else(|| {
+                        ScenarioError::Ssp(format!("the simulator lost actor '{}'", a.id))
+                    })?,
+                };
                 let p = a.at(t, plan.dt);
                 boxes.push(BoxState {
                     x: st.pose.position.x,

@@ -483,9 +483,11 @@ fn advance(net: &RoadNetwork, mut p: LanePos, mut ds: f64) -> LanePos {
 /// the road's reference line, so on a curve a lane centre away from it is
 /// longer or shorter than `ds`; one secant correction makes the path
 /// length match (the planned speed is then the speed a car really has).
-fn advance_path(net: &RoadNetwork, p: LanePos, dist: f64) -> LanePos {
+/// `at_p` is `p`'s pose when the caller has it already (the sampler does).
+fn advance_path(net: &RoadNetwork, p: LanePos, dist: f64, at_p: Option<Pose>) -> LanePos {
     let q = advance(net, p, dist);
-    let (a, b) = (pose(net, p, 0.0), pose(net, q, 0.0));
+    let a = at_p.unwrap_or_else(|| pose(net, p, 0.0));
+    let b = pose(net, q, 0.0);
     let chord = a.position.xy().distance(b.position.xy());
     // Chords of long placement moves (tens of metres) are shorter than
     // arcs; the error stays below 0.1 % on lanes of radius > 50 m.
@@ -1193,6 +1195,9 @@ fn plan_once(
             }
             // Lane change.
             let mut lat_rate = 0.0;
+            // The lane-centre pose at mo.pos, when this sample computes it
+            // (reused by the move below).
+            let mut centre = None;
             let p = if let Some((from, to, c0, c1)) = mo.change {
                 let u = ((t - c0) / (c1 - c0)).clamp(0.0, 1.0);
                 let sm = u * u * (3.0 - 2.0 * u);
@@ -1223,7 +1228,9 @@ fn plan_once(
                 q.position.y = a.position.y + (b.position.y - a.position.y) * sm;
                 q
             } else {
-                pose(net, mo.pos, 0.0)
+                let c = pose(net, mo.pos, 0.0);
+                centre = Some(c);
+                c
             };
             let (s_yaw, c_yaw) = math::sin_cos(p.yaw);
             let x = p.position.x - s_yaw * mo.lateral;
@@ -1250,7 +1257,7 @@ fn plan_once(
                 mo.lateral += mo.across * mo.v * plan_dt;
             } else {
                 let before = mo.pos;
-                mo.pos = advance_path(net, mo.pos, mo.v * plan_dt);
+                mo.pos = advance_path(net, mo.pos, mo.v * plan_dt, centre);
                 if mo.v > 0.0 && mo.pos == before && !dead_end {
                     dead_end = true;
                     notes.push(format!(
@@ -1479,6 +1486,7 @@ fn place(
                         ..om.pos
                     },
                     sign * gap,
+                    None,
                 );
                 mo.pos.lane = lane;
             }
