@@ -81,7 +81,7 @@ struct Solver<'a> {
 }
 
 impl Solver<'_> {
-    fn find(&mut self, p: &str) -> String {
+    fn find(&self, p: &str) -> String {
         let mut cur = p.to_string();
         while let Some(n) = self.parent.get(&cur) {
             if *n == cur {
@@ -308,14 +308,11 @@ pub fn solve(
         let members: Vec<String> = s
             .test
             .vars
-            .keys()
-            .filter(|p| s.test.vars[*p].road.is_some())
-            .cloned()
-            .collect::<Vec<_>>()
-            .into_iter()
-            .filter(|p| s.find(p) == root)
+            .iter()
+            .filter(|(p, v)| v.road.is_some() && s.find(p) == root)
+            .map(|(p, _)| p.clone())
             .collect();
-        let attr = |s: &mut Solver, name: &str| -> Dom {
+        let attr = |name: &str| -> Dom {
             let mut d = Dom::default();
             for m in &members {
                 let r = s.find(&format!("{m}.{name}"));
@@ -329,9 +326,9 @@ pub fn solve(
             }
             d
         };
-        let length = attr(&mut s, "length");
-        let min_lanes = attr(&mut s, "min_lanes");
-        let max_lanes = attr(&mut s, "max_lanes");
+        let length = attr("length");
+        let min_lanes = attr("min_lanes");
+        let max_lanes = attr("max_lanes");
         let kinds: Vec<RoadKind> = members.iter().filter_map(|m| s.test.vars[m].road).collect();
         let need_min = min_lanes.lo.max(1.0);
         let need_max = max_lanes.hi;
@@ -401,19 +398,22 @@ pub fn solve(
         chosen.insert(root, pick.clone());
         sol.roads.insert(path.clone(), pick);
     }
-    // Scalars: every constrained or declared variable, in path order.
-    let mut paths: Vec<String> = s.dom.keys().cloned().collect();
-    for (p, v) in &s.test.vars {
-        if v.road.is_none() {
-            paths.push(p.clone());
-        }
-    }
-    let all_paths: Vec<String> = s.parent.keys().cloned().chain(paths).collect();
+    // Scalars: every constrained, unified or declared variable, in path order.
+    let paths: std::collections::BTreeSet<String> = s
+        .dom
+        .keys()
+        .chain(s.parent.keys())
+        .chain(
+            s.test
+                .vars
+                .iter()
+                .filter(|(_, v)| v.road.is_none())
+                .map(|(p, _)| p),
+        )
+        .cloned()
+        .collect();
     let mut done: BTreeMap<String, Value> = BTreeMap::new();
-    let mut sorted = all_paths;
-    sorted.sort();
-    sorted.dedup();
-    for p in sorted {
+    for p in paths {
         let root = s.find(&p);
         if let Some(v) = done.get(&root) {
             sol.values.insert(p, v.clone());
