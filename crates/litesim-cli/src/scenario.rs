@@ -75,15 +75,11 @@ pub fn plan_log(plan: &Plan) -> SimulationLog {
     rec.finish()
 }
 
+/// Lane borders of the test's map (no centre lines: a scenario replay shows
+/// several actors and stays readable).
 fn lanes(net: Option<&litesim_map::RoadNetwork>) -> Vec<Vec<(f64, f64)>> {
-    net.map(|n| {
-        n.lane_polylines(0.1)
-            .into_iter()
-            .flat_map(|l| [l.inner, l.outer])
-            .map(|pts| pts.into_iter().map(|v| (v.x, v.y)).collect())
-            .collect()
-    })
-    .unwrap_or_default()
+    net.map(|n| crate::viz::lane_lines(n, false))
+        .unwrap_or_default()
 }
 
 /// `litesim run`.
@@ -141,6 +137,12 @@ pub fn run(
     });
     std::fs::create_dir_all(&out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
     let s = &result.summary;
+    let write_plan = || -> Result<()> {
+        let p = out.join("plan.json");
+        std::fs::write(&p, serde_json::to_string_pretty(&result.plan)?)?;
+        println!("wrote {}", p.display());
+        Ok(())
+    };
     if plan_only {
         println!(
             "plan of {} (seed {}), {:.2} s, sampled every {:.2} s:",
@@ -168,9 +170,7 @@ pub fn run(
                 a.id, f.x, f.y, f.v, l.x, l.y, l.v
             );
         }
-        let path = out.join("plan.json");
-        std::fs::write(&path, serde_json::to_string_pretty(&result.plan)?)?;
-        println!("wrote {}", path.display());
+        write_plan()?;
         if !no_pictures {
             let log = plan_log(&result.plan);
             let pic = out.join("plan.png");
@@ -185,9 +185,7 @@ pub fn run(
         }
         return Ok(true);
     }
-    let p = out.join("plan.json");
-    std::fs::write(&p, serde_json::to_string_pretty(&result.plan)?)?;
-    println!("wrote {}", p.display());
+    write_plan()?;
     if let Some(log) = &result.log {
         let p = out.join("log.json");
         log.write_json(&p).map_err(|e| anyhow!("{e}"))?;

@@ -21,16 +21,26 @@ fn read(log: &Path) -> Result<SimulationLog> {
     SimulationLog::read_json(log).map_err(|e| anyhow!("{e}"))
 }
 
+/// Lane borders (and centres, when asked) of a road network, as lines to draw.
+pub fn lane_lines(net: &litesim_map::RoadNetwork, centres: bool) -> Vec<Vec<(f64, f64)>> {
+    net.lane_polylines(0.1)
+        .into_iter()
+        .flat_map(|l| {
+            let mut v = vec![l.inner, l.outer];
+            if centres {
+                v.push(l.center);
+            }
+            v
+        })
+        .map(|pts| pts.into_iter().map(|v| (v.x, v.y)).collect())
+        .collect()
+}
+
 /// Lane borders and centres of an OpenDRIVE map, for replays.
 fn lanes(map: Option<&Path>) -> Result<Vec<Vec<(f64, f64)>>> {
     let Some(p) = map else { return Ok(Vec::new()) };
     let net = litesim_map::RoadNetwork::load(p).map_err(|e| anyhow!("{e}"))?;
-    Ok(net
-        .lane_polylines(0.1)
-        .into_iter()
-        .flat_map(|l| [l.inner, l.outer, l.center])
-        .map(|pts| pts.into_iter().map(|v| (v.x, v.y)).collect())
-        .collect())
+    Ok(lane_lines(&net, true))
 }
 
 fn err(e: VizError) -> anyhow::Error {
