@@ -85,9 +85,11 @@ struct Model {
 }
 
 fn close_names<'a>(name: &str, all: impl Iterator<Item = &'a String>) -> String {
-    // Names sharing a prefix or differing by little: the usual typos.
+    // Names sharing a prefix (two characters, not bytes: names may be
+    // non-ASCII) or differing by little: the usual typos.
+    let prefix: String = name.chars().take(2).collect();
     let mut v: Vec<&String> = all
-        .filter(|n| n.starts_with(&name[..name.len().min(2)]) || levenshtein(n, name) <= 2)
+        .filter(|n| n.starts_with(&prefix) || levenshtein(n, name) <= 2)
         .take(5)
         .collect();
     v.sort();

@@ -173,6 +173,7 @@ proptest::proptest! {
             "x", ".", ".speed", "3s", "20kph", "-1", "it", "actor", "sut", "sut.car", "red", "vehicle",
             "one_way_road", "traffic_light", "speed(", ")", "keep(", "==", " and ", " in [1..2]m",
             "!", "vehicle_category!", "list of ", ": ", "\n    ", "inherits vehicle(it.speed)",
+            "é", "aé", "vitesse_é", "ß",
         ]),
     ) {
         let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/ok");
