@@ -277,7 +277,13 @@ impl RoadNetwork {
         }
         for (ri, s_guess, _) in per_road {
             let road = &self.od.roads[ri];
-            let (s, t) = refine(road, p, s_guess);
+            let (s, t, beyond) = refine(road, p, s_guess);
+            // A point past either end of this road projects onto the end:
+            // it is not on this road (a junction road starting there would
+            // otherwise claim points of the road leading into it).
+            if beyond > BEYOND_END_M {
+                continue;
+            }
             let spans = road.lane_spans(s);
             let Some(span) = spans.iter().find(|l| l.width() > 1e-3 && l.contains(t)) else {
                 continue;
@@ -722,7 +728,13 @@ impl RoadNetwork {
 
 /// Newton refinement of the foot point on the reference line:
 /// g(s) = (P − C(s))·T(s) = 0, g'(s) = −1 + κ (P − C(s))·N(s).
-fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64) {
+/// How far past a road's end (m) a point may lie and still count as on it
+/// (the Newton refinement leaves millimetres on curves).
+const BEYOND_END_M: f64 = 0.05;
+
+/// (s, t) of a point near a road, by Newton steps from `s`, and how far the
+/// point lies beyond the road's ends along the reference line (0 inside).
+fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64, f64) {
     for _ in 0..3 {
         let r = road.reference(s);
         let (sn, cs) = math::sin_cos(r.hdg);
@@ -741,5 +753,13 @@ fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64) {
     let r = road.reference(s);
     let (sn, cs) = math::sin_cos(r.hdg);
     let t = -(p.x - r.x) * sn + (p.y - r.y) * cs;
-    (s, t)
+    let along = (p.x - r.x) * cs + (p.y - r.y) * sn;
+    let beyond = if s <= 0.0 {
+        (-along).max(0.0)
+    } else if s >= road.length {
+        along.max(0.0)
+    } else {
+        0.0
+    };
+    (s, t, beyond)
 }

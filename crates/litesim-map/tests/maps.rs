@@ -275,3 +275,17 @@ fn lanes_by_type_and_object_footprints() {
             .all(|p| (p.distance(Vec2::new(250.0, -5.25)) - 0.3).abs() < 1e-9)
     );
 }
+
+#[test]
+fn a_point_before_a_junction_is_on_the_incoming_road_not_the_junction_road() {
+    // Road 4 runs from (0, 110) down to the junction at (0, 10); the
+    // junction's roads start there. 6 m before the junction the point
+    // belongs to road 4 (a junction road used to claim it by projecting
+    // the point onto its own start).
+    let m = map("junction.xodr");
+    for (y, s) in [(16.0, 94.0), (10.5, 99.5), (50.0, 60.0)] {
+        let rp = m.to_road(Vec2::new(-1.75, y)).unwrap();
+        assert_eq!((rp.road.as_str(), rp.lane), ("4", -1), "at y = {y}: {rp:?}");
+        assert!((rp.s - s).abs() < 1e-6, "{rp:?}");
+    }
+}

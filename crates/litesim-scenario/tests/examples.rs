@@ -293,6 +293,27 @@ fn outcomes_of_the_example_scenarios() {
 }
 
 #[test]
+fn the_red_light_run_is_caught_on_every_approach() {
+    // Seeds choose among the junction's four roads; each approach has its light.
+    let mut lights = std::collections::BTreeSet::new();
+    for seed in 1..=8 {
+        let r = go("red_light_run", seed, DriveMode::Kinematic);
+        let (light, t) = actor(&r.summary, "sut.car")
+            .ran_red_light
+            .clone()
+            .unwrap_or_else(|| {
+                panic!(
+                    "seed {seed} on {:?}: no red light run caught",
+                    r.summary.roads
+                )
+            });
+        assert!((t - 9.0).abs() < 0.05, "seed {seed}: {t}");
+        lights.insert(light);
+    }
+    assert!(lights.len() >= 3, "{lights:?}");
+}
+
+#[test]
 fn a_green_light_is_not_a_violation_and_unknown_lights_are_errors() {
     let text =
         std::fs::read_to_string(root().join("examples/scenarios/red_light_run.osc")).unwrap();
