@@ -167,12 +167,10 @@ fn median_ns(id: &str, elements: f64) -> Option<f64> {
         .join(id)
         .join("new/estimates.json");
     let text = std::fs::read_to_string(path).ok()?;
-    let key = "\"median\":{\"confidence_interval\":{\"confidence_level\":0.95,\"lower_bound\":";
     let start = text.find("\"median\"")?;
     let rest = &text[start..];
     let p = rest.find("\"point_estimate\":")? + "\"point_estimate\":".len();
     let end = rest[p..].find(',')?;
-    let _ = key;
     rest[p..p + end].parse::<f64>().ok().map(|ns| ns / elements)
 }
 
@@ -231,6 +229,11 @@ fn compare_with_python() {
             println!("{label:<40} {ns:8.2} ns/actor-step");
         }
     }
+    for id in ["litesim", "libm"] {
+        if let Some(ns) = median_ns(&format!("sin_cos_1000/{id}"), 1000.0) {
+            println!("sin_cos, {id:<10} {ns:8.2} ns/call (1,000 headings)");
+        }
+    }
     for id in ["straight", "10pct_turning", "all_turning"] {
         if let Some(ns) = median_ns(&format!("world_step_1000_dynamic/{id}"), 1000.0) {
             println!(
@@ -241,10 +244,72 @@ fn compare_with_python() {
     }
 }
 
+/// litesim's `sin_cos` against the pure-Rust `libm` it replaced, on 1,000
+/// headings spread over (−π, π] (what a turning fleet evaluates per step).
+fn trig(c: &mut Criterion) {
+    let mut g = c.benchmark_group("sin_cos_1000");
+    g.throughput(Throughput::Elements(1000));
+    let xs: Vec<f64> = (0..1000)
+        .map(|i| -std::f64::consts::PI + 0.006_283 * i as f64 + 1e-4)
+        .collect();
+    g.bench_function("litesim", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for &x in black_box(&xs) {
+                let (s, c) = litesim_core::math::sin_cos(x);
+                acc += s * c;
+            }
+            acc
+        })
+    });
+    g.bench_function("libm", |b| {
+        b.iter(|| {
+            let mut acc = 0.0;
+            for &x in black_box(&xs) {
+                let (s, c) = libm::sincos(x);
+                acc += s * c;
+            }
+            acc
+        })
+    });
+    g.finish();
+}
+
 fn main() {
     let mut c = Criterion::default().configure_from_args();
+    trig(&mut c);
+    raw_bound(&mut c);
     models(&mut c);
     world(&mut c);
     c.final_summary();
     compare_with_python();
+}
+
+/// Lower bound for the per-model figures: the seed's turning equations on
+/// plain arrays (no enum input, no caches, no derived fields), the one
+/// `sin_cos` per step included. What any scalar transcription pays.
+fn raw_bound(c: &mut Criterion) {
+    let mut g = c.benchmark_group("raw_turning_1000");
+    g.throughput(Throughput::Elements(1000));
+    let n = 1000;
+    let (mut x, mut y, mut yaw, mut v) = (vec![0.0; n], vec![0.0; n], vec![0.0; n], vec![0.0; n]);
+    for (i, vi) in v.iter_mut().enumerate() {
+        *vi = 5.0 + (i % 10) as f64;
+    }
+    let r = 2.7 / litesim_core::math::sin(0.12);
+    g.bench_function("ssp_equations", |b| {
+        b.iter(|| {
+            let r = black_box(r);
+            for i in 0..n {
+                let w = v[i] / r;
+                let vn = (v[i] + 0.3 * 4.0 * 0.02).clamp(0.0, 40.0);
+                yaw[i] = litesim_core::wrap_angle(yaw[i] + w * 0.02);
+                let (s, c) = litesim_core::math::sin_cos(yaw[i]);
+                x[i] += vn * c * 0.02;
+                y[i] += vn * s * 0.02;
+                v[i] = vn;
+            }
+        })
+    });
+    g.finish();
 }

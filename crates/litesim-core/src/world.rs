@@ -2,7 +2,7 @@
 
 use crate::actor::{ActorDescription, ActorId, ActorState, TrajectoryStatus};
 use crate::geometry::{Pose, Vec2, Vec3, wrap_angle};
-use crate::math;
+use crate::math::{self, SinCosCache};
 use crate::trajectory::Trajectory;
 use crate::vehicle::{Derived, VehicleInput, VehicleModel, VehicleModelKind, VehicleState};
 use serde::{Deserialize, Serialize};
@@ -97,9 +97,9 @@ pub struct Actor {
     pub last_input: VehicleInput,
     mode: ControlMode,
     vehicle: VehicleState,
-    // (yaw, sin, cos) last published; see `publish_vehicle`.
+    // Heading trig for actors without a model cache; see `publish_vehicle`.
     #[serde(skip)]
-    yaw_trig: Option<(f64, f64, f64)>,
+    yaw_trig: SinCosCache,
 }
 
 impl Actor {
@@ -119,7 +119,7 @@ impl Actor {
             last_input: VehicleInput::default(),
             mode: ControlMode::Stored,
             vehicle: VehicleState::default(),
-            yaw_trig: None,
+            yaw_trig: SinCosCache::default(),
         };
         a.sync_vehicle();
         a
@@ -155,15 +155,13 @@ impl Actor {
 
     fn publish_vehicle(&mut self) {
         let v = &self.vehicle;
-        // Straight driving keeps the heading: reuse its trig (bit-identical).
-        let (s, c) = match self.yaw_trig {
-            Some((y, s, c)) if y == v.yaw => (s, c),
-            _ => {
-                let (s, c) = math::sin_cos(v.yaw);
-                self.yaw_trig = Some((v.yaw, s, c));
-                (s, c)
-            }
+        // The model usually has just evaluated this heading's trig (and a
+        // straight-driving one keeps it): share its cache (bit-identical).
+        let cache = match self.model.as_mut().and_then(|m| m.heading_trig()) {
+            Some(c) => c,
+            None => &mut self.yaw_trig,
         };
+        let (s, c) = cache.get(v.yaw);
         self.state.pose = Pose {
             position: Vec3::new(v.x, v.y, v.z),
             roll: 0.0,

@@ -49,4 +49,54 @@ proptest! {
             prop_assert!(st.x.is_finite() && st.y.is_finite() && st.v >= 0.0);
         }
     }
+
+    /// The models' caches (steering, turning radius, heading trig) only skip
+    /// recomputing identical arguments: a model stepped with warm caches
+    /// gives the same bits as one whose caches are emptied before every step
+    /// (serde skips them), even when commands repeat, alternate, or the
+    /// public geometry changes mid-run.
+    #[test]
+    fn caches_never_change_results(
+        commands in prop::collection::vec((0usize..4, -1.2f64..1.2, 0.0f64..1.0), 1..6),
+        steps in prop::collection::vec((0usize..6, any::<bool>()), 1..80),
+        v0 in 0.0f64..30.0,
+    ) {
+        let inputs: Vec<VehicleInput> = commands.iter().map(|&(kind, s, t)| match kind {
+            0 => VehicleInput::Direct { acceleration: t * 3.0, steering_angle: s * 0.5 },
+            1 => VehicleInput::Direct { acceleration: -t, steering_angle: 0.0 },
+            2 => VehicleInput::Pedals(NormalizedPedals { throttle: t, brake: 0.0, steering: s.clamp(-1.0, 1.0) }),
+            _ => VehicleInput::Pedals(NormalizedPedals { throttle: 0.0, brake: t * 0.2, steering: 0.0 }),
+        }).collect();
+        let mut cg = KinematicBicycle::new(2.7);
+        cg.reference = ReferencePoint::CenterOfGravity;
+        let models = [
+            VehicleModelKind::Ssp(SspDynamics::for_length(4.5)),
+            VehicleModelKind::Bicycle(KinematicBicycle::new(2.7)),
+            VehicleModelKind::Bicycle(cg),
+            VehicleModelKind::Lag(ActuatorLag::new(KinematicBicycle::new(2.7), 0.2, 0.1, 0.04, 0.02)),
+        ];
+        for model in models {
+            let mut warm = model.clone();
+            let mut cold = model;
+            let mut a = VehicleState { v: v0, ..VehicleState::default() };
+            let mut b = a;
+            for &(i, reshape) in &steps {
+                if reshape {
+                    // Change the public geometry between steps, on both.
+                    for m in [&mut warm, &mut cold] {
+                        match m {
+                            VehicleModelKind::Ssp(m) => m.wheelbase += 0.1,
+                            VehicleModelKind::Bicycle(m) => m.wheelbase += 0.1,
+                            VehicleModelKind::Lag(m) => m.inner.wheelbase += 0.1,
+                        }
+                    }
+                }
+                let input = inputs[i % inputs.len()];
+                cold = serde_json::from_str(&serde_json::to_string(&cold).unwrap()).unwrap();
+                warm.step(&mut a, &input, 0.02);
+                cold.step(&mut b, &input, 0.02);
+                prop_assert_eq!(format!("{a:?}"), format!("{b:?}"));
+            }
+        }
+    }
 }

@@ -12,6 +12,13 @@
 //!
 //! Then it streams MEMORY_STEPS steps (default 1,000,000) and prints the
 //! process's resident memory every 10% to show it stays flat.
+//!
+//! `ADDR=127.0.0.1:50051` drives a server in another process (`litesim
+//! serve`) instead. Lock-step traffic strictly alternates, so where the two
+//! sides run matters more than anything in the code: on a VM, waking a
+//! thread on another vCPU costs tens of µs. Pinning client and server to one
+//! CPU (`taskset -c 0 …` for both) removes that cost; `BENCHMARKS.md` gives
+//! both figures.
 
 use litesim_grpc::pb;
 use litesim_grpc::{RemoteSsp, ServerConfig};
@@ -113,23 +120,9 @@ fn tcp_floor(iters: usize) -> Vec<f64> {
     us
 }
 
-fn report(name: &str, mut us: Vec<f64>) {
-    let n = us.len();
-    println!(
-        "{name:<44} n={n:>6}  p50 {:>7.1} µs  p99 {:>7.1} µs",
-        pct(&mut us, 0.5),
-        pct(&mut us, 0.99)
-    );
-}
-
-fn main() {
-    let args: Vec<u64> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
-        .collect();
-    let iters = args.first().copied().unwrap_or(20_000) as usize;
-    let memory_steps = args.get(1).copied().unwrap_or(1_000_000);
-
+/// A server on loopback in this process: its own tokio runtime (`WORKERS`
+/// worker threads, default 1). Returns its address.
+fn in_process_server() -> String {
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         let rt = tokio::runtime::Builder::new_multi_thread()
@@ -150,7 +143,33 @@ fn main() {
                 .unwrap();
         });
     });
-    let addr = rx.recv().unwrap().to_string();
+    rx.recv().unwrap().to_string()
+}
+
+fn report(name: &str, mut us: Vec<f64>) {
+    let n = us.len();
+    println!(
+        "{name:<44} n={n:>6}  p50 {:>7.1} µs  p99 {:>7.1} µs",
+        pct(&mut us, 0.5),
+        pct(&mut us, 0.99)
+    );
+}
+
+fn main() {
+    let args: Vec<u64> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let iters = args.first().copied().unwrap_or(20_000) as usize;
+    let memory_steps = args.get(1).copied().unwrap_or(1_000_000);
+
+    let addr = match std::env::var("ADDR") {
+        Ok(external) => {
+            println!("server: {external} (another process)");
+            external
+        }
+        Err(_) => in_process_server(),
+    };
     let all = ActorFilter::default();
 
     // The floor: a raw TCP echo round trip through the same kind of server
@@ -210,9 +229,12 @@ fn main() {
         (us, mem)
     });
     report("StepStream (10 actors)", stream_us);
-    println!(
-        "\nresident memory while streaming {memory_steps} more steps (server + client, one process):"
-    );
+    let whose = if std::env::var("ADDR").is_ok() {
+        "this client only; the server is another process"
+    } else {
+        "server + client, one process"
+    };
+    println!("\nresident memory while streaming {memory_steps} more steps ({whose}):");
     for (step, kib) in mem {
         println!("  after {step:>9} steps: {:>8.1} MiB", kib as f64 / 1024.0);
     }

@@ -12,7 +12,7 @@
 
 use super::{VehicleInput, VehicleModel, VehicleState};
 use crate::geometry::wrap_angle;
-use crate::math;
+use crate::math::{self, SinCosCache};
 use serde::{Deserialize, Serialize};
 
 /// Which point of the vehicle the state describes.
@@ -24,6 +24,14 @@ pub enum ReferencePoint {
     RearAxle,
     /// The centre of gravity, `rear_to_cg` ahead of the rear axle.
     CenterOfGravity,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct SteerCache {
+    key: (f64, f64, f64, ReferencePoint),
+    curvature: f64,
+    beta: f64,
+    cos_beta: f64,
 }
 
 /// Kinematic bicycle model.
@@ -47,7 +55,13 @@ pub struct KinematicBicycle {
     // the heading, and recomputing identical trig is the model's main cost.
     // Bit-identical with or without it.
     #[serde(skip)]
-    trig_cache: Option<(f64, f64, f64)>,
+    trig_cache: SinCosCache,
+    // The last steering command's (δ, L, l_r, reference) — the key, as the
+    // geometry is public and may change — and its (κ = tan δ / L, β, cos β):
+    // commands change far less often than steps. Bit-identical with or
+    // without it.
+    #[serde(skip)]
+    steer_cache: Option<SteerCache>,
 }
 
 impl KinematicBicycle {
@@ -62,7 +76,8 @@ impl KinematicBicycle {
             max_acceleration: 3.0,
             max_deceleration: 8.0,
             max_speed: 60.0,
-            trig_cache: None,
+            trig_cache: SinCosCache::default(),
+            steer_cache: None,
         }
     }
 
@@ -95,36 +110,46 @@ impl KinematicBicycle {
     pub fn integrate(&mut self, st: &mut VehicleState, a: f64, delta: f64, dt: f64) {
         let l = self.wheelbase;
         let v = st.v;
-        let tan_d = if delta == 0.0 { 0.0 } else { math::tan(delta) };
-        let (beta, yaw_rate) = match self.reference {
-            ReferencePoint::RearAxle => (0.0, v / l * tan_d),
-            ReferencePoint::CenterOfGravity => {
-                let beta = if tan_d == 0.0 {
-                    0.0
-                } else {
-                    math::atan(self.rear_to_cg / l * tan_d)
-                };
-                (beta, v / l * math::cos(beta) * tan_d)
-            }
-        };
-        let arg = st.yaw + beta;
-        let (s, c) = match self.trig_cache {
-            Some((x, s, c)) if x == arg => (s, c),
+        let key = (delta, l, self.rear_to_cg, self.reference);
+        let (curvature, beta, cos_beta) = match self.steer_cache {
+            _ if delta == 0.0 => (0.0, 0.0, 1.0),
+            Some(c) if c.key == key => (c.curvature, c.beta, c.cos_beta),
             _ => {
-                let (s, c) = math::sin_cos(arg);
-                self.trig_cache = Some((arg, s, c));
-                (s, c)
+                let tan_d = math::tan(delta);
+                let beta = match self.reference {
+                    ReferencePoint::CenterOfGravity if tan_d != 0.0 => {
+                        math::atan(self.rear_to_cg / l * tan_d)
+                    }
+                    _ => 0.0,
+                };
+                let cos_beta = math::cos(beta);
+                let curvature = tan_d / l;
+                self.steer_cache = Some(SteerCache {
+                    key,
+                    curvature,
+                    beta,
+                    cos_beta,
+                });
+                (curvature, beta, cos_beta)
             }
         };
+        // ψ̇ = v·κ with κ = tan δ / L (cached with δ): one multiplication
+        // instead of a division per step; cos β = 1 for the rear axle.
+        let yaw_rate = v * cos_beta * curvature;
+        let arg = st.yaw + beta;
+        let (s, c) = self.trig_cache.get(arg);
         st.x += v * c * dt;
         st.y += v * s * dt;
         st.yaw = wrap_angle(st.yaw + yaw_rate * dt);
-        let v_new = (v + a * dt).clamp(0.0, self.max_speed);
+        let v_free = v + a * dt;
+        let v_new = v_free.clamp(0.0, self.max_speed);
         st.v = v_new;
         st.yaw_rate = yaw_rate;
-        st.acceleration = (v_new - v) / dt;
+        // The applied acceleration: the command, unless the speed limits cut
+        // it (then what was achieved); no division on the common path.
+        st.acceleration = if v_new == v_free { a } else { (v_new - v) / dt };
         st.steering_angle = delta;
-        st.curvature = tan_d / l;
+        st.curvature = curvature;
         st.slip_angle = beta;
     }
 }
@@ -143,5 +168,8 @@ impl VehicleModel for KinematicBicycle {
     }
     fn name(&self) -> &'static str {
         "bicycle"
+    }
+    fn heading_trig(&mut self) -> Option<&mut SinCosCache> {
+        Some(&mut self.trig_cache)
     }
 }

@@ -22,7 +22,7 @@
 
 use super::{VehicleInput, VehicleModel, VehicleState};
 use crate::geometry::wrap_angle;
-use crate::math;
+use crate::math::{self, SinCosCache};
 use serde::{Deserialize, Serialize};
 
 /// Steering-wheel angle at full lock (rad): 450°. The seed uses the constant
@@ -47,13 +47,18 @@ pub struct SspDynamics {
     pub free_deceleration: f64,
     /// Speed cap (m/s); the seed's 40.
     pub max_linear_velocity: f64,
-    // Caches: sin of the last wheel angle, and (sin, cos) of the last heading.
-    // They only skip recomputation of identical arguments, so results are
-    // bit-identical with and without them.
+    // Caches: (wheel angle, wheelbase, curvature sin / L, radius L / sin) of
+    // the last steering command (the wheelbase is in the key because it is a
+    // public field), and (sin, cos) of the last heading. They only skip
+    // recomputation of identical arguments, so results are bit-identical
+    // with and without them.
     #[serde(skip)]
-    cache_wheels: Option<(f64, f64)>,
+    cache_wheels: Option<(f64, f64, f64, f64)>,
     #[serde(skip)]
-    cache_yaw: Option<(f64, f64, f64)>,
+    cache_yaw: SinCosCache,
+    // (steering fraction, max wheel angle, wheel angle) of the last pedals.
+    #[serde(skip)]
+    cache_steering: Option<(f64, f64, f64)>,
 }
 
 impl SspDynamics {
@@ -74,30 +79,39 @@ impl SspDynamics {
             free_deceleration: 2.0,
             max_linear_velocity: MAX_LINEAR_VELOCITY,
             cache_wheels: None,
-            cache_yaw: None,
+            cache_yaw: SinCosCache::default(),
+            cache_steering: None,
         }
     }
 
+    /// The seed's `wheels_angle` (degrees) for a steering fraction:
+    /// `swp = steering · MAX_STEERING_WHEEL_ANGLE`, then
+    /// `swp / MAX_STEERING_WHEEL_ANGLE · max_wheels_angle` — the division
+    /// skipped when the fraction is the last one seen.
     #[inline]
-    fn sin_wheels(&mut self, wheels_angle_deg: f64) -> f64 {
-        match self.cache_wheels {
-            Some((a, s)) if a == wheels_angle_deg => s,
+    fn wheels_from_steering(&mut self, steering: f64) -> f64 {
+        match self.cache_steering {
+            Some((f, m, w)) if f == steering && m == self.max_wheels_angle_deg => w,
             _ => {
-                let s = math::sin(wheels_angle_deg.to_radians());
-                self.cache_wheels = Some((wheels_angle_deg, s));
-                s
+                let steering_wheel_position = steering * MAX_STEERING_WHEEL_ANGLE;
+                let w =
+                    steering_wheel_position / MAX_STEERING_WHEEL_ANGLE * self.max_wheels_angle_deg;
+                self.cache_steering = Some((steering, self.max_wheels_angle_deg, w));
+                w
             }
         }
     }
 
+    /// `(κ = sin δ / L, R = L / sin δ)` for a non-zero wheel angle δ (degrees).
     #[inline]
-    fn sin_cos_yaw(&mut self, yaw: f64) -> (f64, f64) {
-        match self.cache_yaw {
-            Some((a, s, c)) if a == yaw => (s, c),
+    fn turning(&mut self, wheels_angle_deg: f64) -> (f64, f64) {
+        match self.cache_wheels {
+            Some((a, l, k, r)) if a == wheels_angle_deg && l == self.wheelbase => (k, r),
             _ => {
-                let (s, c) = math::sin_cos(yaw);
-                self.cache_yaw = Some((yaw, s, c));
-                (s, c)
+                let s = math::sin(wheels_angle_deg.to_radians());
+                let (k, r) = (s / self.wheelbase, self.wheelbase / s);
+                self.cache_wheels = Some((wheels_angle_deg, self.wheelbase, k, r));
+                (k, r)
             }
         }
     }
@@ -116,10 +130,7 @@ impl VehicleModel for SspDynamics {
                 } else {
                     -self.free_deceleration.copysign(v)
                 };
-                let steering_wheel_position = p.steering * MAX_STEERING_WHEEL_ANGLE;
-                let wheels =
-                    steering_wheel_position / MAX_STEERING_WHEEL_ANGLE * self.max_wheels_angle_deg;
-                (a, wheels)
+                (a, self.wheels_from_steering(p.steering))
             }
             VehicleInput::Direct {
                 acceleration,
@@ -131,35 +142,36 @@ impl VehicleModel for SspDynamics {
                     .clamp(-self.max_wheels_angle_deg, self.max_wheels_angle_deg),
             ),
         };
-        let sin_wheels = if wheels_angle_deg == 0.0 {
-            0.0
+        // ω = v / R with R = L / sin δ, as the seed writes it (zero when the
+        // wheels are straight, where the seed would divide by zero).
+        let (curvature, angular_velocity) = if wheels_angle_deg == 0.0 {
+            (0.0, 0.0)
         } else {
-            self.sin_wheels(wheels_angle_deg)
+            let (k, r) = self.turning(wheels_angle_deg);
+            (k, if k == 0.0 { 0.0 } else { v / r })
         };
-        // ω = v / R with R = L / sin δ, i.e. v·sin δ / L; written as the seed
-        // writes it so the hand-computed trajectory matches to the last bits.
-        let angular_velocity = if sin_wheels == 0.0 {
-            0.0
-        } else {
-            v / (self.wheelbase / sin_wheels)
-        };
-        let mut v_new = v + acceleration * dt;
-        v_new = v_new.min(self.max_linear_velocity);
-        v_new = v_new.max(0.0);
+        let v_free = v + acceleration * dt;
+        let v_new = v_free.min(self.max_linear_velocity).max(0.0);
         let yaw = if angular_velocity == 0.0 {
             st.yaw
         } else {
             wrap_angle(st.yaw + angular_velocity * dt)
         };
-        let (s, c) = self.sin_cos_yaw(yaw);
+        let (s, c) = self.cache_yaw.get(yaw);
         st.x += v_new * c * dt;
         st.y += v_new * s * dt;
         st.yaw = yaw;
         st.v = v_new;
         st.yaw_rate = angular_velocity;
-        st.acceleration = (v_new - v) / dt;
+        // The applied acceleration: the pedals' own, unless the speed limits
+        // cut it (then what was achieved); no division on the common path.
+        st.acceleration = if v_new == v_free {
+            acceleration
+        } else {
+            (v_new - v) / dt
+        };
         st.steering_angle = wheels_angle_deg.to_radians();
-        st.curvature = sin_wheels / self.wheelbase;
+        st.curvature = curvature;
         st.slip_angle = 0.0;
     }
     fn wheelbase(&self) -> f64 {
@@ -167,5 +179,8 @@ impl VehicleModel for SspDynamics {
     }
     fn name(&self) -> &'static str {
         "ssp"
+    }
+    fn heading_trig(&mut self) -> Option<&mut SinCosCache> {
+        Some(&mut self.cache_yaw)
     }
 }
