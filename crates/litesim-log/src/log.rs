@@ -221,6 +221,21 @@ pub struct PlanRecord {
     pub smoothed: bool,
     /// The grid.
     pub grid: GridRecord,
+    /// What `corridor` is, for labels: empty = the planner's corridor; a
+    /// scenario run stores the ego's planned path as "planned path".
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub reference_name: String,
+}
+
+impl PlanRecord {
+    /// The label of `corridor` in pictures: "corridor" unless named.
+    pub fn reference_label(&self) -> &str {
+        if self.reference_name.is_empty() {
+            "corridor"
+        } else {
+            &self.reference_name
+        }
+    }
 }
 
 /// Per control cycle: errors against the corridor, progress, command, prediction.
@@ -240,6 +255,22 @@ pub struct TrackingColumns {
     pub cmd_steering: Vec<f64>,
     /// MPC predicted states (x, y, ψ, v) per cycle.
     pub predictions: Vec<Vec<[f64; 4]>>,
+    /// The legend of the command series: empty = "MPC command"; a scenario
+    /// run says "planned" (the plan's acceleration and the steering angle
+    /// its curvature implies).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub command_source: String,
+}
+
+impl TrackingColumns {
+    /// The legend of the command series in pictures.
+    pub fn command_label(&self) -> &str {
+        if self.command_source.is_empty() {
+            "MPC command"
+        } else {
+            &self.command_source
+        }
+    }
 }
 
 impl SimulationLog {

@@ -649,6 +649,7 @@ pub fn run_closed_loop(
             origin: [g.origin.x, g.origin.y],
             cells,
         },
+        reference_name: String::new(),
     });
     log.tracking = Some(tracking);
     Ok(ClosedLoopResult {

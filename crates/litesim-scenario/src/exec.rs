@@ -409,7 +409,7 @@ pub fn execute(
                     };
                     r.sample(&a.id, mode, &s);
                     if a.ego {
-                        tracking.push(info.step_index, t, st, a, plan, &controls[i]);
+                        tracking.push(info.step_index, t, st, a, plan);
                     }
                 }
                 if drivers[i].is_some() {
@@ -426,15 +426,19 @@ pub fn execute(
         log: rec.map(|r| {
             let mut log = r.finish();
             if !tracking.tick.is_empty() {
-                log.tracking = Some(tracking.columns);
+                log.tracking = Some(litesim_log::TrackingColumns {
+                    command_source: "planned".into(),
+                    ..tracking.columns
+                });
             }
-            // The ego's planned path, drawn as the reference ("corridor")
-            // in the dashboard's map panel and the ego animation.
+            // The ego's planned path, drawn as the reference in the
+            // dashboard's map panel and the ego animation.
             if let Some(ego) = plan.actors.iter().find(|a| a.ego) {
                 log.plan = Some(litesim_log::PlanRecord {
                     corridor: ego.samples.iter().map(|s| [s.x, s.y]).collect(),
                     corridor_speed: ego.samples.iter().map(|s| s.v).collect(),
                     smoothed: true,
+                    reference_name: "planned path".into(),
                     ..litesim_log::PlanRecord::default()
                 });
             }
@@ -466,7 +470,6 @@ impl Tracking {
         st: &ReportedState,
         a: &crate::plan::ActorPlan,
         plan: &Plan,
-        control: &ControlSample,
     ) {
         let p = a.at(t, plan.dt);
         let (s, c) = math::sin_cos(p.yaw);
@@ -490,7 +493,17 @@ impl Tracking {
             self.cum[k] + ((p.x - a.samples[k].x).powi(2) + (p.y - a.samples[k].y).powi(2)).sqrt();
         c_.progress.push(d);
         c_.cmd_acceleration.push(p.a);
-        c_.cmd_steering.push(control.steering_angle);
+        // The steering the plan's curvature implies (bicycle, wheelbase
+        // 0.6 · length as in the seed) — what the applied angle is compared
+        // with; the driver's own command is the applied one.
+        let ahead = a.at(t + 0.2, plan.dt);
+        let ds = ((ahead.x - p.x).powi(2) + (ahead.y - p.y).powi(2)).sqrt();
+        let kappa = if ds > 1e-6 {
+            wrap_angle(ahead.yaw - p.yaw) / ds
+        } else {
+            0.0
+        };
+        c_.cmd_steering.push(math::atan(0.6 * a.length * kappa));
         c_.predictions.push(
             (1..=Self::AHEAD)
                 .map(|j| {

@@ -472,7 +472,7 @@ fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
 }
 
 /// FNV-1a of the smoke run's log JSON (seed 1, kinematic, dummy).
-const GOLDEN_SMOKE_LOG: u64 = 0x6f9a_87da_933e_4527;
+const GOLDEN_SMOKE_LOG: u64 = 0xf720_2086_4526_769c;
 
 #[test]
 fn in_process_and_grpc_runs_are_identical() {
@@ -742,4 +742,42 @@ fn calibration_never_does_worse_than_the_profile_and_round_trips() {
         assert_eq!(back, c.best.calibration);
     }
     assert!(litesim_scenario::calibrate::calibrate("no-such-profile").is_err());
+}
+
+/// The dashboard's command series of a scenario run is the plan's (labelled
+/// "planned", reference "planned path"), and its steering is what the plan's
+/// curvature implies: on the curvy road the dynamic driver's applied angle
+/// follows it.
+#[test]
+fn planned_commands_label_and_follow_the_curvature() {
+    let r = go("curvy_road", 1, DriveMode::Dynamic);
+    let log = r.log.as_ref().unwrap();
+    let tr = log.tracking.as_ref().unwrap();
+    assert_eq!(tr.command_label(), "planned");
+    assert_eq!(log.plan.as_ref().unwrap().reference_label(), "planned path");
+    assert_eq!(tr.cmd_steering.len(), tr.tick.len());
+    let planned_max = tr.cmd_steering.iter().fold(0.0f64, |m, d| m.max(d.abs()));
+    assert!(
+        planned_max > 0.01,
+        "the curvy road needs steering: {planned_max}"
+    );
+    // Applied vs planned, sample by sample (same ticks): close on average.
+    let ego = log.tracks.iter().find(|t| t.id == "sut.car").unwrap();
+    let applied: BTreeMap<u64, f64> = ego
+        .tick
+        .iter()
+        .copied()
+        .zip(ego.control.steering_angle.iter().copied())
+        .collect();
+    let diffs: Vec<f64> = tr
+        .tick
+        .iter()
+        .zip(&tr.cmd_steering)
+        .filter_map(|(k, d)| applied.get(k).map(|a| (a - d).abs()))
+        .collect();
+    let mean = diffs.iter().sum::<f64>() / diffs.len() as f64;
+    assert!(
+        mean < 0.25 * planned_max,
+        "mean |applied − planned| {mean} vs max {planned_max}"
+    );
 }

@@ -1,7 +1,7 @@
 //! The nine-panel dashboard (seed 001 §2.2): (1) map with trajectory and
 //! vehicle snapshots, (2) velocity, (3) acceleration, (4) steering angle,
 //! (5) combined control magnitude, (6) lateral and heading errors,
-//! (7) corridor progress, (8) lateral force estimate, (9) slip indicator.
+//! (7) progress along the corridor (or a scenario's planned path), (8) lateral force estimate, (9) slip indicator.
 
 use crate::draw::{draw_track_vehicle, ego, map_chart, series_panel};
 use crate::style::Style;
@@ -115,7 +115,7 @@ fn panels<DB: DrawingBackend>(
     )];
     if let Some(tr) = tr {
         acc.push((
-            "MPC command".into(),
+            tr.command_label().to_string(),
             s(1),
             cz(&tr.cmd_acceleration, &tr.tick),
         ));
@@ -128,7 +128,11 @@ fn panels<DB: DrawingBackend>(
         zip(&t.control.steering_angle),
     )];
     if let Some(tr) = tr {
-        steer.push(("MPC command".into(), s(1), cz(&tr.cmd_steering, &tr.tick)));
+        steer.push((
+            tr.command_label().to_string(),
+            s(1),
+            cz(&tr.cmd_steering, &tr.tick),
+        ));
     }
     series_panel(
         &areas[3],
@@ -170,6 +174,10 @@ fn panels<DB: DrawingBackend>(
         x_range,
     )?;
     // (6) Errors, (7) progress.
+    let reference = log
+        .plan
+        .as_ref()
+        .map_or("corridor", |p| p.reference_label());
     match tr {
         Some(tr) => {
             series_panel(
@@ -189,7 +197,7 @@ fn panels<DB: DrawingBackend>(
             )?;
             series_panel(
                 &areas[6],
-                "corridor progress",
+                &format!("progress along the {reference}"),
                 "s [m]",
                 &[("progress".into(), s(2), cz(&tr.progress, &tr.tick))],
                 style,
@@ -199,7 +207,7 @@ fn panels<DB: DrawingBackend>(
         None => {
             series_panel(
                 &areas[5],
-                "tracking errors (no corridor tracked)",
+                &format!("tracking errors (no {reference} tracked)"),
                 "",
                 &[],
                 style,
@@ -207,7 +215,7 @@ fn panels<DB: DrawingBackend>(
             )?;
             series_panel(
                 &areas[6],
-                "corridor progress (no corridor tracked)",
+                &format!("progress (no {reference} tracked)"),
                 "",
                 &[],
                 style,

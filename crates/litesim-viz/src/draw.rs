@@ -191,14 +191,19 @@ pub fn map_chart<'a, DB: DrawingBackend + 'a>(
         }
         chart.draw_series(rects).map_err(draw_err)?;
         let line = |pts: &[[f64; 2]]| pts.iter().map(|p| (p[0], p[1])).collect::<Vec<_>>();
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                line(&p.raw_path),
-                style.c(&style.raw_path).stroke_width(1),
-            )))
-            .map_err(draw_err)?
-            .label("raw path")
-            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], RGBColor(148, 103, 189)));
+        // A scenario's plan has no raw planner path: no empty legend entry.
+        if !p.raw_path.is_empty() {
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    line(&p.raw_path),
+                    style.c(&style.raw_path).stroke_width(1),
+                )))
+                .map_err(draw_err)?
+                .label("raw path")
+                .legend(|(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], RGBColor(148, 103, 189))
+                });
+        }
         let cc = style.c(&style.corridor);
         chart
             .draw_series(std::iter::once(PathElement::new(
@@ -206,7 +211,7 @@ pub fn map_chart<'a, DB: DrawingBackend + 'a>(
                 cc.stroke_width(style.corridor_width),
             )))
             .map_err(draw_err)?
-            .label("corridor")
+            .label(p.reference_label())
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], cc));
     }
     Ok(chart)
