@@ -311,5 +311,31 @@ fn raw_bound(c: &mut Criterion) {
             }
         })
     });
+    g.bench_function("ssp_equations_soa_split", |b| {
+        let mut w = vec![0.0; n];
+        let mut sc = vec![(0.0, 0.0); n];
+        b.iter(|| {
+            let r = black_box(r);
+            for i in 0..n {
+                let vn = (v[i] + 0.3 * 4.0 * 0.02).clamp(0.0, 40.0);
+                let mut a = yaw[i] + v[i] / r * 0.02;
+                a = if a > std::f64::consts::PI {
+                    a - std::f64::consts::TAU
+                } else {
+                    a
+                };
+                yaw[i] = a;
+                w[i] = vn;
+            }
+            for i in 0..n {
+                sc[i] = litesim_core::math::sin_cos_reduced(yaw[i]);
+            }
+            for i in 0..n {
+                x[i] += w[i] * sc[i].1 * 0.02;
+                y[i] += w[i] * sc[i].0 * 0.02;
+                v[i] = w[i];
+            }
+        })
+    });
     g.finish();
 }

@@ -62,6 +62,15 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
     if x.abs().partial_cmp(&FAST_LIMIT) != Some(std::cmp::Ordering::Less) {
         return libm::sincos(x);
     }
+    sin_cos_reduced(x)
+}
+
+/// [`sin_cos`] for |x| < 1024 rad (a wrapped heading), without the check:
+/// the same bits as [`sin_cos`] there. Branch-free, so loops over many
+/// headings vectorise. Outside that range the result is meaningless (but
+/// never undefined behaviour).
+#[inline]
+pub fn sin_cos_reduced(x: f64) -> (f64, f64) {
     // After adding ROUND, the low mantissa bits of `y` hold k = round(x·N/2π)
     // in two's complement: the table index mod N without a float→int cast.
     let y = x * INV_STEP + ROUND;
@@ -77,6 +86,7 @@ pub fn sin_cos(x: f64) -> (f64, f64) {
         ca + (ca_lo + (ca * cm1 - sa * sb)),
     )
 }
+
 /// The last `(x, sin x, cos x)` evaluated, to skip recomputing identical
 /// arguments: a vehicle driving straight keeps its heading for many steps,
 /// and a turning one's new heading is needed both to move it and to report
