@@ -333,8 +333,8 @@ fn raw_bound(c: &mut Criterion) {
             for i in 0..n {
                 x[i] += w[i] * sc[i].1 * 0.02;
                 y[i] += w[i] * sc[i].0 * 0.02;
-                v[i] = w[i];
             }
+            v.copy_from_slice(&w);
         })
     });
     g.finish();
