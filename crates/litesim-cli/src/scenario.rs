@@ -75,10 +75,10 @@ pub fn plan_log(plan: &Plan) -> SimulationLog {
     rec.finish()
 }
 
-/// Lane borders of the test's map (no centre lines: a scenario replay shows
-/// several actors and stays readable).
-fn lanes(net: Option<&litesim_map::RoadNetwork>) -> Vec<Vec<(f64, f64)>> {
-    net.map(|n| crate::viz::lane_lines(n, false))
+/// The test map's road, borders and marks (no lane centre lines: a
+/// scenario replay shows several actors and stays readable).
+fn lanes(net: Option<&litesim_map::RoadNetwork>) -> litesim_viz::replay::Background {
+    net.map(|n| crate::viz::background(n, false))
         .unwrap_or_default()
 }
 

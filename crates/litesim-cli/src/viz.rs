@@ -2,6 +2,7 @@
 
 use anyhow::{Context, Result, anyhow, bail};
 use litesim_log::SimulationLog;
+use litesim_viz::replay::{Area, Background, LineKind, MapLine};
 use litesim_viz::{Style, VizError};
 use std::path::Path;
 
@@ -21,26 +22,54 @@ fn read(log: &Path) -> Result<SimulationLog> {
     SimulationLog::read_json(log).map_err(|e| anyhow!("{e}"))
 }
 
-/// Lane borders (and centres, when asked) of a road network, as lines to draw.
-pub fn lane_lines(net: &litesim_map::RoadNetwork, centres: bool) -> Vec<Vec<(f64, f64)>> {
-    net.lane_polylines(0.1)
-        .into_iter()
-        .flat_map(|l| {
-            let mut v = vec![l.inner, l.outer];
-            if centres {
-                v.push(l.center);
-            }
-            v
-        })
-        .map(|pts| pts.into_iter().map(|v| (v.x, v.y)).collect())
-        .collect()
+/// What a replay draws of a road network: lane areas (drivable road and
+/// sidewalks), lane borders, lane centres (when asked) and the painted road
+/// marks (solid, broken, double; white or yellow) on top.
+pub fn background(net: &litesim_map::RoadNetwork, centres: bool) -> Background {
+    const TOLERANCE: f64 = 0.1;
+    let xy = |pts: &[litesim_core::Vec2]| pts.iter().map(|v| (v.x, v.y)).collect::<Vec<_>>();
+    let lanes = net.lane_polylines(TOLERANCE);
+    let mut bg = Background::default();
+    for l in &lanes {
+        let mut outline = xy(&l.inner);
+        outline.extend(l.outer.iter().rev().map(|v| (v.x, v.y)));
+        bg.areas.push(Area {
+            outline,
+            drivable: litesim_map::model::is_drivable_kind(&l.kind),
+        });
+    }
+    for l in &lanes {
+        for border in [&l.inner, &l.outer] {
+            bg.lines.push(MapLine {
+                points: xy(border),
+                kind: LineKind::Border,
+            });
+        }
+        if centres {
+            bg.lines.push(MapLine {
+                points: xy(&l.center),
+                kind: LineKind::Centre,
+            });
+        }
+    }
+    for m in net.road_marks(TOLERANCE) {
+        if let Some(kind) = LineKind::of_mark(&m.kind, &m.color) {
+            bg.lines.push(MapLine {
+                points: xy(&m.points),
+                kind,
+            });
+        }
+    }
+    bg
 }
 
-/// Lane borders and centres of an OpenDRIVE map, for replays.
-fn lanes(map: Option<&Path>) -> Result<Vec<Vec<(f64, f64)>>> {
-    let Some(p) = map else { return Ok(Vec::new()) };
+/// The background of an OpenDRIVE map, for replays.
+fn lanes(map: Option<&Path>) -> Result<Background> {
+    let Some(p) = map else {
+        return Ok(Background::default());
+    };
     let net = litesim_map::RoadNetwork::load(p).map_err(|e| anyhow!("{e}"))?;
-    Ok(lane_lines(&net, true))
+    Ok(background(&net, true))
 }
 
 fn err(e: VizError) -> anyhow::Error {

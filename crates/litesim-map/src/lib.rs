@@ -23,6 +23,6 @@ pub mod parse;
 pub mod road;
 
 pub use grid::{GridError, Obstacle, OccupancyGrid};
-pub use network::{LanePolyline, LaneRef, RoadNetwork, RoadPosition, RoadSummary};
+pub use network::{LanePolyline, LaneRef, MarkRun, RoadNetwork, RoadPosition, RoadSummary};
 pub use parse::{MapError, Warning, parse};
 pub use road::{Direction, LaneSpan};

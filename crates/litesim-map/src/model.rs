@@ -116,20 +116,25 @@ pub struct Lane {
 impl Lane {
     /// True for lane types a vehicle may drive in.
     pub fn is_drivable(&self) -> bool {
-        matches!(
-            self.kind.as_str(),
-            "driving"
-                | "entry"
-                | "exit"
-                | "onRamp"
-                | "offRamp"
-                | "connectingRamp"
-                | "slipLane"
-                | "bidirectional"
-                | "mwyEntry"
-                | "mwyExit"
-        )
+        is_drivable_kind(&self.kind)
     }
+}
+
+/// True for OpenDRIVE lane types a vehicle may drive in.
+pub fn is_drivable_kind(kind: &str) -> bool {
+    matches!(
+        kind,
+        "driving"
+            | "entry"
+            | "exit"
+            | "onRamp"
+            | "offRamp"
+            | "connectingRamp"
+            | "slipLane"
+            | "bidirectional"
+            | "mwyEntry"
+            | "mwyExit"
+    )
 }
 
 /// A lane section.

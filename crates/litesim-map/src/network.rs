@@ -69,6 +69,23 @@ pub struct LanePolyline {
     pub inner: Vec<Vec2>,
     /// Outer border.
     pub outer: Vec<Vec2>,
+    /// The lane's road marks along its outer border, one run per
+    /// `<roadMark>` record (from its `sOffset` to the next record); for the
+    /// centre lane (id 0, which has no width) along the reference line.
+    pub marks: Vec<MarkRun>,
+}
+
+/// A stretch of one road mark, as a polyline to draw.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MarkRun {
+    /// OpenDRIVE type: `solid`, `broken`, `solid solid`, `none`, …
+    pub kind: String,
+    /// OpenDRIVE colour: `standard` (white), `yellow`, …
+    pub color: String,
+    /// Line width (m).
+    pub width: f64,
+    /// The border points the mark covers.
+    pub points: Vec<Vec2>,
 }
 
 #[derive(Clone, Debug)]
@@ -421,10 +438,28 @@ impl RoadNetwork {
         out
     }
 
-    /// Centre and border polylines of every lane, within `tolerance` m of the
-    /// true curves (chord error on the reference line, plus a sample wherever
+    /// Centre and border polylines of every lane (not the zero-width centre
+    /// lanes), within `tolerance` m of the true curves (chord error on the reference line, plus a sample wherever
     /// lane width changes).
     pub fn lane_polylines(&self, tolerance: f64) -> Vec<LanePolyline> {
+        let mut all = self.polylines(tolerance);
+        all.retain(|l| l.lane != 0);
+        all
+    }
+
+    /// Every road mark of the map (lane borders and centre lines), as runs
+    /// within `tolerance` m of the true curves, in road, section and lane
+    /// order.
+    pub fn road_marks(&self, tolerance: f64) -> Vec<MarkRun> {
+        self.polylines(tolerance)
+            .into_iter()
+            .flat_map(|l| l.marks)
+            .collect()
+    }
+
+    /// Lane polylines including the centre lanes (id 0, along the reference
+    /// line, carrying the centre marks).
+    fn polylines(&self, tolerance: f64) -> Vec<LanePolyline> {
         let tol = tolerance.max(1e-4);
         let mut out = Vec::new();
         for r in &self.od.roads {
@@ -440,7 +475,29 @@ impl RoadNetwork {
                     s = (s + step_for(k, tol, 5.0)).min(s_end);
                     ss.push(s);
                 }
-                for lane in sec.left.iter().chain(sec.right.iter()) {
+                // A sample where each road mark starts, so that runs meet.
+                let starts = sec
+                    .center
+                    .iter()
+                    .chain(&sec.left)
+                    .chain(&sec.right)
+                    .flat_map(|l| &l.road_marks)
+                    .map(|m| sec.s + m.s_offset)
+                    .filter(|s| *s > sec.s && *s < s_end);
+                ss.extend(starts);
+                ss.sort_by(f64::total_cmp);
+                ss.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+                // The centre lane's marks run along the reference line
+                // (the inner border of lanes ±1).
+                let first = sec.left.first().or(sec.right.first()).map(|l| l.id);
+                let lanes = sec
+                    .center
+                    .iter()
+                    .chain(sec.left.iter())
+                    .chain(sec.right.iter());
+                for lane in lanes {
+                    let span_id = if lane.id == 0 { first } else { Some(lane.id) };
+                    let Some(span_id) = span_id else { continue };
                     let mut pl = LanePolyline {
                         road: r.id.clone(),
                         section: si,
@@ -449,7 +506,10 @@ impl RoadNetwork {
                         center: Vec::with_capacity(ss.len()),
                         inner: Vec::with_capacity(ss.len()),
                         outer: Vec::with_capacity(ss.len()),
+                        marks: Vec::new(),
                     };
+                    // s of each border point, to cut the mark runs.
+                    let mut at = Vec::with_capacity(ss.len());
                     for &s in &ss {
                         // Evaluate just inside the section at its end.
                         let se = if s >= s_end {
@@ -457,16 +517,25 @@ impl RoadNetwork {
                         } else {
                             s
                         };
-                        if let Some(span) = r.lane_span(se, lane.id) {
+                        if let Some(span) = r.lane_span(se, span_id) {
                             let pt = |t: f64| {
                                 let (x, y, _) = r.st_to_xyz(se, t);
                                 Vec2::new(x, y)
                             };
-                            pl.center.push(pt(span.t_center()));
-                            pl.inner.push(pt(span.t_inner));
-                            pl.outer.push(pt(span.t_outer));
+                            if lane.id == 0 {
+                                let c = pt(span.t_inner);
+                                pl.center.push(c);
+                                pl.inner.push(c);
+                                pl.outer.push(c);
+                            } else {
+                                pl.center.push(pt(span.t_center()));
+                                pl.inner.push(pt(span.t_inner));
+                                pl.outer.push(pt(span.t_outer));
+                            }
+                            at.push(s);
                         }
                     }
+                    pl.marks = mark_runs(&lane.road_marks, sec.s, &at, &pl.outer);
                     out.push(pl);
                 }
             }
@@ -762,4 +831,40 @@ fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64, f64) {
         0.0
     };
     (s, t, beyond)
+}
+
+/// Cuts a border (points at road positions `at`) into one run per road-mark
+/// record; records apply from `section_s + sOffset` to the next record.
+/// Neighbouring runs share their boundary point so that the drawing has no
+/// gap.
+fn mark_runs(
+    marks: &[crate::model::RoadMark],
+    section_s: f64,
+    at: &[f64],
+    border: &[Vec2],
+) -> Vec<MarkRun> {
+    let mut sorted: Vec<&crate::model::RoadMark> = marks.iter().collect();
+    sorted.sort_by(|a, b| a.s_offset.total_cmp(&b.s_offset));
+    let mut runs = Vec::new();
+    for (k, m) in sorted.iter().enumerate() {
+        let from = section_s + m.s_offset;
+        let to = sorted
+            .get(k + 1)
+            .map_or(f64::INFINITY, |n| section_s + n.s_offset);
+        let points: Vec<Vec2> = at
+            .iter()
+            .zip(border)
+            .filter(|(s, _)| **s >= from - 1e-9 && **s <= to + 1e-9)
+            .map(|(_, p)| *p)
+            .collect();
+        if points.len() >= 2 {
+            runs.push(MarkRun {
+                kind: m.kind.clone(),
+                color: m.color.clone(),
+                width: m.width,
+                points,
+            });
+        }
+    }
+    runs
 }

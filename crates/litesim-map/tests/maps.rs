@@ -289,3 +289,55 @@ fn a_point_before_a_junction_is_on_the_incoming_road_not_the_junction_road() {
         assert!((rp.s - s).abs() < 1e-6, "{rp:?}");
     }
 }
+
+/// Road marks come out as runs along the lane's outer border, cut where a
+/// record's `sOffset` starts (sharing the boundary point), and the centre
+/// lane's marks along the reference line; lane polylines stay without the
+/// zero-width centre lane.
+#[test]
+fn road_marks_follow_their_records() {
+    let xml = r#"<OpenDRIVE><header revMajor="1" revMinor="6"/>
+<road id="1" length="100" junction="-1"><planView>
+<geometry s="0" x="0" y="0" hdg="0" length="100"><line/></geometry>
+</planView><lanes><laneSection s="0">
+<center><lane id="0" type="none"><roadMark sOffset="0" type="solid" color="yellow" width="0.15"/></lane></center>
+<right><lane id="-1" type="driving"><width sOffset="0" a="3.5" b="0" c="0" d="0"/>
+<roadMark sOffset="61.3" type="solid" color="standard" width="0.12"/>
+<roadMark sOffset="0" type="broken" color="standard" width="0.12"/></lane></right>
+</laneSection></lanes></road></OpenDRIVE>"#;
+    let m = RoadNetwork::from_xodr(xml, "marks.xodr").unwrap();
+    assert_eq!(
+        m.lane_polylines(0.1).len(),
+        1,
+        "no polyline for the centre lane"
+    );
+    let marks = m.road_marks(0.1);
+    let kinds: Vec<(&str, &str)> = marks
+        .iter()
+        .map(|r| (r.kind.as_str(), r.color.as_str()))
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            ("solid", "yellow"),
+            ("broken", "standard"),
+            ("solid", "standard")
+        ]
+    );
+    let (centre, broken, solid) = (&marks[0], &marks[1], &marks[2]);
+    assert!(centre.points.iter().all(|p| p.y.abs() < 1e-9));
+    assert!((centre.points.last().unwrap().x - 100.0).abs() < 1e-3);
+    assert!(broken.points.iter().all(|p| (p.y + 3.5).abs() < 1e-9));
+    assert!((broken.points[0].x).abs() < 1e-9);
+    let cut = broken.points.last().unwrap().x;
+    assert!(
+        (cut - 61.3).abs() < 1e-9,
+        "the broken run ends at 61.3 m: {cut}"
+    );
+    assert_eq!(
+        solid.points[0],
+        *broken.points.last().unwrap(),
+        "runs share the cut"
+    );
+    assert!((solid.points.last().unwrap().x - 100.0).abs() < 1e-3);
+}

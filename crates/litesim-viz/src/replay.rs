@@ -9,13 +9,183 @@ use litesim_log::SimulationLog;
 use plotters::prelude::*;
 use std::path::Path;
 
-/// Background lines (lane borders and centres), in world metres.
-pub type Lanes = [Vec<(f64, f64)>];
+/// What a replay draws under the actors: lane areas, lane lines and road
+/// marks, in world metres (built from an OpenDRIVE map by the caller).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Background {
+    /// Lane areas (outline polygons), drawn first.
+    pub areas: Vec<Area>,
+    /// Lines, drawn over the areas in order.
+    pub lines: Vec<MapLine>,
+}
+
+/// A filled lane area.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Area {
+    /// Outline (closed implicitly).
+    pub outline: Vec<(f64, f64)>,
+    /// Drivable road (true) or sidewalk / other lane (false).
+    pub drivable: bool,
+}
+
+/// A line of the map.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapLine {
+    /// Points (m).
+    pub points: Vec<(f64, f64)>,
+    /// How to draw it.
+    pub kind: LineKind,
+}
+
+/// How a map line is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LineKind {
+    /// A lane border without a road mark: thin, in the `lanes` colour.
+    Border,
+    /// A lane centre line: thin, light.
+    Centre,
+    /// A road mark (OpenDRIVE `solid`, `broken`, `solid solid`, …).
+    Mark {
+        /// Dashed (`broken`, and the broken half of mixed types).
+        broken: bool,
+        /// Two lines (`solid solid`, `broken broken`, `solid broken`, …), drawn bold.
+        double: bool,
+        /// Yellow (`yellow`, `orange`) rather than white.
+        yellow: bool,
+    },
+}
+
+impl LineKind {
+    /// The kind of an OpenDRIVE road mark, or `None` for marks that are not
+    /// painted lines (`none`, `grass`, `curb`, `edge`, `botts dots`, …: the
+    /// border is drawn plain then).
+    pub fn of_mark(kind: &str, color: &str) -> Option<LineKind> {
+        let kind = kind.trim().to_ascii_lowercase();
+        let (broken, double) = match kind.as_str() {
+            "solid" => (false, false),
+            "broken" => (true, false),
+            "solid solid" => (false, true),
+            "broken broken" | "solid broken" | "broken solid" => (true, true),
+            _ => return None,
+        };
+        let yellow = matches!(
+            color.trim().to_ascii_lowercase().as_str(),
+            "yellow" | "orange"
+        );
+        Some(LineKind::Mark {
+            broken,
+            double,
+            yellow,
+        })
+    }
+}
+
+/// Dash pattern of broken marks (m): 3 m painted, 9 m gap, the pattern
+/// OpenDRIVE's own examples use for `broken` when no `<type>` is given.
+const DASH: (f64, f64) = (3.0, 9.0);
+
+/// Splits a polyline into its dashes.
+fn dashes(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
+    let mut out = Vec::new();
+    let mut cur: Vec<(f64, f64)> = Vec::new();
+    // Position within the pattern (m); painted while < DASH.0.
+    let mut phase = 0.0;
+    let period = DASH.0 + DASH.1;
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let len = ((b.0 - a.0).powi(2) + (b.1 - a.1).powi(2)).sqrt();
+        if !(len.is_finite() && len > 0.0) {
+            continue;
+        }
+        let mut done = 0.0;
+        while done < len {
+            let painted = phase < DASH.0;
+            let room = if painted {
+                DASH.0 - phase
+            } else {
+                period - phase
+            };
+            let step = room.min(len - done);
+            let at = |d: f64| (a.0 + (b.0 - a.0) * d / len, a.1 + (b.1 - a.1) * d / len);
+            if painted {
+                if cur.is_empty() {
+                    cur.push(at(done));
+                }
+                cur.push(at(done + step));
+            }
+            done += step;
+            phase += step;
+            if phase >= period - 1e-12 {
+                phase = 0.0;
+            }
+            if phase >= DASH.0 && !cur.is_empty() {
+                out.push(std::mem::take(&mut cur));
+            }
+        }
+    }
+    if cur.len() >= 2 {
+        out.push(cur);
+    }
+    out
+}
+
+/// Draws the background on a replay chart.
+fn draw_background<DB: DrawingBackend>(
+    chart: &mut ChartContext<
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    bg: &Background,
+    style: &Style,
+) -> Result<(), VizError> {
+    let (road, walk) = (style.c(&style.road), style.c(&style.sidewalk));
+    chart
+        .draw_series(bg.areas.iter().map(|a| {
+            Polygon::new(
+                a.outline.clone(),
+                if a.drivable { road } else { walk }.filled(),
+            )
+        }))
+        .map_err(draw_err)?;
+    let (lanes, white, yellow) = (
+        style.c(&style.lanes),
+        style.c(&style.mark_white),
+        style.c(&style.mark_yellow),
+    );
+    for l in &bg.lines {
+        let (colour, width, broken) = match l.kind {
+            LineKind::Border => (lanes.to_rgba(), 1, false),
+            LineKind::Centre => (lanes.mix(0.35), 1, false),
+            LineKind::Mark {
+                broken,
+                double,
+                yellow: y,
+            } => (
+                if y { yellow } else { white }.to_rgba(),
+                if double { 3 } else { 2 },
+                broken,
+            ),
+        };
+        let parts = if broken {
+            dashes(&l.points)
+        } else {
+            vec![l.points.clone()]
+        };
+        chart
+            .draw_series(
+                parts
+                    .into_iter()
+                    .map(|p| PathElement::new(p, colour.stroke_width(width))),
+            )
+            .map_err(draw_err)?;
+    }
+    Ok(())
+}
 
 fn frame<DB: DrawingBackend>(
     root: &DrawingArea<DB, plotters::coord::Shift>,
     log: &SimulationLog,
-    lanes: &Lanes,
+    bg: &Background,
     style: &Style,
     tick: Option<u64>,
     title: &str,
@@ -23,8 +193,13 @@ fn frame<DB: DrawingBackend>(
     root.fill(&style.c(&style.background)).map_err(draw_err)?;
     let mut b = world_bounds(log)
         .ok_or_else(|| VizError::Empty("the log has no positions to replay".into()))?;
-    for l in lanes {
-        for p in l {
+    for p in bg
+        .lines
+        .iter()
+        .flat_map(|l| &l.points)
+        .chain(bg.areas.iter().flat_map(|a| &a.outline))
+    {
+        {
             b.0 = (b.0.0.min(p.0), b.0.1.max(p.0));
             b.1 = (b.1.0.min(p.1), b.1.1.max(p.1));
         }
@@ -46,14 +221,7 @@ fn frame<DB: DrawingBackend>(
         .label_style(("sans-serif", style.tick_font))
         .draw()
         .map_err(draw_err)?;
-    let lc = style.c(&style.lanes);
-    chart
-        .draw_series(
-            lanes
-                .iter()
-                .map(|l| PathElement::new(l.clone(), lc.stroke_width(1))),
-        )
-        .map_err(draw_err)?;
+    draw_background(&mut chart, bg, style)?;
     for (k, t) in log.tracks.iter().enumerate() {
         let c = style.series(k);
         let pts: Vec<(f64, f64)> = t
@@ -93,7 +261,7 @@ fn frame<DB: DrawingBackend>(
 /// Writes the replay overview (all tracks) as PNG.
 pub fn write_png(
     log: &SimulationLog,
-    lanes: &Lanes,
+    background: &Background,
     style: &Style,
     path: &Path,
 ) -> Result<(), VizError> {
@@ -106,7 +274,7 @@ pub fn write_png(
         frame(
             &root,
             log,
-            lanes,
+            background,
             style,
             None,
             &format!("{} actors", log.tracks.len()),
@@ -118,7 +286,7 @@ pub fn write_png(
 /// Writes the replay GIF, timed like [`crate::animation`].
 pub fn write_gif(
     log: &SimulationLog,
-    lanes: &Lanes,
+    background: &Background,
     style: &Style,
     path: &Path,
     max_frames: usize,
@@ -143,7 +311,7 @@ pub fn write_gif(
                 frame(
                     &root,
                     log,
-                    lanes,
+                    background,
                     style,
                     Some(*tick),
                     &format!("t = {time:.2} s"),
@@ -158,4 +326,48 @@ pub fn write_gif(
         message: e.to_string(),
     })?;
     Ok(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dashes_keep_their_pattern_across_vertices() {
+        // 24 m in two pieces (10 m + 14 m): dashes at 0–3 m and 12–15 m.
+        let d = dashes(&[(0.0, 0.0), (10.0, 0.0), (24.0, 0.0)]);
+        assert_eq!(d.len(), 2, "{d:?}");
+        assert_eq!(d[0], vec![(0.0, 0.0), (3.0, 0.0)]);
+        assert_eq!(d[1].first(), Some(&(12.0, 0.0)));
+        assert_eq!(d[1].last(), Some(&(15.0, 0.0)));
+        // A dash across a vertex bends with the line.
+        let d = dashes(&[(0.0, 0.0), (2.0, 0.0), (2.0, 5.0)]);
+        assert_eq!(d[0], vec![(0.0, 0.0), (2.0, 0.0), (2.0, 1.0)]);
+        assert!(dashes(&[(1.0, 1.0)]).is_empty());
+        assert!(dashes(&[(0.0, 0.0), (f64::NAN, 0.0)]).is_empty());
+    }
+
+    #[test]
+    fn mark_kinds() {
+        let m = |k, c| LineKind::of_mark(k, c);
+        assert_eq!(
+            m("broken", "standard"),
+            Some(LineKind::Mark {
+                broken: true,
+                double: false,
+                yellow: false
+            })
+        );
+        assert_eq!(
+            m("solid solid", "yellow"),
+            Some(LineKind::Mark {
+                broken: false,
+                double: true,
+                yellow: true
+            })
+        );
+        assert_eq!(m("none", "standard"), None);
+        assert_eq!(m("curb", "standard"), None);
+        assert_eq!(m("botts dots", "white"), None);
+    }
 }

@@ -51,6 +51,14 @@ pub struct Style {
     pub series: Vec<String>,
     /// Lane lines in replays.
     pub lanes: String,
+    /// Road surface (drivable lanes) in replays.
+    pub road: String,
+    /// Sidewalks and other lanes in replays.
+    pub sidewalk: String,
+    /// Road marks of colour `standard`/`white`.
+    pub mark_white: String,
+    /// Road marks of colour `yellow` (and `orange`).
+    pub mark_yellow: String,
 }
 
 impl Default for Style {
@@ -83,6 +91,10 @@ impl Default for Style {
                 "#8c564b".into(),
             ],
             lanes: "#9a9a9a".into(),
+            road: "#c8c8c8".into(),
+            sidewalk: "#e6e1d3".into(),
+            mark_white: "#ffffff".into(),
+            mark_yellow: "#e8b400".into(),
         }
     }
 }
@@ -126,7 +138,7 @@ impl Style {
 
     /// Checks colours and sizes.
     pub fn validate(&self) -> Result<(), StyleError> {
-        let colours: [(&'static str, &String); 13] = [
+        let colours: [(&'static str, &String); 17] = [
             ("background", &self.background),
             ("free", &self.free),
             ("inflated", &self.inflated),
@@ -139,6 +151,10 @@ impl Style {
             ("samples", &self.samples),
             ("edges", &self.edges),
             ("lanes", &self.lanes),
+            ("road", &self.road),
+            ("sidewalk", &self.sidewalk),
+            ("mark_white", &self.mark_white),
+            ("mark_yellow", &self.mark_yellow),
             ("series", self.series.first().unwrap_or(&self.background)),
         ];
         for (field, value) in colours {

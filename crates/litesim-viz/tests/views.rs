@@ -92,14 +92,22 @@ fn every_view_writes_a_real_file() {
     assert_eq!(&gif[..6], b"GIF89a");
     let frames = litesim_viz::animation::write_gif(log, &style, &dir.join("run.gif"), 40).unwrap();
     assert!(frames <= 40 && frames > 5, "{frames}");
-    litesim_viz::replay::write_png(
+    let lanes = litesim_viz::replay::Background {
+        areas: Vec::new(),
+        lines: vec![litesim_viz::replay::MapLine {
+            points: vec![(0.0, 0.0), (80.0, 0.0)],
+            kind: litesim_viz::replay::LineKind::Border,
+        }],
+    };
+    litesim_viz::replay::write_png(log, &lanes, &style, &dir.join("replay.png")).unwrap();
+    let rf = litesim_viz::replay::write_gif(
         log,
-        &[vec![(0.0, 0.0), (80.0, 0.0)]],
+        &Default::default(),
         &style,
-        &dir.join("replay.png"),
+        &dir.join("replay.gif"),
+        10,
     )
     .unwrap();
-    let rf = litesim_viz::replay::write_gif(log, &[], &style, &dir.join("replay.gif"), 10).unwrap();
     assert!(rf <= 10);
     std::fs::remove_dir_all(&dir).unwrap();
 }
@@ -149,4 +157,64 @@ fn bad_input_is_an_error_or_a_view_that_says_so() {
         (s.line_width, s.obstacle.as_str(), s.frame_size),
         (4, "#000000", [800, 600])
     );
+}
+
+/// A replay paints the road surface, yellow solid marks and broken white
+/// marks as dashes (3 m on, 9 m off): counted in the decoded PNG, with
+/// colours no other element uses.
+#[test]
+fn replay_draws_road_surface_and_marks() {
+    use litesim_viz::replay::{Area, Background, LineKind, MapLine};
+    let style = Style {
+        road: "#00ff00".into(),
+        mark_white: "#ff00ff".into(),
+        mark_yellow: "#ffff00".into(),
+        ..Style::default()
+    };
+    let lane = |y0: f64, y1: f64| Area {
+        outline: vec![(0.0, y0), (200.0, y0), (200.0, y1), (0.0, y1)],
+        drivable: true,
+    };
+    let bg = Background {
+        areas: vec![lane(-3.5, 0.0), lane(0.0, 3.5)],
+        lines: vec![
+            MapLine {
+                points: vec![(0.0, 0.0), (200.0, 0.0)],
+                kind: LineKind::of_mark("solid", "yellow").unwrap(),
+            },
+            MapLine {
+                points: vec![(0.0, -3.5), (100.0, -3.5), (200.0, -3.5)],
+                kind: LineKind::of_mark("broken", "standard").unwrap(),
+            },
+        ],
+    };
+    let dir = std::env::temp_dir().join(format!("litesim-replay-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("r.png");
+    litesim_viz::replay::write_png(log(), &bg, &style, &path).unwrap();
+    let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&path).unwrap()));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let (w, h) = (info.width as usize, info.height as usize);
+    let px = |x: usize, y: usize| {
+        let i = (y * w + x) * 3;
+        (buf[i], buf[i + 1], buf[i + 2])
+    };
+    let count = |c: (u8, u8, u8)| {
+        (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| px(x, y) == c)
+            .count()
+    };
+    assert!(count((0, 255, 0)) > 1000, "road surface");
+    assert!(count((255, 255, 0)) > 100, "yellow centre line");
+    // The broken mark: along its best row, separate magenta runs (dashes).
+    let row = (0..h)
+        .max_by_key(|&y| (0..w).filter(|&x| px(x, y) == (255, 0, 255)).count())
+        .unwrap();
+    let on: Vec<bool> = (0..w).map(|x| px(x, row) == (255, 0, 255)).collect();
+    let dashes = on.windows(2).filter(|p| p[1] && !p[0]).count();
+    assert!((12..=20).contains(&dashes), "{dashes} dashes on 200 m");
+    std::fs::remove_dir_all(&dir).unwrap();
 }
