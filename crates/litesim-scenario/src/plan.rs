@@ -76,7 +76,9 @@ pub struct ActorPlan {
 }
 
 impl ActorPlan {
-    /// The planned state at time `t` (linear interpolation, held at the ends).
+    /// The planned state at time `t` (held at the ends). Positions follow
+    /// the samples' headings between them (see [`between`]); heading, speed
+    /// are interpolated linearly.
     pub fn at(&self, t: f64, dt: f64) -> PlanSample {
         let n = self.samples.len();
         if n == 0 {
@@ -92,15 +94,49 @@ impl ActorPlan {
         }
         let u = t / dt - k;
         let (a, b) = (&self.samples[i], &self.samples[i + 1]);
+        let (x, y) = between(a, b, u);
         PlanSample {
             t,
-            x: a.x + (b.x - a.x) * u,
-            y: a.y + (b.y - a.y) * u,
+            x,
+            y,
             yaw: a.yaw + wrap_angle(b.yaw - a.yaw) * u,
             v: a.v + (b.v - a.v) * u,
             a: a.a,
         }
     }
+}
+
+/// The position a fraction `u` of the way from sample `a` to `b`.
+///
+/// Where both headings run along the chord (within 0.35 rad, a vehicle
+/// following its path), a cubic Hermite curve whose end tangents are the
+/// headings scaled to the chord length: on a bend it follows the arc
+/// instead of cutting it (a chord of 0.1 s at 17 m/s on a 55 m radius sags
+/// 6 mm, enough to make a closed-loop driver chase a saw-tooth), and on a
+/// straight it is the straight line. Elsewhere (standing, walking sideways)
+/// plainly linear.
+fn between(a: &PlanSample, b: &PlanSample, u: f64) -> (f64, f64) {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    let linear = (a.x + dx * u, a.y + dy * u);
+    let d = (dx * dx + dy * dy).sqrt();
+    if !(d > 1e-6) {
+        return linear;
+    }
+    let chord = math::atan2(dy, dx);
+    if wrap_angle(a.yaw - chord).abs() > 0.35 || wrap_angle(b.yaw - chord).abs() > 0.35 {
+        return linear;
+    }
+    let (sa, ca) = math::sin_cos(a.yaw);
+    let (sb, cb) = math::sin_cos(b.yaw);
+    let (u2, u3) = (u * u, u * u * u);
+    let h00 = 2.0 * u3 - 3.0 * u2 + 1.0;
+    let h10 = u3 - 2.0 * u2 + u;
+    let h01 = -2.0 * u3 + 3.0 * u2;
+    let h11 = u3 - u2;
+    (
+        h00 * a.x + h10 * d * ca + h01 * b.x + h11 * d * cb,
+        h00 * a.y + h10 * d * sa + h01 * b.y + h11 * d * sb,
+    )
 }
 
 /// A timed phase of the behaviour tree.

@@ -472,7 +472,7 @@ fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
 }
 
 /// FNV-1a of the smoke run's log JSON (seed 1, kinematic, dummy).
-const GOLDEN_SMOKE_LOG: u64 = 0xf720_2086_4526_769c;
+const GOLDEN_SMOKE_LOG: u64 = 0xef02_e064_66f6_8ed9;
 
 #[test]
 fn in_process_and_grpc_runs_are_identical() {
@@ -780,4 +780,13 @@ fn planned_commands_label_and_follow_the_curvature() {
         mean < 0.25 * planned_max,
         "mean |applied − planned| {mean} vs max {planned_max}"
     );
+    // No saw-tooth in the steady bend: the plan between its 0.1 s samples
+    // follows the arc, not the chord (a chord made the driver's angle jump
+    // by ~0.006 rad every 5 steps).
+    let bend = &ego.control.steering_angle[500..580];
+    let jump = bend
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .fold(0.0, f64::max);
+    assert!(jump < 0.001, "steering jumps by {jump} rad between steps");
 }
