@@ -119,7 +119,7 @@ fn between(a: &PlanSample, b: &PlanSample, u: f64) -> (f64, f64) {
     let (dx, dy) = (b.x - a.x, b.y - a.y);
     let linear = (a.x + dx * u, a.y + dy * u);
     let d = (dx * dx + dy * dy).sqrt();
-    if !(d > 1e-6) {
+    if d.is_nan() || d <= 1e-6 {
         return linear;
     }
     let chord = math::atan2(dy, dx);
