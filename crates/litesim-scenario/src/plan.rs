@@ -122,12 +122,13 @@ fn between(a: &PlanSample, b: &PlanSample, u: f64) -> (f64, f64) {
     if d.is_nan() || d <= 1e-6 {
         return linear;
     }
-    let chord = math::atan2(dy, dx);
-    if wrap_angle(a.yaw - chord).abs() > 0.35 || wrap_angle(b.yaw - chord).abs() > 0.35 {
-        return linear;
-    }
     let (sa, ca) = math::sin_cos(a.yaw);
     let (sb, cb) = math::sin_cos(b.yaw);
+    // cos of the angle between each heading and the chord, against cos 0.35.
+    const ALONG: f64 = 0.939_372_712_847_379;
+    if (dx * ca + dy * sa) < ALONG * d || (dx * cb + dy * sb) < ALONG * d {
+        return linear;
+    }
     let (u2, u3) = (u * u, u * u * u);
     let h00 = 2.0 * u3 - 3.0 * u2 + 1.0;
     let h10 = u3 - 2.0 * u2 + u;
