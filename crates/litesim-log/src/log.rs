@@ -230,12 +230,13 @@ pub struct PlanRecord {
 impl PlanRecord {
     /// The label of `corridor` in pictures: "corridor" unless named.
     pub fn reference_label(&self) -> &str {
-        if self.reference_name.is_empty() {
-            "corridor"
-        } else {
-            &self.reference_name
-        }
+        named_or(&self.reference_name, "corridor")
     }
+}
+
+/// `name`, or `default` when it is empty (labels older logs lack).
+fn named_or<'a>(name: &'a str, default: &'a str) -> &'a str {
+    if name.is_empty() { default } else { name }
 }
 
 /// Per control cycle: errors against the corridor, progress, command, prediction.
@@ -265,11 +266,7 @@ pub struct TrackingColumns {
 impl TrackingColumns {
     /// The legend of the command series in pictures.
     pub fn command_label(&self) -> &str {
-        if self.command_source.is_empty() {
-            "MPC command"
-        } else {
-            &self.command_source
-        }
+        named_or(&self.command_source, "MPC command")
     }
 }
 
