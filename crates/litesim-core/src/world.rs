@@ -487,7 +487,11 @@ fn external_input(ctrl: &ExternalController, me: usize, snapshot: &[Snapshot]) -
         ExternalController::Cruise {
             desired_speed,
             max_acceleration,
-        } => direct((desired_speed - v).clamp(-max_acceleration, max_acceleration)),
+        } => direct(math::clamp(
+            desired_speed - v,
+            -max_acceleration,
+            max_acceleration,
+        )),
         ExternalController::Idm {
             desired_speed,
             max_acceleration: a_max,

@@ -187,3 +187,28 @@ fn actuator_lag_delays_and_smooths() {
         st.acceleration
     );
 }
+
+/// Limits are public fields: crossed or NaN limits must not panic a step
+/// (`f64::clamp` would), whatever the result is worth.
+#[test]
+fn crossed_or_nan_limits_do_not_panic() {
+    let mut b = KinematicBicycle::new(2.7);
+    b.max_steering_angle = -0.5;
+    b.max_deceleration = f64::NAN;
+    b.max_speed = -1.0;
+    let mut s = SspDynamics::for_length(4.5);
+    s.max_wheels_angle_deg = -35.0;
+    s.brake_deceleration = f64::NAN;
+    let input = VehicleInput::Direct {
+        acceleration: 1.0,
+        steering_angle: 0.2,
+    };
+    let mut st = VehicleState {
+        v: 5.0,
+        ..VehicleState::default()
+    };
+    for _ in 0..10 {
+        b.step(&mut st, &input, 0.02);
+        s.step(&mut st, &input, 0.02);
+    }
+}

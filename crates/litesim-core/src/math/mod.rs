@@ -124,6 +124,20 @@ pub fn atan(x: f64) -> f64 {
 pub fn atan2(y: f64, x: f64) -> f64 {
     libm::atan2(y, x)
 }
+/// `x` limited to `[lo, hi]` without `f64::clamp`'s panic when the limits
+/// are crossed or NaN (model limits are public fields a user may set). For
+/// `lo ≤ hi` the very same result as `f64::clamp`, NaN `x` included.
+#[inline]
+pub fn clamp(x: f64, lo: f64, hi: f64) -> f64 {
+    if x < lo {
+        lo
+    } else if x > hi {
+        hi
+    } else {
+        x
+    }
+}
+
 /// Euclidean length `sqrt(x² + y²)` (exactly rounded sqrt; no hypot scaling).
 #[inline]
 pub fn hypot(x: f64, y: f64) -> f64 {

@@ -100,8 +100,8 @@ impl KinematicBicycle {
             } => (acceleration, steering_angle),
         };
         (
-            a.clamp(-self.max_deceleration, self.max_acceleration),
-            d.clamp(-self.max_steering_angle, self.max_steering_angle),
+            math::clamp(a, -self.max_deceleration, self.max_acceleration),
+            math::clamp(d, -self.max_steering_angle, self.max_steering_angle),
         )
     }
 
@@ -142,7 +142,7 @@ impl KinematicBicycle {
         st.y += v * s * dt;
         st.yaw = wrap_angle(st.yaw + yaw_rate * dt);
         let v_free = v + a * dt;
-        let v_new = v_free.clamp(0.0, self.max_speed);
+        let v_new = math::clamp(v_free, 0.0, self.max_speed);
         st.v = v_new;
         st.yaw_rate = yaw_rate;
         // The applied acceleration: the command, unless the speed limits cut

@@ -136,10 +136,16 @@ impl VehicleModel for SspDynamics {
                 acceleration,
                 steering_angle,
             } => (
-                acceleration.clamp(-self.brake_deceleration, self.max_acceleration),
-                steering_angle
-                    .to_degrees()
-                    .clamp(-self.max_wheels_angle_deg, self.max_wheels_angle_deg),
+                math::clamp(
+                    acceleration,
+                    -self.brake_deceleration,
+                    self.max_acceleration,
+                ),
+                math::clamp(
+                    steering_angle.to_degrees(),
+                    -self.max_wheels_angle_deg,
+                    self.max_wheels_angle_deg,
+                ),
             ),
         };
         // ω = v / R with R = L / sin δ, as the seed writes it (zero when the
