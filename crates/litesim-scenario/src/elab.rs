@@ -698,9 +698,18 @@ impl Elab<'_> {
                         root = n;
                     }
                 }
-                Member::Method { name, .. } | Member::Event { name, .. } => self.test.notes.push(
-                    format!("'{}' in {}: not executed by the engine", name.text, sc.ns),
-                ),
+                Member::Method { name, .. } => self.test.notes.push(format!(
+                    "method '{}' in {}: not executed by the engine",
+                    name.text, sc.ns
+                )),
+                // A plain `event e` is what `emit e` raises and `@e` waits
+                // for; only a definition (`event e is …`) goes unevaluated.
+                Member::Event {
+                    name, is: Some(_), ..
+                } => self.test.notes.push(format!(
+                    "event '{}' in {}: its `is` definition is not evaluated; only `emit {}` raises it",
+                    name.text, sc.ns, name.text
+                )),
                 Member::On { .. } => self
                     .test
                     .notes

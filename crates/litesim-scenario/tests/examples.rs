@@ -241,6 +241,12 @@ fn outcomes_of_the_example_scenarios() {
     // Events: the parked car waits for `clear` (emitted at 3 s); `until
     // elapsed(2s)` cuts the ego's 10 s phase to 2 s.
     let ewu = &r["emit_wait_until"].plan;
+    // A declared event is used, not "not executed": no note about it.
+    assert!(
+        r["emit_wait_until"].summary.notes.is_empty(),
+        "{:?}",
+        r["emit_wait_until"].summary.notes
+    );
     let ph = |actor: &str, action: &str| {
         ewu.phases
             .iter()
