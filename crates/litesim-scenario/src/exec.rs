@@ -85,6 +85,23 @@ struct Driver {
     mirror: bool,
 }
 
+impl Driver {
+    /// The pedal command (in units of the maximum acceleration; negative =
+    /// brake) that gives the planned acceleration `a` at planned speed `v`
+    /// by itself. Holding a speed is a feather-light throttle, not no pedal:
+    /// in the seed's model a moving car on no pedal coasts at its free
+    /// deceleration (2 m/s²), while any throttle replaces that by
+    /// `throttle · max_acceleration`.
+    fn feed_forward(&self, a: f64, v: f64) -> f64 {
+        let u = a / self.max_accel;
+        if u == 0.0 && v > 0.01 {
+            f64::MIN_POSITIVE
+        } else {
+            u
+        }
+    }
+}
+
 /// Runs `plan` on `ssp`.
 pub fn execute(
     ssp: &mut dyn Ssp,
@@ -300,7 +317,7 @@ pub fn execute(
                     let Some(st) = &states[i] else {
                         // First step: the actor starts at the plan's speed; hold it.
                         let p = a.at(t_next, plan.dt);
-                        let u = p.a / d.max_accel;
+                        let u = d.feed_forward(p.a, p.v);
                         send_dynamic(ssp, &a.id, u, 0.0, d, &mut controls[i])?;
                         continue;
                     };
@@ -311,7 +328,7 @@ pub fn execute(
                     let derr = (err - d.last_err) / dt;
                     d.last_err = err;
                     let g = &calibration;
-                    let u = p.a / d.max_accel
+                    let u = d.feed_forward(p.a, p.v)
                         + g.throttle.kp * err
                         + g.throttle.ki * d.integral
                         + g.throttle.kd * derr;

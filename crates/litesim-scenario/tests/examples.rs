@@ -355,6 +355,31 @@ fn seeds_draw_within_the_constraints_and_change_the_run() {
     assert!(durations.len() >= 6 && speeds.len() >= 6);
 }
 
+/// Holding a speed on the seed's model is a feather-light throttle: on no
+/// pedal it coasts at 2 m/s² (the drivers' first command used to be exactly
+/// that, 0.09 m behind after one step). At constant speed the dynamic run
+/// now matches its plan.
+#[test]
+fn dynamic_constant_speed_is_held_exactly() {
+    for n in ["follow", "truck_follow", "three_abreast"] {
+        let r = go(n, 1, DriveMode::Dynamic);
+        for a in &r.summary.actors {
+            assert!(
+                a.max_speed_error < 1e-9,
+                "{n}/{}: {}",
+                a.id,
+                a.max_speed_error
+            );
+            assert!(
+                a.max_path_error < 0.01,
+                "{n}/{}: {}",
+                a.id,
+                a.max_path_error
+            );
+        }
+    }
+}
+
 #[test]
 fn dynamic_runs_follow_the_plan() {
     for n in ALL {
