@@ -218,6 +218,13 @@ pub fn plan_test(
     seed: u64,
     step_ms: u32,
 ) -> Result<(solve::Solution, plan::Plan), ScenarioError> {
+    // Nothing to run says so before anything else (an empty file would
+    // otherwise be told it lacks a map).
+    if prep.test.root.is_none() {
+        return Err(ScenarioError::Plan(
+            "top.main has no behaviour (add `extend top.main: do …`)".into(),
+        ));
+    }
     let mut rng = Rng::new(seed);
     let sol = solve::solve(&prep.test, prep.net.as_deref(), &prep.map_name, &mut rng)?;
     let net = prep.net.as_deref().ok_or_else(|| {

@@ -431,6 +431,11 @@ fn contradictions_and_bad_tests_are_precise_errors() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("nowhere.xodr"), "{e}");
+    // An empty test (no behaviour, no map) says it has nothing to run.
+    let empty = example_file("");
+    let p = prepare(empty.path(), &LoadOptions::default()).unwrap();
+    let e = run_default(&p).unwrap_err().to_string();
+    assert!(e.contains("top.main has no behaviour"), "{e}");
     // Strict speed that cannot be reached is a post-plan violation.
     let strict = example_file(&format!(
         "{HEADER}extend top.main:\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            duration(1s)\n        sut.car.drive() with:\n            speed(100kph)\n            duration(1s)\n"
