@@ -23,14 +23,37 @@ def lane(lid, kind="driving", width=3.5, extra=""):
             f'<roadMark sOffset="0" type="{"solid" if kind != "driving" else "broken"}" color="standard" width="0.12"/>{extra}</lane>\n')
 
 
-def lanes(left, right, offset=None, section_extra=""):
+def edge_marks(side):
+    """The outermost driving lane of a side (next to a sidewalk or the road's
+    edge) gets a solid line; lines between driving lanes stay broken."""
+    out = list(side)
+    for i, l in enumerate(out):
+        outer_is_driving = i + 1 < len(out) and 'type="driving"' in out[i + 1]
+        if 'type="driving"' in l and not outer_is_driving:
+            out[i] = l.replace('type="broken" color', 'type="solid" color')
+    return out
+
+
+def lanes(left, right, offset=None, section_extra="", marks=True):
+    """A lane section. Two-way roads get a solid yellow centre line, one-way
+    roads a solid white left edge; `marks=False` (junction connecting roads)
+    paints nothing."""
+    left, right = edge_marks(left), edge_marks(right)
+    if left and right:
+        centre = 'type="solid" color="yellow"'
+    else:
+        centre = 'type="solid" color="standard"'
+    if not marks:
+        centre = 'type="none" color="standard"'
+        left = [l.replace('type="broken"', 'type="none"').replace('type="solid"', 'type="none"') for l in left]
+        right = [l.replace('type="broken"', 'type="none"').replace('type="solid"', 'type="none"') for l in right]
     out = "    <lanes>\n"
     if offset is not None:
         out += f'      <laneOffset s="0" a="{offset}" b="0" c="0" d="0"/>\n'
     out += '      <laneSection s="0">\n'
     if left:
         out += "        <left>\n" + "".join(left) + "        </left>\n"
-    out += '        <center>\n          <lane id="0" type="none" level="false"><roadMark sOffset="0" type="solid" color="yellow" width="0.12"/></lane>\n        </center>\n'
+    out += f'        <center>\n          <lane id="0" type="none" level="false"><roadMark sOffset="0" {centre} width="0.12"/></lane>\n        </center>\n'
     if right:
         out += "        <right>\n" + "".join(right) + "        </right>\n"
     out += "      </laneSection>\n" + section_extra + "    </lanes>\n"
@@ -139,7 +162,7 @@ for k in range(4):
         link = (f'<predecessor elementType="road" elementId="{arms[k]}" contactPoint="end"/>'
                 f'<successor elementType="road" elementId="{arms[target]}" contactPoint="end"/>')
         cl = lane(-1, "driving", 3.5, '<link><predecessor id="-1"/><successor id="1"/></link>')
-        out += road(rid, length, geom(0.0, x0, y0, h0, length, shape), lanes([], [cl], offset=1.75), junction="100", link=link)
+        out += road(rid, length, geom(0.0, x0, y0, h0, length, shape), lanes([], [cl], offset=1.75, marks=False), junction="100", link=link)
         conns += (f'    <connection id="{cid}" incomingRoad="{arms[k]}" connectingRoad="{rid}" contactPoint="start">'
                   f'<laneLink from="-1" to="-1"/></connection>\n')
         cid += 1

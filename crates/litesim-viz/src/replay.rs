@@ -2,7 +2,7 @@
 //! map (PNG), and a GIF of all actors' footprints over time.
 
 use crate::animation::frame_timing;
-use crate::draw::{draw_track_vehicle, equal_aspect, world_bounds};
+use crate::draw::{Range2, draw_track_vehicle, equal_aspect, world_bounds};
 use crate::style::Style;
 use crate::{VizError, check_size, draw_err, encode_png, fonts, temp_sibling, write_atomic};
 use litesim_log::SimulationLog;
@@ -129,6 +129,111 @@ fn dashes(points: &[(f64, f64)]) -> Vec<Vec<(f64, f64)>> {
     out
 }
 
+/// The parts of a polyline inside `view` (Liang–Barsky per segment; a part
+/// ends where the line leaves the view).
+fn clip_polyline(points: &[(f64, f64)], view: Range2) -> Vec<Vec<(f64, f64)>> {
+    let ((x0, x1), (y0, y1)) = view;
+    let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut cur: Vec<(f64, f64)> = Vec::new();
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let (mut t0, mut t1) = (0.0f64, 1.0f64);
+        let mut inside = true;
+        for (p, q) in [
+            (-dx, a.0 - x0),
+            (dx, x1 - a.0),
+            (-dy, a.1 - y0),
+            (dy, y1 - a.1),
+        ] {
+            if p == 0.0 {
+                if q < 0.0 {
+                    inside = false;
+                }
+            } else {
+                let r = q / p;
+                if p < 0.0 {
+                    t0 = t0.max(r);
+                } else {
+                    t1 = t1.min(r);
+                }
+            }
+        }
+        if !inside || t0 > t1 || t0.is_nan() || t1.is_nan() {
+            if cur.len() >= 2 {
+                out.push(std::mem::take(&mut cur));
+            }
+            cur.clear();
+            continue;
+        }
+        // The ends themselves where uncut, so that pieces join exactly.
+        let p0 = if t0 == 0.0 {
+            a
+        } else {
+            (a.0 + t0 * dx, a.1 + t0 * dy)
+        };
+        let p1 = if t1 == 1.0 {
+            b
+        } else {
+            (a.0 + t1 * dx, a.1 + t1 * dy)
+        };
+        if cur.last() != Some(&p0) {
+            if cur.len() >= 2 {
+                out.push(std::mem::take(&mut cur));
+            }
+            cur = vec![p0];
+        }
+        cur.push(p1);
+        if t1 < 1.0 {
+            out.push(std::mem::take(&mut cur));
+        }
+    }
+    if cur.len() >= 2 {
+        out.push(cur);
+    }
+    out
+}
+
+/// A polygon cut to `view` (Sutherland–Hodgman against its four sides).
+fn clip_polygon(outline: &[(f64, f64)], view: Range2) -> Vec<(f64, f64)> {
+    let ((x0, x1), (y0, y1)) = view;
+    // Each side: inside test and the crossing of segment a→b with it.
+    type Side = (
+        fn(f64, (f64, f64)) -> bool,
+        fn(f64, (f64, f64), (f64, f64)) -> (f64, f64),
+    );
+    let at_x =
+        |c: f64, a: (f64, f64), b: (f64, f64)| (c, a.1 + (b.1 - a.1) * (c - a.0) / (b.0 - a.0));
+    let at_y =
+        |c: f64, a: (f64, f64), b: (f64, f64)| (a.0 + (b.0 - a.0) * (c - a.1) / (b.1 - a.1), c);
+    let sides: [(f64, Side); 4] = [
+        (x0, (|c, p| p.0 >= c, at_x)),
+        (x1, (|c, p| p.0 <= c, at_x)),
+        (y0, (|c, p| p.1 >= c, at_y)),
+        (y1, (|c, p| p.1 <= c, at_y)),
+    ];
+    let mut poly = outline.to_vec();
+    for (c, (inside, cross)) in sides {
+        let Some(&last) = poly.last() else { break };
+        let mut out = Vec::with_capacity(poly.len() + 4);
+        let mut prev = last;
+        for &p in &poly {
+            match (inside(c, prev), inside(c, p)) {
+                (true, true) => out.push(p),
+                (true, false) => out.push(cross(c, prev, p)),
+                (false, true) => {
+                    out.push(cross(c, prev, p));
+                    out.push(p);
+                }
+                (false, false) => {}
+            }
+            prev = p;
+        }
+        poly = out;
+    }
+    poly
+}
+
 /// Draws the background on a replay chart.
 fn draw_background<DB: DrawingBackend>(
     chart: &mut ChartContext<
@@ -137,14 +242,16 @@ fn draw_background<DB: DrawingBackend>(
     >,
     bg: &Background,
     style: &Style,
+    view: Range2,
 ) -> Result<(), VizError> {
     let (road, walk) = (style.c(&style.road), style.c(&style.sidewalk));
+    // plotters pins points outside the axes to their edge, which would draw
+    // the map beyond the view along the frame: clip to the view first.
     chart
-        .draw_series(bg.areas.iter().map(|a| {
-            Polygon::new(
-                a.outline.clone(),
-                if a.drivable { road } else { walk }.filled(),
-            )
+        .draw_series(bg.areas.iter().filter_map(|a| {
+            let outline = clip_polygon(&a.outline, view);
+            (outline.len() >= 3)
+                .then(|| Polygon::new(outline, if a.drivable { road } else { walk }.filled()))
         }))
         .map_err(draw_err)?;
     let (lanes, white, yellow) = (
@@ -171,12 +278,9 @@ fn draw_background<DB: DrawingBackend>(
         } else {
             vec![l.points.clone()]
         };
+        let parts = parts.iter().flat_map(|p| clip_polyline(p, view));
         chart
-            .draw_series(
-                parts
-                    .into_iter()
-                    .map(|p| PathElement::new(p, colour.stroke_width(width))),
-            )
+            .draw_series(parts.map(|p| PathElement::new(p, colour.stroke_width(width))))
             .map_err(draw_err)?;
     }
     Ok(())
@@ -191,19 +295,13 @@ fn frame<DB: DrawingBackend>(
     title: &str,
 ) -> Result<(), VizError> {
     root.fill(&style.c(&style.background)).map_err(draw_err)?;
-    let mut b = world_bounds(log)
+    // The view follows the actors, not the whole map: a 500 m road with two
+    // cars on 100 m of it would draw them as specks. The map shows around
+    // them (at least 20 m, or 15 % of their extent), clipped to the view.
+    let b = world_bounds(log)
         .ok_or_else(|| VizError::Empty("the log has no positions to replay".into()))?;
-    for p in bg
-        .lines
-        .iter()
-        .flat_map(|l| &l.points)
-        .chain(bg.areas.iter().flat_map(|a| &a.outline))
-    {
-        {
-            b.0 = (b.0.0.min(p.0), b.0.1.max(p.0));
-            b.1 = (b.1.0.min(p.1), b.1.1.max(p.1));
-        }
-    }
+    let m = ((b.0.1 - b.0.0).max(b.1.1 - b.1.0) * 0.15).max(20.0);
+    let b = ((b.0.0 - m, b.0.1 + m), (b.1.0 - m, b.1.1 + m));
     let (w, h) = root.dim_in_pixel();
     let r = equal_aspect(b, w as f64 - 55.0, h as f64 - 60.0);
     let mut chart = ChartBuilder::on(root)
@@ -221,7 +319,7 @@ fn frame<DB: DrawingBackend>(
         .label_style(("sans-serif", style.tick_font))
         .draw()
         .map_err(draw_err)?;
-    draw_background(&mut chart, bg, style)?;
+    draw_background(&mut chart, bg, style, r)?;
     for (k, t) in log.tracks.iter().enumerate() {
         let c = style.series(k);
         let pts: Vec<(f64, f64)> = t
@@ -252,6 +350,7 @@ fn frame<DB: DrawingBackend>(
         .label_font(("sans-serif", style.tick_font))
         .background_style(WHITE.mix(0.85))
         .border_style(RGBColor(180, 180, 180))
+        .position(SeriesLabelPosition::UpperRight)
         .draw()
         .map_err(draw_err)?;
     root.present().map_err(draw_err)?;
@@ -277,7 +376,10 @@ pub fn write_png(
             background,
             style,
             None,
-            &format!("{} actors", log.tracks.len()),
+            &match log.tracks.len() {
+                1 => "1 actor".to_string(),
+                n => format!("{n} actors"),
+            },
         )?;
     }
     write_atomic(path, &encode_png(&buf, w, h)?)
@@ -345,6 +447,29 @@ mod tests {
         assert_eq!(d[0], vec![(0.0, 0.0), (2.0, 0.0), (2.0, 1.0)]);
         assert!(dashes(&[(1.0, 1.0)]).is_empty());
         assert!(dashes(&[(0.0, 0.0), (f64::NAN, 0.0)]).is_empty());
+    }
+
+    #[test]
+    fn clipping_to_the_view() {
+        let view = ((0.0, 10.0), (0.0, 10.0));
+        // In, out, back in: two pieces, cut at the edge.
+        let pieces = clip_polyline(&[(5.0, 5.0), (15.0, 5.0), (15.0, 8.0), (5.0, 8.0)], view);
+        assert_eq!(
+            pieces,
+            vec![vec![(5.0, 5.0), (10.0, 5.0)], vec![(10.0, 8.0), (5.0, 8.0)]]
+        );
+        // Wholly inside: unchanged; wholly outside: nothing.
+        let inside = vec![(1.0, 1.0), (2.0, 3.0), (4.0, 4.0)];
+        assert_eq!(clip_polyline(&inside, view), vec![inside.clone()]);
+        assert!(clip_polyline(&[(20.0, 20.0), (30.0, 25.0)], view).is_empty());
+        // A rectangle sticking out of the view's top is cut at y = 10.
+        let poly = clip_polygon(&[(2.0, 5.0), (8.0, 5.0), (8.0, 20.0), (2.0, 20.0)], view);
+        assert!(poly.iter().all(|p| p.1 <= 10.0 && p.1 >= 5.0), "{poly:?}");
+        assert!(
+            poly.contains(&(8.0, 10.0)) && poly.contains(&(2.0, 10.0)),
+            "{poly:?}"
+        );
+        assert!(clip_polygon(&[(20.0, 20.0), (30.0, 20.0), (30.0, 30.0)], view).is_empty());
     }
 
     #[test]
