@@ -139,7 +139,8 @@ fn clip_polyline(points: &[(f64, f64)], view: Range2) -> Vec<Vec<(f64, f64)>> {
         let (a, b) = (w[0], w[1]);
         let (dx, dy) = (b.0 - a.0, b.1 - a.1);
         let (mut t0, mut t1) = (0.0f64, 1.0f64);
-        let mut inside = true;
+        // A segment with a non-finite end is not drawn.
+        let mut inside = [a.0, a.1, b.0, b.1].iter().all(|v| v.is_finite());
         for (p, q) in [
             (-dx, a.0 - x0),
             (dx, x1 - a.0),
@@ -212,7 +213,12 @@ fn clip_polygon(outline: &[(f64, f64)], view: Range2) -> Vec<(f64, f64)> {
         (y0, (|c, p| p.1 >= c, at_y)),
         (y1, (|c, p| p.1 <= c, at_y)),
     ];
-    let mut poly = outline.to_vec();
+    // Non-finite vertices are dropped (the rest still outline the area).
+    let mut poly: Vec<(f64, f64)> = outline
+        .iter()
+        .copied()
+        .filter(|p| p.0.is_finite() && p.1.is_finite())
+        .collect();
     for (c, (inside, cross)) in sides {
         let Some(&last) = poly.last() else { break };
         let mut out = Vec::with_capacity(poly.len() + 4);
@@ -470,6 +476,31 @@ mod tests {
             "{poly:?}"
         );
         assert!(clip_polygon(&[(20.0, 20.0), (30.0, 20.0), (30.0, 30.0)], view).is_empty());
+    }
+
+    proptest::proptest! {
+        /// Whatever the input (far away, degenerate, NaN), clipping never
+        /// panics and every point it returns lies in the view.
+        #[test]
+        fn clipped_points_lie_in_the_view(
+            pts in proptest::collection::vec((-50.0f64..60.0, -50.0f64..60.0), 0..12),
+            nan in proptest::bool::ANY,
+        ) {
+            let view = ((0.0, 10.0), (0.0, 10.0));
+            let mut pts = pts;
+            if nan && !pts.is_empty() {
+                pts[0].0 = f64::NAN;
+            }
+            let ok = |p: &(f64, f64)| {
+                (-1e-9..=10.0 + 1e-9).contains(&p.0) && (-1e-9..=10.0 + 1e-9).contains(&p.1)
+            };
+            for piece in clip_polyline(&pts, view) {
+                proptest::prop_assert!(piece.len() >= 2);
+                proptest::prop_assert!(piece.iter().all(ok), "{piece:?}");
+            }
+            let poly = clip_polygon(&pts, view);
+            proptest::prop_assert!(poly.iter().all(ok), "{poly:?}");
+        }
     }
 
     #[test]
