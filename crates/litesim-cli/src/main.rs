@@ -179,6 +179,9 @@ enum Command {
         /// Driver gains from `litesim calibrate` (TOML).
         #[arg(long)]
         calibration: Option<PathBuf>,
+        /// Stylesheet for the pictures (TOML; colours, sizes, fonts).
+        #[arg(long)]
+        style: Option<PathBuf>,
     },
     /// Run tests × seeds in parallel; JSON lines and CSV; resumable; shardable (i/N).
     Batch {
@@ -404,6 +407,7 @@ fn run(cli: Cli) -> Result<()> {
             no_pictures,
             gif,
             calibration,
+            style,
         } => {
             let pass = scenario::run(
                 &test,
@@ -415,6 +419,7 @@ fn run(cli: Cli) -> Result<()> {
                 no_pictures,
                 gif,
                 calibration.as_deref(),
+                style.as_deref(),
             )?;
             if !pass {
                 // A failed check is an outcome, not a crash: exit 2.

@@ -94,7 +94,10 @@ pub fn run(
     no_pictures: bool,
     gif: bool,
     calibration: Option<&Path>,
+    style: Option<&Path>,
 ) -> Result<bool> {
+    // A bad stylesheet fails before anything runs.
+    let style = crate::viz::load_style(style)?;
     let prep = litesim_scenario::prepare(test, &common.load()).map_err(|e| anyhow!("{e}"))?;
     let calibration = match calibration {
         Some(p) => Some(
@@ -174,13 +177,8 @@ pub fn run(
         if !no_pictures {
             let log = plan_log(&result.plan);
             let pic = out.join("plan.png");
-            litesim_viz::replay::write_png(
-                &log,
-                &lanes(prep.net.as_deref()),
-                &litesim_viz::style::Style::default(),
-                &pic,
-            )
-            .map_err(|e| anyhow!("{e}"))?;
+            litesim_viz::replay::write_png(&log, &lanes(prep.net.as_deref()), &style, &pic)
+                .map_err(|e| anyhow!("{e}"))?;
             println!("wrote {}", pic.display());
         }
         return Ok(true);
@@ -191,7 +189,6 @@ pub fn run(
         log.write_json(&p).map_err(|e| anyhow!("{e}"))?;
         println!("wrote {}", p.display());
         if !no_pictures {
-            let style = litesim_viz::style::Style::default();
             let l = lanes(prep.net.as_deref());
             let pic = out.join("replay.png");
             litesim_viz::replay::write_png(log, &l, &style, &pic).map_err(|e| anyhow!("{e}"))?;

@@ -582,6 +582,33 @@ fn run_writes_log_summary_and_pictures_and_the_smoke_test_runs_with_ftx() {
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["pass"], true);
+    // A stylesheet restyles the pictures; a bad one fails before the run.
+    let style = dir.path().join("style.toml");
+    std::fs::write(&style, "road = \"#808080\"\n").unwrap();
+    let o = litesim()
+        .current_dir(workspace())
+        .args(["run", "examples/scenarios/cut_in.osc", "-o"])
+        .arg(dir.path().join("styled"))
+        .arg("--style")
+        .arg(&style)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let styled = std::fs::read(dir.path().join("styled/replay.png")).unwrap();
+    assert_ne!(styled, png, "the road colour changed the picture");
+    std::fs::write(&style, "road = \"grey\"\n").unwrap();
+    let o = litesim()
+        .current_dir(workspace())
+        .args(["run", "examples/scenarios/cut_in.osc", "-o"])
+        .arg(dir.path().join("badstyle"))
+        .arg("--style")
+        .arg(&style)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("road = 'grey' is not a colour"), "{err}");
+    assert!(!dir.path().join("badstyle").exists());
     // The seed's smoke test with only $FTX set.
     let o = litesim()
         .current_dir(workspace())
