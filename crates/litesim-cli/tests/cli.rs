@@ -584,27 +584,22 @@ fn run_writes_log_summary_and_pictures_and_the_smoke_test_runs_with_ftx() {
     assert_eq!(summary["pass"], true);
     // A stylesheet restyles the pictures; a bad one fails before the run.
     let style = dir.path().join("style.toml");
-    std::fs::write(&style, "road = \"#808080\"\n").unwrap();
-    let o = litesim()
-        .current_dir(workspace())
-        .args(["run", "examples/scenarios/cut_in.osc", "-o"])
-        .arg(dir.path().join("styled"))
-        .arg("--style")
-        .arg(&style)
-        .output()
-        .unwrap();
+    let run_styled = |sheet: &str, out: &str| {
+        std::fs::write(&style, sheet).unwrap();
+        litesim()
+            .current_dir(workspace())
+            .args(["run", "examples/scenarios/cut_in.osc", "-o"])
+            .arg(dir.path().join(out))
+            .arg("--style")
+            .arg(&style)
+            .output()
+            .unwrap()
+    };
+    let o = run_styled("road = \"#808080\"\n", "styled");
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let styled = std::fs::read(dir.path().join("styled/replay.png")).unwrap();
     assert_ne!(styled, png, "the road colour changed the picture");
-    std::fs::write(&style, "road = \"grey\"\n").unwrap();
-    let o = litesim()
-        .current_dir(workspace())
-        .args(["run", "examples/scenarios/cut_in.osc", "-o"])
-        .arg(dir.path().join("badstyle"))
-        .arg("--style")
-        .arg(&style)
-        .output()
-        .unwrap();
+    let o = run_styled("road = \"grey\"\n", "badstyle");
     assert_eq!(o.status.code(), Some(1));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("road = 'grey' is not a colour"), "{err}");

@@ -358,7 +358,7 @@ pub fn execute(
         k += n_steps;
         for (info, mut got) in results {
             if mirror {
-                got.iter_mut().for_each(from_sim);
+                got.iter_mut().for_each(ReportedState::mirror_y);
             }
             let t = info.sim_time_ms as f64 / 1000.0;
             boxes.clear();
@@ -612,16 +612,6 @@ fn to_sim(mut c: Coord6, mirror: bool) -> Coord6 {
         c.yaw = c.yaw.map(|v| -v);
     }
     c
-}
-
-/// The simulator's frame → map frame.
-fn from_sim(s: &mut ReportedState) {
-    s.pose.position.y = -s.pose.position.y;
-    s.pose.yaw = -s.pose.yaw;
-    s.pose.roll = -s.pose.roll;
-    s.velocity.y = -s.velocity.y;
-    s.acceleration.y = -s.acceleration.y;
-    s.yaw_rate = -s.yaw_rate;
 }
 
 fn send_dynamic(

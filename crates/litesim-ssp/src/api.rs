@@ -345,6 +345,22 @@ pub struct ReportedState {
     pub trajectory: TrajectoryStatus,
 }
 
+impl ReportedState {
+    /// Mirrors the state across the x axis — between a left-handed frame
+    /// (CARLA's) and litesim's right-handed one: y, yaw, roll, the lateral
+    /// velocity and acceleration, the yaw rate and the steering-wheel angle
+    /// change sign. Its own inverse.
+    pub fn mirror_y(&mut self) {
+        self.pose.position.y = -self.pose.position.y;
+        self.pose.yaw = -self.pose.yaw;
+        self.pose.roll = -self.pose.roll;
+        self.velocity.y = -self.velocity.y;
+        self.acceleration.y = -self.acceleration.y;
+        self.yaw_rate = -self.yaw_rate;
+        self.controls.steering_wheel_angle = self.controls.steering_wheel_angle.map(|v| -v);
+    }
+}
+
 /// Which actors a state query returns.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ActorFilter {

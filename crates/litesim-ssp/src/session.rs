@@ -378,13 +378,7 @@ impl Session {
             trajectory: s.trajectory,
         };
         if self.mirror() {
-            r.pose.position.y = -r.pose.position.y;
-            r.pose.yaw = -r.pose.yaw;
-            r.pose.roll = -r.pose.roll;
-            r.velocity.y = -r.velocity.y;
-            r.acceleration.y = -r.acceleration.y;
-            r.yaw_rate = -r.yaw_rate;
-            r.controls.steering_wheel_angle = r.controls.steering_wheel_angle.map(|v| -v);
+            r.mirror_y();
         }
         r
     }
