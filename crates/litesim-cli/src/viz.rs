@@ -28,7 +28,10 @@ fn read(log: &Path) -> Result<SimulationLog> {
 pub fn background(net: &litesim_map::RoadNetwork, centres: bool) -> Background {
     const TOLERANCE: f64 = 0.1;
     let xy = |pts: &[litesim_core::Vec2]| pts.iter().map(|v| (v.x, v.y)).collect::<Vec<_>>();
-    let lanes = net.lane_polylines(TOLERANCE);
+    // One pass over the map: lanes for areas and borders, and every lane's
+    // marks including the centre lanes' (id 0, no area).
+    let all = net.all_lane_polylines(TOLERANCE);
+    let lanes: Vec<_> = all.iter().filter(|l| l.lane != 0).collect();
     let mut bg = Background::default();
     for l in &lanes {
         let mut outline = xy(&l.inner);
@@ -52,7 +55,7 @@ pub fn background(net: &litesim_map::RoadNetwork, centres: bool) -> Background {
             });
         }
     }
-    for m in net.road_marks(TOLERANCE) {
+    for m in all.iter().flat_map(|l| &l.marks) {
         if let Some(kind) = LineKind::of_mark(&m.kind, &m.color) {
             bg.lines.push(MapLine {
                 points: xy(&m.points),

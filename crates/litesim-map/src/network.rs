@@ -439,10 +439,11 @@ impl RoadNetwork {
     }
 
     /// Centre and border polylines of every lane (not the zero-width centre
-    /// lanes), within `tolerance` m of the true curves (chord error on the reference line, plus a sample wherever
-    /// lane width changes).
+    /// lanes), within `tolerance` m of the true curves (chord error on the
+    /// reference line, plus a sample wherever lane width changes or a road
+    /// mark starts).
     pub fn lane_polylines(&self, tolerance: f64) -> Vec<LanePolyline> {
-        let mut all = self.polylines(tolerance);
+        let mut all = self.all_lane_polylines(tolerance);
         all.retain(|l| l.lane != 0);
         all
     }
@@ -451,15 +452,16 @@ impl RoadNetwork {
     /// within `tolerance` m of the true curves, in road, section and lane
     /// order.
     pub fn road_marks(&self, tolerance: f64) -> Vec<MarkRun> {
-        self.polylines(tolerance)
+        self.all_lane_polylines(tolerance)
             .into_iter()
             .flat_map(|l| l.marks)
             .collect()
     }
 
-    /// Lane polylines including the centre lanes (id 0, along the reference
-    /// line, carrying the centre marks).
-    fn polylines(&self, tolerance: f64) -> Vec<LanePolyline> {
+    /// [`Self::lane_polylines`] plus the centre lanes (id 0: all three lines
+    /// along the reference line, carrying the centre marks) — what a
+    /// drawing of the road needs, in one pass.
+    pub fn all_lane_polylines(&self, tolerance: f64) -> Vec<LanePolyline> {
         let tol = tolerance.max(1e-4);
         let mut out = Vec::new();
         for r in &self.od.roads {
