@@ -510,25 +510,25 @@ impl Tracking {
             self.cum[k] + ((p.x - a.samples[k].x).powi(2) + (p.y - a.samples[k].y).powi(2)).sqrt();
         c_.progress.push(d);
         c_.cmd_acceleration.push(p.a);
-        // The steering the plan's curvature implies (bicycle, wheelbase
-        // 0.6 · length as in the seed) — what the applied angle is compared
-        // with; the driver's own command is the applied one.
-        let ahead = a.at(t + 0.2, plan.dt);
-        let ds = ((ahead.x - p.x).powi(2) + (ahead.y - p.y).powi(2)).sqrt();
+        // The planned path ahead, 0.2 s apart (the animation's look-ahead).
+        let ahead: Vec<[f64; 4]> = (1..=Self::AHEAD)
+            .map(|j| {
+                let q = a.at(t + 0.2 * j as f64, plan.dt);
+                [q.x, q.y, q.yaw, q.v]
+            })
+            .collect();
+        // The steering the plan's curvature over the next 0.2 s implies
+        // (bicycle, wheelbase 0.6 · length as in the seed) — what the applied
+        // angle is compared with.
+        let [x, y, yaw, _] = ahead[0];
+        let ds = ((x - p.x).powi(2) + (y - p.y).powi(2)).sqrt();
         let kappa = if ds > 1e-6 {
-            wrap_angle(ahead.yaw - p.yaw) / ds
+            wrap_angle(yaw - p.yaw) / ds
         } else {
             0.0
         };
         c_.cmd_steering.push(math::atan(0.6 * a.length * kappa));
-        c_.predictions.push(
-            (1..=Self::AHEAD)
-                .map(|j| {
-                    let q = a.at(t + 0.2 * j as f64, plan.dt);
-                    [q.x, q.y, q.yaw, q.v]
-                })
-                .collect(),
-        );
+        c_.predictions.push(ahead);
         self.tick.push(tick);
     }
 }
