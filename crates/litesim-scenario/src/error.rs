@@ -31,3 +31,10 @@ pub enum ScenarioError {
     #[error("{0}")]
     Io(String),
 }
+
+impl ScenarioError {
+    /// `top.main` has nothing to do.
+    pub(crate) fn no_behaviour() -> Self {
+        ScenarioError::Plan("top.main has no behaviour (add `extend top.main: do …`)".into())
+    }
+}

@@ -221,9 +221,7 @@ pub fn plan_test(
     // Nothing to run says so before anything else (an empty file would
     // otherwise be told it lacks a map).
     if prep.test.root.is_none() {
-        return Err(ScenarioError::Plan(
-            "top.main has no behaviour (add `extend top.main: do …`)".into(),
-        ));
+        return Err(ScenarioError::no_behaviour());
     }
     let mut rng = Rng::new(seed);
     let sol = solve::solve(&prep.test, prep.net.as_deref(), &prep.map_name, &mut rng)?;

@@ -804,9 +804,7 @@ fn plan_once(
     cond_events: &BTreeMap<String, f64>,
 ) -> Result<(Plan, Vec<(String, f64, CExpr)>), ScenarioError> {
     let Some(root) = &test.root else {
-        return Err(ScenarioError::Plan(
-            "top.main has no behaviour (add `extend top.main: do …`)".into(),
-        ));
+        return Err(ScenarioError::no_behaviour());
     };
     let mut timer = Timer {
         rng,
