@@ -337,5 +337,34 @@ fn raw_bound(c: &mut Criterion) {
             v.copy_from_slice(&w);
         })
     });
+    // One fused loop, the wrap as compare-and-select (what `wrap_angle`
+    // computes for a heading plus one step's turn): the seed's turning step
+    // when vehicle states live in arrays of their own rather than in actors.
+    g.bench_function("ssp_equations_soa_select", |b| {
+        b.iter(|| soa_select_step(&mut x, &mut y, &mut yaw, &mut v, black_box(r)))
+    });
     g.finish();
+}
+
+/// The SoA turning step of `raw_bound`. A function of its own so that the
+/// four slices are known not to overlap (`&mut` parameters), which is what
+/// lets the compiler vectorise the loop.
+#[inline(never)]
+fn soa_select_step(x: &mut [f64], y: &mut [f64], yaw: &mut [f64], v: &mut [f64], r: f64) {
+    let n = x.len().min(y.len()).min(yaw.len()).min(v.len());
+    let (x, y, yaw, v) = (&mut x[..n], &mut y[..n], &mut yaw[..n], &mut v[..n]);
+    for i in 0..n {
+        let vn = (v[i] + 0.3 * 4.0 * 0.02).min(40.0).max(0.0);
+        let a = yaw[i] + v[i] / r * 0.02;
+        let a = if a > std::f64::consts::PI {
+            a - std::f64::consts::TAU
+        } else {
+            a
+        };
+        yaw[i] = a;
+        let (s, c) = litesim_core::math::sin_cos_reduced(a);
+        x[i] += vn * c * 0.02;
+        y[i] += vn * s * 0.02;
+        v[i] = vn;
+    }
 }
