@@ -354,7 +354,7 @@ fn soa_select_step(x: &mut [f64], y: &mut [f64], yaw: &mut [f64], v: &mut [f64],
     let n = x.len().min(y.len()).min(yaw.len()).min(v.len());
     let (x, y, yaw, v) = (&mut x[..n], &mut y[..n], &mut yaw[..n], &mut v[..n]);
     for i in 0..n {
-        let vn = (v[i] + 0.3 * 4.0 * 0.02).min(40.0).max(0.0);
+        let vn = (v[i] + 0.3 * 4.0 * 0.02).clamp(0.0, 40.0);
         let a = yaw[i] + v[i] / r * 0.02;
         let a = if a > std::f64::consts::PI {
             a - std::f64::consts::TAU
