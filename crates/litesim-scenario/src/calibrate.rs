@@ -75,13 +75,14 @@ pub fn reference_plan(step_s: f64) -> Plan {
         dt,
         duration,
         actors: vec![ActorPlan {
-            id: "calibration".into(),
-            kind: ActorKind::Vehicle,
-            ego: true,
-            category: "car".into(),
-            length: 4.6,
-            width: 1.9,
             samples,
+            ..ActorPlan::new(
+                "calibration".into(),
+                ActorKind::Vehicle,
+                true,
+                "car".into(),
+                (4.6, 1.9),
+            )
         }],
         phases: Vec::new(),
         violations: Vec::new(),

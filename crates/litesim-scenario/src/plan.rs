@@ -28,6 +28,7 @@ use litesim_map::{Direction, LaneRef, RoadNetwork};
 use litesim_plan::rng::Rng;
 use serde::Serialize;
 use std::collections::BTreeMap;
+use std::sync::OnceLock;
 
 /// Longest test the planner accepts (s): a typo such as `duration(9999999s)`
 /// is an error, not hours of sampling.
@@ -73,9 +74,63 @@ pub struct ActorPlan {
     pub width: f64,
     /// Samples every [`Plan::dt`].
     pub samples: Vec<PlanSample>,
+    #[serde(skip)]
+    pub(crate) heading_trig: HeadingTrig,
+}
+
+/// `(yaw bits, sin, cos)` of every sample's heading, computed on the first
+/// [`ActorPlan::at`]: a run asks for the plan several times per step and
+/// each answer needs the trig of two samples. An entry is used only while
+/// its sample still has that heading (`samples` is public), so the cache
+/// never changes a result; it takes no part in equality.
+#[derive(Clone, Default)]
+pub(crate) struct HeadingTrig(OnceLock<Vec<(u64, f64, f64)>>);
+
+impl PartialEq for HeadingTrig {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for HeadingTrig {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("HeadingTrig")
+    }
 }
 
 impl ActorPlan {
+    /// A plan without samples yet.
+    pub fn new(id: String, kind: ActorKind, ego: bool, category: String, size: (f64, f64)) -> Self {
+        ActorPlan {
+            id,
+            kind,
+            ego,
+            category,
+            length: size.0,
+            width: size.1,
+            samples: Vec::new(),
+            heading_trig: HeadingTrig::default(),
+        }
+    }
+
+    /// `(sin, cos)` of sample `j`'s heading.
+    fn trig(&self, j: usize) -> (f64, f64) {
+        let yaw = self.samples[j].yaw;
+        let table = self.heading_trig.0.get_or_init(|| {
+            self.samples
+                .iter()
+                .map(|p| {
+                    let (s, c) = math::sin_cos(p.yaw);
+                    (p.yaw.to_bits(), s, c)
+                })
+                .collect()
+        });
+        match table.get(j) {
+            Some(&(bits, s, c)) if bits == yaw.to_bits() => (s, c),
+            _ => math::sin_cos(yaw),
+        }
+    }
+
     /// The planned state at time `t` (held at the ends). Positions follow
     /// the samples' headings between them (see [`between`]); heading, speed
     /// are interpolated linearly.
@@ -94,7 +149,7 @@ impl ActorPlan {
         }
         let u = t / dt - k;
         let (a, b) = (&self.samples[i], &self.samples[i + 1]);
-        let (x, y) = between(a, b, u);
+        let (x, y) = between(a, b, u, self.trig(i), self.trig(i + 1));
         PlanSample {
             t,
             x,
@@ -115,15 +170,20 @@ impl ActorPlan {
 /// 6 mm, enough to make a closed-loop driver chase a saw-tooth), and on a
 /// straight it is the straight line. Elsewhere (standing, walking sideways)
 /// plainly linear.
-fn between(a: &PlanSample, b: &PlanSample, u: f64) -> (f64, f64) {
+/// `(sa, ca)`, `(sb, cb)`: sine and cosine of the two samples' headings.
+fn between(
+    a: &PlanSample,
+    b: &PlanSample,
+    u: f64,
+    (sa, ca): (f64, f64),
+    (sb, cb): (f64, f64),
+) -> (f64, f64) {
     let (dx, dy) = (b.x - a.x, b.y - a.y);
     let linear = (a.x + dx * u, a.y + dy * u);
     let d = (dx * dx + dy * dy).sqrt();
     if d.is_nan() || d <= 1e-6 {
         return linear;
     }
-    let (sa, ca) = math::sin_cos(a.yaw);
-    let (sb, cb) = math::sin_cos(b.yaw);
     // cos of the angle between each heading and the chord, against cos 0.35.
     const ALONG: f64 = 0.939_372_712_847_379;
     if (dx * ca + dy * sa) < ALONG * d || (dx * cb + dy * sb) < ALONG * d {
@@ -958,15 +1018,9 @@ fn plan_once(
                 ActorKind::Animal => (1.2, 0.5),
                 ActorKind::Stationary => (1.0, 1.0),
             };
-            ActorPlan {
-                id: a.id.clone(),
-                kind: a.kind,
-                ego: a.ego,
-                category,
-                length: attr(a, "bbox.length").and_then(|v| v.num()).unwrap_or(dl),
-                width: attr(a, "bbox.width").and_then(|v| v.num()).unwrap_or(dw),
-                samples: Vec::new(),
-            }
+            let length = attr(a, "bbox.length").and_then(|v| v.num()).unwrap_or(dl);
+            let width = attr(a, "bbox.width").and_then(|v| v.num()).unwrap_or(dw);
+            ActorPlan::new(a.id.clone(), a.kind, a.ego, category, (length, width))
         })
         .collect();
     // Actors that take part in no phase are not planned (nor created).
@@ -1553,4 +1607,73 @@ fn place(
         },
     };
     Ok(mo)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn plan_on_a_bend() -> ActorPlan {
+        let mut p = ActorPlan::new(
+            "a".into(),
+            ActorKind::Vehicle,
+            true,
+            "car".into(),
+            (4.6, 1.9),
+        );
+        // 17 m/s on a 55 m radius, sampled every 0.1 s.
+        let (r, w) = (55.0, 17.0 / 55.0);
+        p.samples = (0..40)
+            .map(|k| {
+                let t = k as f64 * 0.1;
+                let th = w * t;
+                PlanSample {
+                    t,
+                    x: r * th.sin(),
+                    y: r * (1.0 - th.cos()),
+                    yaw: th,
+                    v: 17.0,
+                    a: 0.0,
+                }
+            })
+            .collect();
+        p
+    }
+
+    /// The heading cache never changes an answer, also when a sample's
+    /// heading is edited after the cache was filled.
+    #[test]
+    fn heading_cache_never_changes_results() {
+        let mut cached = plan_on_a_bend();
+        let bits = |s: PlanSample| [s.x, s.y, s.yaw, s.v].map(f64::to_bits);
+        let fresh = |p: &ActorPlan| {
+            let mut q = ActorPlan::new(
+                "a".into(),
+                ActorKind::Vehicle,
+                true,
+                "car".into(),
+                (4.6, 1.9),
+            );
+            q.samples = p.samples.clone();
+            q
+        };
+        for k in 0..390 {
+            let t = k as f64 * 0.01 + 0.003;
+            assert_eq!(bits(cached.at(t, 0.1)), bits(fresh(&cached).at(t, 0.1)));
+        }
+        // Edit headings under the filled cache: answers follow the edit.
+        for s in cached.samples.iter_mut().skip(10).take(5) {
+            s.yaw += 0.01;
+        }
+        for k in 0..390 {
+            let t = k as f64 * 0.01 + 0.003;
+            let f = fresh(&cached);
+            assert_eq!(bits(cached.at(t, 0.1)), bits(f.at(t, 0.1)), "t = {t}");
+        }
+        // And the edit is visible (the cache did not answer with old values).
+        assert_ne!(
+            bits(cached.at(1.05, 0.1)),
+            bits(plan_on_a_bend().at(1.05, 0.1))
+        );
+    }
 }
