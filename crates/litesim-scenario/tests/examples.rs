@@ -826,3 +826,40 @@ fn planned_commands_label_and_follow_the_curvature() {
         .fold(0.0, f64::max);
     assert!(jump < 0.001, "steering jumps by {jump} rad between steps");
 }
+
+/// A scenario's parameter added by a later `extend` binds by name like its
+/// own ones (the speed reaches the plan).
+#[test]
+fn parameters_added_by_extend_bind_by_name() {
+    let body = "extend top.main:
+    do f: sut.follow2(gap: 20m, cruise: 40kph)
+
+scenario sut.follow2:
+    gap: length
+    r: two_way_road
+    lead: vehicle
+    do parallel(overlap: equal):
+        lead.drive() with:
+            speed(cruise)
+            along(r, at: start)
+        sut.car.drive() with:
+            speed(cruise)
+            position(gap, behind: lead, at: start)
+            lane(same_as: lead, at: start)
+    with: duration(8s)
+
+extend sut.follow2:
+    cruise: speed
+";
+    let f = example_file(&format!("{HEADER}{body}"));
+    let p = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let r = run_default(&p).unwrap();
+    for id in ["sut.car", "lead"] {
+        let v = last(&r, id).2;
+        assert!((v - 40.0 / 3.6).abs() < 1e-6, "{id}: {v} m/s");
+    }
+    let (xs, _, _) = last(&r, "sut.car");
+    let (xl, _, _) = last(&r, "lead");
+    // 20 m bumper to bumper plus one car length between the centres.
+    assert!(((xl - xs).abs() - 24.6).abs() < 0.5, "{xs} {xl}");
+}
