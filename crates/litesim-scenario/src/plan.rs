@@ -1613,31 +1613,39 @@ fn place(
 mod tests {
     use super::*;
 
+    /// A plan with these samples and a fresh (empty) heading cache.
+    fn with_samples(samples: Vec<PlanSample>) -> ActorPlan {
+        ActorPlan {
+            samples,
+            ..ActorPlan::new(
+                "a".into(),
+                ActorKind::Vehicle,
+                true,
+                "car".into(),
+                (4.6, 1.9),
+            )
+        }
+    }
+
     fn plan_on_a_bend() -> ActorPlan {
-        let mut p = ActorPlan::new(
-            "a".into(),
-            ActorKind::Vehicle,
-            true,
-            "car".into(),
-            (4.6, 1.9),
-        );
         // 17 m/s on a 55 m radius, sampled every 0.1 s.
         let (r, w) = (55.0, 17.0 / 55.0);
-        p.samples = (0..40)
-            .map(|k| {
-                let t = k as f64 * 0.1;
-                let th = w * t;
-                PlanSample {
-                    t,
-                    x: r * th.sin(),
-                    y: r * (1.0 - th.cos()),
-                    yaw: th,
-                    v: 17.0,
-                    a: 0.0,
-                }
-            })
-            .collect();
-        p
+        with_samples(
+            (0..40)
+                .map(|k| {
+                    let t = k as f64 * 0.1;
+                    let th = w * t;
+                    PlanSample {
+                        t,
+                        x: r * th.sin(),
+                        y: r * (1.0 - th.cos()),
+                        yaw: th,
+                        v: 17.0,
+                        a: 0.0,
+                    }
+                })
+                .collect(),
+        )
     }
 
     /// The heading cache never changes an answer, also when a sample's
@@ -1646,17 +1654,7 @@ mod tests {
     fn heading_cache_never_changes_results() {
         let mut cached = plan_on_a_bend();
         let bits = |s: PlanSample| [s.x, s.y, s.yaw, s.v].map(f64::to_bits);
-        let fresh = |p: &ActorPlan| {
-            let mut q = ActorPlan::new(
-                "a".into(),
-                ActorKind::Vehicle,
-                true,
-                "car".into(),
-                (4.6, 1.9),
-            );
-            q.samples = p.samples.clone();
-            q
-        };
+        let fresh = |p: &ActorPlan| with_samples(p.samples.clone());
         for k in 0..390 {
             let t = k as f64 * 0.01 + 0.003;
             assert_eq!(bits(cached.at(t, 0.1)), bits(fresh(&cached).at(t, 0.1)));
