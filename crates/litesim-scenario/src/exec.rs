@@ -500,14 +500,13 @@ impl Tracking {
             let mut acc = 0.0;
             self.cum = std::iter::once(0.0)
                 .chain(a.samples.windows(2).map(|w| {
-                    acc += ((w[1].x - w[0].x).powi(2) + (w[1].y - w[0].y).powi(2)).sqrt();
+                    acc += math::hypot(w[1].x - w[0].x, w[1].y - w[0].y);
                     acc
                 }))
                 .collect();
         }
         let k = ((t / plan.dt) as usize).min(a.samples.len().saturating_sub(1));
-        let d =
-            self.cum[k] + ((p.x - a.samples[k].x).powi(2) + (p.y - a.samples[k].y).powi(2)).sqrt();
+        let d = self.cum[k] + math::hypot(p.x - a.samples[k].x, p.y - a.samples[k].y);
         c_.progress.push(d);
         c_.cmd_acceleration.push(p.a);
         // The planned path ahead, 0.2 s apart (the animation's look-ahead).
@@ -521,7 +520,7 @@ impl Tracking {
         // (bicycle, wheelbase 0.6 · length as in the seed) — what the applied
         // angle is compared with.
         let [x, y, yaw, _] = ahead[0];
-        let ds = ((x - p.x).powi(2) + (y - p.y).powi(2)).sqrt();
+        let ds = math::hypot(x - p.x, y - p.y);
         let kappa = if ds > 1e-6 {
             wrap_angle(yaw - p.yaw) / ds
         } else {
