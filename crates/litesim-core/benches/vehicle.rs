@@ -8,6 +8,7 @@
 //! of the seed's model — in the same session and prints the ratio.
 
 use criterion::{BenchmarkId, Criterion, Throughput};
+use litesim_core::vehicle::batch::{CommandColumns, Kernel, Level, VehicleColumns, step_run_at};
 use litesim_core::{
     Actor, ActorDescription, ActorState, ControlMode, KinematicBicycle, NormalizedPedals, Pose,
     SspDynamics, VehicleInput, VehicleModel, VehicleModelKind, VehicleState, World,
@@ -119,6 +120,62 @@ fn models(c: &mut Criterion) {
         });
     }
     g.finish();
+
+    // The same fleets in columns, stepped by the batch loops (what a world
+    // does with dynamic actors), at the best level this machine has and at
+    // the x86-64 baseline (what a machine without AVX2 gets).
+    let mut g = c.benchmark_group("actor_step_columns_1000");
+    g.throughput(Throughput::Elements(1000));
+    for (name, steering) in [("straight", 0.0), ("turning", 0.2)] {
+        for (model, input) in [
+            ("ssp_dynamics", pedals(0.3, steering)),
+            (
+                "kinematic_bicycle",
+                VehicleInput::Direct {
+                    acceleration: 0.5,
+                    steering_angle: steering * 0.5,
+                },
+            ),
+        ] {
+            let (mut cols, cmds, kernel) = columns_fleet(model, &input);
+            for level in Level::available() {
+                let id = match level {
+                    Level::Best => model.to_string(),
+                    other => format!("{model}_{}", format!("{other:?}").to_lowercase()),
+                };
+                g.bench_function(BenchmarkId::new(id, name), |b| {
+                    b.iter(|| {
+                        step_run_at(level, &mut cols, &cmds, kernel, 0..1000, black_box(0.02))
+                    })
+                });
+            }
+        }
+    }
+    g.finish();
+}
+
+/// 1,000 vehicles of one model in columns, each compiled for `input`.
+fn columns_fleet(model: &str, input: &VehicleInput) -> (VehicleColumns, CommandColumns, Kernel) {
+    let mut cols = VehicleColumns::default();
+    let mut cmds = CommandColumns::with_len(1000);
+    let mut kernel = Kernel::Ssp;
+    for i in 0..1000 {
+        let st = VehicleState {
+            v: 5.0 + (i % 10) as f64,
+            ..VehicleState::default()
+        };
+        let mut m = match model {
+            "ssp_dynamics" => VehicleModelKind::Ssp(SspDynamics::for_length(4.5)),
+            _ => VehicleModelKind::Bicycle(KinematicBicycle::new(2.7)),
+        };
+        let c = m
+            .compile(input, &st, 0.02)
+            .expect("a plain command compiles");
+        kernel = c.kernel();
+        cols.push(&st);
+        cmds.set(i, Some(c));
+    }
+    (cols, cmds, kernel)
 }
 
 fn world_with(n: usize, turning_every: usize) -> World {
@@ -156,6 +213,10 @@ fn world(c: &mut Criterion) {
     for (name, every) in [("straight", 0), ("10pct_turning", 10), ("all_turning", 1)] {
         let mut w = world_with(1000, every);
         g.bench_function(name, |b| b.iter(|| w.step()));
+        // The same world with every actor stepped by its model, one by one.
+        let mut w = world_with(1000, every);
+        w.set_batching(false);
+        g.bench_function(format!("{name}_one_by_one"), |b| b.iter(|| w.step()));
     }
     g.finish();
 }
@@ -229,15 +290,54 @@ fn compare_with_python() {
             println!("{label:<40} {ns:8.2} ns/actor-step");
         }
     }
+    for (id, label) in [
+        ("ssp_dynamics/straight", "SspDynamics straight, columns"),
+        ("ssp_dynamics/turning", "SspDynamics turning, columns"),
+        (
+            "ssp_dynamics_baseline/turning",
+            "SspDynamics turning, columns, baseline",
+        ),
+        (
+            "ssp_dynamics_v3/turning",
+            "SspDynamics turning, columns, AVX2",
+        ),
+        (
+            "kinematic_bicycle/straight",
+            "KinematicBicycle straight, columns",
+        ),
+        (
+            "kinematic_bicycle/turning",
+            "KinematicBicycle turning, columns",
+        ),
+        (
+            "kinematic_bicycle_baseline/turning",
+            "KinematicBicycle turning, columns, baseline",
+        ),
+        (
+            "kinematic_bicycle_v3/turning",
+            "KinematicBicycle turning, columns, AVX2",
+        ),
+    ] {
+        if let Some(ns) = median_ns(&format!("actor_step_columns_1000/{id}"), 1000.0) {
+            println!("{label:<44} {ns:8.2} ns/actor-step");
+        }
+    }
     for id in ["litesim", "libm"] {
         if let Some(ns) = median_ns(&format!("sin_cos_1000/{id}"), 1000.0) {
             println!("sin_cos, {id:<10} {ns:8.2} ns/call (1,000 headings)");
         }
     }
-    for id in ["straight", "10pct_turning", "all_turning"] {
+    for id in [
+        "straight",
+        "10pct_turning",
+        "all_turning",
+        "straight_one_by_one",
+        "10pct_turning_one_by_one",
+        "all_turning_one_by_one",
+    ] {
         if let Some(ns) = median_ns(&format!("world_step_1000_dynamic/{id}"), 1000.0) {
             println!(
-                "world 1,000 dynamic, {id:<14} {:8.1} M actor-steps/s",
+                "world 1,000 dynamic, {id:<25} {:8.1} M actor-steps/s",
                 1000.0 / ns
             );
         }

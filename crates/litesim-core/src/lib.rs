@@ -37,4 +37,4 @@ pub use vehicle::{
     ActuatorLag, Derived, KinematicBicycle, ReferencePoint, SspDynamics, VehicleInput,
     VehicleModel, VehicleModelKind, VehicleState,
 };
-pub use world::{Actor, ControlMode, World, WorldError};
+pub use world::{Actor, ActorRef, ControlMode, World, WorldError};

@@ -38,8 +38,8 @@ impl StopCondition {
     /// True when the world satisfies the condition.
     pub fn reached(&self, world: &World) -> bool {
         world.actor(&self.actor).is_some_and(|a| {
-            a.state.pose.position.xy().distance(self.goal) <= self.radius
-                && a.state.speed.abs() < self.speed_threshold
+            a.state().pose.position.xy().distance(self.goal) <= self.radius
+                && a.state().speed.abs() < self.speed_threshold
         })
     }
 }

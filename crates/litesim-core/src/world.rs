@@ -2,11 +2,13 @@
 
 use crate::actor::{ActorDescription, ActorId, ActorState, TrajectoryStatus};
 use crate::geometry::{Pose, Vec2, Vec3, wrap_angle};
-use crate::math::{self, SinCosCache};
+use crate::math;
 use crate::trajectory::Trajectory;
+use crate::vehicle::batch::{self, CommandColumns, Kernel, VehicleColumns};
 use crate::vehicle::{Derived, VehicleInput, VehicleModel, VehicleModelKind, VehicleState};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
+use std::ops::Range;
 
 /// A simulator-side behaviour model driving an actor (SSP "external controller").
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -80,15 +82,15 @@ impl ControlMode {
     }
 }
 
-/// One actor of the world.
+/// One actor, as given to [`World::add_actor`] and returned by
+/// [`World::remove_actor`]. Inside a world it is read through [`ActorRef`]:
+/// the world keeps its live vehicle state in columns of its own.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Actor {
     /// Unique id.
     pub id: ActorId,
     /// What it is.
     pub description: ActorDescription,
-    /// Its reported state.
-    pub state: ActorState,
     /// Its vehicle model, if it can be driven dynamically.
     pub model: Option<VehicleModelKind>,
     /// Road friction coefficient μ for the friction-use proxy.
@@ -96,10 +98,12 @@ pub struct Actor {
     /// The input applied in the last step (for logs).
     pub last_input: VehicleInput,
     mode: ControlMode,
-    vehicle: VehicleState,
-    // Heading trig for actors without a model cache; see `publish_vehicle`.
-    #[serde(skip)]
-    yaw_trig: SinCosCache,
+    // The state as given or stored; while `live`, the world's columns hold
+    // the actor's state instead.
+    state: ActorState,
+    // The reported state is computed from the vehicle columns: set at the
+    // first integrated step, cleared when the state is given or stored.
+    live: bool,
 }
 
 impl Actor {
@@ -110,7 +114,7 @@ impl Actor {
         state: ActorState,
         model: Option<VehicleModelKind>,
     ) -> Self {
-        let mut a = Self {
+        Self {
             id: id.into(),
             description,
             state,
@@ -118,15 +122,99 @@ impl Actor {
             friction: 1.0,
             last_input: VehicleInput::default(),
             mode: ControlMode::Stored,
-            vehicle: VehicleState::default(),
-            yaw_trig: SinCosCache::default(),
-        };
-        a.sync_vehicle();
-        a
+            live: false,
+        }
     }
     /// The control mode.
     pub fn mode(&self) -> &ControlMode {
         &self.mode
+    }
+    /// The state as given, or as it was when the actor left a world.
+    pub fn state(&self) -> ActorState {
+        self.state
+    }
+}
+
+/// The model's state for an actor that starts integrating at `s`.
+fn vehicle_from(s: &ActorState) -> VehicleState {
+    VehicleState {
+        x: s.pose.position.x,
+        y: s.pose.position.y,
+        z: s.pose.position.z,
+        yaw: s.pose.yaw,
+        v: s.speed.max(0.0),
+        ..VehicleState::default()
+    }
+}
+
+/// The state an integrating actor reports: pose, velocity along the
+/// heading, tangential plus centripetal acceleration.
+fn report(v: &VehicleState) -> ActorState {
+    let (s, c) = math::sin_cos(v.yaw);
+    // World-frame acceleration: tangential plus centripetal (a_y = v²κ = v·ω).
+    let a_lat = v.v * v.yaw_rate;
+    ActorState {
+        pose: Pose {
+            position: Vec3::new(v.x, v.y, v.z),
+            roll: 0.0,
+            pitch: 0.0,
+            yaw: v.yaw,
+        },
+        velocity: Vec3::new(v.v * c, v.v * s, 0.0),
+        acceleration: Vec3::new(
+            v.acceleration * c - a_lat * s,
+            v.acceleration * s + a_lat * c,
+            0.0,
+        ),
+        yaw_rate: v.yaw_rate,
+        speed: v.v,
+        long_acceleration: v.acceleration,
+        trajectory: TrajectoryStatus::None,
+    }
+}
+
+/// An actor of a [`World`], read in place.
+#[derive(Clone, Copy, Debug)]
+pub struct ActorRef<'w> {
+    world: &'w World,
+    index: usize,
+}
+
+impl<'w> ActorRef<'w> {
+    fn actor(&self) -> &'w Actor {
+        &self.world.actors[self.index]
+    }
+    /// Unique id.
+    pub fn id(&self) -> &'w str {
+        &self.actor().id
+    }
+    /// What it is.
+    pub fn description(&self) -> &'w ActorDescription {
+        &self.actor().description
+    }
+    /// Its vehicle model, if any.
+    pub fn model(&self) -> Option<&'w VehicleModelKind> {
+        self.actor().model.as_ref()
+    }
+    /// Road friction coefficient μ.
+    pub fn friction(&self) -> f64 {
+        self.actor().friction
+    }
+    /// The input applied in the last step.
+    pub fn last_input(&self) -> VehicleInput {
+        self.actor().last_input
+    }
+    /// The control mode.
+    pub fn mode(&self) -> &'w ControlMode {
+        &self.actor().mode
+    }
+    /// Its reported state.
+    pub fn state(&self) -> ActorState {
+        self.world.state_at(self.index)
+    }
+    /// The vehicle model's state (what the last step integrated or implied).
+    pub fn vehicle_state(&self) -> VehicleState {
+        self.world.vehicles.get(self.index)
     }
     /// The quantities derived from the last step (seed 001 §1.3).
     ///
@@ -134,52 +222,15 @@ impl Actor {
     /// when asked: the sqrt and division it needs would otherwise cost a
     /// third of a world step for values most runs never read.
     pub fn derived(&self) -> Derived {
-        Derived::from_state(&self.vehicle, self.description.mass, self.friction)
+        let a = self.actor();
+        Derived::from_state(&self.vehicle_state(), a.description.mass, a.friction)
     }
-    /// The vehicle model's internal state.
-    pub fn vehicle_state(&self) -> &VehicleState {
-        &self.vehicle
-    }
-
-    fn sync_vehicle(&mut self) {
-        let s = &self.state;
-        self.vehicle = VehicleState {
-            x: s.pose.position.x,
-            y: s.pose.position.y,
-            z: s.pose.position.z,
-            yaw: s.pose.yaw,
-            v: s.speed.max(0.0),
-            ..VehicleState::default()
-        };
-    }
-
-    fn publish_vehicle(&mut self) {
-        let v = &self.vehicle;
-        // The model usually has just evaluated this heading's trig (and a
-        // straight-driving one keeps it): share its cache (bit-identical).
-        let cache = match self.model.as_mut().and_then(|m| m.heading_trig()) {
-            Some(c) => c,
-            None => &mut self.yaw_trig,
-        };
-        let (s, c) = cache.get(v.yaw);
-        self.state.pose = Pose {
-            position: Vec3::new(v.x, v.y, v.z),
-            roll: 0.0,
-            pitch: 0.0,
-            yaw: v.yaw,
-        };
-        self.state.speed = v.v;
-        self.state.velocity = Vec3::new(v.v * c, v.v * s, 0.0);
-        self.state.long_acceleration = v.acceleration;
-        // World-frame acceleration: tangential plus centripetal (a_y = v²κ = v·ω).
-        let a_lat = v.v * v.yaw_rate;
-        self.state.acceleration = Vec3::new(
-            v.acceleration * c - a_lat * s,
-            v.acceleration * s + a_lat * c,
-            0.0,
-        );
-        self.state.yaw_rate = v.yaw_rate;
-        self.state.trajectory = TrajectoryStatus::None;
+    /// A detached copy (state as reported now).
+    pub fn to_actor(&self) -> Actor {
+        let mut a = self.actor().clone();
+        a.state = self.state();
+        a.live = false;
+        a
     }
 }
 
@@ -204,16 +255,52 @@ pub enum WorldError {
 }
 
 /// The simulated world.
+///
+/// Every actor's vehicle state lives in [`VehicleColumns`], index-aligned
+/// with the actors; the reported state of an integrating actor is computed
+/// from them when read ([`ActorRef::state`]). Dynamic actors whose model and
+/// command allow it are stepped together by the batch loops of
+/// [`crate::vehicle::batch`] (bit-identical to their models, see there); the
+/// rest one by one.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct World {
     dt: f64,
     step_ms: Option<u64>,
     tick: u64,
     actors: Vec<Actor>,
+    vehicles: VehicleColumns,
     index: BTreeMap<ActorId, usize>,
     // Actors under an external controller; kept so that a step can skip the
     // snapshot of all actors when nobody needs it.
     external: usize,
+    // Compiled commands; rebuilt at the next step after any change.
+    #[serde(skip)]
+    batch: Batch,
+}
+
+/// The compiled commands of the dynamic actors, and when they go stale.
+#[derive(Clone, Debug, Default)]
+struct Batch {
+    // None: a command, mode or actor changed since it was built.
+    built: Option<Built>,
+    // Off: every actor is stepped one by one (same bits; for tests and
+    // benchmarks).
+    off: bool,
+}
+
+#[derive(Clone, Debug)]
+struct Built {
+    commands: CommandColumns,
+    runs: Vec<(Kernel, Range<usize>)>,
+    // The earliest last tick of a dynamic command with a validity limit.
+    next_expiry: u64,
+}
+
+impl PartialEq for Batch {
+    /// A cache: never part of a world's value.
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
 }
 
 impl World {
@@ -227,8 +314,10 @@ impl World {
             step_ms: None,
             tick: 0,
             actors: Vec::new(),
+            vehicles: VehicleColumns::default(),
             index: BTreeMap::new(),
             external: 0,
+            batch: Batch::default(),
         })
     }
     /// An empty world on an integer millisecond clock: `time() =
@@ -260,13 +349,23 @@ impl World {
             None => tick as f64 * self.dt,
         }
     }
+    /// Steps batchable dynamic actors together (the default) or every actor
+    /// one by one. The results are bit-identical either way; this exists so
+    /// that tests and benchmarks can compare the two.
+    pub fn set_batching(&mut self, on: bool) {
+        self.batch = Batch {
+            built: None,
+            off: !on,
+        };
+    }
     /// Sets the clock (e.g. a simulation that starts at a given time).
     pub fn set_tick(&mut self, tick: u64) {
         self.tick = tick;
+        self.batch.built = None;
     }
     /// Actors in creation order.
-    pub fn actors(&self) -> &[Actor] {
-        &self.actors
+    pub fn actors(&self) -> impl ExactSizeIterator<Item = ActorRef<'_>> + DoubleEndedIterator {
+        (0..self.actors.len()).map(|index| ActorRef { world: self, index })
     }
     /// Number of actors.
     pub fn len(&self) -> usize {
@@ -277,14 +376,24 @@ impl World {
         self.actors.is_empty()
     }
     /// An actor by id.
-    pub fn actor(&self, id: &str) -> Option<&Actor> {
-        self.index.get(id).map(|&i| &self.actors[i])
+    pub fn actor(&self, id: &str) -> Option<ActorRef<'_>> {
+        self.index
+            .get(id)
+            .map(|&index| ActorRef { world: self, index })
     }
     fn index_of(&self, id: &str) -> Result<usize, WorldError> {
         self.index
             .get(id)
             .copied()
             .ok_or_else(|| WorldError::UnknownActor(id.to_string()))
+    }
+    fn state_at(&self, i: usize) -> ActorState {
+        let a = &self.actors[i];
+        if a.live {
+            report(&self.vehicles.get(i))
+        } else {
+            a.state
+        }
     }
 
     /// Adds an actor at the end of the order.
@@ -295,15 +404,28 @@ impl World {
         if self.index.contains_key(&actor.id) {
             return Err(WorldError::DuplicateActor(actor.id));
         }
+        if matches!(actor.mode, ControlMode::External(_)) {
+            self.external += 1;
+        }
         self.index.insert(actor.id.clone(), self.actors.len());
-        self.actors.push(actor);
+        self.vehicles.push(&vehicle_from(&actor.state));
+        self.actors.push(Actor {
+            live: false,
+            ..actor
+        });
+        self.batch.built = None;
         Ok(())
     }
 
-    /// Removes an actor; the others keep their relative order.
+    /// Removes an actor; the others keep their relative order. The actor
+    /// comes back with its state as reported now.
     pub fn remove_actor(&mut self, id: &str) -> Result<Actor, WorldError> {
         let i = self.index_of(id)?;
-        let a = self.actors.remove(i);
+        let state = self.state_at(i);
+        let mut a = self.actors.remove(i);
+        self.vehicles.remove(i);
+        a.state = state;
+        a.live = false;
         self.index.remove(id);
         if matches!(a.mode, ControlMode::External(_)) {
             self.external -= 1;
@@ -313,6 +435,7 @@ impl World {
                 *j -= 1;
             }
         }
+        self.batch.built = None;
         Ok(a)
     }
 
@@ -327,8 +450,10 @@ impl World {
             self.external -= 1;
         }
         a.state = state;
+        a.live = false;
         a.mode = ControlMode::Stored;
-        a.sync_vehicle();
+        self.vehicles.set(i, &vehicle_from(&state));
+        self.batch.built = None;
         Ok(())
     }
 
@@ -336,6 +461,7 @@ impl World {
     /// a trajectory already held from its own start time on.
     pub fn set_mode(&mut self, id: &str, mode: ControlMode) -> Result<(), WorldError> {
         let i = self.index_of(id)?;
+        let reported = self.state_at(i);
         let a = &mut self.actors[i];
         let needs_model = matches!(mode, ControlMode::Dynamic { .. } | ControlMode::External(_));
         if needs_model && a.model.is_none() {
@@ -362,7 +488,12 @@ impl World {
             ControlMode::Dynamic { .. } | ControlMode::External(_)
         );
         if needs_model && !was_integrating {
-            a.sync_vehicle();
+            self.vehicles.set(i, &vehicle_from(&a.state));
+        }
+        if !needs_model && a.live {
+            // Leaving the model: from now on the state is stored again.
+            a.state = reported;
+            a.live = false;
         }
         let was_external = matches!(a.mode, ControlMode::External(_));
         let is_external = matches!(mode, ControlMode::External(_));
@@ -371,32 +502,97 @@ impl World {
             (slot, mode) => *slot = mode,
         }
         self.external = self.external + usize::from(is_external) - usize::from(was_external);
+        self.batch.built = None;
         Ok(())
     }
 
-    /// Advances every actor by one tick, in creation order.
+    /// Compiles the standing commands of dynamic actors whose model allows
+    /// it, writes what those commands report every step (input, steering,
+    /// curvature, slip), and finds the runs the batch loops step.
+    fn build_batch(&mut self, tick: u64) -> Built {
+        let mut commands = CommandColumns::with_len(self.actors.len());
+        let mut next_expiry = u64::MAX;
+        for (i, a) in self.actors.iter_mut().enumerate() {
+            let ControlMode::Dynamic {
+                input,
+                valid_until_tick,
+            } = &mut a.mode
+            else {
+                continue;
+            };
+            if valid_until_tick.is_some_and(|last| tick > last) {
+                *input = VehicleInput::default();
+                *valid_until_tick = None;
+            }
+            if let Some(last) = *valid_until_tick {
+                next_expiry = next_expiry.min(last);
+            }
+            let Some(m) = a.model.as_mut().filter(|_| !self.batch.off) else {
+                continue;
+            };
+            let compiled = m.compile(input, &self.vehicles.get(i), self.dt);
+            if let Some(c) = compiled {
+                let (steering, curvature, slip) = c.constant_outputs();
+                self.vehicles.steering_angle[i] = steering;
+                self.vehicles.curvature[i] = curvature;
+                self.vehicles.slip_angle[i] = slip;
+                a.last_input = *input;
+                a.live = true;
+            }
+            commands.set(i, compiled);
+        }
+        let runs = commands.runs();
+        Built {
+            commands,
+            runs,
+            next_expiry,
+        }
+    }
+
+    /// Advances every actor by one tick.
     ///
-    /// External controllers all see the states at the start of the step, so
-    /// the result does not depend on the order actors were created in.
+    /// Every actor's step depends only on its own state, except that
+    /// external controllers look at all actors as they were at the start of
+    /// the step; so the result does not depend on the order actors were
+    /// created in, nor on which of them the batch loops step.
     pub fn step(&mut self) {
         let dt = self.dt;
         let tick = self.tick + 1;
         let t = self.time_at(tick);
+        // A command that runs out this tick changes the compiled set.
+        let built = match self.batch.built.take() {
+            Some(b) if tick <= b.next_expiry => b,
+            _ => self.build_batch(tick),
+        };
         // Only external controllers look at other actors; skip the snapshot otherwise.
         let snapshot: Vec<Snapshot> = if self.external > 0 {
-            self.actors
-                .iter()
-                .map(|a| Snapshot {
-                    position: a.state.pose.position.xy(),
-                    yaw: a.state.pose.yaw,
-                    speed: a.state.speed,
-                    length: a.description.length,
+            (0..self.actors.len())
+                .map(|i| {
+                    let s = self.state_at(i);
+                    Snapshot {
+                        position: s.pose.position.xy(),
+                        yaw: s.pose.yaw,
+                        speed: s.speed,
+                        length: self.actors[i].description.length,
+                    }
                 })
                 .collect()
         } else {
             Vec::new()
         };
+        for (kernel, range) in &built.runs {
+            batch::step_run(
+                &mut self.vehicles,
+                &built.commands,
+                *kernel,
+                range.clone(),
+                dt,
+            );
+        }
         for idx in 0..self.actors.len() {
+            if built.commands.kernel(idx).is_some() {
+                continue;
+            }
             let a = &mut self.actors[idx];
             match &mut a.mode {
                 ControlMode::Stored => {}
@@ -426,42 +622,42 @@ impl World {
                             long_acceleration: long_acc,
                             trajectory: s.status,
                         };
-                        a.sync_vehicle();
-                        // What the motion implies, for `Actor::derived`.
-                        a.vehicle.yaw_rate = yaw_rate;
-                        a.vehicle.acceleration = long_acc;
-                        a.vehicle.curvature = if s.speed > 1e-9 {
+                        // What the motion implies, for `ActorRef::derived`.
+                        let mut vs = vehicle_from(&a.state);
+                        vs.yaw_rate = yaw_rate;
+                        vs.acceleration = long_acc;
+                        vs.curvature = if s.speed > 1e-9 {
                             yaw_rate / s.speed
                         } else {
                             0.0
                         };
+                        self.vehicles.set(idx, &vs);
                     }
                 }
-                ControlMode::Dynamic {
-                    input,
-                    valid_until_tick,
-                } => {
-                    if valid_until_tick.is_some_and(|last| tick > last) {
-                        *input = VehicleInput::default();
-                        *valid_until_tick = None;
-                    }
+                ControlMode::Dynamic { input, .. } => {
+                    // Expired commands were reset when the batch was built.
                     let input = *input;
                     if let Some(m) = a.model.as_mut() {
-                        m.step(&mut a.vehicle, &input, dt);
+                        let mut vs = self.vehicles.get(idx);
+                        m.step(&mut vs, &input, dt);
+                        self.vehicles.set(idx, &vs);
                         a.last_input = input;
-                        a.publish_vehicle();
+                        a.live = true;
                     }
                 }
                 ControlMode::External(ctrl) => {
                     let input = external_input(ctrl, idx, &snapshot);
                     if let Some(m) = a.model.as_mut() {
-                        m.step(&mut a.vehicle, &input, dt);
+                        let mut vs = self.vehicles.get(idx);
+                        m.step(&mut vs, &input, dt);
+                        self.vehicles.set(idx, &vs);
                         a.last_input = input;
-                        a.publish_vehicle();
+                        a.live = true;
                     }
                 }
             }
         }
+        self.batch.built = Some(built);
         self.tick = tick;
     }
 }

@@ -446,22 +446,23 @@ impl LogRecorder {
     pub fn record_world(&mut self, world: &World) {
         self.begin(world.tick(), world.time());
         for a in world.actors() {
-            let kind = match a.description.kind {
+            let desc = a.description();
+            let kind = match desc.kind {
                 litesim_core::ActorKind::Vehicle(c) => {
                     format!("vehicle/{}", format!("{c:?}").to_lowercase())
                 }
                 k => format!("{k:?}").to_lowercase(),
             };
             self.actor(
-                &a.id,
+                a.id(),
                 &kind,
-                &a.description.model,
-                a.description.length,
-                a.description.width,
-                a.description.mass,
+                &desc.model,
+                desc.length,
+                desc.width,
+                desc.mass,
             );
             let vs = a.vehicle_state();
-            let control = match (a.mode().name(), a.last_input) {
+            let control = match (a.mode().name(), a.last_input()) {
                 ("dynamic", VehicleInput::Pedals(p)) => ControlSample {
                     throttle: p.throttle,
                     brake: p.brake,
@@ -478,15 +479,16 @@ impl LogRecorder {
                 }
                 _ => ControlSample::default(),
             };
+            let st = a.state();
             let s = ActorSample {
-                pose: a.state.pose,
-                velocity: a.state.velocity,
-                speed: a.state.speed,
-                yaw_rate: a.state.yaw_rate,
+                pose: st.pose,
+                velocity: st.velocity,
+                speed: st.speed,
+                yaw_rate: st.yaw_rate,
                 control,
                 derived: a.derived(),
             };
-            self.sample(&a.id, a.mode().name(), &s);
+            self.sample(a.id(), a.mode().name(), &s);
         }
     }
 

@@ -550,7 +550,7 @@ pub fn run_closed_loop(
     let tdt = cfg.tracker.dt;
     let check = |w: &World, min_clear: &mut f64, collided: &mut bool| {
         if let Some(a) = w.actor("ego") {
-            let p = a.state.pose;
+            let p = a.state().pose;
             for q in footprint(&veh, p.position.x, p.position.y, p.yaw) {
                 if pgrid.layer(q) == Layer::Hard {
                     *collided = true;
@@ -571,8 +571,9 @@ pub fn run_closed_loop(
                 return;
             }
             let Some(a) = w.actor("ego") else { return };
-            let p = a.state.pose;
-            let z0 = [p.position.x, p.position.y, p.yaw, a.state.speed];
+            let st = a.state();
+            let p = st.pose;
+            let z0 = [p.position.x, p.position.y, p.yaw, st.speed];
             let (s, lat, i) = corridor.project(p.position.xy(), hint);
             hint = i;
             let t0 = corridor.time_at_s(s);

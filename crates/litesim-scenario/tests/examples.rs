@@ -715,10 +715,10 @@ fn a_left_handed_profile_sees_the_world_mirrored_like_its_map() {
     // Inside the simulator (CARLA's left-handed frame) y is negated; the
     // engine converted at the boundary, so the summary is in the map's frame.
     let world = session.world().unwrap();
-    let car = world.actors().iter().find(|a| a.id == "sut.car").unwrap();
+    let car = world.actor("sut.car").unwrap();
     let planned = r.plan.actors.iter().find(|a| a.id == "sut.car").unwrap();
     let at = planned.at(r.summary.steps as f64 * 0.02, r.plan.dt);
-    let p = car.state.pose.position;
+    let p = car.state().pose.position;
     assert!(
         (p.x - at.x).abs() < 1e-6 && (p.y - at.y).abs() < 1e-6,
         "{p:?} vs {at:?}"

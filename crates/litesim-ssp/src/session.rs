@@ -25,9 +25,9 @@ use crate::profile::{Profile, TrafficLightApi};
 use crate::traffic::{BulbState, LightTarget, TrafficLightBox, TrafficLights};
 use litesim_core::world::ExternalController;
 use litesim_core::{
-    Actor, ActorDescription, ActorKind, ActorState, ActuatorLimits, ControlMode, DynamicCommand,
-    PedalInput, Pose, SteeringInput, TimedPoint, Trajectory, Vec3, VehicleCategory, VehicleInput,
-    World, WorldError, normalize_command,
+    Actor, ActorDescription, ActorKind, ActorRef, ActorState, ActuatorLimits, ControlMode,
+    DynamicCommand, PedalInput, Pose, SteeringInput, TimedPoint, Trajectory, Vec3, VehicleCategory,
+    VehicleInput, World, WorldError, normalize_command,
 };
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -349,11 +349,11 @@ impl Session {
             .ok_or_else(|| SspError::not_found(format!("no actor with id '{id}'")))
     }
 
-    fn report(&self, a: &Actor) -> ReportedState {
-        let m = &self.meta[&a.id];
-        let s = a.state;
+    fn report(&self, a: ActorRef<'_>) -> ReportedState {
+        let m = &self.meta[a.id()];
+        let s = a.state();
         let mut controls = m.controls.clone();
-        if let VehicleInput::Pedals(p) = a.last_input
+        if let VehicleInput::Pedals(p) = a.last_input()
             && matches!(a.mode(), ControlMode::Dynamic { .. })
         {
             controls.throttle_pedal_pos = Some(p.throttle);
@@ -367,7 +367,7 @@ impl Session {
             ControlMode::External(_) => MoveMode::External,
         };
         let mut r = ReportedState {
-            actor_id: a.id.clone(),
+            actor_id: a.id().to_string(),
             pose: s.pose,
             velocity: s.velocity,
             acceleration: s.acceleration,
@@ -645,11 +645,12 @@ impl Ssp for Session {
         }
         let w = self.world.as_ref().expect("world exists after init");
         Ok(w.actors()
-            .iter()
-            .filter(|a| filter.actor_ids.is_empty() || filter.actor_ids.contains(&a.id))
+            .filter(|a| {
+                filter.actor_ids.is_empty() || filter.actor_ids.iter().any(|id| id == a.id())
+            })
             .filter(|a| {
                 filter.categories.is_empty()
-                    || filter.categories.contains(&self.meta[&a.id].category)
+                    || filter.categories.contains(&self.meta[a.id()].category)
             })
             .map(|a| self.report(a))
             .collect())
@@ -1009,7 +1010,7 @@ impl Ssp for Session {
             .world
             .as_ref()
             .and_then(|w| w.actor(actor_id))
-            .map_or(0.0, |a| a.state.pose.position.z);
+            .map_or(0.0, |a| a.state().pose.position.z);
         let mut points = Vec::with_capacity(n);
         for (i, c) in traj.points.iter().enumerate() {
             let (Some(_), Some(_)) = (c.x, c.y) else {

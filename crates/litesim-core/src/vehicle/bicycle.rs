@@ -105,25 +105,23 @@ impl KinematicBicycle {
         )
     }
 
-    /// Integrates one step with already saturated `(a, δ)`.
+    /// `(κ = tan δ / L, β, cos β)` of a saturated road-wheel angle δ.
     #[inline]
-    pub fn integrate(&mut self, st: &mut VehicleState, a: f64, delta: f64, dt: f64) {
-        let l = self.wheelbase;
-        let v = st.v;
-        let key = (delta, l, self.rear_to_cg, self.reference);
-        let (curvature, beta, cos_beta) = match self.steer_cache {
+    pub(crate) fn steer_terms(&mut self, delta: f64) -> (f64, f64, f64) {
+        let key = (delta, self.wheelbase, self.rear_to_cg, self.reference);
+        match self.steer_cache {
             _ if delta == 0.0 => (0.0, 0.0, 1.0),
             Some(c) if c.key == key => (c.curvature, c.beta, c.cos_beta),
             _ => {
                 let tan_d = math::tan(delta);
                 let beta = match self.reference {
                     ReferencePoint::CenterOfGravity if tan_d != 0.0 => {
-                        math::atan(self.rear_to_cg / l * tan_d)
+                        math::atan(self.rear_to_cg / self.wheelbase * tan_d)
                     }
                     _ => 0.0,
                 };
                 let cos_beta = math::cos(beta);
-                let curvature = tan_d / l;
+                let curvature = tan_d / self.wheelbase;
                 self.steer_cache = Some(SteerCache {
                     key,
                     curvature,
@@ -132,7 +130,14 @@ impl KinematicBicycle {
                 });
                 (curvature, beta, cos_beta)
             }
-        };
+        }
+    }
+
+    /// Integrates one step with already saturated `(a, δ)`.
+    #[inline]
+    pub fn integrate(&mut self, st: &mut VehicleState, a: f64, delta: f64, dt: f64) {
+        let v = st.v;
+        let (curvature, beta, cos_beta) = self.steer_terms(delta);
         // ψ̇ = v·κ with κ = tan δ / L (cached with δ): one multiplication
         // instead of a division per step; cos β = 1 for the rear axle.
         let yaw_rate = v * cos_beta * curvature;

@@ -4,9 +4,13 @@
 //! * [`KinematicBicycle`] — seed 001 §1.1, rear-axle or centre-of-gravity reference.
 //! * [`ActuatorLag`] — a bicycle whose actuators answer with first-order lag and dead time.
 //!
+//! [`batch`] steps many vehicles of these models at once, column by column,
+//! with the same bits.
+//!
 //! [`VehicleModelKind`] dispatches statically over the built-in models so that
 //! a world of thousands of actors steps without virtual calls.
 
+pub mod batch;
 mod bicycle;
 mod derived;
 mod lag;
@@ -101,6 +105,24 @@ pub enum VehicleModelKind {
     Bicycle(KinematicBicycle),
     /// [`ActuatorLag`].
     Lag(ActuatorLag),
+}
+
+impl VehicleModelKind {
+    /// Compiles a standing command for the batch loops ([`batch`]), or
+    /// `None` when this model or this case is stepped one vehicle at a time.
+    pub fn compile(
+        &mut self,
+        input: &VehicleInput,
+        state: &VehicleState,
+        dt: f64,
+    ) -> Option<batch::Compiled> {
+        match self {
+            VehicleModelKind::Ssp(m) => m.compile(input, state, dt),
+            VehicleModelKind::Bicycle(m) => m.compile(input, state, dt),
+            // Its actuators carry state from step to step.
+            VehicleModelKind::Lag(_) => None,
+        }
+    }
 }
 
 impl VehicleModel for VehicleModelKind {

@@ -117,18 +117,41 @@ impl SspDynamics {
     }
 }
 
-impl VehicleModel for SspDynamics {
+/// How a command sets the acceleration of one SSP step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum SspAccel {
+    /// A fixed value (m/s²): brake, throttle, or a direct request.
+    Fixed(f64),
+    /// No pedal: the car coasts at `free_deceleration` against its motion.
+    Coast,
+}
+
+/// The parts of one SSP step that depend on the command only, not on the
+/// state: what [`SspDynamics::step`] computes first, and what a batch of
+/// vehicles keeps for as long as their commands stand.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SspTerms {
+    pub accel: SspAccel,
+    /// Road-wheel angle (degrees).
+    pub wheels_deg: f64,
+    /// `sin δ / L` (1/m); 0 when the wheels are straight.
+    pub curvature: f64,
+    /// Turning radius `L / sin δ` (m) when the car turns (`ω = v / R`).
+    pub radius: Option<f64>,
+}
+
+impl SspDynamics {
+    /// The command's terms (seed steps 1 and 2 up to the speed).
     #[inline]
-    fn step(&mut self, st: &mut VehicleState, input: &VehicleInput, dt: f64) {
-        let v = st.v;
-        let (acceleration, wheels_angle_deg) = match *input {
+    pub(crate) fn terms(&mut self, input: &VehicleInput) -> SspTerms {
+        let (accel, wheels_deg) = match *input {
             VehicleInput::Pedals(p) => {
                 let a = if p.brake > 0.0 {
-                    -p.brake * self.brake_deceleration
+                    SspAccel::Fixed(-p.brake * self.brake_deceleration)
                 } else if p.throttle > 0.0 {
-                    p.throttle * self.max_acceleration
+                    SspAccel::Fixed(p.throttle * self.max_acceleration)
                 } else {
-                    -self.free_deceleration.copysign(v)
+                    SspAccel::Coast
                 };
                 (a, self.wheels_from_steering(p.steering))
             }
@@ -136,11 +159,11 @@ impl VehicleModel for SspDynamics {
                 acceleration,
                 steering_angle,
             } => (
-                math::clamp(
+                SspAccel::Fixed(math::clamp(
                     acceleration,
                     -self.brake_deceleration,
                     self.max_acceleration,
-                ),
+                )),
                 math::clamp(
                     steering_angle.to_degrees(),
                     -self.max_wheels_angle_deg,
@@ -150,11 +173,33 @@ impl VehicleModel for SspDynamics {
         };
         // ω = v / R with R = L / sin δ, as the seed writes it (zero when the
         // wheels are straight, where the seed would divide by zero).
-        let (curvature, angular_velocity) = if wheels_angle_deg == 0.0 {
-            (0.0, 0.0)
+        let (curvature, radius) = if wheels_deg == 0.0 {
+            (0.0, None)
         } else {
-            let (k, r) = self.turning(wheels_angle_deg);
-            (k, if k == 0.0 { 0.0 } else { v / r })
+            let (k, r) = self.turning(wheels_deg);
+            (k, if k == 0.0 { None } else { Some(r) })
+        };
+        SspTerms {
+            accel,
+            wheels_deg,
+            curvature,
+            radius,
+        }
+    }
+}
+
+impl VehicleModel for SspDynamics {
+    #[inline]
+    fn step(&mut self, st: &mut VehicleState, input: &VehicleInput, dt: f64) {
+        let v = st.v;
+        let terms = self.terms(input);
+        let acceleration = match terms.accel {
+            SspAccel::Fixed(a) => a,
+            SspAccel::Coast => -self.free_deceleration.copysign(v),
+        };
+        let angular_velocity = match terms.radius {
+            Some(r) => v / r,
+            None => 0.0,
         };
         let v_free = v + acceleration * dt;
         let v_new = v_free.min(self.max_linear_velocity).max(0.0);
@@ -176,8 +221,8 @@ impl VehicleModel for SspDynamics {
         } else {
             (v_new - v) / dt
         };
-        st.steering_angle = wheels_angle_deg.to_radians();
-        st.curvature = curvature;
+        st.steering_angle = terms.wheels_deg.to_radians();
+        st.curvature = terms.curvature;
         st.slip_angle = 0.0;
     }
     fn wheelbase(&self) -> f64 {

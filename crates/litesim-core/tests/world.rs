@@ -1,0 +1,116 @@
+//! World behaviour that the batch loops must keep.
+
+use litesim_core::*;
+
+fn world(batching: bool) -> World {
+    let mut w = World::with_step_ms(20).unwrap();
+    w.set_batching(batching);
+    let model = VehicleModelKind::Ssp(SspDynamics::for_length(4.5));
+    let state = ActorState {
+        speed: 10.0,
+        ..ActorState::at_rest(Pose::planar(0.0, 0.0, 0.3))
+    };
+    w.add_actor(Actor::new(
+        "car",
+        ActorDescription::car("t"),
+        state,
+        Some(model),
+    ))
+    .unwrap();
+    w
+}
+
+const THROTTLE: VehicleInput = VehicleInput::Pedals(NormalizedPedals {
+    throttle: 0.5,
+    brake: 0.0,
+    steering: 0.2,
+});
+
+#[test]
+fn a_command_runs_out_after_its_last_tick() {
+    for batching in [true, false] {
+        let mut w = world(batching);
+        w.set_mode(
+            "car",
+            ControlMode::Dynamic {
+                input: THROTTLE,
+                valid_until_tick: Some(5),
+            },
+        )
+        .unwrap();
+        let mut speeds = Vec::new();
+        for tick in 1..=8 {
+            w.step();
+            let a = w.actor("car").unwrap();
+            speeds.push(a.state().speed);
+            let want = if tick <= 5 {
+                THROTTLE
+            } else {
+                VehicleInput::default()
+            };
+            assert_eq!(a.last_input(), want, "tick {tick}, batching {batching}");
+        }
+        // Throttle for five steps, then coasting at 2 m/s².
+        assert!(speeds[4] > speeds[3] && speeds[5] < speeds[4], "{speeds:?}");
+        assert!((speeds[6] - (speeds[5] - 2.0 * 0.02)).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn a_state_reads_as_given_until_the_first_integrated_step() {
+    for batching in [true, false] {
+        let mut w = world(batching);
+        let given = w.actor("car").unwrap().state();
+        w.set_mode(
+            "car",
+            ControlMode::Dynamic {
+                input: THROTTLE,
+                valid_until_tick: None,
+            },
+        )
+        .unwrap();
+        assert_eq!(w.actor("car").unwrap().state(), given);
+        w.step();
+        let after = w.actor("car").unwrap().state();
+        assert!(after.speed > given.speed && after.pose.position.x > 0.0);
+        // Back to stored: the state last reported is kept.
+        w.set_mode("car", ControlMode::Stored).unwrap();
+        w.step();
+        assert_eq!(w.actor("car").unwrap().state(), after);
+        // Leaving the world, the actor takes that state along.
+        assert_eq!(w.remove_actor("car").unwrap().state(), after);
+    }
+}
+
+#[test]
+fn typical_commands_take_the_batch_path() {
+    use litesim_core::vehicle::batch::Kernel;
+    let st = VehicleState {
+        v: 12.0,
+        yaw: 2.0,
+        ..VehicleState::default()
+    };
+    let mut ssp = SspDynamics::for_length(4.5);
+    let mut bike = KinematicBicycle::new(2.7);
+    for input in [
+        THROTTLE,
+        VehicleInput::default(),
+        VehicleInput::Direct {
+            acceleration: -3.0,
+            steering_angle: 0.1,
+        },
+    ] {
+        assert_eq!(
+            ssp.compile(&input, &st, 0.02).map(|c| c.kernel()),
+            Some(Kernel::Ssp)
+        );
+        assert_eq!(
+            bike.compile(&input, &st, 0.02).map(|c| c.kernel()),
+            Some(Kernel::Bicycle)
+        );
+    }
+    // A heading the scalar wrap would reduce by its slow path: one by one.
+    let far = VehicleState { yaw: 7.0, ..st };
+    assert!(ssp.compile(&THROTTLE, &far, 0.02).is_none());
+    assert!(bike.compile(&THROTTLE, &far, 0.02).is_none());
+}
