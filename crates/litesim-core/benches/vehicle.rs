@@ -1,8 +1,12 @@
 //! Vehicle-model and world-step throughput.
 //!
 //! `cargo bench -p litesim-core --bench vehicle` measures:
-//! * `SspDynamics` and `KinematicBicycle` per actor-step (straight and turning),
+//! * `SspDynamics` and `KinematicBicycle` per actor-step (straight and
+//!   turning): one vehicle, 1,000 vehicles each stepped by its model, and
+//!   1,000 vehicles in columns stepped by the batch loops at every
+//!   instruction-set level the machine has,
 //! * a world step with 1,000 dynamic actors (actor-steps per second),
+//!   batched (the default) and one by one,
 //!
 //! and afterwards runs `benches/seed_model.py` — a plain Python transcription
 //! of the seed's model — in the same session and prints the ratio.

@@ -7,8 +7,12 @@
 //! * **No I/O, no clock, no threads, no ambient randomness.** Everything here
 //!   is a function of its inputs.
 //! * **Bit-identical results across machines.** Transcendental functions go
-//!   through [`math`] (the pure-Rust `libm` port), never the platform libm,
+//!   through [`math`] (litesim's own `sin_cos`, the pure-Rust `libm` for the
+//!   rest), never the platform libm,
 //!   so a run gives the same bytes wherever it runs.
+//! * **Fast by batching, with the same bits**: a [`World`] steps its dynamic
+//!   actors together, column by column ([`vehicle::batch`]), and gives the
+//!   bits its vehicle models give one vehicle at a time.
 //! * **Time is a tick counter**: `t = tick as f64 * dt`, never a running sum.
 //! * **No panics on user input**: commands are validated into typed errors
 //!   ([`ControlError`]) before they touch a model.
