@@ -323,7 +323,13 @@ fn compare_with_python() {
         ),
     ] {
         if let Some(ns) = median_ns(&format!("actor_step_columns_1000/{id}"), 1000.0) {
-            println!("{label:<44} {ns:8.2} ns/actor-step");
+            match py_ns {
+                Some(py) => println!(
+                    "{label:<44} {ns:8.2} ns/actor-step   vs Python {:6.0}×",
+                    py / ns
+                ),
+                None => println!("{label:<44} {ns:8.2} ns/actor-step"),
+            }
         }
     }
     for id in ["litesim", "libm"] {
