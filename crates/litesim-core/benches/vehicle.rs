@@ -222,6 +222,34 @@ fn world(c: &mut Criterion) {
         w.set_batching(false);
         g.bench_function(format!("{name}_one_by_one"), |b| b.iter(|| w.step()));
     }
+    // A client that sends one actor a new command every step (a driver model
+    // or MPC per vehicle, round robin): only that actor is recompiled.
+    for batching in [true, false] {
+        let mut w = world_with(1000, 1);
+        w.set_batching(batching);
+        let ids: Vec<String> = (0..1000).map(|i| format!("car{i:04}")).collect();
+        let mut k = 0usize;
+        let name = if batching {
+            "all_turning_one_command_per_step"
+        } else {
+            "all_turning_one_command_per_step_one_by_one"
+        };
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                k = (k + 1) % ids.len();
+                let steering = if k % 2 == 0 { 0.1 } else { 0.12 };
+                w.set_mode(
+                    &ids[k],
+                    ControlMode::Dynamic {
+                        input: pedals(0.3, steering),
+                        valid_until_tick: None,
+                    },
+                )
+                .unwrap();
+                w.step()
+            })
+        });
+    }
     g.finish();
 }
 
@@ -344,10 +372,12 @@ fn compare_with_python() {
         "straight_one_by_one",
         "10pct_turning_one_by_one",
         "all_turning_one_by_one",
+        "all_turning_one_command_per_step",
+        "all_turning_one_command_per_step_one_by_one",
     ] {
         if let Some(ns) = median_ns(&format!("world_step_1000_dynamic/{id}"), 1000.0) {
             println!(
-                "world 1,000 dynamic, {id:<25} {:8.1} M actor-steps/s",
+                "world 1,000 dynamic, {id:<44} {:8.1} M actor-steps/s",
                 1000.0 / ns
             );
         }

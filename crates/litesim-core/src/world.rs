@@ -281,11 +281,23 @@ pub struct World {
 /// The compiled commands of the dynamic actors, and when they go stale.
 #[derive(Clone, Debug, Default)]
 struct Batch {
-    // None: a command, mode or actor changed since it was built.
+    // None: actors were added or removed (or the clock set) since it was built.
     built: Option<Built>,
+    // Actors whose command or mode changed since: recompiled one by one at
+    // the next step, so that a client commanding one actor per step does
+    // not pay for recompiling all of them.
+    changed: Vec<usize>,
     // Off: every actor is stepped one by one (same bits; for tests and
     // benchmarks).
     off: bool,
+}
+
+impl Batch {
+    fn changed(&mut self, i: usize) {
+        if self.built.is_some() {
+            self.changed.push(i);
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -354,8 +366,8 @@ impl World {
     /// that tests and benchmarks can compare the two.
     pub fn set_batching(&mut self, on: bool) {
         self.batch = Batch {
-            built: None,
             off: !on,
+            ..Batch::default()
         };
     }
     /// Sets the clock (e.g. a simulation that starts at a given time).
@@ -453,7 +465,7 @@ impl World {
         a.live = false;
         a.mode = ControlMode::Stored;
         self.vehicles.set(i, &vehicle_from(&state));
-        self.batch.built = None;
+        self.batch.changed(i);
         Ok(())
     }
 
@@ -502,7 +514,7 @@ impl World {
             (slot, mode) => *slot = mode,
         }
         self.external = self.external + usize::from(is_external) - usize::from(was_external);
-        self.batch.built = None;
+        self.batch.changed(i);
         Ok(())
     }
 
@@ -510,43 +522,50 @@ impl World {
     /// it, writes what those commands report every step (input, steering,
     /// curvature, slip), and finds the runs the batch loops step.
     fn build_batch(&mut self, tick: u64) -> Built {
-        let mut commands = CommandColumns::with_len(self.actors.len());
-        let mut next_expiry = u64::MAX;
-        for (i, a) in self.actors.iter_mut().enumerate() {
-            let ControlMode::Dynamic {
-                input,
-                valid_until_tick,
-            } = &mut a.mode
-            else {
-                continue;
-            };
-            if valid_until_tick.is_some_and(|last| tick > last) {
-                *input = VehicleInput::default();
-                *valid_until_tick = None;
-            }
-            if let Some(last) = *valid_until_tick {
-                next_expiry = next_expiry.min(last);
-            }
-            let Some(m) = a.model.as_mut().filter(|_| !self.batch.off) else {
-                continue;
-            };
-            let compiled = m.compile(input, &self.vehicles.get(i), self.dt);
-            if let Some(c) = compiled {
-                let (steering, curvature, slip) = c.constant_outputs();
-                self.vehicles.steering_angle[i] = steering;
-                self.vehicles.curvature[i] = curvature;
-                self.vehicles.slip_angle[i] = slip;
-                a.last_input = *input;
-                a.live = true;
-            }
-            commands.set(i, compiled);
+        let mut built = Built {
+            commands: CommandColumns::with_len(self.actors.len()),
+            runs: Vec::new(),
+            next_expiry: u64::MAX,
+        };
+        for i in 0..self.actors.len() {
+            self.compile_actor(i, tick, &mut built);
         }
-        let runs = commands.runs();
-        Built {
-            commands,
-            runs,
-            next_expiry,
+        built.runs = built.commands.runs();
+        built
+    }
+
+    /// Actor `i`'s part of [`World::build_batch`]: releases its command if
+    /// it ran out before `tick`, then compiles it (or clears it).
+    fn compile_actor(&mut self, i: usize, tick: u64, built: &mut Built) {
+        let a = &mut self.actors[i];
+        let ControlMode::Dynamic {
+            input,
+            valid_until_tick,
+        } = &mut a.mode
+        else {
+            built.commands.set(i, None);
+            return;
+        };
+        if valid_until_tick.is_some_and(|last| tick > last) {
+            *input = VehicleInput::default();
+            *valid_until_tick = None;
         }
+        if let Some(last) = *valid_until_tick {
+            built.next_expiry = built.next_expiry.min(last);
+        }
+        let compiled = match a.model.as_mut() {
+            Some(m) if !self.batch.off => m.compile(input, &self.vehicles.get(i), self.dt),
+            _ => None,
+        };
+        if let Some(c) = compiled {
+            let (steering, curvature, slip) = c.constant_outputs();
+            self.vehicles.steering_angle[i] = steering;
+            self.vehicles.curvature[i] = curvature;
+            self.vehicles.slip_angle[i] = slip;
+            a.last_input = *input;
+            a.live = true;
+        }
+        built.commands.set(i, compiled);
     }
 
     /// Advances every actor by one tick.
@@ -560,8 +579,17 @@ impl World {
         let tick = self.tick + 1;
         let t = self.time_at(tick);
         // A command that runs out this tick changes the compiled set.
+        let changed = std::mem::take(&mut self.batch.changed);
         let built = match self.batch.built.take() {
-            Some(b) if tick <= b.next_expiry => b,
+            Some(mut b) if tick <= b.next_expiry => {
+                if !changed.is_empty() {
+                    for &i in &changed {
+                        self.compile_actor(i, tick, &mut b);
+                    }
+                    b.runs = b.commands.runs();
+                }
+                b
+            }
             _ => self.build_batch(tick),
         };
         // Only external controllers look at other actors; skip the snapshot otherwise.
