@@ -237,7 +237,7 @@ fn world(c: &mut Criterion) {
         g.bench_function(name, |b| {
             b.iter(|| {
                 k = (k + 1) % ids.len();
-                let steering = if k % 2 == 0 { 0.1 } else { 0.12 };
+                let steering = if k.is_multiple_of(2) { 0.1 } else { 0.12 };
                 w.set_mode(
                     &ids[k],
                     ControlMode::Dynamic {
