@@ -152,7 +152,6 @@ proptest! {
         steps in 1usize..60,
         dt in prop_oneof![Just(0.01), Just(0.02), Just(0.05), Just(0.1)],
     ) {
-        use litesim_core::vehicle::batch::{CommandColumns, Level, VehicleColumns, step_run_at};
         let mut models = Vec::new();
         let mut states = Vec::new();
         let mut inputs = Vec::new();
@@ -163,49 +162,139 @@ proptest! {
             states.push(VehicleState { x: a * 100.0, y: s * 50.0, yaw, v, ..VehicleState::default() });
             inputs.push(batch_input(k, a, s));
         }
-        let mut reference = states.clone();
-        let mut ref_models = models.clone();
-        for _ in 0..steps {
-            for ((m, st), input) in ref_models.iter_mut().zip(&mut reference).zip(&inputs) {
-                m.step(st, input, dt);
+        check_batch(&models, &states, &inputs, steps, dt)?;
+    }
+
+    /// The same with odd public limits — tiny or negative wheelbases, caps
+    /// below zero, NaN and infinite limits, full-lock wheel angles of 90° —
+    /// where the batch must either reproduce the model or leave the vehicle
+    /// to it.
+    #[test]
+    fn batch_equals_scalar_models_with_odd_limits(
+        fleet in prop::collection::vec(
+            (0usize..3, 0usize..4, -1.0f64..1.0, -1.2f64..1.2, -3.2f64..3.2, 0.0f64..70.0, odd_limit(), odd_limit(), odd_limit()),
+            1..16,
+        ),
+        steps in 1usize..40,
+    ) {
+        let mut models = Vec::new();
+        let mut states = Vec::new();
+        let mut inputs = Vec::new();
+        for &(m, k, a, s, yaw, v, l1, l2, l3) in &fleet {
+            let mut model = batch_model(m);
+            match &mut model {
+                VehicleModelKind::Ssp(ssp) => {
+                    ssp.wheelbase = l1;
+                    ssp.max_linear_velocity = l2;
+                    ssp.max_wheels_angle_deg = l3 * 30.0;
+                    ssp.free_deceleration = l2 / 10.0;
+                }
+                VehicleModelKind::Bicycle(b) => {
+                    b.wheelbase = l1;
+                    b.max_speed = l2;
+                    b.max_steering_angle = l3;
+                    b.rear_to_cg = l1 / 3.0;
+                }
+                VehicleModelKind::Lag(_) => {}
             }
+            models.push(model);
+            states.push(VehicleState { x: a * 100.0, y: s * 50.0, yaw: yaw.min(std::f64::consts::PI), v, ..VehicleState::default() });
+            inputs.push(batch_input(k, a, s));
         }
-        for level in Level::available() {
-            let mut models = models.clone();
-            let mut cols = VehicleColumns::default();
-            for st in &states {
-                cols.push(st);
-            }
-            let mut cmds = CommandColumns::with_len(states.len());
-            for (i, m) in models.iter_mut().enumerate() {
-                let c = m.compile(&inputs[i], &states[i], dt);
-                if let Some(c) = c {
-                    let (sa, k, b) = c.constant_outputs();
-                    cols.steering_angle[i] = sa;
-                    cols.curvature[i] = k;
-                    cols.slip_angle[i] = b;
-                }
-                cmds.set(i, c);
-            }
-            for _ in 0..steps {
-                for (kernel, range) in cmds.runs() {
-                    prop_assert!(step_run_at(level, &mut cols, &cmds, kernel, range, dt));
-                }
-                for (i, m) in models.iter_mut().enumerate() {
-                    if cmds.kernel(i).is_none() {
-                        let mut st = cols.get(i);
-                        m.step(&mut st, &inputs[i], dt);
-                        cols.set(i, &st);
-                    }
-                }
-            }
-            for (i, want) in reference.iter().enumerate() {
-                let got = cols.get(i);
-                let bits = |s: &VehicleState| [s.x, s.y, s.z, s.yaw, s.v, s.yaw_rate, s.acceleration, s.steering_angle, s.curvature, s.slip_angle].map(f64::to_bits);
-                prop_assert_eq!(bits(&got), bits(want), "vehicle {} at {:?}: {:?} vs {:?}", i, level, got, want);
-            }
+        check_batch(&models, &states, &inputs, steps, 0.02)?;
+    }
+}
+
+/// A model limit as a user might set one: mostly plausible, sometimes not.
+fn odd_limit() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        4 => 0.5f64..60.0,
+        1 => 1e-6f64..1e-2,
+        1 => -60.0f64..0.0,
+        1 => Just(0.0),
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(3.0),
+    ]
+}
+
+/// Steps every vehicle `steps` times by its model and, at every
+/// instruction-set level, by the batch loops (vehicles they refuse by the
+/// model), and demands the same bits.
+fn check_batch(
+    models: &[VehicleModelKind],
+    states: &[VehicleState],
+    inputs: &[VehicleInput],
+    steps: usize,
+    dt: f64,
+) -> Result<(), TestCaseError> {
+    use litesim_core::vehicle::batch::{CommandColumns, Level, VehicleColumns, step_run_at};
+    let mut reference = states.to_vec();
+    let mut ref_models = models.to_vec();
+    for _ in 0..steps {
+        for ((m, st), input) in ref_models.iter_mut().zip(&mut reference).zip(inputs) {
+            m.step(st, input, dt);
         }
     }
+    for level in Level::available() {
+        let mut models = models.to_vec();
+        let mut cols = VehicleColumns::default();
+        for st in states {
+            cols.push(st);
+        }
+        let mut cmds = CommandColumns::with_len(states.len());
+        for (i, m) in models.iter_mut().enumerate() {
+            let c = m.compile(&inputs[i], &states[i], dt);
+            if let Some(c) = c {
+                let (sa, k, b) = c.constant_outputs();
+                cols.steering_angle[i] = sa;
+                cols.curvature[i] = k;
+                cols.slip_angle[i] = b;
+            }
+            cmds.set(i, c);
+        }
+        for _ in 0..steps {
+            for (kernel, range) in cmds.runs() {
+                prop_assert!(step_run_at(level, &mut cols, &cmds, kernel, range, dt));
+            }
+            for (i, m) in models.iter_mut().enumerate() {
+                if cmds.kernel(i).is_none() {
+                    let mut st = cols.get(i);
+                    m.step(&mut st, &inputs[i], dt);
+                    cols.set(i, &st);
+                }
+            }
+        }
+        for (i, want) in reference.iter().enumerate() {
+            let got = cols.get(i);
+            let bits = |s: &VehicleState| {
+                [
+                    s.x,
+                    s.y,
+                    s.z,
+                    s.yaw,
+                    s.v,
+                    s.yaw_rate,
+                    s.acceleration,
+                    s.steering_angle,
+                    s.curvature,
+                    s.slip_angle,
+                ]
+                .map(f64::to_bits)
+            };
+            prop_assert_eq!(
+                bits(&got),
+                bits(want),
+                "vehicle {} at {:?}: {:?} vs {:?}",
+                i,
+                level,
+                got,
+                want
+            );
+        }
+    }
+
+    Ok(())
 }
 
 #[derive(Clone, Debug)]

@@ -114,3 +114,27 @@ fn typical_commands_take_the_batch_path() {
     assert!(ssp.compile(&THROTTLE, &far, 0.02).is_none());
     assert!(bike.compile(&THROTTLE, &far, 0.02).is_none());
 }
+
+#[test]
+fn a_negative_speed_limit_is_left_to_the_model() {
+    // Limits are public fields. With a cap of −50 m/s the bicycle's speed
+    // jumps to −50 after one step and the heading then turns by ~11 rad per
+    // step — more than one wrap, which only the scalar `wrap_angle` does
+    // right; the start speed alone (0.5 m/s) would not show it.
+    let mut bike = KinematicBicycle::new(0.05);
+    bike.max_speed = -50.0;
+    let st = VehicleState {
+        v: 0.5,
+        ..VehicleState::default()
+    };
+    let input = VehicleInput::Direct {
+        acceleration: 1.0,
+        steering_angle: 0.5,
+    };
+    assert!(bike.compile(&input, &st, 0.02).is_none());
+    let mut s = st;
+    bike.step(&mut s, &input, 0.02);
+    let before = s.yaw;
+    bike.step(&mut s, &input, 0.02);
+    assert!((s.yaw - before).abs() > 0.1, "{before} → {}", s.yaw);
+}

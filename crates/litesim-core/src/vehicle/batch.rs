@@ -237,7 +237,9 @@ impl SspDynamics {
             // Straight: the heading is kept; `sin_cos` is exact up to 1024 rad.
             None => state.yaw.abs() < 1024.0,
             Some(r) => {
-                let v_max = state.v.max(self.max_linear_velocity).max(0.0);
+                // |v| never exceeds the larger of its start and the cap
+                // (limits are public fields: a negative cap is possible).
+                let v_max = state.v.abs().max(self.max_linear_velocity.abs());
                 heading_in_range(state.yaw) && v_max / r.abs() * dt <= MAX_TURN_PER_STEP
             }
         };
@@ -268,7 +270,9 @@ impl KinematicBicycle {
         let finite = [a, delta, curvature, beta, cos_beta, self.max_speed, dt]
             .iter()
             .all(|x| x.is_finite());
-        let v_max = state.v.max(self.max_speed).max(0.0);
+        // |v| never exceeds the larger of its start and the limit (limits
+        // are public fields: a negative limit is possible).
+        let v_max = state.v.abs().max(self.max_speed.abs());
         let ok = finite
             && heading_in_range(state.yaw)
             && v_max * (cos_beta * curvature).abs() * dt <= MAX_TURN_PER_STEP;
