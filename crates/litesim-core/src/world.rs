@@ -273,7 +273,8 @@ pub struct World {
     // Actors under an external controller; kept so that a step can skip the
     // snapshot of all actors when nobody needs it.
     external: usize,
-    // Compiled commands; rebuilt at the next step after any change.
+    // Compiled commands, brought up to date at the start of a step (see
+    // `Batch`); a cache, so not serialised.
     #[serde(skip)]
     batch: Batch,
 }
