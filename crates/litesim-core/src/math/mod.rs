@@ -88,9 +88,8 @@ pub fn sin_cos_reduced(x: f64) -> (f64, f64) {
 }
 
 /// The last `(x, sin x, cos x)` evaluated, to skip recomputing identical
-/// arguments: a vehicle driving straight keeps its heading for many steps,
-/// and a turning one's new heading is needed both to move it and to report
-/// its velocity. A hit returns the very bits a fresh call would.
+/// arguments: a vehicle driving straight keeps its heading for many steps.
+/// A hit returns the very bits a fresh call would.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SinCosCache(Option<(f64, f64, f64)>);
 

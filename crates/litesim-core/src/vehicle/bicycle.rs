@@ -174,7 +174,4 @@ impl VehicleModel for KinematicBicycle {
     fn name(&self) -> &'static str {
         "bicycle"
     }
-    fn heading_trig(&mut self) -> Option<&mut SinCosCache> {
-        Some(&mut self.trig_cache)
-    }
 }

@@ -7,7 +7,6 @@
 //! exactly for a held input: `u += (u_cmd − u)·(1 − e^(−dt/τ))`.
 
 use super::{KinematicBicycle, VehicleInput, VehicleModel, VehicleState};
-use crate::math::SinCosCache;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 
@@ -81,9 +80,6 @@ impl VehicleModel for ActuatorLag {
     }
     fn rear_to_cg(&self) -> f64 {
         self.inner.rear_to_cg
-    }
-    fn heading_trig(&mut self) -> Option<&mut SinCosCache> {
-        self.inner.heading_trig()
     }
     fn name(&self) -> &'static str {
         "lag"

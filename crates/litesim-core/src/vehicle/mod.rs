@@ -22,7 +22,6 @@ pub use lag::ActuatorLag;
 pub use ssp_dynamics::{MAX_LINEAR_VELOCITY, MAX_STEERING_WHEEL_ANGLE, SspDynamics};
 
 use crate::control::NormalizedPedals;
-use crate::math::SinCosCache;
 use serde::{Deserialize, Serialize};
 
 /// The planar state a vehicle model integrates.
@@ -87,12 +86,6 @@ pub trait VehicleModel {
     }
     /// A short name for logs ("ssp", "bicycle", "lag").
     fn name(&self) -> &'static str;
-    /// The model's cache of heading trigonometry, if it keeps one. The world
-    /// reports velocity along the new heading through the same cache, so a
-    /// turning vehicle pays for one `sin_cos` per step, not two.
-    fn heading_trig(&mut self) -> Option<&mut SinCosCache> {
-        None
-    }
 }
 
 /// The built-in models, dispatched without virtual calls.
@@ -153,14 +146,6 @@ impl VehicleModel for VehicleModelKind {
             VehicleModelKind::Ssp(m) => m.name(),
             VehicleModelKind::Bicycle(m) => m.name(),
             VehicleModelKind::Lag(m) => m.name(),
-        }
-    }
-    #[inline]
-    fn heading_trig(&mut self) -> Option<&mut SinCosCache> {
-        match self {
-            VehicleModelKind::Ssp(m) => m.heading_trig(),
-            VehicleModelKind::Bicycle(m) => m.heading_trig(),
-            VehicleModelKind::Lag(m) => m.heading_trig(),
         }
     }
 }

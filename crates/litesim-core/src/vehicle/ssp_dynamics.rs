@@ -231,7 +231,4 @@ impl VehicleModel for SspDynamics {
     fn name(&self) -> &'static str {
         "ssp"
     }
-    fn heading_trig(&mut self) -> Option<&mut SinCosCache> {
-        Some(&mut self.cache_yaw)
-    }
 }
