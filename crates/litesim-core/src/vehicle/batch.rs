@@ -24,8 +24,8 @@
 //!
 //! [`VehicleModel::step`]: super::VehicleModel::step
 
-use super::bicycle::KinematicBicycle;
-use super::ssp_dynamics::{SspAccel, SspDynamics};
+use super::bicycle::{KinematicBicycle, bicycle_advance};
+use super::ssp_dynamics::{SspAccel, SspDynamics, ssp_advance};
 use super::{VehicleInput, VehicleState};
 use crate::math;
 use std::f64::consts::{PI, TAU};
@@ -564,24 +564,14 @@ fn ssp_loop(
         let (v0, fixed, free, radius) = (v[i], acc[i], free[i], radius[i]);
         let a = if coast[i] { -free.copysign(v0) } else { fixed };
         let w = if turning[i] { v0 / radius } else { 0.0 };
-        let v_free = v0 + a * dt;
-        let v_new = v_free.min(vmax[i]).max(0.0);
-        let h = if w == 0.0 {
-            yaw[i]
-        } else {
-            wrap_once(yaw[i] + w * dt)
-        };
+        let (v_new, h, applied) = ssp_advance(v0, yaw[i], a, w, vmax[i], dt, wrap_once);
         let (s, c) = math::sin_cos_reduced(h);
         x[i] += v_new * c * dt;
         y[i] += v_new * s * dt;
         yaw[i] = h;
         v[i] = v_new;
         yaw_rate[i] = w;
-        acc_out[i] = if v_new == v_free {
-            a
-        } else {
-            (v_new - v0) / dt
-        };
+        acc_out[i] = applied;
     }
 }
 
@@ -612,20 +602,15 @@ fn bicycle_loop(
     let (cos_beta, vmax) = (&cos_beta[..n], &vmax[..n]);
     for i in 0..n {
         let v0 = v[i];
-        let w = v0 * cos_beta[i] * curvature[i];
         let (s, c) = math::sin_cos_reduced(yaw[i] + beta[i]);
         x[i] += v0 * c * dt;
         y[i] += v0 * s * dt;
-        yaw[i] = wrap_once(yaw[i] + w * dt);
-        let a = acc[i];
-        let v_free = v0 + a * dt;
-        let v_new = math::clamp(v_free, 0.0, vmax[i]);
+        let steer = (cos_beta[i], curvature[i]);
+        let (w, h, v_new, applied) =
+            bicycle_advance(v0, yaw[i], acc[i], steer, vmax[i], dt, wrap_once);
+        yaw[i] = h;
         v[i] = v_new;
         yaw_rate[i] = w;
-        acc_out[i] = if v_new == v_free {
-            a
-        } else {
-            (v_new - v0) / dt
-        };
+        acc_out[i] = applied;
     }
 }

@@ -10,7 +10,7 @@
 //! `a` and `δ` are saturated to the configured limits before integration;
 //! the speed stays in `[0, max_speed]`.
 
-use super::{VehicleInput, VehicleModel, VehicleState};
+use super::{VehicleInput, VehicleModel, VehicleState, applied_acceleration};
 use crate::geometry::wrap_angle;
 use crate::math::{self, SinCosCache};
 use serde::{Deserialize, Serialize};
@@ -138,25 +138,54 @@ impl KinematicBicycle {
     pub fn integrate(&mut self, st: &mut VehicleState, a: f64, delta: f64, dt: f64) {
         let v = st.v;
         let (curvature, beta, cos_beta) = self.steer_terms(delta);
-        // ψ̇ = v·κ with κ = tan δ / L (cached with δ): one multiplication
-        // instead of a division per step; cos β = 1 for the rear axle.
-        let yaw_rate = v * cos_beta * curvature;
-        let arg = st.yaw + beta;
-        let (s, c) = self.trig_cache.get(arg);
+        let (s, c) = self.trig_cache.get(st.yaw + beta);
         st.x += v * c * dt;
         st.y += v * s * dt;
-        st.yaw = wrap_angle(st.yaw + yaw_rate * dt);
-        let v_free = v + a * dt;
-        let v_new = math::clamp(v_free, 0.0, self.max_speed);
+        let (yaw_rate, yaw, v_new, applied) = bicycle_advance(
+            v,
+            st.yaw,
+            a,
+            (cos_beta, curvature),
+            self.max_speed,
+            dt,
+            wrap_angle,
+        );
+        st.yaw = yaw;
         st.v = v_new;
         st.yaw_rate = yaw_rate;
-        // The applied acceleration: the command, unless the speed limits cut
-        // it (then what was achieved); no division on the common path.
-        st.acceleration = if v_new == v_free { a } else { (v_new - v) / dt };
+        st.acceleration = applied;
         st.steering_angle = delta;
         st.curvature = curvature;
         st.slip_angle = beta;
     }
+}
+
+/// One step's heading and speed from speed `v` and heading `yaw` under
+/// acceleration `a`, with `(cos β, κ)` of the steering: `(yaw rate, heading,
+/// v_new, applied acceleration)`. `wrap` is `wrap_angle`, or in the batch
+/// loops its one-correction form (exactly `wrap_angle` for the headings they
+/// accept); one body for both, so they cannot drift apart.
+#[inline(always)]
+pub(crate) fn bicycle_advance(
+    v: f64,
+    yaw: f64,
+    a: f64,
+    (cos_beta, curvature): (f64, f64),
+    v_max: f64,
+    dt: f64,
+    wrap: impl Fn(f64) -> f64,
+) -> (f64, f64, f64, f64) {
+    // ψ̇ = v·κ with κ = tan δ / L (cached with δ): one multiplication
+    // instead of a division per step; cos β = 1 for the rear axle.
+    let yaw_rate = v * cos_beta * curvature;
+    let v_free = v + a * dt;
+    let v_new = math::clamp(v_free, 0.0, v_max);
+    (
+        yaw_rate,
+        wrap(yaw + yaw_rate * dt),
+        v_new,
+        applied_acceleration(a, v, v_free, v_new, dt),
+    )
 }
 
 impl VehicleModel for KinematicBicycle {

@@ -49,6 +49,15 @@ pub struct VehicleState {
     pub slip_angle: f64,
 }
 
+/// The acceleration a step applied: the commanded `a`, unless the speed
+/// limits cut the free speed `v_free = v + a·dt` to `v_new` (then what was
+/// achieved). No division on the common path. Shared by the models and the
+/// batch loops, which must give the same bits.
+#[inline(always)]
+pub(crate) fn applied_acceleration(a: f64, v: f64, v_free: f64, v_new: f64, dt: f64) -> f64 {
+    if v_new == v_free { a } else { (v_new - v) / dt }
+}
+
 /// What a vehicle model is told to do for one step.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case", tag = "type")]

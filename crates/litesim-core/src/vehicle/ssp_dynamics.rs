@@ -20,7 +20,7 @@
 //! * heading is wrapped into (−π, π] after each update so that it stays
 //!   precise over millions of steps (the seed lets it grow).
 
-use super::{VehicleInput, VehicleModel, VehicleState};
+use super::{VehicleInput, VehicleModel, VehicleState, applied_acceleration};
 use crate::geometry::wrap_angle;
 use crate::math::{self, SinCosCache};
 use serde::{Deserialize, Serialize};
@@ -188,6 +188,27 @@ impl SspDynamics {
     }
 }
 
+/// Seed step 3 up to the position, from speed `v` and heading `yaw` under
+/// acceleration `a` and angular velocity `w`: `(v_new, heading, applied
+/// acceleration)`. `wrap` is `wrap_angle`, or in the batch loops its
+/// one-correction form (exactly `wrap_angle` for the headings they accept);
+/// one body for both, so they cannot drift apart.
+#[inline(always)]
+pub(crate) fn ssp_advance(
+    v: f64,
+    yaw: f64,
+    a: f64,
+    w: f64,
+    v_cap: f64,
+    dt: f64,
+    wrap: impl Fn(f64) -> f64,
+) -> (f64, f64, f64) {
+    let v_free = v + a * dt;
+    let v_new = v_free.min(v_cap).max(0.0);
+    let yaw = if w == 0.0 { yaw } else { wrap(yaw + w * dt) };
+    (v_new, yaw, applied_acceleration(a, v, v_free, v_new, dt))
+}
+
 impl VehicleModel for SspDynamics {
     #[inline]
     fn step(&mut self, st: &mut VehicleState, input: &VehicleInput, dt: f64) {
@@ -201,26 +222,22 @@ impl VehicleModel for SspDynamics {
             Some(r) => v / r,
             None => 0.0,
         };
-        let v_free = v + acceleration * dt;
-        let v_new = v_free.min(self.max_linear_velocity).max(0.0);
-        let yaw = if angular_velocity == 0.0 {
-            st.yaw
-        } else {
-            wrap_angle(st.yaw + angular_velocity * dt)
-        };
+        let (v_new, yaw, applied) = ssp_advance(
+            v,
+            st.yaw,
+            acceleration,
+            angular_velocity,
+            self.max_linear_velocity,
+            dt,
+            wrap_angle,
+        );
         let (s, c) = self.cache_yaw.get(yaw);
         st.x += v_new * c * dt;
         st.y += v_new * s * dt;
         st.yaw = yaw;
         st.v = v_new;
         st.yaw_rate = angular_velocity;
-        // The applied acceleration: the pedals' own, unless the speed limits
-        // cut it (then what was achieved); no division on the common path.
-        st.acceleration = if v_new == v_free {
-            acceleration
-        } else {
-            (v_new - v) / dt
-        };
+        st.acceleration = applied;
         st.steering_angle = terms.wheels_deg.to_radians();
         st.curvature = terms.curvature;
         st.slip_angle = 0.0;
