@@ -38,8 +38,10 @@ impl StopCondition {
     /// True when the world satisfies the condition.
     pub fn reached(&self, world: &World) -> bool {
         world.actor(&self.actor).is_some_and(|a| {
-            a.state().pose.position.xy().distance(self.goal) <= self.radius
-                && a.state().speed.abs() < self.speed_threshold
+            // One read: an integrating actor's state is computed when read.
+            let s = a.state();
+            s.pose.position.xy().distance(self.goal) <= self.radius
+                && s.speed.abs() < self.speed_threshold
         })
     }
 }
