@@ -225,13 +225,6 @@ impl<'w> ActorRef<'w> {
         let a = self.actor();
         Derived::from_state(&self.vehicle_state(), a.description.mass, a.friction)
     }
-    /// A detached copy (state as reported now).
-    pub fn to_actor(&self) -> Actor {
-        let mut a = self.actor().clone();
-        a.state = self.state();
-        a.live = false;
-        a
-    }
 }
 
 /// Why a world operation failed.
@@ -558,11 +551,8 @@ impl World {
             Some(m) if !self.batch.off => m.compile(input, &self.vehicles.get(i), self.dt),
             _ => None,
         };
-        if let Some(c) = compiled {
-            let (steering, curvature, slip) = c.constant_outputs();
-            self.vehicles.steering_angle[i] = steering;
-            self.vehicles.curvature[i] = curvature;
-            self.vehicles.slip_angle[i] = slip;
+        if let Some(c) = &compiled {
+            self.vehicles.set_command_outputs(i, c);
             a.last_input = *input;
             a.live = true;
         }

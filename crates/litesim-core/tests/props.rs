@@ -245,11 +245,8 @@ fn check_batch(
         let mut cmds = CommandColumns::with_len(states.len());
         for (i, m) in models.iter_mut().enumerate() {
             let c = m.compile(&inputs[i], &states[i], dt);
-            if let Some(c) = c {
-                let (sa, k, b) = c.constant_outputs();
-                cols.steering_angle[i] = sa;
-                cols.curvature[i] = k;
-                cols.slip_angle[i] = b;
+            if let Some(c) = &c {
+                cols.set_command_outputs(i, c);
             }
             cmds.set(i, c);
         }

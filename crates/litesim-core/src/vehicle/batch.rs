@@ -111,6 +111,15 @@ impl VehicleColumns {
         self.curvature[i] = s.curvature;
         self.slip_angle[i] = s.slip_angle;
     }
+    /// Writes what vehicle `i` reports for every step of compiled command
+    /// `c` — steering angle, curvature, slip ([`Compiled::constant_outputs`]):
+    /// the batch loops do not write them.
+    pub fn set_command_outputs(&mut self, i: usize, c: &Compiled) {
+        let (steering, curvature, slip) = c.constant_outputs();
+        self.steering_angle[i] = steering;
+        self.curvature[i] = curvature;
+        self.slip_angle[i] = slip;
+    }
     /// Removes vehicle `i`; later ones move down by one.
     pub fn remove(&mut self, i: usize) {
         for c in [
@@ -389,7 +398,8 @@ impl CommandColumns {
 /// Steps vehicles `range` (all compiled for `kernel`) by `dt`: position,
 /// heading, speed, yaw rate and acceleration. Steering angle, curvature and
 /// slip are the same every step of a command
-/// ([`Compiled::constant_outputs`]); the caller writes them when it compiles.
+/// ([`Compiled::constant_outputs`]); the caller writes them when it compiles
+/// ([`VehicleColumns::set_command_outputs`]).
 ///
 /// Panics when `range` is out of bounds of either set of columns.
 pub fn step_run(
