@@ -127,7 +127,8 @@ fn models(c: &mut Criterion) {
 
     // The same fleets in columns, stepped by the batch loops (what a world
     // does with dynamic actors), at the best level this machine has and at
-    // the x86-64 baseline (what a machine without AVX2 gets).
+    // each level it can run (baseline x86-64 is what a machine without AVX2
+    // gets).
     let mut g = c.benchmark_group("actor_step_columns_1000");
     g.throughput(Throughput::Elements(1000));
     for (name, steering) in [("straight", 0.0), ("turning", 0.2)] {
