@@ -409,7 +409,7 @@ fn run(cli: Cli) -> Result<()> {
             calibration,
             style,
         } => {
-            let pass = scenario::run(
+            let outcome = scenario::run(
                 &test,
                 &common,
                 seed,
@@ -421,11 +421,13 @@ fn run(cli: Cli) -> Result<()> {
                 calibration.as_deref(),
                 style.as_deref(),
             )?;
-            if !pass {
+            match outcome {
+                scenario::Outcome::Pass => Ok(()),
                 // A failed check is an outcome, not a crash: exit 2.
-                std::process::exit(2);
+                scenario::Outcome::Fail => std::process::exit(2),
+                // The system under test broke down: exit 1 (summary written).
+                scenario::Outcome::SutError => std::process::exit(1),
             }
-            Ok(())
         }
         Command::Batch {
             tests,

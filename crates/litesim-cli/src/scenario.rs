@@ -2,6 +2,7 @@
 
 use anyhow::{Result, anyhow, bail};
 use litesim_log::{ActorSample, LogRecorder, SimulationLog};
+use litesim_scenario::sut::SutChoice;
 use litesim_scenario::{DriveMode, LoadOptions, RunOptions, batch, calibrate, plan::Plan};
 use std::path::{Path, PathBuf};
 
@@ -17,6 +18,15 @@ pub struct Common {
     /// Drive actors dynamically (pedals and steering) instead of kinematically.
     #[arg(long)]
     pub dynamic: bool,
+    /// What drives sut.car: planned (its plan; default), acc (built-in
+    /// adaptive cruise), fmt-mpc (FMT* + MPC) or grpc://HOST:PORT (an
+    /// external process serving litesim.sut.v1).
+    #[arg(long, default_value = "planned", value_name = "NAME")]
+    pub sut: String,
+    /// Seconds an external SUT may take per call (default: the test's
+    /// `sut_timeout`, else 1).
+    #[arg(long, value_name = "S")]
+    pub sut_timeout: Option<f64>,
 }
 
 impl Common {
@@ -27,6 +37,18 @@ impl Common {
             env: None,
         }
     }
+    /// The `--sut` choice; an unknown name lists the valid ones.
+    pub fn sut(&self) -> Result<SutChoice> {
+        sut_choice(&self.sut)
+    }
+    fn sut_timeout(&self) -> Result<Option<f64>> {
+        match self.sut_timeout {
+            Some(t) if !(t.is_finite() && t > 0.0 && t <= 3600.0) => {
+                bail!("--sut-timeout {t}: expected seconds in (0, 3600]")
+            }
+            t => Ok(t),
+        }
+    }
     fn mode(&self) -> DriveMode {
         if self.dynamic {
             DriveMode::Dynamic
@@ -34,6 +56,21 @@ impl Common {
             DriveMode::Kinematic
         }
     }
+}
+
+/// Parses a `--sut` value.
+pub fn sut_choice(name: &str) -> Result<SutChoice> {
+    if let Some(c) = SutChoice::builtin(name) {
+        return Ok(c);
+    }
+    if name.starts_with("grpc://") {
+        let f = litesim_grpc::sut::GrpcSutFactory::new(name).map_err(|e| anyhow!("--sut {e}"))?;
+        return Ok(SutChoice::External(std::sync::Arc::new(f)));
+    }
+    bail!(
+        "--sut {name}: unknown system under test; valid: {}, grpc://HOST:PORT",
+        litesim_scenario::sut::BUILTIN.join(", ")
+    )
 }
 
 /// The plan as a log (one sample per plan step), for pictures.
@@ -95,9 +132,11 @@ pub fn run(
     gif: bool,
     calibration: Option<&Path>,
     style: Option<&Path>,
-) -> Result<bool> {
-    // A bad stylesheet fails before anything runs.
+) -> Result<Outcome> {
+    // A bad stylesheet or SUT name fails before anything runs.
     let style = crate::viz::load_style(style)?;
+    let sut = common.sut()?;
+    let sut_timeout = common.sut_timeout()?;
     let prep = litesim_scenario::prepare(test, &common.load()).map_err(|e| anyhow!("{e}"))?;
     let calibration = match calibration {
         Some(p) => Some(
@@ -117,6 +156,8 @@ pub fn run(
         // `litesim calibrate` writes calibration/PROFILE.toml: runs from
         // this folder use it (the summary says which gains were used).
         calibration_dir: Some(PathBuf::from("calibration")),
+        sut,
+        sut_timeout,
         ..RunOptions::default()
     };
     let result = match sim {
@@ -181,7 +222,7 @@ pub fn run(
                 .map_err(|e| anyhow!("{e}"))?;
             println!("wrote {}", pic.display());
         }
-        return Ok(true);
+        return Ok(Outcome::Pass);
     }
     write_plan()?;
     if let Some(log) = &result.log {
@@ -209,7 +250,7 @@ pub fn run(
     std::fs::write(&p, serde_json::to_string_pretty(s)? + "\n")?;
     println!("wrote {}", p.display());
     println!(
-        "{} {} seed {}: {} ({} steps, {:.2} s, profile {}, model {}, {:?})",
+        "{} {} seed {}: {} ({} steps, {:.2} s, profile {}, model {}, {:?}, sut {})",
         if s.pass { "PASS" } else { "FAIL" },
         s.test,
         s.seed,
@@ -222,7 +263,8 @@ pub fn run(
         s.duration,
         s.profile,
         s.model,
-        s.mode
+        s.mode,
+        s.sut
     );
     if s.mode == DriveMode::Dynamic {
         println!("driver gains: {}", s.calibration);
@@ -230,7 +272,24 @@ pub fn run(
     for n in &s.notes {
         println!("note: {n}");
     }
-    Ok(s.pass)
+    Ok(if s.pass {
+        Outcome::Pass
+    } else if s.failures.iter().any(|f| f.starts_with("sut error")) {
+        Outcome::SutError
+    } else {
+        Outcome::Fail
+    })
+}
+
+/// How a run ended, for the exit code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// Every check holds (exit 0).
+    Pass,
+    /// A check failed (exit 2).
+    Fail,
+    /// The system under test failed to answer (exit 1).
+    SutError,
 }
 
 /// Parses `A..B` (inclusive) or a single seed.
@@ -294,6 +353,8 @@ pub fn batch(
         mode: common.mode(),
         load: common.load(),
         calibration_dir: Some(PathBuf::from("calibration")),
+        sut: common.sut()?,
+        sut_timeout: common.sut_timeout()?,
         save_failed,
     };
     let bar = indicatif::ProgressBar::new(0);

@@ -7,6 +7,10 @@
 //! scenario engine drives a remote server exactly as it drives the
 //! in-process model — with bit-identical results.
 //!
+//! It also carries the system-under-test API (`proto/litesim/sut/v1`):
+//! [`sut::GrpcSut`] drives an external driving function in lock step, and
+//! [`sut::serve_sut`] serves any in-process SUT over it.
+//!
 //! This is the only crate that knows protobuf and tonic.
 #![warn(missing_docs)]
 
@@ -16,9 +20,16 @@ pub mod pb {
     tonic::include_proto!("litesim.ssp.v1");
 }
 
+/// Generated protobuf and tonic code of the system-under-test API.
+#[allow(missing_docs, clippy::all)]
+pub mod sut_pb {
+    tonic::include_proto!("litesim.sut.v1");
+}
+
 pub mod client;
 pub mod convert;
 pub mod server;
+pub mod sut;
 
 pub use client::RemoteSsp;
 pub use server::{LoopbackServer, ServerConfig, SspService, serve};

@@ -279,7 +279,7 @@ impl OccupancyGrid {
     }
 
     /// Marks every cell whose centre lies in the convex quadrilateral `q` as `value`.
-    fn fill_quad(&mut self, q: [Vec2; 4], value: bool) {
+    pub fn fill_quad(&mut self, q: [Vec2; 4], value: bool) {
         let (mut lo, mut hi) = (q[0], q[0]);
         for p in &q[1..] {
             lo = Vec2::new(lo.x.min(p.x), lo.y.min(p.y));

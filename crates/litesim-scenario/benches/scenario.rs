@@ -86,8 +86,7 @@ fn main() {
                             "smoke",
                             &shared,
                             s,
-                            Default::default(),
-                            None,
+                            &RunOptions::default(),
                         );
                         usize::from(l.pass)
                     })

@@ -68,6 +68,10 @@ pub struct BatchSpec {
     pub load: LoadOptions,
     /// Folder of calibration files (see [`RunOptions::calibration_dir`]).
     pub calibration_dir: Option<PathBuf>,
+    /// What drives sut.car.
+    pub sut: crate::sut::SutChoice,
+    /// Time the SUT may take per call (s); `None`: the test's, else 1 s.
+    pub sut_timeout: Option<f64>,
     /// Keep the log of every failed run as `OUT/failed/TEST-seedN.json`
     /// (failed runs are run again with a recorder; passing runs cost nothing).
     pub save_failed: bool,
@@ -88,13 +92,13 @@ pub struct BatchReport {
     pub failed: u64,
 }
 
-/// Runs one test under one seed in-process and condenses the result.
+/// Runs one test under one seed in-process (with `base`'s options) and
+/// condenses the result.
 pub fn run_line(
     name: &str,
     prep: &Result<Prepared, String>,
     seed: u64,
-    mode: DriveMode,
-    calibration_dir: Option<&Path>,
+    base: &RunOptions,
 ) -> RunLine {
     let mut line = RunLine {
         test: name.to_string(),
@@ -119,9 +123,9 @@ pub fn run_line(
     let mut ssp = crate::in_process();
     let opts = RunOptions {
         seed: Some(seed),
-        mode,
-        calibration_dir: calibration_dir.map(Path::to_path_buf),
-        ..RunOptions::default()
+        record: false,
+        plan_only: false,
+        ..base.clone()
     };
     match crate::run(prep, &mut ssp, &opts) {
         Ok(r) => {
@@ -273,17 +277,18 @@ pub fn run_batch(
             .map_err(|e| ScenarioError::Io(e.to_string()))?;
     }
     let sink = Mutex::new((file, 0u64));
+    let base = RunOptions {
+        mode: spec.mode,
+        calibration_dir: spec.calibration_dir.clone(),
+        sut: spec.sut.clone(),
+        sut_timeout: spec.sut_timeout,
+        ..RunOptions::default()
+    };
     let work = || {
         jobs.par_iter()
             .map(|(ti, seed)| {
                 let (name, prep) = &preps[*ti];
-                let line = run_line(
-                    name,
-                    prep,
-                    *seed,
-                    spec.mode,
-                    spec.calibration_dir.as_deref(),
-                );
+                let line = run_line(name, prep, *seed, &base);
                 if spec.save_failed
                     && !line.pass
                     && let Ok(p) = prep
@@ -323,6 +328,8 @@ fn save_log(out: &Path, name: &str, prep: &Prepared, seed: u64, spec: &BatchSpec
         mode: spec.mode,
         record: true,
         calibration_dir: spec.calibration_dir.clone(),
+        sut: spec.sut.clone(),
+        sut_timeout: spec.sut_timeout,
         ..RunOptions::default()
     };
     if let Ok(r) = crate::run(prep, &mut crate::in_process(), &opts)

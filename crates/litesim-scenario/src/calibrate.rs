@@ -87,6 +87,7 @@ pub fn reference_plan(step_s: f64) -> Plan {
         phases: Vec::new(),
         violations: Vec::new(),
         lights: Vec::new(),
+        goals: Vec::new(),
         notes: Vec::new(),
     }
 }
@@ -102,8 +103,12 @@ fn trial(profile: &Profile, plan: &Plan, c: &Calibration) -> Result<Trial, Scena
         mode: DriveMode::Dynamic,
         calibration: Some(*c),
         record: false,
+        test_name: String::new(),
+        map_path: String::new(),
+        map: None,
+        sut_timeout: 1.0,
     };
-    let ex = execute(&mut ssp, plan, None, &cfg)?;
+    let ex = execute(&mut ssp, plan, None, &cfg, None)?;
     let a = &ex.kpis.actors[0];
     let score = a.rms_path_error + 0.3 * a.max_speed_error;
     Ok(Trial {

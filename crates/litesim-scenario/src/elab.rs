@@ -227,6 +227,26 @@ pub struct RunConfig {
     pub simulator_name: String,
     /// `sim_info.profile`.
     pub profile: String,
+    /// Pass/fail thresholds on the system under test.
+    pub thresholds: Thresholds,
+}
+
+/// Thresholds a test sets on the system under test (`extend test_config:
+/// set min_ttc = 1.5s`); `None` (or 0 in the test) leaves a check off.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Thresholds {
+    /// Smallest allowed time to collision between sut.car and any actor (s).
+    pub min_ttc: Option<f64>,
+    /// Smallest allowed box-to-box gap between sut.car and any actor (m).
+    pub min_gap: Option<f64>,
+    /// Largest allowed deceleration of sut.car (m/s²).
+    pub max_decel: Option<f64>,
+    /// Largest allowed jerk of sut.car (m/s³).
+    pub max_jerk: Option<f64>,
+    /// sut.car must end within this distance of its route's goal (m).
+    pub goal_tolerance: Option<f64>,
+    /// Seconds the system under test may take to answer a step.
+    pub sut_timeout: Option<f64>,
 }
 
 /// An elaborated test.
@@ -456,6 +476,26 @@ impl Elab<'_> {
                         self.test.config.simulator_name = v.text().ok_or_else(bad)?.to_string()
                     }
                     "profile" => self.test.config.profile = v.text().ok_or_else(bad)?.to_string(),
+                    "min_ttc" | "min_gap" | "max_decel" | "max_jerk" | "goal_tolerance"
+                    | "sut_timeout" => {
+                        let x = v.num().ok_or_else(bad)?;
+                        if !(x.is_finite() && x >= 0.0) {
+                            return Err(ScenarioError::Elaboration(format!(
+                                "{}: '{name}' must be a finite value ≥ 0 (0 turns the check off), got {x}",
+                                self.lib.at(*span)
+                            )));
+                        }
+                        let th = &mut self.test.config.thresholds;
+                        let slot = match name.as_str() {
+                            "min_ttc" => &mut th.min_ttc,
+                            "min_gap" => &mut th.min_gap,
+                            "max_decel" => &mut th.max_decel,
+                            "max_jerk" => &mut th.max_jerk,
+                            "goal_tolerance" => &mut th.goal_tolerance,
+                            _ => &mut th.sut_timeout,
+                        };
+                        *slot = (x > 0.0).then_some(x);
+                    }
                     _ => {}
                 }
             }

@@ -30,6 +30,9 @@ pub enum ScenarioError {
     /// Files.
     #[error("{0}")]
     Io(String),
+    /// The system under test could not be started.
+    #[error("system under test: {0}")]
+    Sut(String),
 }
 
 impl ScenarioError {

@@ -11,8 +11,10 @@
 //! back, checked ([`crate::kpi`]) and, when asked, logged.
 
 use crate::error::ScenarioError;
-use crate::kpi::{BoxState, Kpis};
+use crate::kpi::{BoxState, EgoKpi, Kpis};
 use crate::plan::Plan;
+use crate::reactive::{Body, GoalResult, Warp};
+use crate::sut::{LightState, ObjectState, Observation, RoadPos, Route, Sut, SutCommand, SutInfo};
 use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
 use litesim_log::{ActorSample, ControlSample, LogRecorder, SimulationLog};
@@ -54,6 +56,14 @@ pub struct ExecConfig<'a> {
     pub calibration: Option<Calibration>,
     /// Record a [`SimulationLog`].
     pub record: bool,
+    /// Test file name (told to the SUT).
+    pub test_name: String,
+    /// Map path (told to the SUT).
+    pub map_path: String,
+    /// The map (for in-process SUTs).
+    pub map: Option<std::sync::Arc<RoadNetwork>>,
+    /// How long the SUT may take per call (s).
+    pub sut_timeout: f64,
 }
 
 /// What an execution produced.
@@ -69,6 +79,12 @@ pub struct Executed {
     pub profile: String,
     /// Model.
     pub model: String,
+    /// The ego's KPIs (closed loop and planned alike).
+    pub ego: Option<EgoKpi>,
+    /// Gap goals re-solved during the run, judged at their phase ends.
+    pub goals: Vec<GoalResult>,
+    /// The SUT failed: the run stopped here (`sut error at t=…: …`).
+    pub sut_error: Option<String>,
 }
 
 fn ssp_err(e: litesim_ssp::SspError) -> ScenarioError {
@@ -102,13 +118,23 @@ impl Driver {
     }
 }
 
-/// Runs `plan` on `ssp`.
+/// Runs `plan` on `ssp`; with a `sut`, `sut.car` is driven by it each step
+/// and the other actors react to where it actually is.
 pub fn execute(
     ssp: &mut dyn Ssp,
     plan: &Plan,
     net: Option<&RoadNetwork>,
     cfg: &ExecConfig,
+    mut sut: Option<&mut (dyn Sut + '_)>,
 ) -> Result<Executed, ScenarioError> {
+    let ego_i = match sut {
+        Some(_) => Some(plan.actors.iter().position(|a| a.ego).ok_or_else(|| {
+            ScenarioError::Plan(
+                "a system under test drives sut.car, but sut.car takes part in no phase".into(),
+            )
+        })?),
+        None => None,
+    };
     let init = ssp
         .init(InitRequest {
             client_name: "litesim scenario".into(),
@@ -143,6 +169,7 @@ pub fn execute(
     }
     let mut dims = Vec::new();
     let mut drivers: Vec<Option<Driver>> = Vec::new();
+    let mut ego_caps = EgoCaps::default();
     for a in &plan.actors {
         let s0 = a.samples[0];
         let (category, actor_type) = match a.kind {
@@ -167,7 +194,9 @@ pub fn execute(
                     _ => false,
                 })
             });
-        let dynamic = cfg.mode == DriveMode::Dynamic
+        let closed_ego = ego_i == Some(dims.len());
+        let dynamic = !closed_ego
+            && cfg.mode == DriveMode::Dynamic
             && a.kind == crate::elab::ActorKind::Vehicle
             && a.samples.iter().any(|s| s.v > 0.0);
         let (sy, cy) = math::sin_cos(s0.yaw);
@@ -191,7 +220,7 @@ pub fn execute(
                     },
                     mirror,
                 ),
-                initial_mode: if dynamic {
+                initial_mode: if dynamic || closed_ego {
                     MoveMode::Dynamic
                 } else {
                     MoveMode::Kinematic
@@ -209,6 +238,14 @@ pub fn execute(
                 desc.width,
                 e.map_or(1500.0, |e| e.mass),
             );
+        }
+        if closed_ego {
+            ego_caps = EgoCaps {
+                wheelbase: e.map_or(0.6 * desc.length, |e| e.effective_wheelbase()),
+                max_steer: e.map_or(35f64, |e| e.max_steer_angle_deg).to_radians(),
+                max_accel: e.map_or(4.0, |e| e.max_accel),
+                max_decel: e.map_or(8.0, |e| e.max_decel),
+            };
         }
         dims.push((desc.length, desc.width, e.map_or(1500.0, |e| e.mass)));
         drivers.push(dynamic.then(|| Driver {
@@ -238,7 +275,7 @@ pub fn execute(
     // 60 s) ahead and the chunk's steps run in one `step_many` call — a
     // handful of round trips per test over gRPC instead of one per step.
     // Replies stay bounded: ≤ 20,000 actor states per call.
-    let open_loop = drivers.iter().all(Option::is_none);
+    let open_loop = drivers.iter().all(Option::is_none) && ego_i.is_none();
     let chunk = if open_loop {
         (60_000 / step_ms).clamp(1, (20_000 / ids.len().max(1)) as u64)
     } else {
@@ -256,11 +293,68 @@ pub fn execute(
         .map(|l| l.boxes.iter().map(shows_red).collect())
         .unwrap_or_default();
     let mut last_pos: Vec<Option<litesim_map::RoadPosition>> = vec![None; ids.len()];
+    let mut warps = vec![Warp::new(); ids.len()];
+    let mut goals_done = vec![false; plan.goals.len()];
+    let mut goal_results = Vec::new();
+    let mut sut_error: Option<String> = None;
+    let ego_index = plan.actors.iter().position(|a| a.ego);
+    let mut ego_kpi = ego_index.map(|e| EgoKpi::new(&plan.actors[e].id, dt));
+    // The object list as the SUT sees it, kept between steps (ids once).
+    let mut obs = Observation::default();
+    let mut route = Route::default();
+    let mut route_hint = 0;
+    if let (Some(e), Some(s)) = (ego_i, sut.as_deref_mut()) {
+        let ego = &plan.actors[e];
+        let pts: Vec<[f64; 2]> = ego.samples.iter().map(|p| [p.x, p.y]).collect();
+        let sp: Vec<f64> = ego.samples.iter().map(|p| p.v).collect();
+        route = Route::new(&pts, &sp);
+        obs.objects = plan
+            .actors
+            .iter()
+            .enumerate()
+            .map(|(i, a)| {
+                let p = a.samples[0];
+                let (sy, cy) = math::sin_cos(p.yaw);
+                ObjectState {
+                    id: a.id.clone(),
+                    kind: format!("{:?}", a.kind).to_lowercase(),
+                    x: p.x,
+                    y: p.y,
+                    yaw: p.yaw,
+                    speed: p.v,
+                    vx: p.v * cy,
+                    vy: p.v * sy,
+                    acceleration: 0.0,
+                    length: dims[i].0,
+                    width: dims[i].1,
+                }
+            })
+            .collect();
+        let info = SutInfo {
+            test: cfg.test_name.clone(),
+            seed: cfg.seed,
+            map_path: cfg.map_path.clone(),
+            step_ms: step_ms as u32,
+            ego_id: ego.id.clone(),
+            length: dims[e].0,
+            width: dims[e].1,
+            wheelbase: ego_caps.wheelbase,
+            max_steer: ego_caps.max_steer,
+            max_accel: ego_caps.max_accel,
+            max_decel: ego_caps.max_decel,
+            route: route.clone(),
+            timeout_s: cfg.sut_timeout,
+            map: cfg.map.clone(),
+        };
+        if let Err(err) = s.reset(&info) {
+            sut_error = Some(format!("sut error at t=0.00 s (reset): {err}"));
+        }
+    }
     let mut tracking = Tracking::default();
     let switch_tick = |t: f64| (t * 1000.0 / step_ms as f64).round() as u64;
     let mut next_switch = 0;
     let mut k = 0;
-    while k < steps {
+    while k < steps && sut_error.is_none() {
         while next_switch < plan.lights.len() && switch_tick(plan.lights[next_switch].t) <= k {
             let sw = &plan.lights[next_switch];
             let info = lights.as_mut().ok_or_else(|| {
@@ -279,12 +373,78 @@ pub fn execute(
         }
         let now_ms = k * step_ms;
         let t_next = (now_ms + step_ms) as f64 / 1000.0;
+        if let Some(e) = ego_i {
+            let t = now_ms as f64 / 1000.0;
+            // The others re-solve their gap goals against where the actors are.
+            for (i, a) in plan.actors.iter().enumerate() {
+                if i == e {
+                    continue;
+                }
+                let goal = plan.goals.iter().find(|g| {
+                    g.actor == a.id && g.t0 <= t + 1e-9 && t < g.t1 - 1e-9
+                });
+                let bodies = goal.and_then(|g| {
+                    let r = plan.actors.iter().position(|b| b.id == g.reference)?;
+                    Some((g, body(&obs.objects[i]), body(&obs.objects[r])))
+                });
+                warps[i].advance(
+                    a,
+                    plan.dt,
+                    t,
+                    dt,
+                    bodies.as_ref().map(|(g, m, o)| (*g, m, o)),
+                );
+            }
+            let s = sut.as_deref_mut().expect("closed loop has a SUT");
+            obs.tick = k;
+            obs.time = t;
+            obs.ego = obs.objects[e].clone();
+            let rp = route.project(obs.ego.x, obs.ego.y, route_hint);
+            if let Some(p) = rp {
+                route_hint = p.segment;
+            }
+            obs.distance_to_goal = rp.map_or(0.0, |p| route.length() - p.s);
+            obs.requested_speed = plan.actors[e].at(t, plan.dt).v;
+            obs.road = last_pos[e].as_ref().map(|p| RoadPos {
+                road: p.road.clone(),
+                lane: p.lane,
+                s: p.s,
+                offset: p.offset,
+            });
+            obs.lights = lights
+                .as_ref()
+                .map(|l| l.boxes.iter().map(light_state).collect())
+                .unwrap_or_default();
+            // The SUT sees every actor but itself.
+            let ego_obj = obs.objects.remove(e);
+            let answer = s.step(&obs);
+            obs.objects.insert(e, ego_obj);
+            let cmd = answer.map_err(|err| err.0).and_then(|c| {
+                c.validate()
+                    .map(|()| c)
+                    .map_err(|m| format!("it returned a bad command: {m}"))
+            });
+            match cmd {
+                Ok(c) => {
+                    send_sut(ssp, &plan.actors[e].id, c, &ego_caps, &caps.model, mirror, &mut controls[e])?
+                }
+                Err(m) => {
+                    sut_error = Some(format!("sut error at t={t:.2} s: {m}"));
+                    break;
+                }
+            }
+        }
         for (i, a) in plan.actors.iter().enumerate() {
+            if Some(i) == ego_i {
+                continue;
+            }
             match drivers[i].as_mut() {
                 None => {
-                    if !open_loop && k % send_every != 0 {
+                    let w = warps[i];
+                    if !open_loop && k % send_every != 0 && w.lag == w.sent_lag && w.rate == 1.0 {
                         continue;
                     }
+                    warps[i].sent_lag = w.lag;
                     let ahead = if open_loop {
                         n_steps * step_ms + 200
                     } else {
@@ -296,7 +456,12 @@ pub fn execute(
                     let mut sp = Vec::with_capacity(n as usize + 1);
                     for j in 0..=n {
                         let tm = now_ms + j * step_ms;
-                        let p = a.at(tm as f64 / 1000.0, plan.dt);
+                        let tau = if w.lag == 0.0 && w.rate == 1.0 {
+                            tm as f64 / 1000.0
+                        } else {
+                            w.tau(now_ms as f64 / 1000.0) + w.rate * (j * step_ms) as f64 / 1000.0
+                        };
+                        let p = a.at(tau, plan.dt);
                         points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), mirror));
                         times.push(tm);
                         sp.push(p.v);
@@ -314,6 +479,7 @@ pub fn execute(
                     .map_err(ssp_err)?;
                 }
                 Some(d) => {
+                    let t_next = warps[i].tau(t_next);
                     let Some(st) = &states[i] else {
                         // First step: the actor starts at the plan's speed; hold it.
                         let p = a.at(t_next, plan.dt);
@@ -322,7 +488,7 @@ pub fn execute(
                         continue;
                     };
                     let p = a.at(t_next, plan.dt);
-                    let here = a.at(now_ms as f64 / 1000.0, plan.dt);
+                    let here = a.at(warps[i].tau(now_ms as f64 / 1000.0), plan.dt);
                     let err = p.v - st.speed;
                     d.integral = (d.integral + err * dt).clamp(-5.0, 5.0);
                     let derr = (err - d.last_err) / dt;
@@ -350,6 +516,9 @@ pub fn execute(
                 }
             }
         }
+        if sut_error.is_some() {
+            break;
+        }
         let results = if n_steps == 1 {
             vec![ssp.step(None, &filter).map_err(ssp_err)?]
         } else {
@@ -374,7 +543,7 @@ pub fn execute(
                         ScenarioError::Ssp(format!("the simulator lost actor '{}'", a.id))
                     })?,
                 };
-                let p = a.at(t, plan.dt);
+                let p = a.at(warps[i].tau(t), plan.dt);
                 boxes.push(BoxState {
                     x: st.pose.position.x,
                     y: st.pose.position.y,
@@ -419,7 +588,7 @@ pub fn execute(
                         dims[i].2,
                     );
                     s.control = controls[i];
-                    let mode = if drivers[i].is_some() {
+                    let mode = if drivers[i].is_some() || Some(i) == ego_i {
                         "dynamic"
                     } else {
                         "trajectory"
@@ -432,19 +601,77 @@ pub fn execute(
                 if drivers[i].is_some() {
                     states[i] = Some(st.clone());
                 }
+                if ego_i.is_some() {
+                    let o = &mut obs.objects[i];
+                    let (sy, cy) = math::sin_cos(st.pose.yaw);
+                    o.x = st.pose.position.x;
+                    o.y = st.pose.position.y;
+                    o.yaw = st.pose.yaw;
+                    o.speed = st.speed;
+                    o.vx = st.velocity.x;
+                    o.vy = st.velocity.y;
+                    o.acceleration = st.acceleration.x * cy + st.acceleration.y * sy;
+                }
+                if Some(i) == ego_index
+                    && let Some(ek) = ego_kpi.as_mut()
+                {
+                    ek.step(t, st.speed, st.pose.position.x, st.pose.position.y);
+                }
             }
             kpis.step(t, &boxes, &speeds, &planned, &off);
+            // Gap goals whose phase ends now: judged on the simulated state.
+            for (gi, g) in plan.goals.iter().enumerate() {
+                if goals_done[gi] || t < g.t1 - 1e-9 {
+                    continue;
+                }
+                goals_done[gi] = true;
+                let idx = |id: &str| plan.actors.iter().position(|a| a.id == id);
+                if let (Some(m), Some(r)) = (idx(&g.actor), idx(&g.reference)) {
+                    let bx = |j: usize| Body {
+                        x: boxes[j].x,
+                        y: boxes[j].y,
+                        yaw: boxes[j].yaw,
+                        speed: speeds[j],
+                        length: boxes[j].length,
+                    };
+                    let got = crate::reactive::gap(g, &bx(m), &bx(r));
+                    goal_results.push(GoalResult {
+                        actor: g.actor.clone(),
+                        reference: g.reference.clone(),
+                        relation: if g.sign > 0.0 { "ahead_of" } else { "behind" }.into(),
+                        wanted: g.distance,
+                        got,
+                        t,
+                        met: (got - g.distance).abs() <= crate::reactive::GAP_TOLERANCE,
+                        strict: g.strict,
+                        at: g.at.clone(),
+                    });
+                }
+            }
         }
     }
-    ssp.end_simulation("plan finished").map_err(ssp_err)?;
+    ssp.end_simulation(if sut_error.is_some() {
+        "system under test failed"
+    } else {
+        "plan finished"
+    })
+    .map_err(ssp_err)?;
+    kpis.finish();
+    if let (Some(ek), Some(e)) = (ego_kpi.as_mut(), ego_index) {
+        let last = plan.actors[e].samples.last().copied().unwrap_or_default();
+        ek.finish(last.x, last.y);
+    }
     Ok(Executed {
         kpis,
-        steps,
+        steps: k,
+        ego: ego_kpi,
+        goals: goal_results,
+        sut_error,
         log: rec.map(|r| {
             let mut log = r.finish();
             if !tracking.tick.is_empty() {
                 log.tracking = Some(litesim_log::TrackingColumns {
-                    command_source: "planned".into(),
+                    command_source: if ego_i.is_some() { "sut" } else { "planned" }.into(),
                     ..tracking.columns
                 });
             }
@@ -647,4 +874,114 @@ fn send_dynamic(
         0,
     )
     .map_err(ssp_err)
+}
+
+/// The ego's limits from the simulator's catalogue (told to the SUT).
+#[derive(Clone, Copy, Debug, Default)]
+struct EgoCaps {
+    wheelbase: f64,
+    max_steer: f64,
+    max_accel: f64,
+    max_decel: f64,
+}
+
+fn body(o: &ObjectState) -> Body {
+    Body {
+        x: o.x,
+        y: o.y,
+        yaw: o.yaw,
+        speed: o.speed,
+        length: o.length,
+    }
+}
+
+/// A traffic-light box's colour as the SUT sees it.
+fn light_state(b: &TrafficLightBox) -> LightState {
+    let on = |c: BulbColor| {
+        b.bulbs
+            .iter()
+            .any(|x| x.color == c && matches!(x.mode, BulbMode::On | BulbMode::Flashing))
+    };
+    let color = if on(BulbColor::Red) {
+        "red"
+    } else if on(BulbColor::Yellow) {
+        "yellow"
+    } else if on(BulbColor::Green) {
+        "green"
+    } else {
+        "off"
+    };
+    LightState {
+        id: b.id.clone(),
+        road: b.road_id.clone(),
+        s: b.s,
+        color: color.into(),
+    }
+}
+
+/// Sends the SUT's command to `sut.car` as a dynamic move.
+fn send_sut(
+    ssp: &mut dyn Ssp,
+    id: &str,
+    c: SutCommand,
+    caps: &EgoCaps,
+    model: &str,
+    mirror: bool,
+    control: &mut ControlSample,
+) -> Result<(), ScenarioError> {
+    let m = if mirror { -1.0 } else { 1.0 };
+    let mv = match c {
+        SutCommand::Pedals {
+            throttle,
+            brake,
+            steering,
+        } => {
+            *control = ControlSample {
+                throttle,
+                brake,
+                steering,
+                steering_angle: steering * caps.max_steer,
+                ..ControlSample::default()
+            };
+            DynamicMove::Normalized {
+                throttle,
+                brake,
+                steering: m * steering,
+            }
+        }
+        SutCommand::Physical {
+            drive_force_n,
+            brake_force_n,
+            steering_wheel_angle_rad,
+        } => DynamicMove::Physical {
+            drive_force_n,
+            brake_force_n,
+            steer: litesim_ssp::api::PhysicalSteer::SteeringWheelAngleRad(
+                m * steering_wheel_angle_rad,
+            ),
+        },
+        SutCommand::Accel {
+            acceleration,
+            curvature,
+        } => {
+            // The road-wheel angle giving that curvature in the model: the
+            // seed's Model SSP turns at sin δ / L, the bicycle at tan δ / L.
+            let lk = caps.wheelbase * curvature;
+            let delta = if model == "dummy" || model.is_empty() {
+                math::asin(lk.clamp(-1.0, 1.0))
+            } else {
+                math::atan(lk)
+            };
+            *control = ControlSample {
+                acceleration,
+                steering_angle: delta,
+                ..ControlSample::default()
+            };
+            DynamicMove::Direct {
+                acceleration,
+                steering_angle_rad: m * delta,
+            }
+        }
+    };
+    ssp.set_dynamic_move(id, mv, 0).map_err(ssp_err)
 }

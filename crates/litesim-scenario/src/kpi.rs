@@ -1,7 +1,7 @@
 //! Checkers and KPIs over the executed states: collisions between actors
 //! (oriented boxes, separating axes), off-road vehicles, minimum distance
-//! (box to box) and time-to-collision per pair, and speed and path errors
-//! against the plan.
+//! (box to box) and time to collision per pair (constant velocities, swept
+//! boxes), and speed and path errors against the plan.
 
 use litesim_core::math;
 use serde::Serialize;
@@ -105,8 +105,13 @@ pub struct PairKpi {
     pub b: String,
     /// Smallest box-to-box distance (m).
     pub min_distance: f64,
-    /// Smallest time to collision (s) while closing; `null` when never closing.
+    /// When it was smallest (s).
+    pub min_distance_at: f64,
+    /// Smallest time to collision (s): when the boxes would touch if both
+    /// kept their velocities (within [`TTC_HORIZON`]); `null` when never.
     pub min_ttc: Option<f64>,
+    /// When it was smallest (s).
+    pub min_ttc_at: Option<f64>,
     /// First collision time (s).
     pub collision_at: Option<f64>,
 }
@@ -132,35 +137,84 @@ pub struct ActorKpi {
     pub ran_red_light: Option<(String, f64)>,
 }
 
+/// Pairs closer than this (box bound to box bound, m) are tracked: their
+/// distance, TTC and collisions are computed exactly.
+pub const NEAR: f64 = 30.0;
+/// Pairs that could meet within this time at their relative speed are
+/// tracked too (s); it bounds the TTCs reported.
+pub const TTC_HORIZON: f64 = 10.0;
+
+/// Time until two boxes touch if both keep their velocities: the swept
+/// separating-axis test (for translating convex polygons the edge normals
+/// of both are the only candidate axes). `None` when they never touch,
+/// `Some(0)` when they overlap now.
+pub fn time_to_collision(a: &BoxState, b: &BoxState) -> Option<f64> {
+    let (ca, cb) = (a.corners(), b.corners());
+    // b's velocity relative to a.
+    let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
+    let (mut enter, mut exit) = (0.0f64, f64::INFINITY);
+    for yaw in [a.yaw, b.yaw] {
+        let (s, c) = math::sin_cos(yaw);
+        for (ux, uy) in [(c, s), (-s, c)] {
+            let proj = |q: &[(f64, f64); 4]| {
+                q.iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+                        let d = p.0 * ux + p.1 * uy;
+                        (lo.min(d), hi.max(d))
+                    })
+            };
+            let (a0, a1) = proj(&ca);
+            let (b0, b1) = proj(&cb);
+            let w = wx * ux + wy * uy;
+            if w.abs() < 1e-12 {
+                if b1 < a0 || a1 < b0 {
+                    return None;
+                }
+                continue;
+            }
+            // b's interval [b0 + wτ, b1 + wτ] meets [a0, a1] for τ in [t0, t1].
+            let (t0, t1) = ((a0 - b1) / w, (a1 - b0) / w);
+            let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+            enter = enter.max(t0);
+            exit = exit.min(t1);
+            if enter > exit {
+                return None;
+            }
+        }
+    }
+    (exit >= 0.0 && enter.is_finite()).then_some(enter.max(0.0))
+}
+
 /// Accumulates KPIs step by step.
+///
+/// Pairs go through a broad phase first: actors sorted by x, swept with
+/// each one's reach (its bounding radius plus what it can cover relative
+/// to the traffic's mean velocity within [`TTC_HORIZON`], at least
+/// [`NEAR`]/2); only pairs whose reaches overlap and whose bounding
+/// circles are within `NEAR` or can meet within the horizon get the exact
+/// box distance and TTC. The cost grows as n log n for traffic that moves
+/// together instead of n².
 #[derive(Clone, Debug, Default)]
 pub struct Kpis {
-    /// Pairs in (i, j) order of the actor list.
+    /// Pairs that came near, in (i, j) order of the actor list (filled by
+    /// [`Kpis::finish`]).
     pub pairs: Vec<PairKpi>,
     /// Per actor.
     pub actors: Vec<ActorKpi>,
+    near: BTreeMap<(u32, u32), PairKpi>,
+    ids: Vec<String>,
     sq: Vec<f64>,
     n: usize,
     last: Vec<Option<(f64, f64)>>,
     index: BTreeMap<String, usize>,
+    order: Vec<u32>,
+    reach: Vec<f64>,
 }
 
 impl Kpis {
     /// For these actors.
     pub fn new(ids: &[String]) -> Self {
-        let mut pairs = Vec::new();
-        for i in 0..ids.len() {
-            for j in i + 1..ids.len() {
-                pairs.push(PairKpi {
-                    a: ids[i].clone(),
-                    b: ids[j].clone(),
-                    min_distance: f64::INFINITY,
-                    ..PairKpi::default()
-                });
-            }
-        }
         Kpis {
-            pairs,
             actors: ids
                 .iter()
                 .map(|id| ActorKpi {
@@ -168,6 +222,7 @@ impl Kpis {
                     ..ActorKpi::default()
                 })
                 .collect(),
+            ids: ids.to_vec(),
             sq: vec![0.0; ids.len()],
             n: 0,
             last: vec![None; ids.len()],
@@ -176,6 +231,9 @@ impl Kpis {
                 .enumerate()
                 .map(|(i, s)| (s.clone(), i))
                 .collect(),
+            order: (0..ids.len() as u32).collect(),
+            reach: vec![0.0; ids.len()],
+            ..Kpis::default()
         }
     }
 
@@ -192,6 +250,11 @@ impl Kpis {
         self.index.get(id).copied()
     }
 
+    /// Moves the pairs that came near into [`Kpis::pairs`], in (i, j) order.
+    pub fn finish(&mut self) {
+        self.pairs = std::mem::take(&mut self.near).into_values().collect();
+    }
+
     /// Adds one step: boxes, speeds, planned positions and speeds, on-road flags.
     pub fn step(
         &mut self,
@@ -202,28 +265,44 @@ impl Kpis {
         off_road: &[bool],
     ) {
         self.n += 1;
-        let mut k = 0;
-        for i in 0..boxes.len() {
-            for j in i + 1..boxes.len() {
-                let (a, b) = (&boxes[i], &boxes[j]);
-                let p = &mut self.pairs[k];
-                k += 1;
-                let d = distance(a, b);
-                p.min_distance = p.min_distance.min(d);
-                if d == 0.0 && p.collision_at.is_none() {
-                    p.collision_at = Some(t);
-                }
-                // Closing speed along the line of centres.
-                let (dx, dy) = (b.x - a.x, b.y - a.y);
-                let r = (dx * dx + dy * dy).sqrt();
-                if r > 1e-9 && d > 0.0 {
-                    let closing = -((b.vx - a.vx) * dx + (b.vy - a.vy) * dy) / r;
-                    if closing > 1e-3 {
-                        let ttc = d / closing;
-                        p.min_ttc = Some(p.min_ttc.map_or(ttc, |m: f64| m.min(ttc)));
-                    }
+        let n = boxes.len();
+        if n > 1 {
+            let (mut mx, mut my) = (0.0, 0.0);
+            for b in boxes {
+                mx += b.vx;
+                my += b.vy;
+            }
+            let (mx, my) = (mx / n as f64, my / n as f64);
+            for (r, b) in self.reach.iter_mut().zip(boxes) {
+                let radius = 0.5 * math::hypot(b.length, b.width);
+                let rel = math::hypot(b.vx - mx, b.vy - my);
+                *r = radius + (rel * TTC_HORIZON).max(0.5 * NEAR);
+            }
+            // Insertion sort: the order barely changes from step to step.
+            let key = |i: u32| boxes[i as usize].x - self.reach[i as usize];
+            for k in 1..self.order.len() {
+                let mut j = k;
+                while j > 0 && key(self.order[j - 1]) > key(self.order[j]) {
+                    self.order.swap(j - 1, j);
+                    j -= 1;
                 }
             }
+            let order = std::mem::take(&mut self.order);
+            for k in 0..n {
+                let i = order[k] as usize;
+                let hi = boxes[i].x + self.reach[i];
+                for &j in &order[k + 1..] {
+                    let j = j as usize;
+                    if boxes[j].x - self.reach[j] > hi {
+                        break;
+                    }
+                    if (boxes[i].y - boxes[j].y).abs() > self.reach[i] + self.reach[j] {
+                        continue;
+                    }
+                    self.pair(t, i.min(j), i.max(j), &boxes[i.min(j)], &boxes[i.max(j)]);
+                }
+            }
+            self.order = order;
         }
         for (i, a) in self.actors.iter_mut().enumerate() {
             let (px, py, pv) = planned[i];
@@ -242,5 +321,109 @@ impl Kpis {
             }
             self.last[i] = Some((b.x, b.y));
         }
+    }
+
+    /// The narrow phase of one candidate pair (i < j).
+    fn pair(&mut self, t: f64, i: usize, j: usize, a: &BoxState, b: &BoxState) {
+        let bound = math::hypot(b.x - a.x, b.y - a.y)
+            - 0.5 * (math::hypot(a.length, a.width) + math::hypot(b.length, b.width));
+        let closing = math::hypot(b.vx - a.vx, b.vy - a.vy);
+        if bound > NEAR && bound > closing * TTC_HORIZON {
+            return;
+        }
+        let p = self
+            .near
+            .entry((i as u32, j as u32))
+            .or_insert_with(|| PairKpi {
+                a: self.ids[i].clone(),
+                b: self.ids[j].clone(),
+                min_distance: f64::INFINITY,
+                ..PairKpi::default()
+            });
+        let d = distance(a, b);
+        if d < p.min_distance {
+            p.min_distance = d;
+            p.min_distance_at = t;
+        }
+        if d == 0.0 && p.collision_at.is_none() {
+            p.collision_at = Some(t);
+        }
+        if d > 0.0
+            && let Some(ttc) = time_to_collision(a, b)
+            && ttc <= TTC_HORIZON
+            && p.min_ttc.is_none_or(|m| ttc < m)
+        {
+            p.min_ttc = Some(ttc);
+            p.min_ttc_at = Some(t);
+        }
+    }
+}
+
+/// The ego's own KPIs: braking, jerk, where it ended.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct EgoKpi {
+    /// Ego id.
+    pub id: String,
+    /// Largest deceleration (m/s², positive), from the speed step to step.
+    pub max_decel: f64,
+    /// When (s).
+    pub max_decel_at: f64,
+    /// Largest |jerk| (m/s³), the change of acceleration over 0.1 s.
+    pub max_jerk: f64,
+    /// When (s).
+    pub max_jerk_at: f64,
+    /// Distance from the final position to the route's goal (m).
+    pub distance_to_goal: f64,
+    /// Final speed (m/s).
+    pub final_speed: f64,
+    #[serde(skip)]
+    dt: f64,
+    #[serde(skip)]
+    accels: std::collections::VecDeque<f64>,
+    #[serde(skip)]
+    last_v: Option<f64>,
+    #[serde(skip)]
+    pos: (f64, f64),
+}
+
+impl EgoKpi {
+    /// For the ego `id`, stepped every `dt` s.
+    pub fn new(id: &str, dt: f64) -> Self {
+        EgoKpi {
+            id: id.to_string(),
+            dt,
+            ..EgoKpi::default()
+        }
+    }
+
+    /// Adds one step's speed and position.
+    pub fn step(&mut self, t: f64, v: f64, x: f64, y: f64) {
+        self.pos = (x, y);
+        self.final_speed = v;
+        let Some(last) = self.last_v.replace(v) else {
+            return;
+        };
+        let a = (v - last) / self.dt;
+        if -a > self.max_decel {
+            self.max_decel = -a;
+            self.max_decel_at = t;
+        }
+        // Jerk over 0.1 s (whole steps): a per-step difference of a
+        // pedal-driven car is dominated by the pedal switching.
+        let m = ((0.1 / self.dt).round() as usize).max(1);
+        self.accels.push_back(a);
+        if self.accels.len() > m {
+            let old = self.accels.pop_front().unwrap_or(a);
+            let j = (a - old) / (m as f64 * self.dt);
+            if j.abs() > self.max_jerk {
+                self.max_jerk = j.abs();
+                self.max_jerk_at = t;
+            }
+        }
+    }
+
+    /// Closes the record against the goal `(gx, gy)`.
+    pub fn finish(&mut self, gx: f64, gy: f64) {
+        self.distance_to_goal = math::hypot(self.pos.0 - gx, self.pos.1 - gy);
     }
 }

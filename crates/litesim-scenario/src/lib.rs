@@ -20,10 +20,13 @@ pub mod calibrate;
 pub mod elab;
 pub mod error;
 pub mod exec;
+pub mod judge;
 pub mod kpi;
 pub mod plan;
 pub mod postplan;
+pub mod reactive;
 pub mod solve;
+pub mod sut;
 
 pub use error::ScenarioError;
 pub use exec::DriveMode;
@@ -141,6 +144,11 @@ pub struct RunOptions {
     pub record: bool,
     /// Stop after planning.
     pub plan_only: bool,
+    /// What drives sut.car (`planned`: its plan).
+    pub sut: sut::SutChoice,
+    /// Time the SUT may take per call (s); `None`: the test's
+    /// `sut_timeout`, else 1 s.
+    pub sut_timeout: Option<f64>,
 }
 
 /// The run summary: deterministic (no wall-clock fields).
@@ -162,6 +170,8 @@ pub struct Summary {
     pub model: String,
     /// Drive mode.
     pub mode: DriveMode,
+    /// What drove sut.car (`planned`, `acc`, `fmt-mpc`, `grpc://…`).
+    pub sut: String,
     /// Planned duration (s).
     pub duration: f64,
     /// Steps executed.
@@ -172,6 +182,10 @@ pub struct Summary {
     pub actors: Vec<kpi::ActorKpi>,
     /// Per-pair KPIs.
     pub pairs: Vec<kpi::PairKpi>,
+    /// The ego's KPIs (deceleration, jerk, distance to its goal).
+    pub ego: Option<kpi::EgoKpi>,
+    /// Gap goals re-solved live, as they ended.
+    pub goals: Vec<reactive::GoalResult>,
     /// Where the drivers' gains came from (`built-in` or a file).
     pub calibration: String,
     /// What the engine saw but did not execute, and solver remarks.
@@ -290,11 +304,14 @@ pub fn run(
                 profile,
                 model,
                 mode: opts.mode,
+                sut: opts.sut.name(),
                 duration: plan.duration,
                 steps: 0,
                 roads: sol.roads.clone(),
                 actors: Vec::new(),
                 pairs: Vec::new(),
+                ego: None,
+                goals: Vec::new(),
                 calibration: calibration_src,
                 notes,
             },
@@ -318,35 +335,27 @@ pub fn run(
         mode: opts.mode,
         calibration,
         record: opts.record,
+        test_name: test_name.clone(),
+        map_path: prep.map_name.clone(),
+        map: prep.net.clone(),
+        sut_timeout: opts
+            .sut_timeout
+            .or(prep.test.config.thresholds.sut_timeout)
+            .unwrap_or(1.0),
     };
-    let ex = exec::execute(ssp, &plan, prep.net.as_deref(), &cfg)?;
-    let (tol_path, tol_speed) = tolerances(opts.mode);
-    let mut failures = Vec::new();
-    for p in &ex.kpis.pairs {
-        if let Some(t) = p.collision_at {
-            failures.push(format!("collision between {} and {} at {t:.2} s", p.a, p.b));
-        }
-    }
-    for a in &ex.kpis.actors {
-        if let Some(t) = a.off_road_at {
-            failures.push(format!("{} off the road at {t:.2} s", a.id));
-        }
-        if let Some((light, t)) = &a.ran_red_light {
-            failures.push(format!("{} ran the red light {light} at {t:.2} s", a.id));
-        }
-        if a.max_path_error > tol_path {
-            failures.push(format!(
-                "{} strays {:.3} m from its plan (tolerance {tol_path} m)",
-                a.id, a.max_path_error
-            ));
-        }
-        if a.max_speed_error > tol_speed {
-            failures.push(format!(
-                "{} misses its planned speed by {:.3} m/s (tolerance {tol_speed} m/s)",
-                a.id, a.max_speed_error
-            ));
-        }
-    }
+    let mut sut = opts.sut.instantiate().map_err(|e| {
+        ScenarioError::Sut(format!("cannot start the system under test {}: {e}", opts.sut.name()))
+    })?;
+    let ex = exec::execute(ssp, &plan, prep.net.as_deref(), &cfg, sut.as_deref_mut())?;
+    let ego_id = plan.actors.iter().find(|a| a.ego).map(|a| a.id.clone());
+    let (failures, judge_notes) = judge::verdict(
+        &ex,
+        &prep.test.config.thresholds,
+        opts.mode,
+        sut.is_some(),
+        ego_id.as_deref(),
+    );
+    notes.extend(judge_notes);
     let mut pairs = ex.kpis.pairs;
     for p in &mut pairs {
         if !p.min_distance.is_finite() {
@@ -363,11 +372,14 @@ pub fn run(
             profile: ex.profile,
             model: ex.model,
             mode: opts.mode,
+            sut: opts.sut.name(),
             duration: plan.duration,
             steps: ex.steps,
             roads: sol.roads,
             actors: ex.kpis.actors,
             pairs,
+            ego: ex.ego,
+            goals: ex.goals,
             calibration: calibration_src,
             notes,
         },

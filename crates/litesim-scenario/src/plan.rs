@@ -230,8 +230,36 @@ pub struct Plan {
     pub violations: Vec<String>,
     /// Traffic-light switches in time order.
     pub lights: Vec<LightSwitch>,
+    /// Gaps to other actors that phases ask for at their end
+    /// (`position(d, ahead_of: x, at: end)`): the runtime re-solves them
+    /// against where `x` actually is.
+    pub goals: Vec<GapGoal>,
     /// Remarks.
     pub notes: Vec<String>,
+}
+
+/// A phase asks `actor` to end `distance` m (bumper to bumper) ahead of
+/// (`sign` = 1) or behind (−1) `reference`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct GapGoal {
+    /// The actor that moves to meet the goal.
+    pub actor: String,
+    /// The actor the gap is measured to.
+    pub reference: String,
+    /// Wanted bumper-to-bumper gap (m).
+    pub distance: f64,
+    /// 1 ahead of, −1 behind.
+    pub sign: f64,
+    /// Phase start (s).
+    pub t0: f64,
+    /// Phase end (s): when the gap is judged.
+    pub t1: f64,
+    /// `run_mode: strict` (the default): a miss fails the run.
+    pub strict: bool,
+    /// The modifier's place in the test (`file:line:col`).
+    pub at: String,
+    /// The phase's label, when labelled.
+    pub label: Option<String>,
 }
 
 /// A traffic light changes colour.
@@ -947,6 +975,7 @@ fn plan_once(
         .collect();
     let mut notes = Vec::new();
     let mut violations = Vec::new();
+    let mut goals: Vec<GapGoal> = Vec::new();
 
     // Resolve each leaf's modifier arguments once, in time order (seeded).
     let mut leaves = leaves;
@@ -1187,6 +1216,21 @@ fn plan_once(
                                 && let Some(op) = plans.iter().find(|p| p.id == *o)
                                 && !op.samples.is_empty()
                             {
+                                goals.push(GapGoal {
+                                    actor: id.clone(),
+                                    reference: o.clone(),
+                                    distance: num(vals, "distance").unwrap_or(5.0),
+                                    sign,
+                                    t0: l.t0,
+                                    t1: l.t1,
+                                    strict: vals
+                                        .get("run_mode")
+                                        .and_then(|v| v.text().map(String::from))
+                                        .as_deref()
+                                        != Some("best_effort"),
+                                    at: l.at.clone(),
+                                    label: l.label.clone(),
+                                });
                                 let gap = num(vals, "distance").unwrap_or(5.0)
                                     + (op.length + plans[i].length) / 2.0;
                                 let me = pose(net, mo.pos, 0.0);
@@ -1384,6 +1428,7 @@ fn plan_once(
     if keep.is_empty() {
         notes.push("no actor takes part in the behaviour".into());
     }
+    goals.sort_by(|a, b| a.t1.total_cmp(&b.t1).then(a.actor.cmp(&b.actor)));
     Ok((
         Plan {
             dt: plan_dt,
@@ -1392,6 +1437,7 @@ fn plan_once(
             phases,
             violations,
             lights,
+            goals,
             notes,
         },
         conds,

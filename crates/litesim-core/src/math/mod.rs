@@ -113,6 +113,11 @@ impl SinCosCache {
 pub fn tan(x: f64) -> f64 {
     libm::tan(x)
 }
+/// Arc sine.
+#[inline]
+pub fn asin(x: f64) -> f64 {
+    libm::asin(x)
+}
 /// Arc tangent.
 #[inline]
 pub fn atan(x: f64) -> f64 {

@@ -1,0 +1,142 @@
+//! The verdict: what the run's KPIs say about the system under test.
+//!
+//! Always: collisions (any pair; those with sut.car first), vehicles off
+//! the road, red lights run, a SUT that failed to answer, strict gap goals
+//! missed. With `--sut planned` (the scenario player), every actor must
+//! also follow its plan within the mode's tolerances. Thresholds the test
+//! sets in `test_config` ([`Thresholds`]) judge sut.car: minimum TTC and
+//! gap to any actor, maximum deceleration and jerk, reaching the goal.
+//! Every failure names the time, the actors and the value.
+
+use crate::elab::Thresholds;
+use crate::exec::Executed;
+use crate::{DriveMode, tolerances};
+
+/// Failures and notes of one run.
+pub fn verdict(
+    ex: &Executed,
+    th: &Thresholds,
+    mode: DriveMode,
+    closed_loop: bool,
+    ego_id: Option<&str>,
+) -> (Vec<String>, Vec<String>) {
+    let mut failures = Vec::new();
+    let mut notes = Vec::new();
+    if let Some(e) = &ex.sut_error {
+        failures.push(e.clone());
+    }
+    let involves = |a: &str, b: &str| ego_id.is_some_and(|e| a == e || b == e);
+    // Collisions with the ego first: they are the verdict on the SUT.
+    let mut pairs: Vec<_> = ex.kpis.pairs.iter().collect();
+    pairs.sort_by_key(|p| !involves(&p.a, &p.b));
+    for p in &pairs {
+        if let Some(t) = p.collision_at {
+            failures.push(format!("collision between {} and {} at {t:.2} s", p.a, p.b));
+        }
+    }
+    let (tol_path, tol_speed) = tolerances(mode);
+    for a in &ex.kpis.actors {
+        if let Some(t) = a.off_road_at {
+            failures.push(format!("{} off the road at {t:.2} s", a.id));
+        }
+        if let Some((light, t)) = &a.ran_red_light {
+            failures.push(format!("{} ran the red light {light} at {t:.2} s", a.id));
+        }
+        // Following the plan is the check of a scenario player; in closed
+        // loop the SUT decides and the others re-time their plans.
+        if closed_loop {
+            continue;
+        }
+        if a.max_path_error > tol_path {
+            failures.push(format!(
+                "{} strays {:.3} m from its plan (tolerance {tol_path} m)",
+                a.id, a.max_path_error
+            ));
+        }
+        if a.max_speed_error > tol_speed {
+            failures.push(format!(
+                "{} misses its planned speed by {:.3} m/s (tolerance {tol_speed} m/s)",
+                a.id, a.max_speed_error
+            ));
+        }
+    }
+    for g in &ex.goals {
+        if g.met {
+            continue;
+        }
+        let msg = format!(
+            "{}: {} ended {:.1} m {} {} at {:.2} s, wanted {} m ± {} m",
+            g.at,
+            g.actor,
+            g.got,
+            g.relation.replace('_', " "),
+            g.reference,
+            g.t,
+            g.wanted,
+            crate::reactive::GAP_TOLERANCE
+        );
+        if g.strict {
+            failures.push(msg);
+        } else {
+            notes.push(format!("best effort: {msg}"));
+        }
+    }
+    let Some(ego) = ego_id else {
+        return (failures, notes);
+    };
+    let ego_pairs = || ex.kpis.pairs.iter().filter(|p| p.a == ego || p.b == ego);
+    let other = |p: &crate::kpi::PairKpi| if p.a == ego { p.b.clone() } else { p.a.clone() };
+    if let Some(limit) = th.min_ttc
+        && let Some(p) = ego_pairs()
+            .filter(|p| p.min_ttc.is_some())
+            .min_by(|a, b| a.min_ttc.unwrap_or(0.0).total_cmp(&b.min_ttc.unwrap_or(0.0)))
+        && let (Some(ttc), Some(t)) = (p.min_ttc, p.min_ttc_at)
+        && ttc < limit
+    {
+        failures.push(format!(
+            "time to collision between {ego} and {} is {ttc:.2} s at {t:.2} s, below the test's min_ttc {limit} s",
+            other(p)
+        ));
+    }
+    if let Some(limit) = th.min_gap
+        && let Some(p) = ego_pairs()
+            .filter(|p| p.min_distance.is_finite() && p.min_distance >= 0.0)
+            .min_by(|a, b| a.min_distance.total_cmp(&b.min_distance))
+        && p.min_distance < limit
+    {
+        failures.push(format!(
+            "gap between {ego} and {} is {:.2} m at {:.2} s, below the test's min_gap {limit} m",
+            other(p),
+            p.min_distance,
+            p.min_distance_at
+        ));
+    }
+    if let Some(e) = &ex.ego {
+        if let Some(limit) = th.max_decel
+            && e.max_decel > limit
+        {
+            failures.push(format!(
+                "{ego} decelerates at {:.2} m/s² at {:.2} s, above the test's max_decel {limit} m/s²",
+                e.max_decel, e.max_decel_at
+            ));
+        }
+        if let Some(limit) = th.max_jerk
+            && e.max_jerk > limit
+        {
+            failures.push(format!(
+                "{ego} jerk is {:.2} m/s³ at {:.2} s, above the test's max_jerk {limit} m/s³",
+                e.max_jerk, e.max_jerk_at
+            ));
+        }
+        if let Some(tol) = th.goal_tolerance
+            && e.distance_to_goal > tol
+            && ex.sut_error.is_none()
+        {
+            failures.push(format!(
+                "{ego} ends {:.2} m from its goal (goal_tolerance {tol} m)",
+                e.distance_to_goal
+            ));
+        }
+    }
+    (failures, notes)
+}

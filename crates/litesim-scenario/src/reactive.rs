@@ -1,0 +1,141 @@
+//! Non-SUT actors that react to what the others actually do.
+//!
+//! Each non-SUT actor follows its planned path, but on its own clock: its
+//! plan time τ = t + lag. While a phase asks it to end at a gap to another
+//! actor ([`GapGoal`]), the gap is re-solved every step against where that
+//! actor really is: the actor's speed is set so that, if the other keeps its
+//! present speed, the gap is met at the phase's end (rate-limited to
+//! [`ACCEL_UP`] / [`ACCEL_DOWN`]). Outside goals its speed returns to the
+//! plan's. The warp only stretches time along the plan, so paths, lane
+//! changes and headings stay as planned; an actor that never reacts keeps
+//! τ = t exactly (lag 0.0), which is the scenario player's behaviour bit
+//! for bit.
+
+use crate::plan::{ActorPlan, GapGoal};
+use litesim_core::math;
+use serde::Serialize;
+
+/// Speed-up limit of a reacting actor (m/s²).
+pub const ACCEL_UP: f64 = 3.0;
+/// Slow-down limit of a reacting actor (m/s²).
+pub const ACCEL_DOWN: f64 = 6.0;
+/// Tolerance of a strict gap goal (m).
+pub const GAP_TOLERANCE: f64 = 1.0;
+
+/// One actor's clock.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Warp {
+    /// τ − t (s).
+    pub lag: f64,
+    /// dτ/dt.
+    pub rate: f64,
+    /// Lag when the actor's trajectory was last sent.
+    pub sent_lag: f64,
+}
+
+/// What a goal came to at its phase's end.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct GoalResult {
+    /// The goal.
+    pub actor: String,
+    /// Reference actor.
+    pub reference: String,
+    /// `ahead_of` or `behind`.
+    pub relation: String,
+    /// Wanted gap (m).
+    pub wanted: f64,
+    /// Gap at the phase's end (m, bumper to bumper, + on the wanted side).
+    pub got: f64,
+    /// Phase end (s).
+    pub t: f64,
+    /// Met within the tolerance.
+    pub met: bool,
+    /// Strict (a miss fails the run).
+    pub strict: bool,
+    /// Where the modifier is.
+    pub at: String,
+}
+
+/// Pose and speed of an actor as the goal controller reads it.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Body {
+    /// Centre x (m).
+    pub x: f64,
+    /// Centre y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub yaw: f64,
+    /// Speed (m/s).
+    pub speed: f64,
+    /// Length (m).
+    pub length: f64,
+}
+
+/// The gap of `me` to `reference` along the reference's heading, bumper to
+/// bumper, positive on the goal's side.
+pub fn gap(goal: &GapGoal, me: &Body, reference: &Body) -> f64 {
+    let (s, c) = math::sin_cos(reference.yaw);
+    let along = (me.x - reference.x) * c + (me.y - reference.y) * s;
+    goal.sign * along - 0.5 * (me.length + reference.length)
+}
+
+impl Warp {
+    /// The identity clock.
+    pub fn new() -> Self {
+        Warp {
+            lag: 0.0,
+            rate: 1.0,
+            sent_lag: 0.0,
+        }
+    }
+
+    /// Plan time at simulation time `t`.
+    pub fn tau(&self, t: f64) -> f64 {
+        t + self.lag
+    }
+
+    /// Advances the clock by one step `dt` at time `t`: towards the goal's
+    /// speed when `goal` is given (with the two bodies), else back to the
+    /// plan's speed.
+    pub fn advance(
+        &mut self,
+        plan: &ActorPlan,
+        plan_dt: f64,
+        t: f64,
+        dt: f64,
+        goal: Option<(&GapGoal, &Body, &Body)>,
+    ) {
+        let tau = self.tau(t);
+        let v_plan = plan.at(tau, plan_dt).v;
+        let v_now = v_plan * self.rate;
+        let v_want = match goal {
+            Some((g, me, other)) => {
+                let remaining = (g.t1 - t).max(0.0);
+                let err = g.distance - gap(g, me, other);
+                // Close the gap error by the phase's end (no faster than
+                // over one second), moving with the reference.
+                (other.speed + g.sign * err / remaining.max(1.0)).max(0.0)
+            }
+            None => {
+                if self.rate == 1.0 {
+                    return;
+                }
+                v_plan
+            }
+        };
+        let v_new = v_now + (v_want - v_now).clamp(-ACCEL_DOWN * dt, ACCEL_UP * dt);
+        let rate = if v_plan > 0.5 {
+            (v_new / v_plan).clamp(0.0, 4.0)
+        } else {
+            1.0
+        };
+        // Back on the plan's speed: the identity again (no drift from
+        // rounding).
+        self.rate = if goal.is_none() && (rate - 1.0).abs() < 1e-9 {
+            1.0
+        } else {
+            rate
+        };
+        self.lag += (self.rate - 1.0) * dt;
+    }
+}
