@@ -97,6 +97,23 @@ impl GrpcSut {
                     "{what}: no answer from {addr} within {:.3} s",
                     timeout.as_secs_f64()
                 ))),
+                Ok(Err(st)) if st.code() == tonic::Code::Cancelled
+                    && st.message().contains("Timeout") =>
+                {
+                    Err(SutError(format!(
+                        "{what}: no answer from {addr} within {:.3} s",
+                        timeout.as_secs_f64()
+                    )))
+                }
+                Ok(Err(st))
+                    if matches!(st.code(), tonic::Code::Unknown | tonic::Code::Unavailable)
+                        && st.message().contains("transport") =>
+                {
+                    Err(SutError(format!(
+                        "{what}: lost the connection to {addr} (did the SUT process end?): {}",
+                        bounded(st.message())
+                    )))
+                }
                 Ok(Err(st)) => Err(SutError(format!(
                     "{what}: {addr} answered {:?}: {}",
                     st.code(),

@@ -377,7 +377,9 @@ pub fn execute(
             let t = now_ms as f64 / 1000.0;
             // The others re-solve their gap goals against where the actors are.
             for (i, a) in plan.actors.iter().enumerate() {
-                if i == e {
+                // Pedal-driven actors keep their plan's clock: their drivers
+                // do not hold a re-timed reference yet (a known gap).
+                if i == e || drivers[i].is_some() {
                     continue;
                 }
                 let goal = plan.goals.iter().find(|g| {
@@ -385,14 +387,28 @@ pub fn execute(
                 });
                 let bodies = goal.and_then(|g| {
                     let r = plan.actors.iter().position(|b| b.id == g.reference)?;
-                    Some((g, body(&obs.objects[i]), body(&obs.objects[r])))
+                    // The gap the plan had one second ahead (at most at the
+                    // phase's end, where it is the goal's).
+                    let ta = (t + 1.0).min(g.t1);
+                    let pb = |j: usize| {
+                        let p = plan.actors[j].at(ta, plan.dt);
+                        Body {
+                            x: p.x,
+                            y: p.y,
+                            yaw: p.yaw,
+                            speed: p.v,
+                            length: dims[j].0,
+                        }
+                    };
+                    let planned = crate::reactive::gap(g, &pb(i), &pb(r));
+                    Some((g, body(&obs.objects[i]), body(&obs.objects[r]), planned))
                 });
                 warps[i].advance(
                     a,
                     plan.dt,
                     t,
                     dt,
-                    bodies.as_ref().map(|(g, m, o)| (*g, m, o)),
+                    bodies.as_ref().map(|(g, m, o, pg)| (*g, m, o, *pg)),
                 );
             }
             let s = sut.as_deref_mut().expect("closed loop has a SUT");
@@ -487,7 +503,12 @@ pub fn execute(
                         send_dynamic(ssp, &a.id, u, 0.0, d, &mut controls[i])?;
                         continue;
                     };
-                    let p = a.at(t_next, plan.dt);
+                    // A re-timed actor moves `rate` times its plan's speed.
+                    let rate = warps[i].rate;
+                    let mut p = a.at(t_next, plan.dt);
+                    let v_plan = p.v;
+                    p.v *= rate;
+                    p.a *= rate * rate;
                     let here = a.at(warps[i].tau(now_ms as f64 / 1000.0), plan.dt);
                     let err = p.v - st.speed;
                     d.integral = (d.integral + err * dt).clamp(-5.0, 5.0);
@@ -505,7 +526,8 @@ pub fn execute(
                     let e_lat = -sy * ex + cy * ey;
                     let e_yaw = wrap_angle(here.yaw - st.pose.yaw);
                     let ahead = a.at(t_next + 0.2, plan.dt);
-                    let ds = (p.v.max(0.5)) * 0.2;
+                    // 0.2 s of plan time ahead: the plan's speed sets the arc.
+                    let ds = (v_plan.max(0.5)) * 0.2;
                     let kappa = wrap_angle(ahead.yaw - p.yaw) / ds;
                     let delta = math::atan(d.wheelbase * kappa)
                         + g.steering.kp * e_lat

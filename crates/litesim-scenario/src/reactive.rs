@@ -3,10 +3,11 @@
 //! Each non-SUT actor follows its planned path, but on its own clock: its
 //! plan time τ = t + lag. While a phase asks it to end at a gap to another
 //! actor ([`GapGoal`]), the gap is re-solved every step against where that
-//! actor really is: the actor's speed is set so that, if the other keeps its
-//! present speed, the gap is met at the phase's end (rate-limited to
-//! [`ACCEL_UP`] / [`ACCEL_DOWN`]). Outside goals its speed returns to the
-//! plan's. The warp only stretches time along the plan, so paths, lane
+//! actor really is: the actor keeps, relative to the actual reference, the
+//! gap its plan had to the planned reference (one second ahead, so it
+//! closes any difference within about a second), which ends at the goal's
+//! gap — rate-limited to [`ACCEL_UP`] / [`ACCEL_DOWN`]. Outside goals its
+//! speed returns to the plan's. The warp only stretches time along the plan, so paths, lane
 //! changes and headings stay as planned; an actor that never reacts keeps
 //! τ = t exactly (lag 0.0), which is the scenario player's behaviour bit
 //! for bit.
@@ -103,18 +104,16 @@ impl Warp {
         plan_dt: f64,
         t: f64,
         dt: f64,
-        goal: Option<(&GapGoal, &Body, &Body)>,
+        goal: Option<(&GapGoal, &Body, &Body, f64)>,
     ) {
         let tau = self.tau(t);
         let v_plan = plan.at(tau, plan_dt).v;
         let v_now = v_plan * self.rate;
         let v_want = match goal {
-            Some((g, me, other)) => {
-                let remaining = (g.t1 - t).max(0.0);
-                let err = g.distance - gap(g, me, other);
-                // Close the gap error by the phase's end (no faster than
-                // over one second), moving with the reference.
-                (other.speed + g.sign * err / remaining.max(1.0)).max(0.0)
+            Some((g, me, other, planned_gap)) => {
+                let lead = (g.t1 - t).clamp(dt, 1.0);
+                let err = planned_gap - gap(g, me, other);
+                (other.speed + g.sign * err / lead).max(0.0)
             }
             None => {
                 if self.rate == 1.0 {
