@@ -66,7 +66,14 @@ fn agent(extra: &[&str]) -> Agent {
 fn run(sut: &str, out: &Path, extra: &[&str]) -> std::process::Output {
     litesim()
         .current_dir(workspace())
-        .args(["run", "examples/scenarios/cut_in.osc", "--no-pictures", "--sut", sut, "-o"])
+        .args([
+            "run",
+            "examples/scenarios/cut_in.osc",
+            "--no-pictures",
+            "--sut",
+            sut,
+            "-o",
+        ])
         .arg(out)
         .args(extra)
         .output()
@@ -85,7 +92,11 @@ fn the_python_agent_drives_the_cut_in_reproducibly() {
     assert!(text.contains(&format!("sut {sut}")), "{text}");
     assert!(!String::from_utf8_lossy(&r1.stderr).contains("error"));
     let l1 = std::fs::read(o1.join("log.json")).unwrap();
-    assert_eq!(l1, std::fs::read(o2.join("log.json")).unwrap(), "logs differ");
+    assert_eq!(
+        l1,
+        std::fs::read(o2.join("log.json")).unwrap(),
+        "logs differ"
+    );
     assert_eq!(r1.status.code(), r2.status.code());
     // It really drove: the log says the ego was commanded by the SUT.
     let summary = std::fs::read_to_string(o1.join("summary.json")).unwrap();
@@ -101,9 +112,17 @@ fn a_crashed_agent_is_a_sut_error_verdict() {
     let t = Instant::now();
     let r = run(&format!("grpc://127.0.0.1:{}", a.1), dir.path(), &[]);
     assert!(t.elapsed() < Duration::from_secs(10));
-    assert_eq!(r.status.code(), Some(1), "{}", String::from_utf8_lossy(&r.stdout));
+    assert_eq!(
+        r.status.code(),
+        Some(1),
+        "{}",
+        String::from_utf8_lossy(&r.stdout)
+    );
     let s = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
-    assert!(s.contains("sut error at t=1.98 s: step: lost the connection"), "{s}");
+    assert!(
+        s.contains("sut error at t=1.98 s: step: lost the connection"),
+        "{s}"
+    );
 }
 
 #[test]
@@ -120,7 +139,10 @@ fn a_hanging_agent_times_out() {
     assert_eq!(r.status.code(), Some(1));
     assert!(took < Duration::from_secs(5), "took {took:?}");
     let s = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
-    assert!(s.contains("sut error at t=0.98 s: step: no answer from"), "{s}");
+    assert!(
+        s.contains("sut error at t=0.98 s: step: no answer from"),
+        "{s}"
+    );
     assert!(s.contains("within 0.500 s"), "{s}");
 }
 
@@ -134,12 +156,17 @@ fn nobody_listening_and_unknown_names_are_clear_errors() {
     let r = run(&format!("grpc://127.0.0.1:{port}"), dir.path(), &[]);
     assert_eq!(r.status.code(), Some(1));
     let s = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
-    assert!(s.contains("sut error at t=0.00 s (reset): cannot connect"), "{s}");
+    assert!(
+        s.contains("sut error at t=0.00 s (reset): cannot connect"),
+        "{s}"
+    );
     let r = run("turbo", dir.path(), &[]);
     assert_ne!(r.status.code(), Some(0));
     let e = String::from_utf8_lossy(&r.stderr);
     assert!(
-        e.contains("--sut turbo: unknown system under test; valid: planned, acc, fmt-mpc, grpc://HOST:PORT"),
+        e.contains(
+            "--sut turbo: unknown system under test; valid: planned, acc, fmt-mpc, grpc://HOST:PORT"
+        ),
         "{e}"
     );
     let r = run("grpc://nowhere", dir.path(), &[]);
@@ -167,5 +194,8 @@ fn batch_takes_a_sut() {
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     let lines = std::fs::read_to_string(dir.path().join("results.jsonl")).unwrap();
     assert_eq!(lines.lines().count(), 3);
-    assert!(lines.lines().all(|l| l.contains("\"pass\":true")), "{lines}");
+    assert!(
+        lines.lines().all(|l| l.contains("\"pass\":true")),
+        "{lines}"
+    );
 }

@@ -41,7 +41,9 @@ impl GrpcSutFactory {
                 "'{addr}': expected grpc://HOST:PORT with a port 0..65535"
             )));
         }
-        Ok(Self { addr: a.to_string() })
+        Ok(Self {
+            addr: a.to_string(),
+        })
     }
 }
 
@@ -97,8 +99,8 @@ impl GrpcSut {
                     "{what}: no answer from {addr} within {:.3} s",
                     timeout.as_secs_f64()
                 ))),
-                Ok(Err(st)) if st.code() == tonic::Code::Cancelled
-                    && st.message().contains("Timeout") =>
+                Ok(Err(st))
+                    if st.code() == tonic::Code::Cancelled && st.message().contains("Timeout") =>
                 {
                     Err(SutError(format!(
                         "{what}: no answer from {addr} within {:.3} s",
@@ -427,7 +429,10 @@ impl SystemUnderTest for SutService {
         };
         let mut g = self.runs.lock().unwrap_or_else(|e| e.into_inner());
         let sut = g.0.get_mut(&r.run_id).ok_or_else(|| {
-            Status::not_found(format!("no run '{}' (call Reset first)", bounded(&r.run_id)))
+            Status::not_found(format!(
+                "no run '{}' (call Reset first)",
+                bounded(&r.run_id)
+            ))
         })?;
         let cmd = sut
             .step(&obs)

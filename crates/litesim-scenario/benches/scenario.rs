@@ -95,6 +95,58 @@ fn main() {
         })
     });
     g.finish();
+    // Closed loop: the same smoke run with the built-in cruise driving
+    // sut.car (≤ 1.2× the planned run is the target), a 200-run batch of
+    // it, and the FMT* + MPC SUT round the standing obstacle (per step).
+    let acc = RunOptions {
+        seed: Some(seed),
+        sut: litesim_scenario::sut::SutChoice::Acc,
+        ..RunOptions::default()
+    };
+    let mut g = c.benchmark_group("closed_loop");
+    g.bench_function("smoke_run_prepared_no_log_planned", |b| {
+        b.iter(|| black_box(run(&prep, &mut litesim_scenario::in_process(), &fast).unwrap()))
+    });
+    g.bench_function("smoke_run_prepared_no_log_acc", |b| {
+        b.iter(|| black_box(run(&prep, &mut litesim_scenario::in_process(), &acc).unwrap()))
+    });
+    g.sample_size(10);
+    let acc_base = RunOptions {
+        sut: litesim_scenario::sut::SutChoice::Acc,
+        ..RunOptions::default()
+    };
+    g.bench_function("smoke_200_runs_2_threads_acc", |b| {
+        b.iter(|| {
+            pool.install(|| {
+                (1..=200u64)
+                    .into_par_iter()
+                    .map(|s| {
+                        let l = litesim_scenario::batch::run_line("smoke", &shared, s, &acc_base);
+                        usize::from(l.pass)
+                    })
+                    .sum::<usize>()
+            })
+        })
+    });
+    let obstacle = prepare(
+        &root().join("examples/scenarios/obstacle_goal.osc"),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let fm = RunOptions {
+        seed: Some(1),
+        sut: litesim_scenario::sut::SutChoice::FmtMpc,
+        ..RunOptions::default()
+    };
+    let steps = run(&obstacle, &mut litesim_scenario::in_process(), &fm)
+        .unwrap()
+        .summary
+        .steps;
+    eprintln!("obstacle_goal under fmt-mpc: {steps} steps per run");
+    g.bench_function("obstacle_goal_fmt_mpc_run_400_steps", |b| {
+        b.iter(|| black_box(run(&obstacle, &mut litesim_scenario::in_process(), &fm).unwrap()))
+    });
+    g.finish();
     // Over gRPC: a server on loopback in this process.
     let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();
     let addr = server.addr.to_string();

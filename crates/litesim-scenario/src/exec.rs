@@ -382,9 +382,10 @@ pub fn execute(
                 if i == e || drivers[i].is_some() {
                     continue;
                 }
-                let goal = plan.goals.iter().find(|g| {
-                    g.actor == a.id && g.t0 <= t + 1e-9 && t < g.t1 - 1e-9
-                });
+                let goal = plan
+                    .goals
+                    .iter()
+                    .find(|g| g.actor == a.id && g.t0 <= t + 1e-9 && t < g.t1 - 1e-9);
                 let bodies = goal.and_then(|g| {
                     let r = plan.actors.iter().position(|b| b.id == g.reference)?;
                     // The gap the plan had one second ahead (at most at the
@@ -441,9 +442,15 @@ pub fn execute(
                     .map_err(|m| format!("it returned a bad command: {m}"))
             });
             match cmd {
-                Ok(c) => {
-                    send_sut(ssp, &plan.actors[e].id, c, &ego_caps, &caps.model, mirror, &mut controls[e])?
-                }
+                Ok(c) => send_sut(
+                    ssp,
+                    &plan.actors[e].id,
+                    c,
+                    &ego_caps,
+                    &caps.model,
+                    mirror,
+                    &mut controls[e],
+                )?,
                 Err(m) => {
                     sut_error = Some(format!("sut error at t={t:.2} s: {m}"));
                     break;

@@ -87,9 +87,11 @@ pub fn verdict(
     let ego_pairs = || ex.kpis.pairs.iter().filter(|p| p.a == ego || p.b == ego);
     let other = |p: &crate::kpi::PairKpi| if p.a == ego { p.b.clone() } else { p.a.clone() };
     if let Some(limit) = th.min_ttc
-        && let Some(p) = ego_pairs()
-            .filter(|p| p.min_ttc.is_some())
-            .min_by(|a, b| a.min_ttc.unwrap_or(0.0).total_cmp(&b.min_ttc.unwrap_or(0.0)))
+        && let Some(p) = ego_pairs().filter(|p| p.min_ttc.is_some()).min_by(|a, b| {
+            a.min_ttc
+                .unwrap_or(0.0)
+                .total_cmp(&b.min_ttc.unwrap_or(0.0))
+        })
         && let (Some(ttc), Some(t)) = (p.min_ttc, p.min_ttc_at)
         && ttc < limit
     {

@@ -81,8 +81,12 @@ fn seg_dist(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
 
 /// Distance between two boxes (0 when they overlap).
 pub fn distance(a: &BoxState, b: &BoxState) -> f64 {
-    let (ca, cb) = (a.corners(), b.corners());
-    if overlap_corners(a.yaw, b.yaw, &ca, &cb) {
+    distance_corners(a.yaw, b.yaw, &a.corners(), &b.corners())
+}
+
+fn distance_corners(ya: f64, yb: f64, ca: &[(f64, f64); 4], cb: &[(f64, f64); 4]) -> f64 {
+    let (ca, cb) = (*ca, *cb);
+    if overlap_corners(ya, yb, &ca, &cb) {
         return 0.0;
     }
     let mut d = f64::INFINITY;
@@ -139,17 +143,26 @@ pub struct ActorKpi {
 
 /// Pairs closer than this (box bound to box bound, m) are tracked: their
 /// distance, TTC and collisions are computed exactly.
-pub const NEAR: f64 = 30.0;
-/// Pairs that could meet within this time at their relative speed are
-/// tracked too (s); it bounds the TTCs reported.
-pub const TTC_HORIZON: f64 = 10.0;
+pub const NEAR: f64 = 10.0;
+/// Pairs whose boxes, swept along their velocities over this time, could
+/// meet are tracked too (s); it bounds the TTCs reported.
+pub const TTC_HORIZON: f64 = 5.0;
 
 /// Time until two boxes touch if both keep their velocities: the swept
 /// separating-axis test (for translating convex polygons the edge normals
 /// of both are the only candidate axes). `None` when they never touch,
 /// `Some(0)` when they overlap now.
 pub fn time_to_collision(a: &BoxState, b: &BoxState) -> Option<f64> {
-    let (ca, cb) = (a.corners(), b.corners());
+    ttc_corners(a, b, &a.corners(), &b.corners())
+}
+
+fn ttc_corners(
+    a: &BoxState,
+    b: &BoxState,
+    ca: &[(f64, f64); 4],
+    cb: &[(f64, f64); 4],
+) -> Option<f64> {
+    let (ca, cb) = (*ca, *cb);
     // b's velocity relative to a.
     let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
     let (mut enter, mut exit) = (0.0f64, f64::INFINITY);
@@ -187,13 +200,14 @@ pub fn time_to_collision(a: &BoxState, b: &BoxState) -> Option<f64> {
 
 /// Accumulates KPIs step by step.
 ///
-/// Pairs go through a broad phase first: actors sorted by x, swept with
-/// each one's reach (its bounding radius plus what it can cover relative
-/// to the traffic's mean velocity within [`TTC_HORIZON`], at least
-/// [`NEAR`]/2); only pairs whose reaches overlap and whose bounding
-/// circles are within `NEAR` or can meet within the horizon get the exact
-/// box distance and TTC. The cost grows as n log n for traffic that moves
-/// together instead of n².
+/// Pairs go through a broad phase first: each box swept along its
+/// velocity over [`TTC_HORIZON`] and grown by [`NEAR`]/2 gives an
+/// axis-aligned interval in x and y; the intervals are sorted by x and
+/// swept (sort-and-sweep), and only pairs whose intervals overlap in x and
+/// y get the narrow phase: the exact box distance where it could set a new
+/// minimum, and the swept-box TTC. Pairs that never come within `NEAR`
+/// and cannot meet within the horizon are not reported. The cost grows as
+/// n log n (plus the pairs that really are close), not n².
 #[derive(Clone, Debug, Default)]
 pub struct Kpis {
     /// Pairs that came near, in (i, j) order of the actor list (filled by
@@ -208,7 +222,10 @@ pub struct Kpis {
     last: Vec<Option<(f64, f64)>>,
     index: BTreeMap<String, usize>,
     order: Vec<u32>,
-    reach: Vec<f64>,
+    corners: Vec<[(f64, f64); 4]>,
+    swept: Vec<[f64; 4]>,
+    near_box: Vec<[f64; 4]>,
+    ttc_box: Vec<[f64; 4]>,
 }
 
 impl Kpis {
@@ -232,7 +249,6 @@ impl Kpis {
                 .map(|(i, s)| (s.clone(), i))
                 .collect(),
             order: (0..ids.len() as u32).collect(),
-            reach: vec![0.0; ids.len()],
             ..Kpis::default()
         }
     }
@@ -267,22 +283,47 @@ impl Kpis {
         self.n += 1;
         let n = boxes.len();
         if n > 1 {
-            let (mut mx, mut my) = (0.0, 0.0);
+            // Per box: corners, and its box swept over the TTC horizon as
+            // an axis-aligned interval in x and y (grown by NEAR / 2).
+            self.corners.clear();
+            self.swept.clear();
+            self.near_box.clear();
+            self.ttc_box.clear();
             for b in boxes {
-                mx += b.vx;
-                my += b.vy;
+                let c = b.corners();
+                let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+                for p in &c {
+                    x0 = x0.min(p.0);
+                    x1 = x1.max(p.0);
+                    y0 = y0.min(p.1);
+                    y1 = y1.max(p.1);
+                }
+                let h = 0.5 * NEAR;
+                let grown = [x0 - h, x1 + h, y0 - h, y1 + h];
+                let (dx, dy) = (b.vx * TTC_HORIZON, b.vy * TTC_HORIZON);
+                let swept = [
+                    x0 + dx.min(0.0),
+                    x1 + dx.max(0.0),
+                    y0 + dy.min(0.0),
+                    y1 + dy.max(0.0),
+                ];
+                self.corners.push(c);
+                self.near_box.push(grown);
+                // The sweep runs on the union of both intervals.
+                self.swept.push([
+                    grown[0].min(swept[0]),
+                    grown[1].max(swept[1]),
+                    grown[2].min(swept[2]),
+                    grown[3].max(swept[3]),
+                ]);
+                self.ttc_box.push(swept);
             }
-            let (mx, my) = (mx / n as f64, my / n as f64);
-            for (r, b) in self.reach.iter_mut().zip(boxes) {
-                let radius = 0.5 * math::hypot(b.length, b.width);
-                let rel = math::hypot(b.vx - mx, b.vy - my);
-                *r = radius + (rel * TTC_HORIZON).max(0.5 * NEAR);
-            }
-            // Insertion sort: the order barely changes from step to step.
-            let key = |i: u32| boxes[i as usize].x - self.reach[i as usize];
+            // Insertion sort by the intervals' low x: the order barely
+            // changes from step to step.
+            let sw = &self.swept;
             for k in 1..self.order.len() {
                 let mut j = k;
-                while j > 0 && key(self.order[j - 1]) > key(self.order[j]) {
+                while j > 0 && sw[self.order[j - 1] as usize][0] > sw[self.order[j] as usize][0] {
                     self.order.swap(j - 1, j);
                     j -= 1;
                 }
@@ -290,16 +331,17 @@ impl Kpis {
             let order = std::mem::take(&mut self.order);
             for k in 0..n {
                 let i = order[k] as usize;
-                let hi = boxes[i].x + self.reach[i];
+                let [_, hi, ylo, yhi] = self.swept[i];
                 for &j in &order[k + 1..] {
                     let j = j as usize;
-                    if boxes[j].x - self.reach[j] > hi {
+                    let sj = self.swept[j];
+                    if sj[0] > hi {
                         break;
                     }
-                    if (boxes[i].y - boxes[j].y).abs() > self.reach[i] + self.reach[j] {
+                    if sj[2] > yhi || sj[3] < ylo {
                         continue;
                     }
-                    self.pair(t, i.min(j), i.max(j), &boxes[i.min(j)], &boxes[i.max(j)]);
+                    self.pair(t, i.min(j), i.max(j), boxes);
                 }
             }
             self.order = order;
@@ -324,13 +366,17 @@ impl Kpis {
     }
 
     /// The narrow phase of one candidate pair (i < j).
-    fn pair(&mut self, t: f64, i: usize, j: usize, a: &BoxState, b: &BoxState) {
-        let bound = math::hypot(b.x - a.x, b.y - a.y)
-            - 0.5 * (math::hypot(a.length, a.width) + math::hypot(b.length, b.width));
-        let closing = math::hypot(b.vx - a.vx, b.vy - a.vy);
-        if bound > NEAR && bound > closing * TTC_HORIZON {
+    fn pair(&mut self, t: f64, i: usize, j: usize, boxes: &[BoxState]) {
+        let meets = |u: &[f64; 4], v: &[f64; 4]| {
+            !(u[0] > v[1] || v[0] > u[1] || u[2] > v[3] || v[2] > u[3])
+        };
+        let near = meets(&self.near_box[i], &self.near_box[j]);
+        let can_meet = meets(&self.ttc_box[i], &self.ttc_box[j]);
+        if !near && !can_meet {
             return;
         }
+        let (a, b) = (&boxes[i], &boxes[j]);
+        let (ca, cb) = (&self.corners[i], &self.corners[j]);
         let p = self
             .near
             .entry((i as u32, j as u32))
@@ -340,16 +386,25 @@ impl Kpis {
                 min_distance: f64::INFINITY,
                 ..PairKpi::default()
             });
-        let d = distance(a, b);
-        if d < p.min_distance {
-            p.min_distance = d;
-            p.min_distance_at = t;
-        }
+        // The exact distance only where it could set a new minimum.
+        let bound = math::hypot(b.x - a.x, b.y - a.y)
+            - 0.5 * (math::hypot(a.length, a.width) + math::hypot(b.length, b.width));
+        let d = if bound < p.min_distance {
+            let d = distance_corners(a.yaw, b.yaw, ca, cb);
+            if d < p.min_distance {
+                p.min_distance = d;
+                p.min_distance_at = t;
+            }
+            d
+        } else {
+            bound
+        };
         if d == 0.0 && p.collision_at.is_none() {
             p.collision_at = Some(t);
         }
         if d > 0.0
-            && let Some(ttc) = time_to_collision(a, b)
+            && can_meet
+            && let Some(ttc) = ttc_corners(a, b, ca, cb)
             && ttc <= TTC_HORIZON
             && p.min_ttc.is_none_or(|m| ttc < m)
         {

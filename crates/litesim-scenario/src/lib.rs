@@ -344,7 +344,10 @@ pub fn run(
             .unwrap_or(1.0),
     };
     let mut sut = opts.sut.instantiate().map_err(|e| {
-        ScenarioError::Sut(format!("cannot start the system under test {}: {e}", opts.sut.name()))
+        ScenarioError::Sut(format!(
+            "cannot start the system under test {}: {e}",
+            opts.sut.name()
+        ))
     })?;
     let ex = exec::execute(ssp, &plan, prep.net.as_deref(), &cfg, sut.as_deref_mut())?;
     let ego_id = plan.actors.iter().find(|a| a.ego).map(|a| a.id.clone());

@@ -1,7 +1,9 @@
 //! The closed loop: a system under test drives sut.car and the scenario
 //! reacts. Each acceptance case of the closed-loop issue, in-process.
 
-use litesim_scenario::sut::{Observation, Sut, SutChoice, SutCommand, SutError, SutFactory, SutInfo};
+use litesim_scenario::sut::{
+    Observation, Sut, SutChoice, SutCommand, SutError, SutFactory, SutInfo,
+};
 use litesim_scenario::{
     DriveMode, LoadOptions, Prepared, RunOptions, RunResult, kpi::PairKpi, prepare, run,
 };
@@ -80,8 +82,13 @@ fn acc_reacts_to_the_cut_in_and_the_ttc_threshold_judges_it() {
     let acc = go("cut_in", SutChoice::Acc);
     assert!(planned.summary.pass && acc.summary.pass);
     assert_eq!(acc.summary.sut, "acc");
-    let (p, a) = (pair(&planned, "sut.car", "other"), pair(&acc, "sut.car", "other"));
-    let ttc_planned = p.min_ttc.expect("the planned ego closes in on the slower other");
+    let (p, a) = (
+        pair(&planned, "sut.car", "other"),
+        pair(&acc, "sut.car", "other"),
+    );
+    let ttc_planned = p
+        .min_ttc
+        .expect("the planned ego closes in on the slower other");
     // The cruise never lets the boxes' paths meet within the horizon, or
     // does so at least half a second later.
     assert!(
@@ -96,7 +103,10 @@ fn acc_reacts_to_the_cut_in_and_the_ttc_threshold_judges_it() {
         min_gap_after(&planned, "sut.car", "other", 6.0),
         min_gap_after(&acc, "sut.car", "other", 6.0),
     );
-    assert!(ga >= gp - 0.1, "gap after the cut-in: acc {ga} planned {gp}");
+    assert!(
+        ga >= gp - 0.1,
+        "gap after the cut-in: acc {ga} planned {gp}"
+    );
     // The same threshold fails the planned ego and passes the cruise.
     let judged_planned = go("cut_in_judged", SutChoice::Planned);
     let judged_acc = go("cut_in_judged", SutChoice::Acc);
@@ -116,7 +126,10 @@ fn the_other_re_solves_its_gap_against_the_actual_ego() {
     let acc = go("cut_in", SutChoice::Acc);
     let planned = go("cut_in", SutChoice::Planned);
     let g = &acc.summary.goals[0];
-    assert_eq!((g.actor.as_str(), g.reference.as_str()), ("other", "sut.car"));
+    assert_eq!(
+        (g.actor.as_str(), g.reference.as_str()),
+        ("other", "sut.car")
+    );
     assert!((g.got - 5.0).abs() <= 1.0 && g.met, "{g:?}");
     // It really adapted: the ego is well behind its planned end.
     let end = |r: &RunResult, id: &str| *track(r, id).state.x.last().unwrap();
@@ -144,7 +157,10 @@ fn a_standing_obstacle_acc_stops_and_fmt_mpc_goes_round_to_the_goal() {
     assert!(ego.final_speed < 1.0, "acc should be stopping: {ego:?}");
     // Safe but short of the goal: the goal threshold says so.
     assert!(
-        acc.summary.failures.iter().any(|f| f.contains("from its goal (goal_tolerance 3 m)")),
+        acc.summary
+            .failures
+            .iter()
+            .any(|f| f.contains("from its goal (goal_tolerance 3 m)")),
         "{:?}",
         acc.summary.failures
     );
@@ -155,7 +171,8 @@ fn a_standing_obstacle_acc_stops_and_fmt_mpc_goes_round_to_the_goal() {
     assert!(fm.summary.ego.as_ref().unwrap().distance_to_goal < 3.0);
     // It went round: the ego left its lane beside the box.
     let ys = &track(&fm, "sut.car").state.y;
-    let spread = ys.iter().cloned().fold(f64::MIN, f64::max) - ys.iter().cloned().fold(f64::MAX, f64::min);
+    let spread =
+        ys.iter().cloned().fold(f64::MIN, f64::max) - ys.iter().cloned().fold(f64::MAX, f64::min);
     assert!(spread > 2.0, "lateral move {spread}");
 }
 
@@ -228,8 +245,14 @@ impl SutFactory for BadFactory {
 #[test]
 fn a_sut_that_fails_ends_the_run_with_a_sut_error_verdict() {
     for (kind, want) in [
-        ("nan", "sut error at t=0.20 s: it returned a bad command: acceleration is NaN"),
-        ("range", "sut error at t=0.00 s: it returned a bad command: throttle is 2, expected 0..1"),
+        (
+            "nan",
+            "sut error at t=0.20 s: it returned a bad command: acceleration is NaN",
+        ),
+        (
+            "range",
+            "sut error at t=0.00 s: it returned a bad command: throttle is 2, expected 0..1",
+        ),
         ("error", "sut error at t=0.50 s: lost its mind"),
         ("reset", "sut error at t=0.00 s (reset): refuses to start"),
     ] {
@@ -246,7 +269,10 @@ fn a_sut_that_fails_ends_the_run_with_a_sut_error_verdict() {
 
 #[test]
 fn observations_carry_the_object_list_route_and_road() {
-    struct Probe(Arc<std::sync::Mutex<Vec<Observation>>>, Arc<std::sync::Mutex<Option<SutInfo>>>);
+    struct Probe(
+        Arc<std::sync::Mutex<Vec<Observation>>>,
+        Arc<std::sync::Mutex<Option<SutInfo>>>,
+    );
     impl Sut for Probe {
         fn name(&self) -> String {
             "probe".into()
@@ -263,7 +289,10 @@ fn observations_carry_the_object_list_route_and_road() {
             })
         }
     }
-    struct F(Arc<std::sync::Mutex<Vec<Observation>>>, Arc<std::sync::Mutex<Option<SutInfo>>>);
+    struct F(
+        Arc<std::sync::Mutex<Vec<Observation>>>,
+        Arc<std::sync::Mutex<Option<SutInfo>>>,
+    );
     impl SutFactory for F {
         fn name(&self) -> String {
             "probe".into()
@@ -274,7 +303,10 @@ fn observations_carry_the_object_list_route_and_road() {
     }
     let seen = Arc::new(std::sync::Mutex::new(Vec::new()));
     let info = Arc::new(std::sync::Mutex::new(None));
-    go("cut_in", SutChoice::External(Arc::new(F(seen.clone(), info.clone()))));
+    go(
+        "cut_in",
+        SutChoice::External(Arc::new(F(seen.clone(), info.clone()))),
+    );
     let obs = seen.lock().unwrap();
     assert_eq!(obs.len(), 500);
     let info = info.lock().unwrap().clone().unwrap();

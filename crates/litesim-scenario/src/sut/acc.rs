@@ -6,7 +6,7 @@
 //! corridor along the route — and stopping before a red (or yellow, when it
 //! still can) light on its road. Lateral: pure pursuit of the route.
 
-use super::{Observation, ObjectState, Route, Sut, SutCommand, SutError, SutInfo};
+use super::{ObjectState, Observation, Route, Sut, SutCommand, SutError, SutInfo};
 use litesim_core::math;
 
 /// Hardest braking the cruise asks for (m/s²): an emergency stop on dry
@@ -66,7 +66,11 @@ pub(crate) fn lead(
         if dx * cy + dy * sy < -ego.length || dx * dx + dy * dy > 200.0 * 200.0 {
             continue;
         }
-        let Some(p) = route.project(o.x, o.y, hint) else {
+        // Start the search where the object's distance ahead puts it on
+        // the route (a far object would otherwise cost a full search).
+        let guess = ego_s + dx * cy + dy * sy;
+        let seg = route.s.partition_point(|s| *s <= guess).saturating_sub(1);
+        let Some(p) = route.project(o.x, o.y, if guess > ego_s { seg } else { hint }) else {
             continue;
         };
         // The object's half extent across the route, from its heading.
@@ -100,7 +104,8 @@ pub(crate) fn idm(p: &AccParams, v: f64, v0: f64, lead: Option<(f64, f64)>) -> f
     match lead {
         Some((gap, vl)) => {
             let dv = v - vl;
-            let s_star = p.s0 + (v * p.time_gap + v * dv / (2.0 * (p.a_max * p.b_comf).sqrt())).max(0.0);
+            let s_star =
+                p.s0 + (v * p.time_gap + v * dv / (2.0 * (p.a_max * p.b_comf).sqrt())).max(0.0);
             let gap = gap.max(0.1);
             free.min(p.a_max) - p.a_max * (s_star / gap) * (s_star / gap)
         }
@@ -155,7 +160,8 @@ impl Sut for Acc {
                 let ahead = (l.s - rp.s) * dir - 0.5 * ego.length;
                 // Yellow: stop only when that is comfortable.
                 let can_stop = v * v / (2.0 * self.params.b_comf) < ahead;
-                if ahead > 0.0 && (l.color == "red" || can_stop) && lead.is_none_or(|b| ahead < b.0) {
+                if ahead > 0.0 && (l.color == "red" || can_stop) && lead.is_none_or(|b| ahead < b.0)
+                {
                     lead = Some((ahead, 0.0));
                 }
             }
@@ -205,7 +211,12 @@ mod tests {
             vx: 5.0,
             ..ObjectState::default()
         };
-        let objects = [obj(50.0, 0.0), obj(30.0, 3.5), obj(40.0, 0.5), obj(5.0, 0.0)];
+        let objects = [
+            obj(50.0, 0.0),
+            obj(30.0, 3.5),
+            obj(40.0, 0.5),
+            obj(5.0, 0.0),
+        ];
         let (gap, v) = lead(&route, &ego, 10.0, 0, &objects, 0.3).unwrap();
         assert!((gap - 26.0).abs() < 1e-9, "{gap}");
         assert_eq!(v, 5.0);

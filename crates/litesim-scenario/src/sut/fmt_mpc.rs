@@ -10,7 +10,7 @@
 //! the same IDM gap rule as `acc` (the lower acceleration wins).
 
 use super::acc::{AccParams, idm, lead};
-use super::{Observation, ObjectState, Route, Sut, SutCommand, SutError, SutInfo};
+use super::{ObjectState, Observation, Route, Sut, SutCommand, SutError, SutInfo};
 use litesim_core::{Vec2, math};
 use litesim_map::OccupancyGrid;
 use litesim_plan::corridor::{Corridor, RefState, SpeedLimits};
@@ -48,7 +48,9 @@ pub struct FmtMpc {
 
 impl std::fmt::Debug for FmtMpc {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("FmtMpc").field("plans", &self.plans).finish()
+        f.debug_struct("FmtMpc")
+            .field("plans", &self.plans)
+            .finish()
     }
 }
 

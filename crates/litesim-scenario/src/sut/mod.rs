@@ -191,7 +191,12 @@ impl SutCommand {
             } => {
                 check("drive_force_n", drive_force_n, 0.0, 1e7)?;
                 check("brake_force_n", brake_force_n, 0.0, 1e7)?;
-                check("steering_wheel_angle_rad", steering_wheel_angle_rad, -12.6, 12.6)
+                check(
+                    "steering_wheel_angle_rad",
+                    steering_wheel_angle_rad,
+                    -12.6,
+                    12.6,
+                )
             }
             SutCommand::Accel {
                 acceleration,

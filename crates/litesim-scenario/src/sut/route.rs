@@ -111,7 +111,10 @@ impl Route {
         let near = best_in(lo, hi)?;
         // Accept the local answer when it lies inside the window (not at its
         // edge) and close to the route; otherwise search everywhere.
-        if near.0 < 25.0 && (near.1.segment > lo || lo == 0) && (near.1.segment + 1 < hi || hi == n - 1) {
+        if near.0 < 25.0
+            && (near.1.segment > lo || lo == 0)
+            && (near.1.segment + 1 < hi || hi == n - 1)
+        {
             return Some(near.1);
         }
         best_in(0, n - 1).map(|b| b.1)
