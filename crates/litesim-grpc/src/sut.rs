@@ -341,10 +341,13 @@ fn to_pb_command(c: SutCommand) -> pb::Command {
 /// Most runs one server keeps state for at once (the oldest goes first).
 pub const MAX_RUNS: usize = 1024;
 
+/// The SUTs of the runs a server holds, and their ids oldest first.
+type Runs = (BTreeMap<String, Box<dyn Sut>>, VecDeque<String>);
+
 /// Serves a [`SutFactory`]'s SUTs, one per `run_id`.
 pub struct SutService {
     factory: Arc<dyn SutFactory>,
-    runs: Mutex<(BTreeMap<String, Box<dyn Sut>>, VecDeque<String>)>,
+    runs: Mutex<Runs>,
 }
 
 impl SutService {

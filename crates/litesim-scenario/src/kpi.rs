@@ -143,7 +143,7 @@ pub struct ActorKpi {
 
 /// Pairs closer than this (box bound to box bound, m) are tracked: their
 /// distance, TTC and collisions are computed exactly.
-pub const NEAR: f64 = 10.0;
+pub const NEAR: f64 = 30.0;
 /// Pairs whose boxes, swept along their velocities over this time, could
 /// meet are tracked too (s); it bounds the TTCs reported.
 pub const TTC_HORIZON: f64 = 5.0;

@@ -206,7 +206,7 @@ impl Sut for FmtMpc {
 
     fn step(&mut self, obs: &Observation) -> Result<SutCommand, SutError> {
         let z = &obs.ego;
-        let cycle = obs.tick % self.every == 0 || self.corridor.is_none();
+        let cycle = obs.tick.is_multiple_of(self.every) || self.corridor.is_none();
         if cycle {
             let s_now = self
                 .corridor
