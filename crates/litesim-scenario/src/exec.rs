@@ -91,13 +91,32 @@ fn ssp_err(e: litesim_ssp::SspError) -> ScenarioError {
     ScenarioError::Ssp(e.to_string())
 }
 
-struct Driver {
-    integral: f64,
-    last_err: f64,
+/// A vehicle's limits from the simulator's catalogue (defaults: the
+/// seed's 0.6 · length wheelbase, 35°, 4 and 8 m/s²): what the drivers
+/// scale their commands by and what the SUT is told.
+#[derive(Clone, Copy, Debug, Default)]
+struct Limits {
     wheelbase: f64,
     max_steer: f64,
     max_accel: f64,
     max_decel: f64,
+}
+
+impl Limits {
+    fn of(e: Option<&CatalogEntry>, length: f64) -> Self {
+        Limits {
+            wheelbase: e.map_or(0.6 * length, |e| e.effective_wheelbase()),
+            max_steer: e.map_or(35f64, |e| e.max_steer_angle_deg).to_radians(),
+            max_accel: e.map_or(4.0, |e| e.max_accel),
+            max_decel: e.map_or(8.0, |e| e.max_decel),
+        }
+    }
+}
+
+struct Driver {
+    integral: f64,
+    last_err: f64,
+    lim: Limits,
     mirror: bool,
 }
 
@@ -109,7 +128,7 @@ impl Driver {
     /// deceleration (2 m/s²), while any throttle replaces that by
     /// `throttle · max_acceleration`.
     fn feed_forward(&self, a: f64, v: f64) -> f64 {
-        let u = a / self.max_accel;
+        let u = a / self.lim.max_accel;
         if u == 0.0 && v > 0.01 {
             f64::MIN_POSITIVE
         } else {
@@ -127,8 +146,10 @@ pub fn execute(
     cfg: &ExecConfig,
     mut sut: Option<&mut (dyn Sut + '_)>,
 ) -> Result<Executed, ScenarioError> {
+    let ego_index = plan.actors.iter().position(|a| a.ego);
+    // The ego's index when a SUT drives it.
     let ego_i = match sut {
-        Some(_) => Some(plan.actors.iter().position(|a| a.ego).ok_or_else(|| {
+        Some(_) => Some(ego_index.ok_or_else(|| {
             ScenarioError::Plan(
                 "a system under test drives sut.car, but sut.car takes part in no phase".into(),
             )
@@ -169,7 +190,7 @@ pub fn execute(
     }
     let mut dims = Vec::new();
     let mut drivers: Vec<Option<Driver>> = Vec::new();
-    let mut ego_caps = EgoCaps::default();
+    let mut ego_lim = Limits::default();
     for a in &plan.actors {
         let s0 = a.samples[0];
         let (category, actor_type) = match a.kind {
@@ -239,22 +260,15 @@ pub fn execute(
                 e.map_or(1500.0, |e| e.mass),
             );
         }
+        let lim = Limits::of(e, desc.length);
         if closed_ego {
-            ego_caps = EgoCaps {
-                wheelbase: e.map_or(0.6 * desc.length, |e| e.effective_wheelbase()),
-                max_steer: e.map_or(35f64, |e| e.max_steer_angle_deg).to_radians(),
-                max_accel: e.map_or(4.0, |e| e.max_accel),
-                max_decel: e.map_or(8.0, |e| e.max_decel),
-            };
+            ego_lim = lim;
         }
         dims.push((desc.length, desc.width, e.map_or(1500.0, |e| e.mass)));
         drivers.push(dynamic.then(|| Driver {
             integral: 0.0,
             last_err: 0.0,
-            wheelbase: e.map_or(0.6 * desc.length, |e| e.effective_wheelbase()),
-            max_steer: e.map_or(35f64, |e| e.max_steer_angle_deg).to_radians(),
-            max_accel: e.map_or(4.0, |e| e.max_accel),
-            max_decel: e.map_or(8.0, |e| e.max_decel),
+            lim,
             mirror,
         }));
     }
@@ -294,10 +308,20 @@ pub fn execute(
         .unwrap_or_default();
     let mut last_pos: Vec<Option<litesim_map::RoadPosition>> = vec![None; ids.len()];
     let mut warps = vec![Warp::new(); ids.len()];
-    let mut goals_done = vec![false; plan.goals.len()];
+    // Each goal's (actor, reference) indices; goals come sorted by end time.
+    let goal_actors: Vec<Option<(usize, usize)>> = plan
+        .goals
+        .iter()
+        .map(|g| {
+            let idx = |id: &str| plan.actors.iter().position(|a| a.id == id);
+            Some((idx(&g.actor)?, idx(&g.reference)?))
+        })
+        .collect();
+    let mut next_goal = 0;
+    // The SUT's view of the lights is rebuilt only after a switch.
+    let mut lights_seen = false;
     let mut goal_results = Vec::new();
     let mut sut_error: Option<String> = None;
-    let ego_index = plan.actors.iter().position(|a| a.ego);
     let mut ego_kpi = ego_index.map(|e| EgoKpi::new(&plan.actors[e].id, dt));
     // The object list as the SUT sees it, kept between steps (ids once).
     let mut obs = Observation::default();
@@ -338,10 +362,10 @@ pub fn execute(
             ego_id: ego.id.clone(),
             length: dims[e].0,
             width: dims[e].1,
-            wheelbase: ego_caps.wheelbase,
-            max_steer: ego_caps.max_steer,
-            max_accel: ego_caps.max_accel,
-            max_decel: ego_caps.max_decel,
+            wheelbase: ego_lim.wheelbase,
+            max_steer: ego_lim.max_steer,
+            max_accel: ego_lim.max_accel,
+            max_decel: ego_lim.max_decel,
             route: route.clone(),
             timeout_s: cfg.sut_timeout,
             map: cfg.map.clone(),
@@ -365,6 +389,7 @@ pub fn execute(
             })?;
             switch_light(ssp, info, &mut red, sw)?;
             next_switch += 1;
+            lights_seen = false;
         }
         let mut n_steps = chunk.min(steps - k);
         if let Some(sw) = plan.lights.get(next_switch) {
@@ -382,12 +407,11 @@ pub fn execute(
                 if i == e || drivers[i].is_some() {
                     continue;
                 }
-                let goal = plan
-                    .goals
-                    .iter()
-                    .find(|g| g.actor == a.id && g.t0 <= t + 1e-9 && t < g.t1 - 1e-9);
-                let bodies = goal.and_then(|g| {
-                    let r = plan.actors.iter().position(|b| b.id == g.reference)?;
+                let goal = plan.goals.iter().zip(&goal_actors).find_map(|(g, ix)| {
+                    let (m, r) = (*ix)?;
+                    (m == i && g.t0 <= t + 1e-9 && t < g.t1 - 1e-9).then_some((g, r))
+                });
+                let bodies = goal.map(|(g, r)| {
                     // The gap the plan had one second ahead (at most at the
                     // phase's end, where it is the goal's).
                     let ta = (t + 1.0).min(g.t1);
@@ -402,7 +426,7 @@ pub fn execute(
                         }
                     };
                     let planned = crate::reactive::gap(g, &pb(i), &pb(r));
-                    Some((g, body(&obs.objects[i]), body(&obs.objects[r]), planned))
+                    (g, body(&obs.objects[i]), body(&obs.objects[r]), planned)
                 });
                 warps[i].advance(
                     a,
@@ -428,10 +452,13 @@ pub fn execute(
                 s: p.s,
                 offset: p.offset,
             });
-            obs.lights = lights
-                .as_ref()
-                .map(|l| l.boxes.iter().map(light_state).collect())
-                .unwrap_or_default();
+            if !lights_seen {
+                obs.lights = lights
+                    .as_ref()
+                    .map(|l| l.boxes.iter().map(light_state).collect())
+                    .unwrap_or_default();
+                lights_seen = true;
+            }
             // The SUT sees every actor but itself.
             let ego_obj = obs.objects.remove(e);
             let answer = s.step(&obs);
@@ -446,7 +473,7 @@ pub fn execute(
                     ssp,
                     &plan.actors[e].id,
                     c,
-                    &ego_caps,
+                    &ego_lim,
                     &caps.model,
                     mirror,
                     &mut controls[e],
@@ -536,11 +563,11 @@ pub fn execute(
                     // 0.2 s of plan time ahead: the plan's speed sets the arc.
                     let ds = (v_plan.max(0.5)) * 0.2;
                     let kappa = wrap_angle(ahead.yaw - p.yaw) / ds;
-                    let delta = math::atan(d.wheelbase * kappa)
+                    let delta = math::atan(d.lim.wheelbase * kappa)
                         + g.steering.kp * e_lat
                         + g.steering.kd * e_yaw / dt.max(1e-3) * 0.02
                         + 0.5 * e_yaw;
-                    let steer = (delta / d.max_steer).clamp(-1.0, 1.0);
+                    let steer = (delta / d.lim.max_steer).clamp(-1.0, 1.0);
                     send_dynamic(ssp, &a.id, u, steer, d, &mut controls[i])?;
                 }
             }
@@ -649,13 +676,11 @@ pub fn execute(
             }
             kpis.step(t, &boxes, &speeds, &planned, &off);
             // Gap goals whose phase ends now: judged on the simulated state.
-            for (gi, g) in plan.goals.iter().enumerate() {
-                if goals_done[gi] || t < g.t1 - 1e-9 {
-                    continue;
-                }
-                goals_done[gi] = true;
-                let idx = |id: &str| plan.actors.iter().position(|a| a.id == id);
-                if let (Some(m), Some(r)) = (idx(&g.actor), idx(&g.reference)) {
+            while next_goal < plan.goals.len() && t >= plan.goals[next_goal].t1 - 1e-9 {
+                let g = &plan.goals[next_goal];
+                let ix = goal_actors[next_goal];
+                next_goal += 1;
+                if let Some((m, r)) = ix {
                     let bx = |j: usize| Body {
                         x: boxes[j].x,
                         y: boxes[j].y,
@@ -788,11 +813,16 @@ impl Tracking {
     }
 }
 
-/// Whether a box shows red (a red bulb on or flashing).
-fn shows_red(b: &TrafficLightBox) -> bool {
+/// Whether a box shows `color` (a bulb of that colour on or flashing).
+fn shows(b: &TrafficLightBox, color: BulbColor) -> bool {
     b.bulbs
         .iter()
-        .any(|x| x.color == BulbColor::Red && matches!(x.mode, BulbMode::On | BulbMode::Flashing))
+        .any(|x| x.color == color && matches!(x.mode, BulbMode::On | BulbMode::Flashing))
+}
+
+/// Whether a box shows red.
+fn shows_red(b: &TrafficLightBox) -> bool {
+    shows(b, BulbColor::Red)
 }
 
 /// Sets a light (logical by preference, else a box) to one colour: that
@@ -882,36 +912,38 @@ fn send_dynamic(
     let (throttle, brake) = if u >= 0.0 {
         (u.clamp(0.0, 1.0), 0.0)
     } else {
-        (0.0, (-u * d.max_accel / d.max_decel).clamp(0.0, 1.0))
+        (
+            0.0,
+            (-u * d.lim.max_accel / d.lim.max_decel).clamp(0.0, 1.0),
+        )
     };
+    let mv = pedals(throttle, brake, steer, &d.lim, d.mirror, control);
+    ssp.set_dynamic_move(id, mv, 0).map_err(ssp_err)
+}
+
+/// Normalised pedals and steering (+ = left in the map's frame) as a move,
+/// recorded in `control`.
+fn pedals(
+    throttle: f64,
+    brake: f64,
+    steer: f64,
+    lim: &Limits,
+    mirror: bool,
+    control: &mut ControlSample,
+) -> DynamicMove {
     *control = ControlSample {
         throttle,
         brake,
         steering: steer,
-        steering_angle: steer * d.max_steer,
+        steering_angle: steer * lim.max_steer,
         ..ControlSample::default()
     };
-    ssp.set_dynamic_move(
-        id,
-        DynamicMove::Normalized {
-            throttle,
-            brake,
-            // + = left in the map's frame; a mirrored (left-handed) profile
-            // turns the other way for the same sign.
-            steering: if d.mirror { -steer } else { steer },
-        },
-        0,
-    )
-    .map_err(ssp_err)
-}
-
-/// The ego's limits from the simulator's catalogue (told to the SUT).
-#[derive(Clone, Copy, Debug, Default)]
-struct EgoCaps {
-    wheelbase: f64,
-    max_steer: f64,
-    max_accel: f64,
-    max_decel: f64,
+    DynamicMove::Normalized {
+        throttle,
+        brake,
+        // A mirrored (left-handed) profile turns the other way for the same sign.
+        steering: if mirror { -steer } else { steer },
+    }
 }
 
 fn body(o: &ObjectState) -> Body {
@@ -926,11 +958,7 @@ fn body(o: &ObjectState) -> Body {
 
 /// A traffic-light box's colour as the SUT sees it.
 fn light_state(b: &TrafficLightBox) -> LightState {
-    let on = |c: BulbColor| {
-        b.bulbs
-            .iter()
-            .any(|x| x.color == c && matches!(x.mode, BulbMode::On | BulbMode::Flashing))
-    };
+    let on = |c: BulbColor| shows(b, c);
     let color = if on(BulbColor::Red) {
         "red"
     } else if on(BulbColor::Yellow) {
@@ -953,7 +981,7 @@ fn send_sut(
     ssp: &mut dyn Ssp,
     id: &str,
     c: SutCommand,
-    caps: &EgoCaps,
+    caps: &Limits,
     model: &str,
     mirror: bool,
     control: &mut ControlSample,
@@ -964,20 +992,7 @@ fn send_sut(
             throttle,
             brake,
             steering,
-        } => {
-            *control = ControlSample {
-                throttle,
-                brake,
-                steering,
-                steering_angle: steering * caps.max_steer,
-                ..ControlSample::default()
-            };
-            DynamicMove::Normalized {
-                throttle,
-                brake,
-                steering: m * steering,
-            }
-        }
+        } => pedals(throttle, brake, steering, caps, mirror, control),
         SutCommand::Physical {
             drive_force_n,
             brake_force_n,
