@@ -265,7 +265,7 @@ pub fn execute(
             ego_lim = lim;
         }
         dims.push((desc.length, desc.width, e.map_or(1500.0, |e| e.mass)));
-        drivers.push(dynamic.then(|| Driver {
+        drivers.push(dynamic.then_some(Driver {
             integral: 0.0,
             last_err: 0.0,
             lim,
