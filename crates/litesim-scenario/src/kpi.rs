@@ -26,39 +26,53 @@ pub struct BoxState {
     pub vy: f64,
 }
 
-impl BoxState {
-    fn corners(&self) -> [(f64, f64); 4] {
-        let (s, c) = math::sin_cos(self.yaw);
-        let (hl, hw) = (self.length / 2.0, self.width / 2.0);
-        let p = |a: f64, b: f64| (self.x + a * c - b * s, self.y + a * s + b * c);
-        [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)]
+/// A box's corners and the trig of its heading, computed once per box and
+/// step and shared by every pair test it takes part in.
+#[derive(Clone, Copy, Debug)]
+struct Shape {
+    corners: [(f64, f64); 4],
+    /// `sin_cos(yaw)`.
+    sc: (f64, f64),
+    /// `sin_cos(yaw + π/2)`.
+    sc90: (f64, f64),
+}
+
+impl Shape {
+    fn of(b: &BoxState) -> Self {
+        let sc = math::sin_cos(b.yaw);
+        let (s, c) = sc;
+        let (hl, hw) = (b.length / 2.0, b.width / 2.0);
+        let p = |u: f64, v: f64| (b.x + u * c - v * s, b.y + u * s + v * c);
+        Shape {
+            corners: [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)],
+            sc,
+            sc90: math::sin_cos(b.yaw + std::f64::consts::FRAC_PI_2),
+        }
     }
+}
+
+/// The interval a box's corners cover along the axis (ux, uy).
+fn interval(c: &[(f64, f64); 4], ux: f64, uy: f64) -> (f64, f64) {
+    c.iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+            let d = p.0 * ux + p.1 * uy;
+            (lo.min(d), hi.max(d))
+        })
 }
 
 /// Whether two oriented boxes overlap (separating axis theorem).
 pub fn overlap(a: &BoxState, b: &BoxState) -> bool {
-    overlap_corners(a.yaw, b.yaw, &a.corners(), &b.corners())
+    overlap_shapes(&Shape::of(a), &Shape::of(b))
 }
 
-/// The separating-axis test on corners already computed (the axes are the
-/// two boxes' edge directions).
-fn overlap_corners(ya: f64, yb: f64, ca: &[(f64, f64); 4], cb: &[(f64, f64); 4]) -> bool {
-    for yaw in [ya, yb] {
-        for (ax, ay) in [
-            math::sin_cos(yaw),
-            math::sin_cos(yaw + std::f64::consts::FRAC_PI_2),
-        ] {
+/// The separating-axis test (the axes are the two boxes' edge directions).
+fn overlap_shapes(a: &Shape, b: &Shape) -> bool {
+    for sh in [a, b] {
+        for (ax, ay) in [sh.sc, sh.sc90] {
             // (sin, cos) → axis (cos, sin)
             let (ux, uy) = (ay, ax);
-            let proj = |c: &[(f64, f64); 4]| {
-                c.iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-                        let d = p.0 * ux + p.1 * uy;
-                        (lo.min(d), hi.max(d))
-                    })
-            };
-            let (a0, a1) = proj(ca);
-            let (b0, b1) = proj(cb);
+            let (a0, a1) = interval(&a.corners, ux, uy);
+            let (b0, b1) = interval(&b.corners, ux, uy);
             if a1 < b0 || b1 < a0 {
                 return false;
             }
@@ -81,16 +95,16 @@ fn seg_dist(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
 
 /// Distance between two boxes (0 when they overlap).
 pub fn distance(a: &BoxState, b: &BoxState) -> f64 {
-    distance_corners(a.yaw, b.yaw, &a.corners(), &b.corners())
+    distance_shapes(&Shape::of(a), &Shape::of(b))
 }
 
-fn distance_corners(ya: f64, yb: f64, ca: &[(f64, f64); 4], cb: &[(f64, f64); 4]) -> f64 {
-    let (ca, cb) = (*ca, *cb);
-    if overlap_corners(ya, yb, &ca, &cb) {
+fn distance_shapes(a: &Shape, b: &Shape) -> f64 {
+    if overlap_shapes(a, b) {
         return 0.0;
     }
+    let (ca, cb) = (&a.corners, &b.corners);
     let mut d = f64::INFINITY;
-    for (p, q) in [(&ca, &cb), (&cb, &ca)] {
+    for (p, q) in [(ca, cb), (cb, ca)] {
         for c in p.iter() {
             for k in 0..4 {
                 d = d.min(seg_dist(*c, q[k], q[(k + 1) % 4]));
@@ -153,31 +167,17 @@ pub const TTC_HORIZON: f64 = 5.0;
 /// of both are the only candidate axes). `None` when they never touch,
 /// `Some(0)` when they overlap now.
 pub fn time_to_collision(a: &BoxState, b: &BoxState) -> Option<f64> {
-    ttc_corners(a, b, &a.corners(), &b.corners())
+    ttc_shapes(&Shape::of(a), &Shape::of(b), b.vx - a.vx, b.vy - a.vy)
 }
 
-fn ttc_corners(
-    a: &BoxState,
-    b: &BoxState,
-    ca: &[(f64, f64); 4],
-    cb: &[(f64, f64); 4],
-) -> Option<f64> {
-    let (ca, cb) = (*ca, *cb);
-    // b's velocity relative to a.
-    let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
+/// [`time_to_collision`] of b moving at (wx, wy) relative to a.
+fn ttc_shapes(a: &Shape, b: &Shape, wx: f64, wy: f64) -> Option<f64> {
     let (mut enter, mut exit) = (0.0f64, f64::INFINITY);
-    for yaw in [a.yaw, b.yaw] {
-        let (s, c) = math::sin_cos(yaw);
+    for sh in [a, b] {
+        let (s, c) = sh.sc;
         for (ux, uy) in [(c, s), (-s, c)] {
-            let proj = |q: &[(f64, f64); 4]| {
-                q.iter()
-                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
-                        let d = p.0 * ux + p.1 * uy;
-                        (lo.min(d), hi.max(d))
-                    })
-            };
-            let (a0, a1) = proj(&ca);
-            let (b0, b1) = proj(&cb);
+            let (a0, a1) = interval(&a.corners, ux, uy);
+            let (b0, b1) = interval(&b.corners, ux, uy);
             let w = wx * ux + wy * uy;
             if w.abs() < 1e-12 {
                 if b1 < a0 || a1 < b0 {
@@ -222,7 +222,7 @@ pub struct Kpis {
     last: Vec<Option<(f64, f64)>>,
     index: BTreeMap<String, usize>,
     order: Vec<u32>,
-    corners: Vec<[(f64, f64); 4]>,
+    shapes: Vec<Shape>,
     swept: Vec<[f64; 4]>,
     near_box: Vec<[f64; 4]>,
     ttc_box: Vec<[f64; 4]>,
@@ -285,12 +285,13 @@ impl Kpis {
         if n > 1 {
             // Per box: corners, and its box swept over the TTC horizon as
             // an axis-aligned interval in x and y (grown by NEAR / 2).
-            self.corners.clear();
+            self.shapes.clear();
             self.swept.clear();
             self.near_box.clear();
             self.ttc_box.clear();
             for b in boxes {
-                let c = b.corners();
+                let sh = Shape::of(b);
+                let c = sh.corners;
                 let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
                 for p in &c {
                     x0 = x0.min(p.0);
@@ -307,7 +308,7 @@ impl Kpis {
                     y0 + dy.min(0.0),
                     y1 + dy.max(0.0),
                 ];
-                self.corners.push(c);
+                self.shapes.push(sh);
                 self.near_box.push(grown);
                 // The sweep runs on the union of both intervals.
                 self.swept.push([
@@ -376,7 +377,7 @@ impl Kpis {
             return;
         }
         let (a, b) = (&boxes[i], &boxes[j]);
-        let (ca, cb) = (&self.corners[i], &self.corners[j]);
+        let (sa, sb) = (&self.shapes[i], &self.shapes[j]);
         let p = self
             .near
             .entry((i as u32, j as u32))
@@ -390,7 +391,7 @@ impl Kpis {
         let bound = math::hypot(b.x - a.x, b.y - a.y)
             - 0.5 * (math::hypot(a.length, a.width) + math::hypot(b.length, b.width));
         let d = if bound < p.min_distance {
-            let d = distance_corners(a.yaw, b.yaw, ca, cb);
+            let d = distance_shapes(sa, sb);
             if d < p.min_distance {
                 p.min_distance = d;
                 p.min_distance_at = t;
@@ -404,7 +405,7 @@ impl Kpis {
         }
         if d > 0.0
             && can_meet
-            && let Some(ttc) = ttc_corners(a, b, ca, cb)
+            && let Some(ttc) = ttc_shapes(sa, sb, b.vx - a.vx, b.vy - a.vy)
             && ttc <= TTC_HORIZON
             && p.min_ttc.is_none_or(|m| ttc < m)
         {
