@@ -1,16 +1,10 @@
 //! The command line as a user sees it: arguments in, output and exit code out.
 
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 
-fn litesim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_litesim"))
-}
-
-fn workspace() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
+mod common;
+use common::{ensure_grpcio, litesim, workspace};
 
 struct Serve {
     child: Child,
@@ -41,35 +35,6 @@ fn serve(extra: &[&str]) -> Serve {
         .unwrap_or_else(|| panic!("no address in {line:?}"))
         .to_string();
     Serve { child, addr }
-}
-
-/// Makes sure `grpcio` and `grpcio-tools` are importable, installing them
-/// from PyPI into the user site when they are not (a fresh machine has pip).
-fn ensure_grpcio() {
-    let ok = |c: &mut Command| c.status().is_ok_and(|s| s.success());
-    if ok(Command::new("python3").args(["-c", "import grpc, grpc_tools"])) {
-        return;
-    }
-    let installed = ok(Command::new("python3").args([
-        "-m",
-        "pip",
-        "install",
-        "--quiet",
-        "--user",
-        "grpcio",
-        "grpcio-tools",
-    ])) || ok(Command::new("python3").args([
-        "-m",
-        "pip",
-        "install",
-        "--quiet",
-        "grpcio",
-        "grpcio-tools",
-    ]));
-    assert!(
-        installed,
-        "could not install grpcio and grpcio-tools with pip"
-    );
 }
 
 #[test]

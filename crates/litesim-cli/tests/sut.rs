@@ -2,34 +2,12 @@
 //! Python example agent (grpcio) in its own process, over a real socket.
 
 use std::io::{BufRead, BufReader};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-fn litesim() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_litesim"))
-}
-
-fn workspace() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-fn ensure_grpcio() {
-    let ok = |c: &mut Command| c.output().is_ok_and(|o| o.status.success());
-    if ok(Command::new("python3").args(["-c", "import grpc, grpc_tools"])) {
-        return;
-    }
-    let installed = ok(Command::new("python3").args([
-        "-m",
-        "pip",
-        "install",
-        "--quiet",
-        "--disable-pip-version-check",
-        "grpcio",
-        "grpcio-tools",
-    ]));
-    assert!(installed, "python3 with grpcio and grpcio-tools is needed");
-}
+mod common;
+use common::{ensure_grpcio, litesim, workspace};
 
 /// The example agent on an ephemeral port; killed when dropped.
 struct Agent(Child, u16);

@@ -704,6 +704,11 @@ struct Motion {
     change: Option<(i32, i32, f64, f64)>,
 }
 
+/// `run_mode` is strict unless the modifier says `best_effort`.
+fn strict(vals: &BTreeMap<String, Value>) -> bool {
+    vals.get("run_mode").and_then(Value::text) != Some("best_effort")
+}
+
 fn at_kind(m: &Modifier) -> String {
     match m.args.get("at") {
         Some(CExpr::Const(v)) => v.text().unwrap_or("all").to_string(),
@@ -1189,11 +1194,7 @@ fn plan_once(
                             let Some(v) = vals.get("speed").and_then(Value::num) else {
                                 continue;
                             };
-                            let strict = vals
-                                .get("run_mode")
-                                .and_then(|v| v.text().map(String::from))
-                                != Some("best_effort".into())
-                                && name == "speed";
+                            let strict = strict(vals) && name == "speed";
                             match at.as_str() {
                                 "end" => end_speed = Some((mo.v, v, l.t1)),
                                 _ => {
@@ -1223,11 +1224,7 @@ fn plan_once(
                                     sign,
                                     t0: l.t0,
                                     t1: l.t1,
-                                    strict: vals
-                                        .get("run_mode")
-                                        .and_then(|v| v.text().map(String::from))
-                                        .as_deref()
-                                        != Some("best_effort"),
+                                    strict: strict(vals),
                                     at: l.at.clone(),
                                     label: l.label.clone(),
                                 });
