@@ -177,3 +177,38 @@ fn batch_takes_a_sut() {
         "{lines}"
     );
 }
+
+#[test]
+fn a_batch_goes_on_past_sut_errors() {
+    // Nothing listens: every run ends at its reset with a sut error, and
+    // the batch still writes every line.
+    let l = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = l.local_addr().unwrap().port();
+    drop(l);
+    let dir = tempfile::tempdir().unwrap();
+    let r = litesim()
+        .current_dir(workspace())
+        .args([
+            "batch",
+            "examples/scenarios/cut_in.osc",
+            "examples/scenarios/follow.osc",
+            "--seeds",
+            "1..3",
+            "--sut",
+            &format!("grpc://127.0.0.1:{port}"),
+            "-q",
+            "-o",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(r.status.code().is_some(), "the batch ends");
+    let lines = std::fs::read_to_string(dir.path().join("results.jsonl")).unwrap();
+    assert_eq!(lines.lines().count(), 6, "{lines}");
+    assert!(
+        lines
+            .lines()
+            .all(|l| l.contains("sut error at t=0.00 s (reset): cannot connect")),
+        "{lines}"
+    );
+}

@@ -323,3 +323,67 @@ fn observations_carry_the_object_list_route_and_road() {
     assert!(o.road.as_ref().is_some_and(|r| r.lane != 0));
     assert!(o.distance_to_goal > 0.0);
 }
+
+/// Writes `text` as a test beside the examples (relative imports resolve);
+/// removed when dropped.
+fn example_file(text: &str) -> tempfile::NamedTempFile {
+    let f = tempfile::Builder::new()
+        .suffix(".osc")
+        .tempfile_in(root().join("examples/scenarios"))
+        .unwrap();
+    std::fs::write(f.path(), text).unwrap();
+    f
+}
+
+#[test]
+fn every_threshold_names_time_actors_and_value() {
+    let f = example_file(
+        "import \"cut_in.osc\"\nextend test_config:\n    set min_gap = 30m\n    set max_decel = 5mpsps\n    set max_jerk = 10mpspsps\n",
+    );
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let opts = RunOptions {
+        seed: Some(1),
+        sut: SutChoice::Acc,
+        ..RunOptions::default()
+    };
+    let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    let fails = &r.summary.failures;
+    let has = |s: &str| fails.iter().any(|f| f.contains(s));
+    assert!(
+        has("gap between sut.car and other is 1.60 m at 3.60 s, below the test's min_gap 30 m"),
+        "{fails:?}"
+    );
+    assert!(
+        has("sut.car decelerates at 9.00 m/s² at 7.60 s"),
+        "{fails:?}"
+    );
+    assert!(has("above the test's max_decel 5 m/s²"), "{fails:?}");
+    assert!(has("above the test's max_jerk 10 m/s³"), "{fails:?}");
+    // A threshold that cannot mean anything is an error with its place.
+    let bad = example_file("import \"cut_in.osc\"\nextend test_config:\n    set min_ttc = -1s\n");
+    let e = prepare(bad.path(), &LoadOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(":3:") && e.contains("'min_ttc' must be a finite value ≥ 0"),
+        "{e}"
+    );
+}
+
+#[test]
+fn red_lights_judge_the_sut() {
+    // The planned ego runs the red light; the cruise stops for it.
+    let planned = go("red_light_run", SutChoice::Planned);
+    assert!(
+        planned
+            .summary
+            .failures
+            .iter()
+            .any(|f| f.contains("sut.car ran the red light")),
+        "{:?}",
+        planned.summary.failures
+    );
+    let acc = go("red_light_run", SutChoice::Acc);
+    assert!(acc.summary.pass, "{:?}", acc.summary.failures);
+    assert!(acc.summary.ego.as_ref().unwrap().final_speed < 0.5);
+}

@@ -1,0 +1,123 @@
+//! The system-under-test API over a real loopback socket: a SUT served by
+//! `serve_sut` drives a run exactly as in-process, and a server that
+//! answers wrongly gives the run a sut-error verdict.
+
+use litesim_grpc::sut::{BuiltinFactory, GrpcSutFactory, LoopbackSutServer};
+use litesim_grpc::sut_pb as pb;
+use litesim_grpc::sut_pb::system_under_test_server::{SystemUnderTest, SystemUnderTestServer};
+use litesim_scenario::sut::SutChoice;
+use litesim_scenario::{LoadOptions, RunOptions, RunResult, prepare, run};
+use std::path::PathBuf;
+use std::sync::Arc;
+use tonic::{Request, Response, Status};
+
+fn cut_in(sut: SutChoice) -> RunResult {
+    let p = PathBuf::from(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/scenarios/cut_in.osc"
+    ));
+    let prep = prepare(&p, &LoadOptions::default()).unwrap();
+    let opts = RunOptions {
+        seed: Some(1),
+        record: true,
+        sut,
+        ..RunOptions::default()
+    };
+    run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap()
+}
+
+#[test]
+fn a_served_sut_drives_exactly_as_in_process() {
+    let server = LoopbackSutServer::start(Arc::new(BuiltinFactory("acc".into()))).unwrap();
+    let f = GrpcSutFactory::new(&format!("grpc://{}", server.addr)).unwrap();
+    let remote = cut_in(SutChoice::External(Arc::new(f)));
+    let local = cut_in(SutChoice::Acc);
+    assert!(remote.summary.pass, "{:?}", remote.summary.failures);
+    assert_eq!(
+        serde_json::to_string(&remote.log.unwrap()).unwrap(),
+        serde_json::to_string(&local.log.unwrap()).unwrap()
+    );
+}
+
+/// A SUT server that answers every step with `reply`.
+struct Fixed(pb::Command);
+
+#[tonic::async_trait]
+impl SystemUnderTest for Fixed {
+    async fn reset(
+        &self,
+        _: Request<pb::ResetRequest>,
+    ) -> Result<Response<pb::ResetReply>, Status> {
+        Ok(Response::new(pb::ResetReply {}))
+    }
+    async fn step(&self, _: Request<pb::StepRequest>) -> Result<Response<pb::Command>, Status> {
+        Ok(Response::new(self.0.clone()))
+    }
+}
+
+/// Serves `reply` on a loopback port in a thread of its own.
+fn serve_fixed(reply: pb::Command) -> std::net::SocketAddr {
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async move {
+            let l = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+            tx.send(l.local_addr().unwrap()).unwrap();
+            tonic::transport::Server::builder()
+                .add_service(SystemUnderTestServer::new(Fixed(reply)))
+                .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(l))
+                .await
+                .unwrap();
+        });
+    });
+    rx.recv().unwrap()
+}
+
+#[test]
+fn wrong_answers_are_sut_errors() {
+    let accel = Some(pb::command::Command::Accel(pb::Accel {
+        acceleration: 0.0,
+        curvature: 0.0,
+    }));
+    for (reply, want) in [
+        (
+            pb::Command {
+                actor_id: "other".into(),
+                command: accel.clone(),
+            },
+            "sut error at t=0.00 s: it commanded the unknown actor 'other' (it drives sut.car only)",
+        ),
+        (
+            pb::Command {
+                actor_id: String::new(),
+                command: None,
+            },
+            "sut error at t=0.00 s: it returned an empty command",
+        ),
+        (
+            pb::Command {
+                actor_id: "sut.car".into(),
+                command: Some(pb::command::Command::Pedals(pb::Pedals {
+                    throttle: f64::INFINITY,
+                    brake: 0.0,
+                    steering: 0.0,
+                })),
+            },
+            "sut error at t=0.00 s: it returned a bad command: throttle is inf, expected a finite number",
+        ),
+    ] {
+        let addr = serve_fixed(reply);
+        let f = GrpcSutFactory::new(&format!("grpc://{addr}")).unwrap();
+        let r = cut_in(SutChoice::External(Arc::new(f)));
+        assert!(!r.summary.pass);
+        assert!(
+            r.summary.failures.iter().any(|f| f.starts_with(want)),
+            "{want}: {:?}",
+            r.summary.failures
+        );
+        assert_eq!(r.summary.steps, 0);
+    }
+}
