@@ -86,7 +86,7 @@ fn wrong_answers_are_sut_errors() {
         (
             pb::Command {
                 actor_id: "other".into(),
-                command: accel.clone(),
+                command: accel,
             },
             "sut error at t=0.00 s: it commanded the unknown actor 'other' (it drives sut.car only)",
         ),
