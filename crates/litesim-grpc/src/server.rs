@@ -828,6 +828,21 @@ fn remap_oversize<B>(mut resp: http::Response<B>) -> http::Response<B> {
 pub const FILE_DESCRIPTOR_SET: &[u8] =
     include_bytes!(concat!(env!("OUT_DIR"), "/ssp_descriptor.bin"));
 
+/// The connections a listener accepts, each with TCP_NODELAY set.
+///
+/// Lock-step traffic is many tiny messages: without TCP_NODELAY, Nagle and
+/// delayed ACKs add tens of milliseconds per call. The tonic builder's own
+/// nodelay setting applies only to listeners it binds itself.
+pub(crate) fn nodelay_incoming(
+    listener: tokio::net::TcpListener,
+) -> impl tokio_stream::Stream<Item = std::io::Result<tokio::net::TcpStream>> {
+    tokio_stream::wrappers::TcpListenerStream::new(listener).map(|conn| {
+        conn.inspect(|s| {
+            let _ = s.set_nodelay(true);
+        })
+    })
+}
+
 /// Serves the SSP API, gRPC health and reflection on `listener` until
 /// `shutdown` completes. Idle sessions are reaped every second.
 pub async fn serve(
@@ -856,14 +871,7 @@ pub async fn serve(
     let ssp = SimulatorSupportServer::new(svc)
         .max_decoding_message_size(max)
         .max_encoding_message_size(usize::MAX);
-    // Lock-step traffic is many tiny messages: without TCP_NODELAY, Nagle and
-    // delayed ACKs add tens of milliseconds per call. The builder's own
-    // nodelay setting applies only to listeners it binds itself.
-    let incoming = tokio_stream::wrappers::TcpListenerStream::new(listener).map(|conn| {
-        conn.inspect(|s| {
-            let _ = s.set_nodelay(true);
-        })
-    });
+    let incoming = nodelay_incoming(listener);
     let result = tonic::transport::Server::builder()
         .tcp_nodelay(true)
         .layer(tower::util::MapResponseLayer::new(remap_oversize))

@@ -155,8 +155,7 @@ impl Sut for GrpcSut {
             let ep = Channel::from_shared(uri.clone())
                 .map_err(|e| SutError(format!("bad address '{}': {e}", self.addr)))?
                 .tcp_nodelay(true)
-                .connect_timeout(timeout)
-                .timeout(timeout);
+                .connect_timeout(timeout);
             ep.connect()
                 .await
                 .map_err(|e| SutError(format!("cannot connect to {uri}: {e}")))
@@ -450,9 +449,8 @@ pub async fn serve_sut(
     factory: Arc<dyn SutFactory>,
     shutdown: impl std::future::Future<Output = ()> + Send + 'static,
 ) -> Result<(), tonic::transport::Error> {
-    let incoming = tokio_stream::wrappers::TcpListenerStream::new(listener);
+    let incoming = crate::server::nodelay_incoming(listener);
     tonic::transport::Server::builder()
-        .tcp_nodelay(true)
         .add_service(SystemUnderTestServer::new(SutService::new(factory)))
         .serve_with_incoming_shutdown(incoming, shutdown)
         .await

@@ -71,7 +71,9 @@ impl Route {
         if n < 2 {
             return None;
         }
-        let seg = |i: usize| -> (f64, RoutePoint) {
+        // (distance², arc length, lateral) of the foot on segment i; the
+        // heading (an atan2) is computed for the winner only.
+        let seg = |i: usize| -> (f64, f64, f64) {
             let (a, b) = (self.points[i], self.points[i + 1]);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let len2 = dx * dx + dy * dy;
@@ -88,36 +90,35 @@ impl Route {
             } else {
                 0.0
             };
-            (
-                d2,
-                RoutePoint {
-                    s: self.s[i] + u * (self.s[i + 1] - self.s[i]),
-                    lateral: cross,
-                    heading: math::atan2(dy, dx),
-                    segment: i,
-                },
-            )
+            (d2, self.s[i] + u * (self.s[i + 1] - self.s[i]), cross)
         };
         let best_in = |lo: usize, hi: usize| {
             (lo..hi)
-                .map(seg)
-                .fold(None::<(f64, RoutePoint)>, |b, c| match b {
-                    Some(b) if b.0 <= c.0 => Some(b),
+                .map(|i| (i, seg(i)))
+                .fold(None::<(usize, (f64, f64, f64))>, |b, c| match b {
+                    Some(b) if b.1.0 <= c.1.0 => Some(b),
                     _ => Some(c),
                 })
+        };
+        let point = |(i, (_, s, lateral)): (usize, (f64, f64, f64))| {
+            let (a, b) = (self.points[i], self.points[i + 1]);
+            RoutePoint {
+                s,
+                lateral,
+                heading: math::atan2(b[1] - a[1], b[0] - a[0]),
+                segment: i,
+            }
         };
         let lo = hint.saturating_sub(3).min(n - 2);
         let hi = (hint + 12).min(n - 1);
         let near = best_in(lo, hi)?;
         // Accept the local answer when it lies inside the window (not at its
-        // edge) and close to the route; otherwise search everywhere.
-        if near.0 < 25.0
-            && (near.1.segment > lo || lo == 0)
-            && (near.1.segment + 1 < hi || hi == n - 1)
-        {
-            return Some(near.1);
+        // edge): a minimum of the distance there is the foot near the hint.
+        // Otherwise (the hint is stale) search everywhere.
+        if (near.0 > lo || lo == 0) && (near.0 + 1 < hi || hi == n - 1) {
+            return Some(point(near));
         }
-        best_in(0, n - 1).map(|b| b.1)
+        best_in(0, n - 1).map(point)
     }
 
     /// Position and heading at arc length `s` (clamped to the route).
