@@ -28,6 +28,29 @@ fn load() -> Prepared {
     .unwrap()
 }
 
+/// A test of `n` vehicles (sut.car included) in three lanes, 8 m apart.
+fn traffic(n: usize) -> String {
+    let mut t = String::from(
+        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.traffic()\nscenario sut.traffic:\n    r: two_way_road\n",
+    );
+    for k in 1..n {
+        t += &format!("    v{k}: vehicle\n");
+    }
+    t += "    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            lane(1, at: start)\n";
+    for k in 1..n {
+        let lane = match k % 3 {
+            0 => "same_as: sut.car".to_string(),
+            1 => "left_of: sut.car".to_string(),
+            _ => format!("left_of: v{}", k - 1),
+        };
+        t += &format!(
+            "        v{k}.drive() with:\n            speed(30kph)\n            lane({lane}, at: start)\n            position({}m, ahead_of: sut.car, at: start)\n",
+            (k / 3) * 8 + 1
+        );
+    }
+    t + "    with: duration(10s)\n"
+}
+
 fn main() {
     let mut c = Criterion::default().configure_from_args();
     let prep = load();
@@ -146,6 +169,28 @@ fn main() {
     g.bench_function("obstacle_goal_fmt_mpc_run_400_steps", |b| {
         b.iter(|| black_box(run(&obstacle, &mut litesim_scenario::in_process(), &fm).unwrap()))
     });
+    g.finish();
+    // Scale: a 10 s test of n vehicles in three lanes, 8 m apart, all at
+    // 30 kph (written beside the examples so its imports resolve).
+    let mut g = c.benchmark_group("scale");
+    g.sample_size(10);
+    for n in [10usize, 100] {
+        let f = tempfile::Builder::new()
+            .suffix(".osc")
+            .tempfile_in(root().join("examples/scenarios"))
+            .unwrap();
+        std::fs::write(f.path(), traffic(n)).unwrap();
+        let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+        let one = RunOptions {
+            seed: Some(1),
+            ..RunOptions::default()
+        };
+        let r = run(&prep, &mut litesim_scenario::in_process(), &one).unwrap();
+        assert!(r.summary.pass, "{:?}", r.summary.failures);
+        g.bench_function(format!("{n}_vehicles_10s_run"), |b| {
+            b.iter(|| black_box(run(&prep, &mut litesim_scenario::in_process(), &one).unwrap()))
+        });
+    }
     g.finish();
     // Over gRPC: a server on loopback in this process.
     let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();

@@ -3,6 +3,7 @@
 //! (box to box) and time to collision per pair (constant velocities, swept
 //! boxes), and speed and path errors against the plan.
 
+use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -31,6 +32,12 @@ pub struct BoxState {
 #[derive(Clone, Copy, Debug)]
 struct Shape {
     corners: [(f64, f64); 4],
+    /// Centre.
+    centre: (f64, f64),
+    /// Half length and half width.
+    half: (f64, f64),
+    /// Centre to corner (m).
+    radius: f64,
     /// `sin_cos(yaw)`.
     sc: (f64, f64),
     /// `sin_cos(yaw + π/2)`.
@@ -45,6 +52,9 @@ impl Shape {
         let p = |u: f64, v: f64| (b.x + u * c - v * s, b.y + u * s + v * c);
         Shape {
             corners: [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)],
+            centre: (b.x, b.y),
+            half: (hl, hw),
+            radius: math::hypot(hl, hw),
             sc,
             sc90: math::sin_cos(b.yaw + std::f64::consts::FRAC_PI_2),
         }
@@ -67,30 +77,41 @@ pub fn overlap(a: &BoxState, b: &BoxState) -> bool {
 
 /// The separating-axis test (the axes are the two boxes' edge directions).
 fn overlap_shapes(a: &Shape, b: &Shape) -> bool {
+    separation(a, b).is_none()
+}
+
+/// The widest gap between the boxes' intervals over the separating axes:
+/// `None` when they overlap on every axis (the boxes overlap), else a lower
+/// bound of their distance (a projection onto a unit axis never lengthens).
+fn separation(a: &Shape, b: &Shape) -> Option<f64> {
+    let mut widest: Option<f64> = None;
     for sh in [a, b] {
         for (ax, ay) in [sh.sc, sh.sc90] {
             // (sin, cos) → axis (cos, sin)
             let (ux, uy) = (ay, ax);
             let (a0, a1) = interval(&a.corners, ux, uy);
             let (b0, b1) = interval(&b.corners, ux, uy);
-            if a1 < b0 || b1 < a0 {
-                return false;
-            }
+            let gap = if a1 < b0 {
+                b0 - a1
+            } else if b1 < a0 {
+                a0 - b1
+            } else {
+                continue;
+            };
+            widest = Some(widest.map_or(gap, |w| w.max(gap)));
         }
     }
-    true
+    widest
 }
 
-fn seg_dist(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
-    let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-    let l2 = dx * dx + dy * dy;
-    let u = if l2 > 0.0 {
-        (((p.0 - a.0) * dx + (p.1 - a.1) * dy) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    let (fx, fy) = (a.0 + dx * u - p.0, a.1 + dy * u - p.1);
-    (fx * fx + fy * fy).sqrt()
+/// Squared distance from a point to a filled box (0 inside): the point in
+/// the box's frame, clamped to its half extents.
+fn point_box_sq(p: (f64, f64), b: &Shape) -> f64 {
+    let (s, c) = b.sc;
+    let (dx, dy) = (p.0 - b.centre.0, p.1 - b.centre.1);
+    let ex = ((dx * c + dy * s).abs() - b.half.0).max(0.0);
+    let ey = ((-dx * s + dy * c).abs() - b.half.1).max(0.0);
+    ex * ex + ey * ey
 }
 
 /// Distance between two boxes (0 when they overlap).
@@ -102,16 +123,21 @@ fn distance_shapes(a: &Shape, b: &Shape) -> f64 {
     if overlap_shapes(a, b) {
         return 0.0;
     }
-    let (ca, cb) = (&a.corners, &b.corners);
-    let mut d = f64::INFINITY;
-    for (p, q) in [(ca, cb), (cb, ca)] {
-        for c in p.iter() {
-            for k in 0..4 {
-                d = d.min(seg_dist(*c, q[k], q[(k + 1) % 4]));
-            }
-        }
+    corner_distance(a, b)
+}
+
+/// The distance of two boxes that do not overlap: for two separate convex
+/// polygons it is reached at a corner of one, so it is the smallest
+/// distance of a corner of either to the other (filled) box.
+fn corner_distance(a: &Shape, b: &Shape) -> f64 {
+    let mut d2 = f64::INFINITY;
+    for c in &a.corners {
+        d2 = d2.min(point_box_sq(*c, b));
     }
-    d
+    for c in &b.corners {
+        d2 = d2.min(point_box_sq(*c, a));
+    }
+    d2.sqrt()
 }
 
 /// KPIs of one actor pair.
@@ -121,7 +147,7 @@ pub struct PairKpi {
     pub a: String,
     /// Second actor id.
     pub b: String,
-    /// Smallest box-to-box distance (m).
+    /// Smallest box-to-box distance (m), to [`DISTANCE_RESOLUTION`].
     pub min_distance: f64,
     /// When it was smallest (s).
     pub min_distance_at: f64,
@@ -198,6 +224,41 @@ fn ttc_shapes(a: &Shape, b: &Shape, wx: f64, wy: f64) -> Option<f64> {
     (exit >= 0.0 && enter.is_finite()).then_some(enter.max(0.0))
 }
 
+/// How far below a pair's recorded minimum its distance may go unseen (m):
+/// a pair whose relative pose barely changed is not measured again while
+/// its distance provably stays within this of the minimum.
+pub const DISTANCE_RESOLUTION: f64 = 1e-9;
+
+/// A pair's relative pose at its last exact distance.
+#[derive(Clone, Copy, Debug)]
+struct Last {
+    rel: (f64, f64),
+    yaw: (f64, f64),
+    d: f64,
+}
+
+/// A hasher for pair indices: a multiply-xorshift of the key (the std
+/// SipHash led the profile; only lookups use it — outputs are sorted).
+#[derive(Clone, Copy, Debug, Default)]
+struct PairHasher(u64);
+
+impl std::hash::Hasher for PairHasher {
+    fn finish(&self) -> u64 {
+        let x = self.0.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        x ^ (x >> 29)
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.0 = self.0.rotate_left(8) ^ u64::from(*b);
+        }
+    }
+    fn write_u32(&mut self, n: u32) {
+        self.0 = (self.0 << 32) ^ u64::from(n);
+    }
+}
+
+type PairHash = std::hash::BuildHasherDefault<PairHasher>;
+
 /// Accumulates KPIs step by step.
 ///
 /// Pairs go through a broad phase first: each box swept along its
@@ -215,7 +276,10 @@ pub struct Kpis {
     pub pairs: Vec<PairKpi>,
     /// Per actor.
     pub actors: Vec<ActorKpi>,
-    near: BTreeMap<(u32, u32), PairKpi>,
+    /// Pairs met so far, in the order first met, with their index by (i, j)
+    /// (a lookup table only: the output is sorted by (i, j)).
+    near: Vec<((u32, u32), PairKpi, Option<Last>)>,
+    index_of: std::collections::HashMap<(u32, u32), usize, PairHash>,
     ids: Vec<String>,
     sq: Vec<f64>,
     n: usize,
@@ -268,7 +332,10 @@ impl Kpis {
 
     /// Moves the pairs that came near into [`Kpis::pairs`], in (i, j) order.
     pub fn finish(&mut self) {
-        self.pairs = std::mem::take(&mut self.near).into_values().collect();
+        let mut near = std::mem::take(&mut self.near);
+        near.sort_by_key(|(k, _, _)| *k);
+        self.index_of.clear();
+        self.pairs = near.into_iter().map(|(_, p, _)| p).collect();
     }
 
     /// Adds one step: boxes, speeds, planned positions and speeds, on-road flags.
@@ -378,34 +445,69 @@ impl Kpis {
         }
         let (a, b) = (&boxes[i], &boxes[j]);
         let (sa, sb) = (&self.shapes[i], &self.shapes[j]);
-        let p = self
-            .near
+        let k = *self
+            .index_of
             .entry((i as u32, j as u32))
-            .or_insert_with(|| PairKpi {
-                a: self.ids[i].clone(),
-                b: self.ids[j].clone(),
-                min_distance: f64::INFINITY,
-                ..PairKpi::default()
+            .or_insert_with(|| {
+                self.near.push((
+                    (i as u32, j as u32),
+                    PairKpi {
+                        a: self.ids[i].clone(),
+                        b: self.ids[j].clone(),
+                        min_distance: f64::INFINITY,
+                        ..PairKpi::default()
+                    },
+                    None,
+                ));
+                self.near.len() - 1
             });
-        // The exact distance only where it could set a new minimum.
-        let bound = math::hypot(b.x - a.x, b.y - a.y)
-            - 0.5 * (math::hypot(a.length, a.width) + math::hypot(b.length, b.width));
-        let d = if bound < p.min_distance {
-            let d = distance_shapes(sa, sb);
-            if d < p.min_distance {
-                p.min_distance = d;
-                p.min_distance_at = t;
-            }
-            d
-        } else {
-            bound
+        let (pair, p) = {
+            let e = &mut self.near[k];
+            (&mut e.2, &mut e.1)
         };
+        let rel = (b.x - a.x, b.y - a.y);
+        // Since the last exact distance the boxes moved relative to each
+        // other by at most `moved` (common motion changes no distance;
+        // turning by Δψ moves a corner by at most its radius · |Δψ|).
+        let bound = pair.map(|l| {
+            let moved = math::hypot(rel.0 - l.rel.0, rel.1 - l.rel.1)
+                + sa.radius * wrap_angle(a.yaw - l.yaw.0).abs()
+                + sb.radius * wrap_angle(b.yaw - l.yaw.1).abs();
+            l.d - moved
+        });
+        let d = match bound {
+            // Cannot come below the minimum (within DISTANCE_RESOLUTION)
+            // and cannot touch: nothing to compute.
+            Some(lb) if lb > 0.0 && lb + DISTANCE_RESOLUTION >= p.min_distance => lb,
+            _ => {
+                // The separating axes' widest gap is a lower bound too.
+                let d = match separation(sa, sb) {
+                    None => 0.0,
+                    Some(gap) if gap >= p.min_distance => gap,
+                    Some(_) => corner_distance(sa, sb),
+                };
+                *pair = Some(Last {
+                    rel,
+                    yaw: (a.yaw, b.yaw),
+                    d,
+                });
+                d
+            }
+        };
+        if d < p.min_distance {
+            p.min_distance = d;
+            p.min_distance_at = t;
+        }
         if d == 0.0 && p.collision_at.is_none() {
             p.collision_at = Some(t);
         }
+        let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
+        // Separate boxes without relative motion never touch (what
+        // ttc_shapes answers too, at a cost).
         if d > 0.0
             && can_meet
-            && let Some(ttc) = ttc_shapes(sa, sb, b.vx - a.vx, b.vy - a.vy)
+            && math::hypot(wx, wy) >= 1e-12
+            && let Some(ttc) = ttc_shapes(sa, sb, wx, wy)
             && ttc <= TTC_HORIZON
             && p.min_ttc.is_none_or(|m| ttc < m)
         {
@@ -481,5 +583,95 @@ impl EgoKpi {
     /// Closes the record against the goal `(gx, gy)`.
     pub fn finish(&mut self, gx: f64, gy: f64) {
         self.distance_to_goal = math::hypot(self.pos.0 - gx, self.pos.1 - gy);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn bx(x: f64, y: f64, yaw: f64, vx: f64, vy: f64) -> BoxState {
+        BoxState {
+            x,
+            y,
+            yaw,
+            length: 4.0,
+            width: 2.0,
+            vx,
+            vy,
+        }
+    }
+
+    /// Distance by brute force: every corner of each box to every edge of
+    /// the other (0 when they overlap).
+    fn brute(a: &BoxState, b: &BoxState) -> f64 {
+        if overlap(a, b) {
+            return 0.0;
+        }
+        let seg = |p: (f64, f64), s: (f64, f64), e: (f64, f64)| {
+            let (dx, dy) = (e.0 - s.0, e.1 - s.1);
+            let u = (((p.0 - s.0) * dx + (p.1 - s.1) * dy) / (dx * dx + dy * dy)).clamp(0.0, 1.0);
+            ((s.0 + dx * u - p.0).powi(2) + (s.1 + dy * u - p.1).powi(2)).sqrt()
+        };
+        let (ca, cb) = (Shape::of(a).corners, Shape::of(b).corners);
+        let mut d = f64::INFINITY;
+        for (p, q) in [(&ca, &cb), (&cb, &ca)] {
+            for c in p {
+                for k in 0..4 {
+                    d = d.min(seg(*c, q[k], q[(k + 1) % 4]));
+                }
+            }
+        }
+        d
+    }
+
+    proptest! {
+        #[test]
+        fn distance_matches_brute_force(
+            x in -20.0f64..20.0, y in -20.0f64..20.0, ya in -3.2f64..3.2, yb in -3.2f64..3.2,
+        ) {
+            let (a, b) = (bx(0.0, 0.0, ya, 0.0, 0.0), bx(x, y, yb, 0.0, 0.0));
+            let (d, r) = (distance(&a, &b), brute(&a, &b));
+            prop_assert!((d - r).abs() < 1e-9, "{} vs {}", d, r);
+            // The separating axes' gap never exceeds the distance.
+            if let Some(g) = separation(&Shape::of(&a), &Shape::of(&b)) {
+                prop_assert!(g <= r + 1e-9);
+            }
+        }
+    }
+
+    #[test]
+    fn ttc_is_when_the_swept_boxes_touch() {
+        // Head-on in one lane: 20 m between bumpers, closing at 10 m/s.
+        let a = bx(0.0, 0.0, 0.0, 5.0, 0.0);
+        let b = bx(24.0, 0.0, std::f64::consts::PI, -5.0, 0.0);
+        let t = time_to_collision(&a, &b).unwrap();
+        assert!((t - 2.0).abs() < 1e-9, "{t}");
+        // Passing in the next lane: never.
+        let c = bx(24.0, 3.5, std::f64::consts::PI, -5.0, 0.0);
+        assert_eq!(time_to_collision(&a, &c), None);
+        // Moving apart: never; overlapping: now.
+        assert_eq!(time_to_collision(&a, &bx(24.0, 0.0, 0.0, 9.0, 0.0)), None);
+        assert_eq!(
+            time_to_collision(&a, &bx(1.0, 0.5, 0.3, 0.0, 0.0)),
+            Some(0.0)
+        );
+    }
+
+    #[test]
+    fn far_pairs_are_not_tracked_and_close_ones_are() {
+        let ids: Vec<String> = ["a", "b", "c"].iter().map(|s| s.to_string()).collect();
+        let mut k = Kpis::new(&ids);
+        let boxes = [
+            bx(0.0, 0.0, 0.0, 10.0, 0.0),
+            bx(15.0, 0.0, 0.0, 10.0, 0.0),
+            bx(500.0, 0.0, 0.0, 10.0, 0.0),
+        ];
+        k.step(0.0, &boxes, &[10.0; 3], &[(0.0, 0.0, 10.0); 3], &[false; 3]);
+        k.finish();
+        assert_eq!(k.pairs.len(), 1);
+        assert_eq!((k.pairs[0].a.as_str(), k.pairs[0].b.as_str()), ("a", "b"));
+        assert!((k.pairs[0].min_distance - 11.0).abs() < 1e-9);
     }
 }
