@@ -88,6 +88,8 @@ pub fn reference_plan(step_s: f64) -> Plan {
         violations: Vec::new(),
         lights: Vec::new(),
         goals: Vec::new(),
+        conditions: Vec::new(),
+        ids: Default::default(),
         notes: Vec::new(),
     }
 }
@@ -108,7 +110,7 @@ fn trial(profile: &Profile, plan: &Plan, c: &Calibration) -> Result<Trial, Scena
         map: None,
         sut_timeout: 1.0,
     };
-    let ex = execute(&mut ssp, plan, None, &cfg, None)?;
+    let ex = execute(&mut ssp, plan, None, &cfg, None, None)?;
     let a = &ex.kpis.actors[0];
     let score = a.rms_path_error + 0.3 * a.max_speed_error;
     Ok(Trial {

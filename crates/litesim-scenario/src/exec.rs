@@ -25,6 +25,8 @@ use litesim_ssp::traffic::{
     BulbColor, BulbMode, BulbState, LightTarget, TrafficLightBox, TrafficLights,
 };
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// How actors are moved.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -85,6 +87,107 @@ pub struct Executed {
     pub goals: Vec<GoalResult>,
     /// The SUT failed: the run stopped here (`sut error at t=…: …`).
     pub sut_error: Option<String>,
+    /// `wait`/`until` conditions as they held on the simulated state.
+    pub live_events: Vec<LiveEvent>,
+    /// The plan in force at the end, when live conditions changed it.
+    pub plan: Option<Plan>,
+}
+
+/// Plans the test again with the given condition times fixed.
+pub type Replan<'a> = dyn Fn(&BTreeMap<String, f64>) -> Result<Plan, ScenarioError> + 'a;
+
+/// A `wait`/`until` condition held on the simulated state.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LiveEvent {
+    /// The condition (`sut.car.speed > 8.333`, `rise(…)`).
+    pub condition: String,
+    /// When the first plan had it hold (s); `None`: never.
+    pub planned: Option<f64>,
+    /// When it held on the simulated state (s).
+    pub live: f64,
+}
+
+/// How long a condition the plan expected by now, but the world does not
+/// show yet, is postponed before it is looked at again in a new plan (s).
+pub const POSTPONE_S: f64 = 1.0;
+
+/// Each goal's (actor, reference) indices.
+fn goal_indices(plan: &Plan) -> Vec<Option<(usize, usize)>> {
+    plan.goals
+        .iter()
+        .map(|g| {
+            let idx = |id: &str| plan.actors.iter().position(|a| a.id == id);
+            Some((idx(&g.actor)?, idx(&g.reference)?))
+        })
+        .collect()
+}
+
+#[allow(clippy::too_many_arguments)]
+/// Evaluates the plan's conditions on the object list at time `t`: one that
+/// holds at another time than planned, or that the plan has holding by now
+/// while the world does not, gets its time fixed (or postponed by
+/// [`POSTPONE_S`]). Returns whether the plan must be made again.
+fn live_conditions(
+    plan: &Plan,
+    obs: &Observation,
+    t: f64,
+    fixed: &mut BTreeMap<String, f64>,
+    settled: &mut BTreeSet<String>,
+    last_truth: &mut BTreeMap<String, bool>,
+    events: &mut Vec<LiveEvent>,
+    first_plan: &BTreeMap<String, Option<f64>>,
+) -> bool {
+    let sample = |id: &str, field: usize| {
+        let i = plan.actors.iter().position(|a| a.id == id)?;
+        let o = &obs.objects[i];
+        Some([o.speed, o.acceleration, o.x, o.y][field])
+    };
+    let mut changed = false;
+    for c in &plan.conditions {
+        if settled.contains(&c.key) || t < c.t0 - 1e-9 {
+            continue;
+        }
+        let Some(now) = c.holds(&plan.ids, &sample) else {
+            // Not something the state shows: the plan's time stands.
+            settled.insert(c.key.clone());
+            continue;
+        };
+        let before = last_truth.insert(c.key.clone(), now);
+        let hit = match c.edge().0 {
+            "rise" => before == Some(false) && now,
+            "fall" => before == Some(true) && !now,
+            _ => now,
+        };
+        if hit {
+            settled.insert(c.key.clone());
+            events.push(LiveEvent {
+                condition: describe(&c.cond),
+                planned: first_plan.get(&c.key).copied().flatten(),
+                live: t,
+            });
+            if c.at.is_none_or(|a| (a - t).abs() > 1e-6) {
+                fixed.insert(c.key.clone(), t);
+                changed = true;
+            }
+        } else if c.at.is_some_and(|a| a <= t + 1e-9) {
+            fixed.insert(c.key.clone(), t + POSTPONE_S);
+            changed = true;
+        }
+    }
+    changed
+}
+
+/// A condition as text, for summaries.
+fn describe(e: &crate::elab::CExpr) -> String {
+    use crate::elab::{CExpr, Value};
+    match e {
+        CExpr::Const(Value::Num(v)) => format!("{v}"),
+        CExpr::Const(v) => format!("{v:?}"),
+        CExpr::Var(p) => p.clone(),
+        CExpr::Unary(op, x) => format!("{op}({})", describe(x)),
+        CExpr::Binary(op, a, b) => format!("{} {op} {}", describe(a), describe(b)),
+        other => format!("{other:?}"),
+    }
 }
 
 fn ssp_err(e: litesim_ssp::SspError) -> ScenarioError {
@@ -145,7 +248,11 @@ pub fn execute(
     net: Option<&RoadNetwork>,
     cfg: &ExecConfig,
     mut sut: Option<&mut (dyn Sut + '_)>,
+    replan: Option<&Replan<'_>>,
 ) -> Result<Executed, ScenarioError> {
+    // The plan in force: replaced when a condition holds live at another
+    // time than planned (closed loop only).
+    let mut plan: Cow<Plan> = Cow::Borrowed(plan);
     let ego_index = plan.actors.iter().position(|a| a.ego);
     // The ego's index when a SUT drives it.
     let ego_i = match sut {
@@ -274,7 +381,7 @@ pub fn execute(
     }
     let ids: Vec<String> = plan.actors.iter().map(|a| a.id.clone()).collect();
     let mut kpis = Kpis::new(&ids);
-    let steps = litesim_core::steps_for_horizon(plan.duration, dt);
+    let mut steps = litesim_core::steps_for_horizon(plan.duration, dt);
     let send_every = (200 / step_ms).max(1);
     let horizon_ms = 400;
     let filter = ActorFilter::default();
@@ -309,13 +416,18 @@ pub fn execute(
     let mut last_pos: Vec<Option<litesim_map::RoadPosition>> = vec![None; ids.len()];
     let mut warps = vec![Warp::new(); ids.len()];
     // Each goal's (actor, reference) indices; goals come sorted by end time.
-    let goal_actors: Vec<Option<(usize, usize)>> = plan
-        .goals
+    let mut goal_actors = goal_indices(&plan);
+    // Conditions seen on the simulated state: times fixed for the planner,
+    // the ones settled, each one's last truth (for rise/fall).
+    let mut fixed: BTreeMap<String, f64> = BTreeMap::new();
+    let mut settled: BTreeSet<String> = BTreeSet::new();
+    let mut last_truth: BTreeMap<String, bool> = BTreeMap::new();
+    let mut live_events: Vec<LiveEvent> = Vec::new();
+    // What the first plan had for each condition (reported beside the live time).
+    let first_plan: BTreeMap<String, Option<f64>> = plan
+        .conditions
         .iter()
-        .map(|g| {
-            let idx = |id: &str| plan.actors.iter().position(|a| a.id == id);
-            Some((idx(&g.actor)?, idx(&g.reference)?))
-        })
+        .map(|c| (c.key.clone(), c.at))
         .collect();
     let mut next_goal = 0;
     // The SUT's view of the lights is rebuilt only after a switch.
@@ -379,6 +491,44 @@ pub fn execute(
     let mut next_switch = 0;
     let mut k = 0;
     while k < steps && sut_error.is_none() {
+        if let (Some(_), Some(replan)) = (ego_i, replan)
+            && !plan.conditions.is_empty()
+        {
+            let t = (k * step_ms) as f64 / 1000.0;
+            let changed = live_conditions(
+                &plan,
+                &obs,
+                t,
+                &mut fixed,
+                &mut settled,
+                &mut last_truth,
+                &mut live_events,
+                &first_plan,
+            );
+            if changed {
+                let new = replan(&fixed)?;
+                if new.actors.len() != plan.actors.len() {
+                    return Err(ScenarioError::Plan(
+                        "planning again for a live condition changed the actors".into(),
+                    ));
+                }
+                plan = Cow::Owned(new);
+                steps = litesim_core::steps_for_horizon(plan.duration, dt);
+                goal_actors = goal_indices(&plan);
+                // Goals ended and switches due by now belong to the past.
+                next_goal = plan.goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
+                next_switch = plan
+                    .lights
+                    .iter()
+                    .filter(|sw| switch_tick(sw.t) < k)
+                    .count();
+                tracking.cum.clear();
+                // Trajectories sent from the old plan go out again.
+                for w in &mut warps {
+                    w.sent_lag = f64::NAN;
+                }
+            }
+        }
         while next_switch < plan.lights.len() && switch_tick(plan.lights[next_switch].t) <= k {
             let sw = &plan.lights[next_switch];
             let info = lights.as_mut().ok_or_else(|| {
@@ -651,7 +801,7 @@ pub fn execute(
                     };
                     r.sample(&a.id, mode, &s);
                     if a.ego {
-                        tracking.push(info.step_index, t, st, a, plan);
+                        tracking.push(info.step_index, t, st, a, &plan);
                     }
                 }
                 if drivers[i].is_some() {
@@ -715,33 +865,40 @@ pub fn execute(
         let last = plan.actors[e].samples.last().copied().unwrap_or_default();
         ek.finish(last.x, last.y);
     }
+    let log = rec.map(|r| {
+        let mut log = r.finish();
+        if !tracking.tick.is_empty() {
+            log.tracking = Some(litesim_log::TrackingColumns {
+                command_source: if ego_i.is_some() { "sut" } else { "planned" }.into(),
+                ..tracking.columns
+            });
+        }
+        // The ego's planned path, drawn as the reference in the
+        // dashboard's map panel and the ego animation.
+        if let Some(ego) = plan.actors.iter().find(|a| a.ego) {
+            log.plan = Some(litesim_log::PlanRecord {
+                corridor: ego.samples.iter().map(|s| [s.x, s.y]).collect(),
+                corridor_speed: ego.samples.iter().map(|s| s.v).collect(),
+                smoothed: true,
+                reference_name: "planned path".into(),
+                ..litesim_log::PlanRecord::default()
+            });
+        }
+        log
+    });
+    let replanned = match plan {
+        Cow::Owned(p) => Some(p),
+        Cow::Borrowed(_) => None,
+    };
     Ok(Executed {
         kpis,
         steps: k,
+        live_events,
         ego: ego_kpi,
         goals: goal_results,
         sut_error,
-        log: rec.map(|r| {
-            let mut log = r.finish();
-            if !tracking.tick.is_empty() {
-                log.tracking = Some(litesim_log::TrackingColumns {
-                    command_source: if ego_i.is_some() { "sut" } else { "planned" }.into(),
-                    ..tracking.columns
-                });
-            }
-            // The ego's planned path, drawn as the reference in the
-            // dashboard's map panel and the ego animation.
-            if let Some(ego) = plan.actors.iter().find(|a| a.ego) {
-                log.plan = Some(litesim_log::PlanRecord {
-                    corridor: ego.samples.iter().map(|s| [s.x, s.y]).collect(),
-                    corridor_speed: ego.samples.iter().map(|s| s.v).collect(),
-                    smoothed: true,
-                    reference_name: "planned path".into(),
-                    ..litesim_log::PlanRecord::default()
-                });
-            }
-            log
-        }),
+        plan: replanned,
+        log,
         profile: caps.profile,
         model: caps.model,
     })

@@ -186,6 +186,9 @@ pub struct Summary {
     pub ego: Option<kpi::EgoKpi>,
     /// Gap goals re-solved live, as they ended.
     pub goals: Vec<reactive::GoalResult>,
+    /// `wait`/`until` conditions as they held on the simulated state
+    /// (closed loop), with the time the plan had for them.
+    pub conditions: Vec<exec::LiveEvent>,
     /// Where the drivers' gains came from (`built-in` or a file).
     pub calibration: String,
     /// What the engine saw but did not execute, and solver remarks.
@@ -232,6 +235,17 @@ pub fn plan_test(
     seed: u64,
     step_ms: u32,
 ) -> Result<(solve::Solution, plan::Plan), ScenarioError> {
+    plan_test_with(prep, seed, step_ms, &BTreeMap::new())
+}
+
+/// [`plan_test`] with the times of some `wait`/`until` conditions fixed
+/// (what the closed loop saw on the simulated state).
+pub fn plan_test_with(
+    prep: &Prepared,
+    seed: u64,
+    step_ms: u32,
+    fixed: &BTreeMap<String, f64>,
+) -> Result<(solve::Solution, plan::Plan), ScenarioError> {
     // Nothing to run says so before anything else (an empty file would
     // otherwise be told it lacks a map).
     if prep.test.root.is_none() {
@@ -244,7 +258,14 @@ pub fn plan_test(
             "the test has no map: set `test_config.map` or pass --map FILE.xodr".into(),
         )
     })?;
-    let plan = plan::plan(&prep.test, &sol, net, f64::from(step_ms) / 1000.0, &mut rng)?;
+    let plan = plan::plan_with(
+        &prep.test,
+        &sol,
+        net,
+        f64::from(step_ms) / 1000.0,
+        &mut rng,
+        fixed,
+    )?;
     Ok((sol, plan))
 }
 
@@ -312,6 +333,7 @@ pub fn run(
                 pairs: Vec::new(),
                 ego: None,
                 goals: Vec::new(),
+                conditions: Vec::new(),
                 calibration: calibration_src,
                 notes,
             },
@@ -349,7 +371,18 @@ pub fn run(
             opts.sut.name()
         ))
     })?;
-    let ex = exec::execute(ssp, &plan, prep.net.as_deref(), &cfg, sut.as_deref_mut())?;
+    let replan =
+        |fixed: &BTreeMap<String, f64>| plan_test_with(prep, seed, step_ms, fixed).map(|(_, p)| p);
+    let mut ex = exec::execute(
+        ssp,
+        &plan,
+        prep.net.as_deref(),
+        &cfg,
+        sut.as_deref_mut(),
+        Some(&replan),
+    )?;
+    // Conditions that held at other times than planned made a new plan.
+    let plan = ex.plan.take().unwrap_or(plan);
     let ego_id = plan.actors.iter().find(|a| a.ego).map(|a| a.id.clone());
     let (failures, judge_notes) = judge::verdict(
         &ex,
@@ -383,6 +416,7 @@ pub fn run(
             pairs,
             ego: ex.ego,
             goals: ex.goals,
+            conditions: ex.live_events,
             calibration: calibration_src,
             notes,
         },

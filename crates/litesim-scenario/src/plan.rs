@@ -234,8 +234,56 @@ pub struct Plan {
     /// (`position(d, ahead_of: x, at: end)`): the runtime re-solves them
     /// against where `x` actually is.
     pub goals: Vec<GapGoal>,
+    /// State conditions of `wait` and `until` (`sut.car.speed > 30kph`,
+    /// `rise(…)`) and when this plan has them hold: the closed-loop runtime
+    /// evaluates them on the simulated state and plans again when they
+    /// hold at another time.
+    pub conditions: Vec<Condition>,
+    /// Actor paths (`s.other`) to ids, for evaluating conditions.
+    #[serde(skip)]
+    pub ids: BTreeMap<String, String>,
     /// Remarks.
     pub notes: Vec<String>,
+}
+
+/// A `wait`/`until` condition over actors' states.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Condition {
+    /// Identity of the condition within the test (stable across layouts).
+    pub key: String,
+    /// When its phase starts (s): it is looked for from then on.
+    pub t0: f64,
+    /// When this plan has it hold (s); `None`: never within the plan.
+    pub at: Option<f64>,
+    /// The condition.
+    #[serde(skip)]
+    pub cond: CExpr,
+}
+
+impl Condition {
+    /// `rise`/`fall`/`hold` and the inner condition.
+    pub fn edge(&self) -> (&str, &CExpr) {
+        edge_of(&self.cond)
+    }
+
+    /// Whether the inner condition holds with actor attributes from
+    /// `sample(id, field)` (field 0 speed, 1 acceleration, 2 x, 3 y);
+    /// `None` when it reads something else.
+    pub fn holds(
+        &self,
+        ids: &BTreeMap<String, String>,
+        sample: &dyn Fn(&str, usize) -> Option<f64>,
+    ) -> Option<bool> {
+        cond_truth(self.edge().1, ids, sample).ok()
+    }
+}
+
+/// `rise`, `fall` or `hold`, and the condition under the edge.
+fn edge_of(c: &CExpr) -> (&str, &CExpr) {
+    match c {
+        CExpr::Unary(op, x) if op == "rise" || op == "fall" => (op.as_str(), &**x),
+        c => ("hold", c),
+    }
 }
 
 /// A phase asks `actor` to end `distance` m (bumper to bumper) ahead of
@@ -739,13 +787,26 @@ pub fn plan(
     step_s: f64,
     rng: &mut Rng,
 ) -> Result<Plan, ScenarioError> {
+    plan_with(test, sol, net, step_s, rng, &BTreeMap::new())
+}
+
+/// [`plan`] with the times of some conditions fixed (by key): what the
+/// closed-loop runtime saw on the simulated state.
+pub fn plan_with(
+    test: &Test,
+    sol: &Solution,
+    net: &RoadNetwork,
+    step_s: f64,
+    rng: &mut Rng,
+    fixed: &BTreeMap<String, f64>,
+) -> Result<Plan, ScenarioError> {
     let ids: BTreeMap<String, String> = test
         .actors
         .iter()
         .map(|a| (a.path.clone(), a.id.clone()))
         .collect();
     let start = rng.clone();
-    let mut events = BTreeMap::new();
+    let mut events = fixed.clone();
     for round in 0..8 {
         let mut r = start.clone();
         let (mut p, conds) = plan_once(test, sol, net, step_s, &mut r, &events)?;
@@ -785,6 +846,16 @@ pub fn plan(
                 p.notes
                     .push("wait/until conditions did not settle in 8 layouts".into());
             }
+            p.conditions = conds
+                .into_iter()
+                .map(|(key, t0, cond)| Condition {
+                    at: events.get(&key).copied(),
+                    key,
+                    t0,
+                    cond,
+                })
+                .collect();
+            p.ids = ids;
             *rng = r;
             return Ok(p);
         }
@@ -793,13 +864,20 @@ pub fn plan(
     unreachable!("the loop returns on its last round")
 }
 
-/// A planned value of an actor attribute or a number at time `t`.
-fn cond_value(e: &CExpr, p: &Plan, ids: &BTreeMap<String, String>, t: f64) -> Result<f64, ()> {
+/// The value of a number or an actor attribute (`a.speed`,
+/// `a.acceleration`, `a.position.x`, `a.position.y`) read through
+/// `sample(id, field)`: from the plan when planning, from the simulated
+/// state in closed loop.
+fn cond_value(
+    e: &CExpr,
+    ids: &BTreeMap<String, String>,
+    sample: &dyn Fn(&str, usize) -> Option<f64>,
+) -> Result<f64, ()> {
     match e {
         CExpr::Const(Value::Num(v)) => Ok(*v),
-        CExpr::Unary(op, x) if op == "-" => Ok(-cond_value(x, p, ids, t)?),
+        CExpr::Unary(op, x) if op == "-" => Ok(-cond_value(x, ids, sample)?),
         CExpr::Binary(op, a, b) if ["+", "-", "*", "/"].contains(&op.as_str()) => {
-            let (a, b) = (cond_value(a, p, ids, t)?, cond_value(b, p, ids, t)?);
+            let (a, b) = (cond_value(a, ids, sample)?, cond_value(b, ids, sample)?);
             Ok(match op.as_str() {
                 "+" => a + b,
                 "-" => a - b,
@@ -816,9 +894,7 @@ fn cond_value(e: &CExpr, p: &Plan, ids: &BTreeMap<String, String>, t: f64) -> Re
             ] {
                 if let Some(actor) = path.strip_suffix(suffix) {
                     let id = ids.get(actor).map_or(actor, String::as_str);
-                    let a = p.actors.iter().find(|a| a.id == id).ok_or(())?;
-                    let s = a.at(t, p.dt);
-                    return Ok([s.v, s.a, s.x, s.y][field]);
+                    return sample(id, field).ok_or(());
                 }
             }
             Err(())
@@ -827,17 +903,21 @@ fn cond_value(e: &CExpr, p: &Plan, ids: &BTreeMap<String, String>, t: f64) -> Re
     }
 }
 
-/// Whether a condition holds at `t` on the plan.
-fn cond_truth(e: &CExpr, p: &Plan, ids: &BTreeMap<String, String>, t: f64) -> Result<bool, ()> {
+/// Whether a condition holds, with attributes read through `sample`.
+fn cond_truth(
+    e: &CExpr,
+    ids: &BTreeMap<String, String>,
+    sample: &dyn Fn(&str, usize) -> Option<f64>,
+) -> Result<bool, ()> {
     match e {
         CExpr::Const(Value::Bool(b)) => Ok(*b),
-        CExpr::Unary(op, x) if op == "not" => Ok(!cond_truth(x, p, ids, t)?),
+        CExpr::Unary(op, x) if op == "not" => Ok(!cond_truth(x, ids, sample)?),
         CExpr::Binary(op, a, b) if op == "and" || op == "or" => {
-            let (a, b) = (cond_truth(a, p, ids, t)?, cond_truth(b, p, ids, t)?);
+            let (a, b) = (cond_truth(a, ids, sample)?, cond_truth(b, ids, sample)?);
             Ok(if op == "and" { a && b } else { a || b })
         }
         CExpr::Binary(op, a, b) => {
-            let (a, b) = (cond_value(a, p, ids, t)?, cond_value(b, p, ids, t)?);
+            let (a, b) = (cond_value(a, ids, sample)?, cond_value(b, ids, sample)?);
             match op.as_str() {
                 "<" => Ok(a < b),
                 "<=" => Ok(a <= b),
@@ -852,6 +932,15 @@ fn cond_truth(e: &CExpr, p: &Plan, ids: &BTreeMap<String, String>, t: f64) -> Re
     }
 }
 
+/// Reads actor attributes from the plan at time `t`.
+fn plan_sample(p: &Plan, t: f64) -> impl Fn(&str, usize) -> Option<f64> + '_ {
+    move |id, field| {
+        let a = p.actors.iter().find(|a| a.id == id)?;
+        let s = a.at(t, p.dt);
+        Some([s.v, s.a, s.x, s.y][field])
+    }
+}
+
 /// The first plan sample time at or after `t0` at which a condition holds
 /// (`rise`: becomes true; `fall`: becomes false). `Err` when it cannot be
 /// evaluated on a plan.
@@ -861,10 +950,7 @@ fn cond_time(
     p: &Plan,
     ids: &BTreeMap<String, String>,
 ) -> Result<Option<f64>, ()> {
-    let (edge, inner) = match c {
-        CExpr::Unary(op, x) if op == "rise" || op == "fall" => (op.as_str(), &**x),
-        _ => ("hold", c),
-    };
+    let (edge, inner) = edge_of(c);
     let n = (p.duration / p.dt).ceil() as usize + 1;
     let mut prev: Option<bool> = None;
     for k in 0..n {
@@ -872,7 +958,7 @@ fn cond_time(
         if t < t0 - 1e-9 {
             continue;
         }
-        let v = cond_truth(inner, p, ids, t)?;
+        let v = cond_truth(inner, ids, &plan_sample(p, t))?;
         let hit = match edge {
             "rise" => prev == Some(false) && v,
             "fall" => prev == Some(true) && !v,
@@ -1435,6 +1521,8 @@ fn plan_once(
             violations,
             lights,
             goals,
+            conditions: Vec::new(),
+            ids: BTreeMap::new(),
             notes,
         },
         conds,

@@ -387,3 +387,52 @@ fn red_lights_judge_the_sut() {
     assert!(acc.summary.pass, "{:?}", acc.summary.failures);
     assert!(acc.summary.ego.as_ref().unwrap().final_speed < 0.5);
 }
+
+#[test]
+fn wait_and_until_conditions_hold_on_the_simulated_state() {
+    // `wait sut.car.speed > 30kph` releases the parked car; `until
+    // rise(sut.car.speed > 40kph)` ends the ego's pull-away. Under the
+    // cruise the ego's real speed crosses those at other times than the
+    // plan's: the run follows the real ones.
+    let planned = go("state_conditions", SutChoice::Planned);
+    assert!(
+        planned.summary.conditions.is_empty(),
+        "the player keeps its plan"
+    );
+    let acc = go("state_conditions", SutChoice::Acc);
+    assert!(acc.summary.pass, "{:?}", acc.summary.failures);
+    let c = &acc.summary.conditions;
+    assert_eq!(c.len(), 2, "{c:?}");
+    let wait = c.iter().find(|e| !e.condition.starts_with("rise")).unwrap();
+    assert!(wait.condition.contains("sut.car.speed > 8.33"), "{wait:?}");
+    assert_eq!(wait.planned, Some(5.1000000000000005));
+    let ego = &track(&acc, "sut.car").state;
+    let other = &track(&acc, "other").state;
+    let time = &acc.log.as_ref().unwrap().time;
+    // The live time is the first tick at which the ego's own speed is
+    // above 30 km/h.
+    let crossed = (0..time.len())
+        .find(|&k| ego.speed[k] > 30.0 / 3.6)
+        .unwrap();
+    assert!(
+        (time[crossed] - wait.live).abs() < 0.021,
+        "{} vs {}",
+        time[crossed],
+        wait.live
+    );
+    assert!(
+        (wait.live - 5.1).abs() > 0.5,
+        "the cruise differs from the plan"
+    );
+    // The parked car stays until then and drives off right after.
+    let moved = (0..time.len())
+        .find(|&k| other.x[k] > other.x[0] + 0.001)
+        .unwrap();
+    assert!(
+        time[moved] >= wait.live && time[moved] < wait.live + 0.2,
+        "{}",
+        time[moved]
+    );
+    // The plan in the summary is the one in force at the end.
+    assert!(acc.plan.conditions.iter().all(|x| x.at.is_some()));
+}
