@@ -22,6 +22,7 @@ pub mod actor;
 pub mod control;
 pub mod geometry;
 pub mod math;
+pub mod rng;
 pub mod run;
 pub mod trajectory;
 pub mod vehicle;
@@ -35,6 +36,7 @@ pub use control::{
     SteeringInput, normalize_command,
 };
 pub use geometry::{Polyline, Pose, Projection, Vec2, Vec3, wrap_angle};
+pub use rng::Rng;
 pub use run::{StopCondition, run_loop, steps_for_horizon};
 pub use trajectory::{TimedPoint, Trajectory, TrajectoryError};
 pub use vehicle::{

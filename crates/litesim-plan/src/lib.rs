@@ -18,7 +18,8 @@ pub mod corridor;
 pub mod fmt;
 pub mod grid;
 pub mod mpc;
-pub mod rng;
+/// The seeded generator lives in `litesim-core` (shared with the scenario engine).
+pub use litesim_core::rng;
 
 pub use closed_loop::{ClosedLoopConfig, ClosedLoopResult, PlanError, run_closed_loop};
 pub use corridor::Corridor;

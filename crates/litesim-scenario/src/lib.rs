@@ -31,8 +31,8 @@ pub mod sut;
 pub use error::ScenarioError;
 pub use exec::DriveMode;
 
+use litesim_core::rng::Rng;
 use litesim_map::RoadNetwork;
-use litesim_plan::rng::Rng;
 use litesim_ssp::Ssp;
 use serde::Serialize;
 use std::collections::BTreeMap;

@@ -9,8 +9,8 @@
 
 use crate::elab::{CExpr, RoadKind, Test, Value};
 use crate::error::ScenarioError;
+use litesim_core::rng::Rng;
 use litesim_map::RoadNetwork;
-use litesim_plan::rng::Rng;
 use serde::Serialize;
 use std::collections::BTreeMap;
 
