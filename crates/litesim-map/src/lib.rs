@@ -17,12 +17,14 @@
 pub mod export;
 pub mod geometry;
 pub mod grid;
+pub mod lanes;
 pub mod model;
 pub mod network;
 pub mod parse;
 pub mod road;
 
 pub use grid::{GridError, Obstacle, OccupancyGrid};
+pub use lanes::LanePos;
 pub use network::{LanePolyline, LaneRef, MarkRun, RoadNetwork, RoadPosition, RoadSummary};
 pub use parse::{MapError, Warning, parse};
 pub use road::{Direction, LaneSpan};

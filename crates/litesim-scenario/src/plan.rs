@@ -22,10 +22,10 @@
 use crate::elab::{ActorDef, ActorKind, CExpr, Modifier, Node, Test, Value};
 use crate::error::ScenarioError;
 use crate::solve::{Solution, sample};
-use litesim_core::geometry::{Pose, wrap_angle};
+use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
 use litesim_core::rng::Rng;
-use litesim_map::{Direction, LaneRef, RoadNetwork};
+use litesim_map::{LanePos, RoadNetwork};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::sync::OnceLock;
@@ -585,158 +585,6 @@ impl<'a> Timer<'a> {
             Node::Wait { .. } => t0 + dur.unwrap_or(0.0),
         }
     }
-}
-
-/// Where an actor is on the lane graph.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct LanePos {
-    road: usize,
-    lane: i32,
-    s: f64,
-}
-
-fn forward(net: &RoadNetwork, p: LanePos) -> bool {
-    net.roads()[p.road].lane_direction(p.s, p.lane) != Direction::Backward
-}
-
-/// Moves `ds` metres along the direction of travel (negative = back),
-/// across road ends through the lane graph.
-fn advance(net: &RoadNetwork, mut p: LanePos, mut ds: f64) -> LanePos {
-    for _ in 0..64 {
-        let road = &net.roads()[p.road];
-        let dir = if forward(net, p) { 1.0 } else { -1.0 };
-        let s_new = p.s + dir * ds;
-        if (0.0..=road.length).contains(&s_new) {
-            p.s = s_new;
-            return p;
-        }
-        // Leaving this road: the remaining distance continues on the next lane.
-        let (edge, rest) = if s_new > road.length {
-            (road.length, s_new - road.length)
-        } else {
-            (0.0, -s_new)
-        };
-        let leaving_forward = (s_new > road.length) == (dir > 0.0);
-        let here = LaneRef {
-            road: p.road,
-            section: road.section_index(edge.clamp(0.0, road.length)),
-            lane: p.lane,
-        };
-        let next = if leaving_forward {
-            net.successors(here).into_iter().next()
-        } else {
-            predecessor(net, here)
-        };
-        let Some(n) = next else {
-            p.s = edge;
-            return p;
-        };
-        let nr = &net.roads()[n.road];
-        let probe = LanePos {
-            road: n.road,
-            lane: n.lane,
-            s: nr.sections[n.section].s + 0.01,
-        };
-        let nf = forward(net, probe);
-        p = LanePos {
-            road: n.road,
-            lane: n.lane,
-            s: if nf == leaving_forward {
-                0.0
-            } else {
-                nr.length
-            },
-        };
-        ds = rest;
-    }
-    p
-}
-
-/// Moves `dist` metres of *travelled path* along the lane: `s` runs along
-/// the road's reference line, so on a curve a lane centre away from it is
-/// longer or shorter than `ds`; one secant correction makes the path
-/// length match (the planned speed is then the speed a car really has).
-/// `at_p` is `p`'s pose when the caller has it already (the sampler does).
-fn advance_path(net: &RoadNetwork, p: LanePos, dist: f64, at_p: Option<Pose>) -> LanePos {
-    let q = advance(net, p, dist);
-    let a = at_p.unwrap_or_else(|| pose(net, p, 0.0));
-    let b = pose(net, q, 0.0);
-    let chord = a.position.xy().distance(b.position.xy());
-    // Chords of long placement moves (tens of metres) are shorter than
-    // arcs; the error stays below 0.1 % on lanes of radius > 50 m.
-    if chord > 1e-6 && q.road == p.road {
-        advance(net, p, dist * dist.abs() / chord)
-    } else {
-        q
-    }
-}
-
-fn predecessor(net: &RoadNetwork, to: LaneRef) -> Option<LaneRef> {
-    for (ri, r) in net.roads().iter().enumerate() {
-        for (si, sec) in r.sections.iter().enumerate() {
-            for l in sec.left.iter().chain(sec.right.iter()) {
-                let from = LaneRef {
-                    road: ri,
-                    section: si,
-                    lane: l.id,
-                };
-                if from != to && net.successors(from).contains(&to) {
-                    return Some(from);
-                }
-            }
-        }
-    }
-    None
-}
-
-/// Driving lanes of a road at `s` that run the same way as `lane`, ordered
-/// from the rightmost (number 1) to the leftmost in the direction of travel.
-fn lanes_same_way(net: &RoadNetwork, road: usize, s: f64, fwd: bool) -> Vec<i32> {
-    let r = &net.roads()[road];
-    let mut v: Vec<i32> = r
-        .lane_spans(s)
-        .into_iter()
-        .filter(|sp| r.lane(s, sp.id).is_some_and(|l| l.is_drivable()))
-        .map(|sp| sp.id)
-        .filter(|id| (r.lane_direction(s, *id) != Direction::Backward) == fwd)
-        .collect();
-    // Rightmost first: in the direction of travel, right is smaller t.
-    v.sort_by(|a, b| {
-        let ta = r.lane_span(s, *a).map_or(0.0, |x| x.t_center());
-        let tb = r.lane_span(s, *b).map_or(0.0, |x| x.t_center());
-        if fwd {
-            ta.total_cmp(&tb)
-        } else {
-            tb.total_cmp(&ta)
-        }
-    });
-    v
-}
-
-/// The lane `n` lanes to the left (negative: right) of `p`'s lane. Left of
-/// the leftmost lane of a direction is the nearest lane of the opposite
-/// direction (across the centre line), as on a two-way road.
-fn lane_beside(net: &RoadNetwork, p: LanePos, n: i32) -> Option<i32> {
-    let fwd = forward(net, p);
-    let lanes = lanes_same_way(net, p.road, p.s, fwd);
-    let i = lanes.iter().position(|l| *l == p.lane)? as i32 + n;
-    if (0..lanes.len() as i32).contains(&i) {
-        return Some(lanes[i as usize]);
-    }
-    if n > 0 {
-        let opposite = lanes_same_way(net, p.road, p.s, !fwd);
-        let k = (i - lanes.len() as i32) as usize;
-        // Opposite lanes are listed rightmost (outermost) first: the
-        // innermost is last.
-        return opposite.iter().rev().nth(k).copied();
-    }
-    None
-}
-
-fn pose(net: &RoadNetwork, p: LanePos, offset: f64) -> Pose {
-    let id = &net.roads()[p.road].id;
-    net.lane_pose(id, p.lane, p.s, offset)
-        .unwrap_or_else(|| Pose::planar(0.0, 0.0, 0.0))
 }
 
 /// Per-actor motion state while sampling.
@@ -1316,7 +1164,7 @@ fn plan_once(
                                 });
                                 let gap = num(vals, "distance").unwrap_or(5.0)
                                     + (op.length + plans[i].length) / 2.0;
-                                let me = pose(net, mo.pos, 0.0);
+                                let me = net.lane_pos_pose(mo.pos, 0.0);
                                 let here_other = op.at(t, plan_dt);
                                 // Distance the other covers plus the change of gap.
                                 let (so, co) = math::sin_cos(here_other.yaw);
@@ -1337,7 +1185,7 @@ fn plan_once(
                                     .and_then(|v| v.text().map(String::from))
                                     .unwrap_or_else(|| "left".into());
                                 let d = if side == "right" { -nl } else { nl };
-                                Some(lane_beside(net, mo.pos, d).ok_or_else(|| {
+                                Some(net.lane_beside(mo.pos, d).ok_or_else(|| {
                                     ScenarioError::Plan(format!(
                                         "{}: {id} cannot change {nl} lane(s) to the {side} on road {} (lane {})",
                                         l.at, net.roads()[mo.pos.road].id, mo.pos.lane
@@ -1355,18 +1203,17 @@ fn plan_once(
                                                 lane: olp.lane,
                                             };
                                             match k2.as_str() {
-                                                "left_of" => lane_beside(net, base, 1),
-                                                "right_of" => lane_beside(net, base, -1),
+                                                "left_of" => net.lane_beside(base, 1),
+                                                "right_of" => net.lane_beside(base, -1),
                                                 _ => Some(olp.lane),
                                             }
                                         })
                                     }
                                     None => num(vals, "lane").and_then(|n| {
-                                        lanes_same_way(
-                                            net,
+                                        net.lanes_same_way(
                                             mo.pos.road,
                                             mo.pos.s,
-                                            forward(net, mo.pos),
+                                            net.travels_forward(mo.pos),
                                         )
                                         .get((n as usize).saturating_sub(1))
                                         .copied()
@@ -1417,15 +1264,14 @@ fn plan_once(
             let p = if let Some((from, to, c0, c1)) = mo.change {
                 let u = ((t - c0) / (c1 - c0)).clamp(0.0, 1.0);
                 let sm = u * u * (3.0 - 2.0 * u);
-                let a = pose(
-                    net,
+                let a = net.lane_pos_pose(
                     LanePos {
                         lane: from,
                         ..mo.pos
                     },
                     0.0,
                 );
-                let b = pose(net, LanePos { lane: to, ..mo.pos }, 0.0);
+                let b = net.lane_pos_pose(LanePos { lane: to, ..mo.pos }, 0.0);
                 let width = a.position.xy().distance(b.position.xy());
                 lat_rate = width * 6.0 * u * (1.0 - u) / (c1 - c0);
                 if b.yaw.is_finite() {
@@ -1444,7 +1290,7 @@ fn plan_once(
                 q.position.y = a.position.y + (b.position.y - a.position.y) * sm;
                 q
             } else {
-                let c = pose(net, mo.pos, 0.0);
+                let c = net.lane_pos_pose(mo.pos, 0.0);
                 centre = Some(c);
                 c
             };
@@ -1473,7 +1319,7 @@ fn plan_once(
                 mo.lateral += mo.across * mo.v * plan_dt;
             } else {
                 let before = mo.pos;
-                mo.pos = advance_path(net, mo.pos, mo.v * plan_dt, centre);
+                mo.pos = net.advance_path(mo.pos, mo.v * plan_dt, centre);
                 if mo.v > 0.0 && mo.pos == before && !dead_end {
                     dead_end = true;
                     notes.push(format!(
@@ -1608,9 +1454,9 @@ fn place(
         mo.pos.road = road;
         let r = &net.roads()[road];
         // Lanes going either way; prefer forward lanes, then any.
-        let mut lanes = lanes_same_way(net, road, 0.01, true);
+        let mut lanes = net.lanes_same_way(road, 0.01, true);
         if lanes.is_empty() {
-            lanes = lanes_same_way(net, road, 0.01, false);
+            lanes = net.lanes_same_way(road, 0.01, false);
         }
         if lanes.is_empty() {
             return Err(ScenarioError::Plan(format!(
@@ -1653,7 +1499,7 @@ fn place(
         }
         mo.pos.s = s.clamp(0.0, r.length);
         // Point the lane's s at its direction of travel: s runs backwards on backward lanes.
-        if !forward(net, mo.pos) {
+        if !net.travels_forward(mo.pos) {
             mo.pos.s = (r.length - mo.pos.s).clamp(0.0, r.length);
         }
     }
@@ -1670,7 +1516,7 @@ fn place(
                 mo.pos.lane = if d == 0 {
                     om.pos.lane
                 } else {
-                    lane_beside(net, base, d).ok_or_else(|| {
+                    net.lane_beside(base, d).ok_or_else(|| {
                         ScenarioError::Plan(format!(
                             "{at}: no lane {} of {o} on road {} for {}",
                             if d > 0 { "left" } else { "right" },
@@ -1699,8 +1545,7 @@ fn place(
                 };
                 let gap = d + (ol + me.length) / 2.0;
                 let lane = mo.pos.lane;
-                mo.pos = advance_path(
-                    net,
+                mo.pos = net.advance_path(
                     LanePos {
                         lane: om.pos.lane,
                         ..om.pos
