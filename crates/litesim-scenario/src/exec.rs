@@ -552,9 +552,7 @@ pub fn execute(
             let t = now_ms as f64 / 1000.0;
             // The others re-solve their gap goals against where the actors are.
             for (i, a) in plan.actors.iter().enumerate() {
-                // Pedal-driven actors keep their plan's clock: their drivers
-                // do not hold a re-timed reference yet (a known gap).
-                if i == e || drivers[i].is_some() {
+                if i == e {
                     continue;
                 }
                 let goal = plan.goals.iter().zip(&goal_actors).find_map(|(g, ix)| {
@@ -679,21 +677,35 @@ pub fn execute(
                     .map_err(ssp_err)?;
                 }
                 Some(d) => {
-                    let t_next = warps[i].tau(t_next);
                     let Some(st) = &states[i] else {
                         // First step: the actor starts at the plan's speed; hold it.
-                        let p = a.at(t_next, plan.dt);
+                        let p = a.at(warps[i].tau(t_next), plan.dt);
                         let u = d.feed_forward(p.a, p.v);
                         send_dynamic(ssp, &a.id, u, 0.0, d, &mut controls[i])?;
                         continue;
                     };
+                    let t_now = now_ms as f64 / 1000.0;
+                    // A re-timed actor's clock follows the car: its plan
+                    // time is the one whose point is abreast of it (a
+                    // reference ahead of or behind the car would turn its
+                    // heading error into lateral error and diverge).
+                    if warps[i].lag != 0.0 || warps[i].rate != 1.0 {
+                        let there = a.at(warps[i].tau(t_now), plan.dt);
+                        let (sh, ch) = math::sin_cos(there.yaw);
+                        let along = (st.pose.position.x - there.x) * ch
+                            + (st.pose.position.y - there.y) * sh;
+                        warps[i].lag += along / there.v.max(0.5);
+                    }
+                    let t_next = warps[i].tau(t_next);
                     // A re-timed actor moves `rate` times its plan's speed.
                     let rate = warps[i].rate;
                     let mut p = a.at(t_next, plan.dt);
                     let v_plan = p.v;
-                    p.v *= rate;
-                    p.a *= rate * rate;
-                    let here = a.at(warps[i].tau(now_ms as f64 / 1000.0), plan.dt);
+                    if warps[i].lag != 0.0 || rate != 1.0 {
+                        p.v *= rate;
+                        p.a = warps[i].accel;
+                    }
+                    let here = a.at(warps[i].tau(t_now), plan.dt);
                     let err = p.v - st.speed;
                     d.integral = (d.integral + err * dt).clamp(-5.0, 5.0);
                     let derr = (err - d.last_err) / dt;

@@ -32,6 +32,9 @@ pub struct Warp {
     pub rate: f64,
     /// Lag when the actor's trajectory was last sent.
     pub sent_lag: f64,
+    /// The re-timed motion's acceleration over the last step (m/s²): what
+    /// a pedal driver feeds forward.
+    pub accel: f64,
 }
 
 /// What a goal came to at its phase's end.
@@ -87,6 +90,7 @@ impl Warp {
             lag: 0.0,
             rate: 1.0,
             sent_lag: 0.0,
+            accel: 0.0,
         }
     }
 
@@ -123,6 +127,7 @@ impl Warp {
             }
         };
         let v_new = v_now + (v_want - v_now).clamp(-ACCEL_DOWN * dt, ACCEL_UP * dt);
+        self.accel = (v_new - v_now) / dt;
         let rate = if v_plan > 0.5 {
             (v_new / v_plan).clamp(0.0, 4.0)
         } else {

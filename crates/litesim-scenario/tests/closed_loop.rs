@@ -139,11 +139,22 @@ fn the_other_re_solves_its_gap_against_the_actual_ego() {
     );
     // …and the other with it.
     assert!(end(&planned, "other") - end(&acc, "other") > 5.0);
-    // Pedal-driven non-SUT actors keep their plan's clock (not re-timed
-    // yet); the goal is still judged on the simulated state.
+    // Pedal-driven non-SUT actors are re-timed too: their driver follows
+    // the re-timed speed and steers by the plan's point abreast of the car.
+    // Their brakes respond later than a kinematic actor's, so the gap is
+    // met less tightly (here 7.9 m for 5 m) — but the car stays on the road.
     let dynamic = go_with("cut_in", SutChoice::Acc, DriveMode::Dynamic);
     let g = &dynamic.summary.goals[0];
-    assert!(g.got.is_finite() && g.t == 10.0, "{g:?}");
+    assert!((g.got - 5.0).abs() < 3.5, "{g:?}");
+    assert!(
+        dynamic
+            .summary
+            .failures
+            .iter()
+            .all(|f| !f.contains("off the road")),
+        "{:?}",
+        dynamic.summary.failures
+    );
 }
 
 #[test]
