@@ -88,6 +88,7 @@ pub fn reference_plan(step_s: f64) -> Plan {
         violations: Vec::new(),
         lights: Vec::new(),
         goals: Vec::new(),
+        lane_goals: Vec::new(),
         conditions: Vec::new(),
         ids: Default::default(),
         notes: Vec::new(),

@@ -13,7 +13,7 @@
 use crate::error::ScenarioError;
 use crate::kpi::{BoxState, EgoKpi, Kpis};
 use crate::plan::Plan;
-use crate::reactive::{Body, GoalResult, Warp};
+use crate::reactive::{Body, GoalResult, LaneResult, Warp, shifted};
 use crate::sut::{LightState, ObjectState, Observation, RoadPos, Route, Sut, SutCommand, SutInfo};
 use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
@@ -85,6 +85,8 @@ pub struct Executed {
     pub ego: Option<EgoKpi>,
     /// Gap goals re-solved during the run, judged at their phase ends.
     pub goals: Vec<GoalResult>,
+    /// Lane goals, judged at their phase ends on the simulated state.
+    pub lane_goals: Vec<LaneResult>,
     /// The SUT failed: the run stopped here (`sut error at t=…: …`).
     pub sut_error: Option<String>,
     /// `wait`/`until` conditions as they held on the simulated state.
@@ -430,6 +432,8 @@ pub fn execute(
         .map(|c| (c.key.clone(), c.at))
         .collect();
     let mut next_goal = 0;
+    let mut next_lane_goal = 0;
+    let mut lane_results: Vec<LaneResult> = Vec::new();
     // The SUT's view of the lights is rebuilt only after a switch.
     let mut lights_seen = false;
     let mut goal_results = Vec::new();
@@ -517,6 +521,7 @@ pub fn execute(
                 goal_actors = goal_indices(&plan);
                 // Goals ended and switches due by now belong to the past.
                 next_goal = plan.goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
+                next_lane_goal = plan.lane_goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
                 next_switch = plan
                     .lights
                     .iter()
@@ -592,6 +597,18 @@ pub fn execute(
             if let Some(p) = rp {
                 route_hint = p.segment;
             }
+            // Lane goals relative to sut.car follow its sideways move off
+            // its planned path (its route).
+            if let Some(p) = rp {
+                for g in &plan.lane_goals {
+                    if g.reference != plan.actors[e].id || t < g.t0 - 1e-9 || t >= g.t1 - 1e-9 {
+                        continue;
+                    }
+                    if let Some(m) = plan.actors.iter().position(|a| a.id == g.actor) {
+                        warps[m].shift_towards(p.lateral, dt);
+                    }
+                }
+            }
             obs.distance_to_goal = rp.map_or(0.0, |p| route.length() - p.s);
             obs.requested_speed = plan.actors[e].at(t, plan.dt).v;
             obs.road = last_pos[e].as_ref().map(|p| RoadPos {
@@ -639,10 +656,16 @@ pub fn execute(
             match drivers[i].as_mut() {
                 None => {
                     let w = warps[i];
-                    if !open_loop && k % send_every != 0 && w.lag == w.sent_lag && w.rate == 1.0 {
+                    if !open_loop
+                        && k % send_every != 0
+                        && w.lag == w.sent_lag
+                        && w.rate == 1.0
+                        && w.offset == w.sent_offset
+                    {
                         continue;
                     }
                     warps[i].sent_lag = w.lag;
+                    warps[i].sent_offset = w.offset;
                     let ahead = if open_loop {
                         n_steps * step_ms + 200
                     } else {
@@ -659,7 +682,7 @@ pub fn execute(
                         } else {
                             w.tau(now_ms as f64 / 1000.0) + w.rate * (j * step_ms) as f64 / 1000.0
                         };
-                        let p = a.at(tau, plan.dt);
+                        let p = shifted(a.at(tau, plan.dt), w.offset);
                         points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), mirror));
                         times.push(tm);
                         sp.push(p.v);
@@ -699,13 +722,14 @@ pub fn execute(
                     let t_next = warps[i].tau(t_next);
                     // A re-timed actor moves `rate` times its plan's speed.
                     let rate = warps[i].rate;
-                    let mut p = a.at(t_next, plan.dt);
+                    let off = warps[i].offset;
+                    let mut p = shifted(a.at(t_next, plan.dt), off);
                     let v_plan = p.v;
                     if warps[i].lag != 0.0 || rate != 1.0 {
                         p.v *= rate;
                         p.a = warps[i].accel;
                     }
-                    let here = a.at(warps[i].tau(t_now), plan.dt);
+                    let here = shifted(a.at(warps[i].tau(t_now), plan.dt), off);
                     let err = p.v - st.speed;
                     d.integral = (d.integral + err * dt).clamp(-5.0, 5.0);
                     let derr = (err - d.last_err) / dt;
@@ -761,7 +785,7 @@ pub fn execute(
                         ScenarioError::Ssp(format!("the simulator lost actor '{}'", a.id))
                     })?,
                 };
-                let p = a.at(warps[i].tau(t), plan.dt);
+                let p = shifted(a.at(warps[i].tau(t), plan.dt), warps[i].offset);
                 boxes.push(BoxState {
                     x: st.pose.position.x,
                     y: st.pose.position.y,
@@ -838,6 +862,42 @@ pub fn execute(
             }
             kpis.step(t, &boxes, &speeds, &planned, &off);
             // Gap goals whose phase ends now: judged on the simulated state.
+            while next_lane_goal < plan.lane_goals.len()
+                && t >= plan.lane_goals[next_lane_goal].t1 - 1e-9
+            {
+                let g = &plan.lane_goals[next_lane_goal];
+                next_lane_goal += 1;
+                let idx = |id: &str| plan.actors.iter().position(|a| a.id == id);
+                let (Some(m), Some(r), Some(net)) = (idx(&g.actor), idx(&g.reference), net) else {
+                    continue;
+                };
+                let on = |j: usize| net.to_road(litesim_core::Vec2::new(boxes[j].x, boxes[j].y));
+                let got = on(m).map(|p| p.lane);
+                let wanted = on(r).and_then(|p| {
+                    let road = net.roads().iter().position(|x| x.id == p.road)?;
+                    let here = litesim_map::LanePos {
+                        road,
+                        lane: p.lane,
+                        s: p.s,
+                    };
+                    match g.relation.as_str() {
+                        "left_of" => net.lane_beside(here, 1),
+                        "right_of" => net.lane_beside(here, -1),
+                        _ => Some(p.lane),
+                    }
+                });
+                lane_results.push(LaneResult {
+                    actor: g.actor.clone(),
+                    reference: g.reference.clone(),
+                    relation: g.relation.clone(),
+                    wanted,
+                    got,
+                    t,
+                    met: wanted.is_some() && wanted == got,
+                    strict: g.strict,
+                    at: g.at.clone(),
+                });
+            }
             while next_goal < plan.goals.len() && t >= plan.goals[next_goal].t1 - 1e-9 {
                 let g = &plan.goals[next_goal];
                 let ix = goal_actors[next_goal];
@@ -908,6 +968,7 @@ pub fn execute(
         live_events,
         ego: ego_kpi,
         goals: goal_results,
+        lane_goals: lane_results,
         sut_error,
         plan: replanned,
         log,

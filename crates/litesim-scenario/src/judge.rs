@@ -81,6 +81,24 @@ pub fn verdict(
             notes.push(format!("best effort: {msg}"));
         }
     }
+    for g in ex.lane_goals.iter().filter(|g| !g.met) {
+        let lane = |l: Option<i32>| l.map_or("no lane".to_string(), |l| format!("lane {l}"));
+        let msg = format!(
+            "{}: {} ended in {} at {:.2} s, wanted {} ({} {})",
+            g.at,
+            g.actor,
+            lane(g.got),
+            g.t,
+            lane(g.wanted),
+            g.relation,
+            g.reference
+        );
+        if g.strict {
+            failures.push(msg);
+        } else {
+            notes.push(format!("best effort: {msg}"));
+        }
+    }
     let Some(ego) = ego_id else {
         return (failures, notes);
     };

@@ -186,6 +186,8 @@ pub struct Summary {
     pub ego: Option<kpi::EgoKpi>,
     /// Gap goals re-solved live, as they ended.
     pub goals: Vec<reactive::GoalResult>,
+    /// Lane goals (`lane(same_as: x, at: end)`), as they ended.
+    pub lane_goals: Vec<reactive::LaneResult>,
     /// `wait`/`until` conditions as they held on the simulated state
     /// (closed loop), with the time the plan had for them.
     pub conditions: Vec<exec::LiveEvent>,
@@ -333,6 +335,7 @@ pub fn run(
                 pairs: Vec::new(),
                 ego: None,
                 goals: Vec::new(),
+                lane_goals: Vec::new(),
                 conditions: Vec::new(),
                 calibration: calibration_src,
                 notes,
@@ -416,6 +419,7 @@ pub fn run(
             pairs,
             ego: ex.ego,
             goals: ex.goals,
+            lane_goals: ex.lane_goals,
             conditions: ex.live_events,
             calibration: calibration_src,
             notes,

@@ -234,6 +234,10 @@ pub struct Plan {
     /// (`position(d, ahead_of: x, at: end)`): the runtime re-solves them
     /// against where `x` actually is.
     pub goals: Vec<GapGoal>,
+    /// Lanes phases ask for at their end relative to another actor
+    /// (`lane(same_as: sut.car, at: end)`): re-solved against the lane that
+    /// actor is really in.
+    pub lane_goals: Vec<LaneGoal>,
     /// State conditions of `wait` and `until` (`sut.car.speed > 30kph`,
     /// `rise(…)`) and when this plan has them hold: the closed-loop runtime
     /// evaluates them on the simulated state and plans again when they
@@ -244,6 +248,26 @@ pub struct Plan {
     pub ids: BTreeMap<String, String>,
     /// Remarks.
     pub notes: Vec<String>,
+}
+
+/// A phase asks `actor` to end in the lane `relation` (`same_as`,
+/// `left_of`, `right_of`) `reference`'s.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LaneGoal {
+    /// The actor that moves.
+    pub actor: String,
+    /// The actor whose lane counts.
+    pub reference: String,
+    /// `same_as`, `left_of` or `right_of`.
+    pub relation: String,
+    /// Phase start (s).
+    pub t0: f64,
+    /// Phase end (s): when the lane is judged.
+    pub t1: f64,
+    /// A miss fails the run.
+    pub strict: bool,
+    /// The modifier's place in the test.
+    pub at: String,
 }
 
 /// A `wait`/`until` condition over actors' states.
@@ -915,6 +939,7 @@ fn plan_once(
     let mut notes = Vec::new();
     let mut violations = Vec::new();
     let mut goals: Vec<GapGoal> = Vec::new();
+    let mut lane_goals: Vec<LaneGoal> = Vec::new();
 
     // Resolve each leaf's modifier arguments once, in time order (seeded).
     let mut leaves = leaves;
@@ -1193,6 +1218,17 @@ fn plan_once(
                                 })?)
                             } else if at == "end" {
                                 let rel = refs.iter().next();
+                                if let Some((k2, o)) = rel {
+                                    lane_goals.push(LaneGoal {
+                                        actor: id.clone(),
+                                        reference: o.clone(),
+                                        relation: k2.clone(),
+                                        t0: l.t0,
+                                        t1: l.t1,
+                                        strict: strict(vals),
+                                        at: l.at.clone(),
+                                    });
+                                }
                                 match rel {
                                     Some((k2, o)) => {
                                         let ol = placed.get(o).map(|m| m.pos);
@@ -1367,6 +1403,7 @@ fn plan_once(
             violations,
             lights,
             goals,
+            lane_goals,
             conditions: Vec::new(),
             ids: BTreeMap::new(),
             notes,

@@ -35,6 +35,11 @@ pub struct Warp {
     /// The re-timed motion's acceleration over the last step (m/s²): what
     /// a pedal driver feeds forward.
     pub accel: f64,
+    /// Sideways shift of the actor's planned path (m, left +): a lane goal
+    /// follows its reference's shift from the reference's own plan.
+    pub offset: f64,
+    /// Offset when the actor's trajectory was last sent.
+    pub sent_offset: f64,
 }
 
 /// What a goal came to at its phase's end.
@@ -58,6 +63,51 @@ pub struct GoalResult {
     pub strict: bool,
     /// Where the modifier is.
     pub at: String,
+}
+
+/// Sideways speed of a lane goal's shift (m/s): a lane (3.5 m) in about
+/// 2.3 s, a brisk lane change.
+pub const LATERAL_SPEED: f64 = 1.5;
+
+/// What a lane goal came to at its phase's end.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LaneResult {
+    /// The actor.
+    pub actor: String,
+    /// Reference actor.
+    pub reference: String,
+    /// `same_as`, `left_of` or `right_of`.
+    pub relation: String,
+    /// The lane wanted (OpenDRIVE id), when the reference is on a road.
+    pub wanted: Option<i32>,
+    /// The lane the actor is in, when on a road.
+    pub got: Option<i32>,
+    /// Phase end (s).
+    pub t: f64,
+    /// Met.
+    pub met: bool,
+    /// Strict (a miss fails the run).
+    pub strict: bool,
+    /// Where the modifier is.
+    pub at: String,
+}
+
+/// A planned point moved `offset` m to its left.
+pub fn shifted(mut p: crate::plan::PlanSample, offset: f64) -> crate::plan::PlanSample {
+    if offset != 0.0 {
+        let (s, c) = math::sin_cos(p.yaw);
+        p.x -= s * offset;
+        p.y += c * offset;
+    }
+    p
+}
+
+impl Warp {
+    /// Moves the path's sideways shift towards `target` (m) for one step.
+    pub fn shift_towards(&mut self, target: f64, dt: f64) {
+        let step = LATERAL_SPEED * dt;
+        self.offset += (target - self.offset).clamp(-step, step);
+    }
 }
 
 /// Pose and speed of an actor as the goal controller reads it.
@@ -91,6 +141,8 @@ impl Warp {
             rate: 1.0,
             sent_lag: 0.0,
             accel: 0.0,
+            offset: 0.0,
+            sent_offset: 0.0,
         }
     }
 

@@ -447,3 +447,73 @@ fn wait_and_until_conditions_hold_on_the_simulated_state() {
     // The plan in the summary is the one in force at the end.
     assert!(acc.plan.conditions.iter().all(|x| x.at.is_some()));
 }
+
+/// A SUT that cruises in its lane and, from 6 s on, in the lane to its left
+/// (its route shifted 3.5 m left): a stack that changes lanes on its own.
+struct LeftAt6 {
+    stay: litesim_scenario::sut::acc::Acc,
+    left: litesim_scenario::sut::acc::Acc,
+}
+
+impl Sut for LeftAt6 {
+    fn name(&self) -> String {
+        "left-at-6".into()
+    }
+    fn reset(&mut self, info: &SutInfo) -> Result<(), SutError> {
+        self.stay.reset(info)?;
+        let r = &info.route;
+        let pts: Vec<[f64; 2]> = (0..r.points.len())
+            .map(|k| {
+                let (_, h) = r.at(r.s[k]);
+                [
+                    r.points[k][0] - 3.5 * h.sin(),
+                    r.points[k][1] + 3.5 * h.cos(),
+                ]
+            })
+            .collect();
+        let mut shifted = info.clone();
+        shifted.route = litesim_scenario::sut::Route::new(&pts, &r.speed);
+        self.left.reset(&shifted)
+    }
+    fn step(&mut self, obs: &Observation) -> Result<SutCommand, SutError> {
+        let a = self.stay.step(obs)?;
+        let b = self.left.step(obs)?;
+        Ok(if obs.time >= 6.0 { b } else { a })
+    }
+}
+
+struct LeftAt6Factory;
+
+impl SutFactory for LeftAt6Factory {
+    fn name(&self) -> String {
+        "left-at-6".into()
+    }
+    fn create(&self) -> Result<Box<dyn Sut>, SutError> {
+        Ok(Box::new(LeftAt6 {
+            stay: Default::default(),
+            left: Default::default(),
+        }))
+    }
+}
+
+#[test]
+fn a_lane_goal_follows_the_lane_the_sut_really_takes() {
+    // cut_in's other ends `lane(same_as: sut.car, at: end)`; the planned
+    // ego stays in lane -3, this SUT moves to lane -2 from 6 s on: the
+    // other follows it there instead of cutting into the empty lane.
+    let planned = go("cut_in", SutChoice::Planned);
+    assert_eq!(planned.summary.lane_goals[0].got, Some(-3));
+    let r = go("cut_in", SutChoice::External(Arc::new(LeftAt6Factory)));
+    let g = &r.summary.lane_goals[0];
+    assert_eq!(
+        (g.relation.as_str(), g.wanted, g.got),
+        ("same_as", Some(-2), Some(-2)),
+        "{g:?}"
+    );
+    assert!(g.met, "{:?}", r.summary.failures);
+    assert!(
+        r.summary.pairs.iter().all(|p| p.collision_at.is_none()),
+        "{:?}",
+        r.summary.failures
+    );
+}
