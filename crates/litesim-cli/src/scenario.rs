@@ -137,7 +137,7 @@ pub fn run(
     let style = crate::viz::load_style(style)?;
     let sut = common.sut()?;
     let sut_timeout = common.sut_timeout()?;
-    let prep = litesim_scenario::prepare(test, &common.load()).map_err(|e| anyhow!("{e}"))?;
+    let prep = litesim_scenario::prepare(test, &common.load())?;
     let calibration = match calibration {
         Some(p) => Some(
             calibrate::from_toml(
@@ -171,8 +171,7 @@ pub fn run(
             let mut remote = litesim_grpc::RemoteSsp::connect(addr).map_err(|e| anyhow!("{e}"))?;
             litesim_scenario::run(&prep, &mut remote, &opts)
         }
-    }
-    .map_err(|e| anyhow!("{e}"))?;
+    }?;
     let stem = test
         .file_stem()
         .map_or("test".into(), |s| s.to_string_lossy().into_owned());
@@ -371,8 +370,7 @@ pub fn batch(
             bar.set_length(total);
         }
         bar.set_position(done);
-    })
-    .map_err(|e| anyhow!("{e}"))?;
+    })?;
     bar.finish_and_clear();
     let secs = started.elapsed().as_secs_f64();
     println!(
@@ -391,7 +389,7 @@ pub fn batch(
 
 /// `litesim merge`.
 pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
-    let n = batch::merge(dirs, out).map_err(|e| anyhow!("{e}"))?;
+    let n = batch::merge(dirs, out)?;
     println!(
         "merged {n} runs into {}/results.jsonl and results.csv",
         out.display()
@@ -401,7 +399,7 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
 
 /// `litesim calibrate`.
 pub fn calibrate_cmd(profile: &str, out: Option<PathBuf>) -> Result<()> {
-    let c = calibrate::calibrate(profile).map_err(|e| anyhow!("{e}"))?;
+    let c = calibrate::calibrate(profile)?;
     let path =
         out.unwrap_or_else(|| PathBuf::from("calibration").join(format!("{}.toml", c.profile)));
     if let Some(d) = path.parent() {

@@ -154,7 +154,7 @@ pub fn run_line(
                 .collect::<Vec<_>>()
                 .join(";");
         }
-        Err(e) => line.failures.push(e.to_string()),
+        Err(e) => line.failures.push(e.chain()),
     }
     line
 }
@@ -244,7 +244,7 @@ pub fn run_batch(
         .map(|t| {
             (
                 t.display().to_string(),
-                crate::prepare(t, &spec.load).map_err(|e| e.to_string()),
+                crate::prepare(t, &spec.load).map_err(|e| e.chain()),
             )
         })
         .collect();

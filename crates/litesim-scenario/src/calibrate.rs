@@ -128,7 +128,7 @@ fn trial(profile: &Profile, plan: &Plan, c: &Calibration) -> Result<Trial, Scena
 
 /// Calibrates a built-in profile's drivers.
 pub fn calibrate(profile_name: &str) -> Result<Calibrated, ScenarioError> {
-    let profile = Profile::builtin(profile_name).map_err(|e| ScenarioError::Ssp(e.to_string()))?;
+    let profile = Profile::builtin(profile_name).map_err(ScenarioError::Ssp)?;
     let plan = reference_plan(f64::from(profile.step_ms) / 1000.0);
     let before = trial(&profile, &plan, &profile.calibration)?;
     let mut best = before.clone();

@@ -193,7 +193,7 @@ fn describe(e: &crate::elab::CExpr) -> String {
 }
 
 fn ssp_err(e: litesim_ssp::SspError) -> ScenarioError {
-    ScenarioError::Ssp(e.to_string())
+    ScenarioError::Ssp(e)
 }
 
 /// A vehicle's limits from the simulator's catalogue (defaults: the
@@ -782,7 +782,7 @@ pub fn execute(
                 let st = match got.get(i) {
                     Some(st) if st.actor_id == a.id => st,
                     _ => got.iter().find(|s| s.actor_id == a.id).ok_or_else(|| {
-                        ScenarioError::Ssp(format!("the simulator lost actor '{}'", a.id))
+                        ScenarioError::Simulator(format!("the simulator lost actor '{}'", a.id))
                     })?,
                 };
                 let p = shifted(a.at(warps[i].tau(t), plan.dt), warps[i].offset);

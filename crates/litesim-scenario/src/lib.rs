@@ -102,11 +102,16 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
     };
     let (net, map_text, map_name) = match map_path {
         Some(p) => {
-            let text = std::fs::read_to_string(&p)
-                .map_err(|e| ScenarioError::Map(format!("{}: {e}", p.display())))?;
+            let text = std::fs::read_to_string(&p).map_err(|source| ScenarioError::MapRead {
+                path: p.display().to_string(),
+                source,
+            })?;
             let name = p.display().to_string();
-            let net = RoadNetwork::from_xodr(&text, &name)
-                .map_err(|e| ScenarioError::Map(e.to_string()))?;
+            let net =
+                RoadNetwork::from_xodr(&text, &name).map_err(|source| ScenarioError::MapParse {
+                    name: name.clone(),
+                    source,
+                })?;
             (Some(Arc::new(net)), Some(Arc::new(text)), name)
         }
         None => (None, None, String::new()),
@@ -368,12 +373,13 @@ pub fn run(
             .or(prep.test.config.thresholds.sut_timeout)
             .unwrap_or(1.0),
     };
-    let mut sut = opts.sut.instantiate().map_err(|e| {
-        ScenarioError::Sut(format!(
-            "cannot start the system under test {}: {e}",
-            opts.sut.name()
-        ))
-    })?;
+    let mut sut = opts
+        .sut
+        .instantiate()
+        .map_err(|source| ScenarioError::Sut {
+            name: opts.sut.name(),
+            source,
+        })?;
     let replan =
         |fixed: &BTreeMap<String, f64>| plan_test_with(prep, seed, step_ms, fixed).map(|(_, p)| p);
     let mut ex = exec::execute(

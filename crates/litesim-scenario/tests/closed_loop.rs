@@ -517,3 +517,18 @@ fn a_lane_goal_follows_the_lane_the_sut_really_takes() {
         r.summary.failures
     );
 }
+
+#[test]
+fn errors_keep_their_causes() {
+    let f = example_file(
+        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/no_such_map.xodr\"\nextend top.main:\n    do sut.car.drive()\n",
+    );
+    let e = prepare(f.path(), &LoadOptions::default()).unwrap_err();
+    // The cause is kept as a source (the CLI prints the chain) and in `chain`.
+    assert!(std::error::Error::source(&e).is_some());
+    let text = e.chain();
+    assert!(
+        text.starts_with("map ") && text.contains("no_such_map.xodr: "),
+        "{text}"
+    );
+}
