@@ -4,20 +4,11 @@
 use litesim_scenario::sut::{
     Observation, Sut, SutChoice, SutCommand, SutError, SutFactory, SutInfo,
 };
-use litesim_scenario::{
-    DriveMode, LoadOptions, Prepared, RunOptions, RunResult, kpi::PairKpi, prepare, run,
-};
-use std::path::PathBuf;
+use litesim_scenario::{DriveMode, LoadOptions, RunOptions, RunResult, kpi::PairKpi, prepare, run};
 use std::sync::Arc;
 
-fn root() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-fn example(name: &str) -> Prepared {
-    let p = root().join(format!("examples/scenarios/{name}.osc"));
-    prepare(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
+mod common;
+use common::{example, example_file};
 
 fn go_with(name: &str, sut: SutChoice, mode: DriveMode) -> RunResult {
     let opts = RunOptions {
@@ -333,17 +324,6 @@ fn observations_carry_the_object_list_route_and_road() {
     assert!((o.requested_speed - 60.0 / 3.6).abs() < 1e-9);
     assert!(o.road.as_ref().is_some_and(|r| r.lane != 0));
     assert!(o.distance_to_goal > 0.0);
-}
-
-/// Writes `text` as a test beside the examples (relative imports resolve);
-/// removed when dropped.
-fn example_file(text: &str) -> tempfile::NamedTempFile {
-    let f = tempfile::Builder::new()
-        .suffix(".osc")
-        .tempfile_in(root().join("examples/scenarios"))
-        .unwrap();
-    std::fs::write(f.path(), text).unwrap();
-    f
 }
 
 #[test]

@@ -7,16 +7,10 @@ use litesim_scenario::{
     DriveMode, LoadOptions, Prepared, RunOptions, RunResult, Summary, batch, prepare, run,
 };
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn root() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
-
-fn example(name: &str) -> Prepared {
-    let p = root().join(format!("examples/scenarios/{name}.osc"));
-    prepare(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
+mod common;
+use common::{example, example_file, root};
 
 fn go(name: &str, seed: u64, mode: DriveMode) -> RunResult {
     let prep = example(name);
@@ -27,17 +21,6 @@ fn go(name: &str, seed: u64, mode: DriveMode) -> RunResult {
         ..RunOptions::default()
     };
     run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap_or_else(|e| panic!("{name}: {e}"))
-}
-
-/// Writes `text` as a test in `examples/scenarios` (so that relative
-/// imports and map paths resolve like the examples'); removed when dropped.
-fn example_file(text: &str) -> tempfile::NamedTempFile {
-    let f = tempfile::Builder::new()
-        .suffix(".osc")
-        .tempfile_in(root().join("examples/scenarios"))
-        .unwrap();
-    std::fs::write(f.path(), text).unwrap();
-    f
 }
 
 /// The header every hand-written test below starts with.
