@@ -186,8 +186,12 @@ impl Trajectory {
                 status,
             });
         }
-        // t in [p_i.t, p_{i+1}.t)
-        let i = self.points.partition_point(|p| p.t <= t) - 1;
+        // t in [p_i.t, p_{i+1}.t). A stepping world prunes the points it
+        // has passed, so the first few segments hold t almost always: look
+        // there before searching the whole (possibly long) queue.
+        let i = (0..self.points.len().min(4) - 1)
+            .find(|&k| self.points[k + 1].t > t)
+            .unwrap_or_else(|| self.points.partition_point(|p| p.t <= t) - 1);
         let (a, b) = (&self.points[i], &self.points[i + 1]);
         let u = (t - a.t) / (b.t - a.t);
         let position = Vec3::new(

@@ -25,6 +25,8 @@ pub mod road;
 
 pub use grid::{GridError, Obstacle, OccupancyGrid};
 pub use lanes::LanePos;
-pub use network::{LanePolyline, LaneRef, MarkRun, RoadNetwork, RoadPosition, RoadSummary};
+pub use network::{
+    LanePolyline, LaneRef, Located, MarkRun, RoadNetwork, RoadPosition, RoadSummary,
+};
 pub use parse::{MapError, Warning, parse};
 pub use road::{Direction, LaneSpan};

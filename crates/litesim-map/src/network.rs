@@ -22,6 +22,21 @@ pub struct RoadPosition {
     pub offset: f64,
 }
 
+/// [`RoadPosition`] with the road as its index in `od.roads`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Located {
+    /// Road index.
+    pub road: usize,
+    /// Lane id.
+    pub lane: i32,
+    /// s along the reference line (m).
+    pub s: f64,
+    /// t from the reference line (m, left positive).
+    pub t: f64,
+    /// Offset from the lane centre (m, left positive).
+    pub offset: f64,
+}
+
 /// A lane in the routing graph: a lane of one lane section.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 pub struct LaneRef {
@@ -105,6 +120,9 @@ struct SegmentIndex {
     nx: usize,
     ny: usize,
     cells: Vec<Vec<u32>>,
+    /// Per cell: the one road all its segments belong to, `u32::MAX` when
+    /// none or several.
+    single: Vec<u32>,
     segments: Vec<Segment>,
 }
 
@@ -248,6 +266,7 @@ impl RoadNetwork {
             nx,
             ny,
             cells: vec![Vec::new(); nx * ny],
+            single: Vec::new(),
             segments: Vec::new(),
         };
         for (k, (sg, w)) in segs.iter().zip(&pad).enumerate() {
@@ -261,6 +280,17 @@ impl RoadNetwork {
                 }
             }
         }
+        idx.single = idx
+            .cells
+            .iter()
+            .map(|c| {
+                let mut roads = c.iter().map(|&k| segs[k as usize].road as u32);
+                match roads.next() {
+                    Some(r) if roads.all(|x| x == r) => r,
+                    _ => u32::MAX,
+                }
+            })
+            .collect();
         idx.segments = segs;
         self.segments = idx;
     }
@@ -269,10 +299,25 @@ impl RoadNetwork {
     /// not), or `None` when it is on no road. Overlapping roads (junctions)
     /// are resolved in favour of the nearest lane centre.
     pub fn to_road(&self, p: Vec2) -> Option<RoadPosition> {
+        self.locate(p).map(|l| RoadPosition {
+            road: self.od.roads[l.road].id.clone(),
+            lane: l.lane,
+            s: l.s,
+            t: l.t,
+            offset: l.offset,
+        })
+    }
+
+    /// [`RoadNetwork::to_road`] with the road as an index into `od.roads`:
+    /// no allocation, for callers that ask for every vehicle at every step.
+    pub fn locate(&self, p: Vec2) -> Option<Located> {
         let cell = self.segments.cell_of(p)?;
-        let mut best: Option<(f64, RoadPosition)> = None;
-        // Nearest segment per road first, then refine once per road.
-        let mut per_road: Vec<(usize, f64, f64)> = Vec::new(); // (road, s guess, dist²)
+        // Nearest segment per road first, then refine once per road. A cell
+        // holds a few roads: they live on the stack (the list of a crowded
+        // junction cell spills to the heap).
+        let mut inline = [(usize::MAX, 0.0f64, 0.0f64); 8];
+        let mut used = 0usize;
+        let mut spill: Vec<(usize, f64, f64)> = Vec::new();
         for &k in &self.segments.cells[cell] {
             let sg = &self.segments.segments[k as usize];
             let d = sg.b - sg.a;
@@ -286,41 +331,72 @@ impl RoadNetwork {
             let e = p - foot;
             let dist2 = e.dot(e);
             let s = sg.s0 + (sg.s1 - sg.s0) * u;
-            match per_road.iter_mut().find(|(r, _, _)| *r == sg.road) {
+            let entry = inline[..used]
+                .iter_mut()
+                .chain(spill.iter_mut())
+                .find(|(r, _, _)| *r == sg.road);
+            match entry {
                 Some(entry) if dist2 < entry.2 => *entry = (sg.road, s, dist2),
                 Some(_) => {}
-                None => per_road.push((sg.road, s, dist2)),
+                None if used < 8 => {
+                    inline[used] = (sg.road, s, dist2);
+                    used += 1;
+                }
+                None => spill.push((sg.road, s, dist2)),
             }
         }
-        for (ri, s_guess, _) in per_road {
-            let road = &self.od.roads[ri];
-            let (s, t, beyond) = refine(road, p, s_guess);
-            // A point past either end of this road projects onto the end:
-            // it is not on this road (a junction road starting there would
-            // otherwise claim points of the road leading into it).
-            if beyond > BEYOND_END_M {
-                continue;
-            }
-            let spans = road.lane_spans(s);
-            let Some(span) = spans.iter().find(|l| l.width() > 1e-3 && l.contains(t)) else {
+        let mut best: Option<Located> = None;
+        for &(ri, s_guess, _) in inline[..used].iter().chain(spill.iter()) {
+            let Some(here) = self.on_road(ri, p, s_guess).0 else {
                 continue;
             };
-            let offset = t - span.t_center();
-            let score = offset.abs();
-            if best.as_ref().is_none_or(|(b, _)| score < *b) {
-                best = Some((
-                    score,
-                    RoadPosition {
-                        road: road.id.clone(),
-                        lane: span.id,
-                        s,
-                        t,
-                        offset,
-                    },
-                ));
+            if best.is_none_or(|b| here.offset.abs() < b.offset.abs()) {
+                best = Some(here);
             }
         }
-        best.map(|(_, rp)| rp)
+        best
+    }
+
+    /// [`RoadNetwork::locate`] for a point that moved a little since it was
+    /// at `hint`: where the point's grid cell holds that road alone, the
+    /// projection starts from the hint's s instead of searching the cell's
+    /// segments (what makes a per-step off-road check of every vehicle
+    /// cheap). Falls back to the full search when the cell holds other roads
+    /// too or the projection does not settle.
+    pub fn locate_near(&self, p: Vec2, hint: Option<Located>) -> Option<Located> {
+        let cell = self.segments.cell_of(p)?;
+        match hint {
+            Some(h) if self.segments.single[cell] == h.road as u32 => {
+                match self.on_road(h.road, p, h.s) {
+                    (found, true) => found,
+                    (_, false) => self.locate(p),
+                }
+            }
+            _ => self.locate(p),
+        }
+    }
+
+    /// The point on road `ri` (projection refined from `s_guess`), if it
+    /// lies in one of its lanes; and whether the projection settled.
+    fn on_road(&self, ri: usize, p: Vec2, s_guess: f64) -> (Option<Located>, bool) {
+        let road = &self.od.roads[ri];
+        let (s, t, beyond, settled) = refine(road, p, s_guess);
+        // A point past either end of this road projects onto the end:
+        // it is not on this road (a junction road starting there would
+        // otherwise claim points of the road leading into it).
+        if beyond > BEYOND_END_M {
+            return (None, settled);
+        }
+        let found = road
+            .find_span(s, |l| l.width() > 1e-3 && l.contains(t))
+            .map(|span| Located {
+                road: ri,
+                lane: span.id,
+                s,
+                t,
+                offset: t - span.t_center(),
+            });
+        (found, settled)
     }
 
     /// World pose at (road, lane, s) plus a lateral offset from the lane
@@ -803,11 +879,15 @@ impl RoadNetwork {
 /// (the Newton refinement leaves millimetres on curves).
 const BEYOND_END_M: f64 = 0.05;
 
-/// (s, t) of a point near a road, by Newton steps from `s`, and how far the
-/// point lies beyond the road's ends along the reference line (0 inside).
-fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64, f64) {
+/// Projects `p` onto the road's reference line by Newton steps from `s`:
+/// (s, t, how far `p` lies beyond the road's ends along the line (0
+/// inside), whether the last step was below 1 mm). A step below 1 nm is not
+/// taken: the reference point already evaluated is the answer (one road
+/// evaluation fewer per call; this runs for every vehicle at every step).
+fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64, f64, bool) {
+    let mut settled = false;
+    let mut r = road.reference(s);
     for _ in 0..3 {
-        let r = road.reference(s);
         let (sn, cs) = math::sin_cos(r.hdg);
         let (dx, dy) = (p.x - r.x, p.y - r.y);
         let along = dx * cs + dy * sn;
@@ -815,13 +895,13 @@ fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64, f64) {
         let d = 1.0 - r.curvature * across;
         let step = if d.abs() > 1e-6 { along / d } else { along };
         let ns = (s + step).clamp(0.0, road.length);
+        settled = (ns - s).abs() < 1e-3;
         if (ns - s).abs() < 1e-9 {
-            s = ns;
             break;
         }
         s = ns;
+        r = road.reference(s);
     }
-    let r = road.reference(s);
     let (sn, cs) = math::sin_cos(r.hdg);
     let t = -(p.x - r.x) * sn + (p.y - r.y) * cs;
     let along = (p.x - r.x) * cs + (p.y - r.y) * sn;
@@ -832,7 +912,7 @@ fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64, f64) {
     } else {
         0.0
     };
-    (s, t, beyond)
+    (s, t, beyond, settled)
 }
 
 /// Cuts a border (points at road positions `at`) into one run per road-mark

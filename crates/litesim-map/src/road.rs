@@ -94,36 +94,53 @@ impl Road {
 
     /// The lane spans at `s`, left lanes (outward) then right lanes (outward).
     pub fn lane_spans(&self, s: f64) -> Vec<LaneSpan> {
+        let mut out = Vec::new();
+        self.find_span(s, |l| {
+            out.push(l);
+            false
+        });
+        out
+    }
+
+    /// The first lane span at `s`, in [`Road::lane_spans`] order, for which
+    /// `pick` answers true; without building the list (the per-step road
+    /// lookups of a scenario run call this for every vehicle).
+    pub fn find_span(&self, s: f64, mut pick: impl FnMut(LaneSpan) -> bool) -> Option<LaneSpan> {
         let s = s.clamp(0.0, self.length);
         let (o, _) = self.lane_offset(s);
         let (ls, rs) = self.sides(s);
-        let mut out = Vec::with_capacity(ls.left.len() + rs.right.len());
         let mut t = o;
         for lane in &ls.left {
             let t_out = outer(lane, ls.s, s, t, o, 1.0);
-            out.push(LaneSpan {
+            let span = LaneSpan {
                 id: lane.id,
                 t_inner: t,
                 t_outer: t_out,
-            });
+            };
+            if pick(span) {
+                return Some(span);
+            }
             t = t_out;
         }
         let mut t = o;
         for lane in &rs.right {
             let t_out = outer(lane, rs.s, s, t, o, -1.0);
-            out.push(LaneSpan {
+            let span = LaneSpan {
                 id: lane.id,
                 t_inner: t,
                 t_outer: t_out,
-            });
+            };
+            if pick(span) {
+                return Some(span);
+            }
             t = t_out;
         }
-        out
+        None
     }
 
     /// The span of one lane at `s`.
     pub fn lane_span(&self, s: f64, lane: i32) -> Option<LaneSpan> {
-        self.lane_spans(s).into_iter().find(|l| l.id == lane)
+        self.find_span(s, |l| l.id == lane)
     }
 
     /// A lane of the section in force at `s`.

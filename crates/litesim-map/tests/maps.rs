@@ -341,3 +341,37 @@ fn road_marks_follow_their_records() {
     );
     assert!((solid.points.last().unwrap().x - 100.0).abs() < 1e-3);
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// A walk of small steps (a vehicle at up to 40 m/s, 20 ms steps) in
+    /// any direction from a lane centre: `locate_near` with the last answer
+    /// as its hint finds what the full search finds, on every shipped map.
+    #[test]
+    fn locate_near_agrees_with_the_full_search(
+        map_k in 0usize..4, road_k in 0usize..64, frac in 0.0f64..1.0,
+        heading in -3.2f64..3.2, turn in -0.05f64..0.05, step in 0.0f64..0.8,
+    ) {
+        let name = ["straight.xodr", "circ.xodr", "curvy.xodr", "junction.xodr"][map_k];
+        let m = map(name);
+        let r = &m.roads()[road_k % m.roads().len()];
+        let lane = r.lane_spans(frac * r.length).into_iter().find(|l| l.width() > 1e-3);
+        prop_assume!(lane.is_some());
+        let (x, y, _) = r.st_to_xyz(frac * r.length, lane.unwrap().t_center());
+        let (mut p, mut h) = (Vec2::new(x, y), heading);
+        let mut hint = m.locate(p);
+        for _ in 0..200 {
+            h += turn;
+            p = Vec2::new(p.x + step * h.cos(), p.y + step * h.sin());
+            let (near, full) = (m.locate_near(p, hint), m.locate(p));
+            match (near, full) {
+                (Some(a), Some(b)) => {
+                    prop_assert_eq!((a.road, a.lane), (b.road, b.lane));
+                    prop_assert!((a.s - b.s).abs() < 1e-6 && (a.t - b.t).abs() < 1e-6, "{:?} vs {:?}", a, b);
+                }
+                (a, b) => prop_assert_eq!(a, b),
+            }
+            hint = near;
+        }
+    }
+}

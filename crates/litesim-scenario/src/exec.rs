@@ -415,7 +415,17 @@ pub fn execute(
         .as_ref()
         .map(|l| l.boxes.iter().map(shows_red).collect())
         .unwrap_or_default();
-    let mut last_pos: Vec<Option<litesim_map::RoadPosition>> = vec![None; ids.len()];
+    let mut last_pos: Vec<Option<litesim_map::Located>> = vec![None; ids.len()];
+    // Each light box's road as an index into the map's roads (compared per
+    // vehicle and step; a box on a road the map lacks never matches).
+    let box_roads: Vec<Option<usize>> = match (lights.as_ref(), net) {
+        (Some(l), Some(n)) => l
+            .boxes
+            .iter()
+            .map(|b| n.od.roads.iter().position(|r| r.id == b.road_id))
+            .collect(),
+        _ => Vec::new(),
+    };
     let mut warps = vec![Warp::new(); ids.len()];
     // Each goal's (actor, reference) indices; goals come sorted by end time.
     let mut goal_actors = goal_indices(&plan);
@@ -611,8 +621,8 @@ pub fn execute(
             }
             obs.distance_to_goal = rp.map_or(0.0, |p| route.length() - p.s);
             obs.requested_speed = plan.actors[e].at(t, plan.dt).v;
-            obs.road = last_pos[e].as_ref().map(|p| RoadPos {
-                road: p.road.clone(),
+            obs.road = last_pos[e].as_ref().zip(net).map(|(p, n)| RoadPos {
+                road: n.od.roads[p.road].id.clone(),
                 lane: p.lane,
                 s: p.s,
                 offset: p.offset,
@@ -799,17 +809,17 @@ pub fn execute(
                 planned.push((p.x, p.y, p.v));
                 let vehicle = a.kind == crate::elab::ActorKind::Vehicle;
                 let pos = if vehicle {
-                    net.and_then(|n| n.to_road(st.pose.position.xy()))
+                    net.and_then(|n| n.locate_near(st.pose.position.xy(), last_pos[i]))
                 } else {
                     None
                 };
                 off.push(vehicle && net.is_some() && pos.is_none());
                 // Red light: the car's s passes a red box's s on a lane it controls.
                 if let (Some(info), Some(p), Some(q)) = (lights.as_ref(), &pos, &last_pos[i]) {
-                    for (b, is_red) in info.boxes.iter().zip(&red) {
+                    for ((b, is_red), road) in info.boxes.iter().zip(&red).zip(&box_roads) {
                         let lane_ok = b.valid_lanes.is_empty() || b.valid_lanes.contains(&p.lane);
-                        let crossed = p.road == b.road_id
-                            && q.road == b.road_id
+                        let crossed = *road == Some(p.road)
+                            && *road == Some(q.road)
                             && ((q.s < b.s && p.s >= b.s) || (q.s > b.s && p.s <= b.s));
                         if *is_red && lane_ok && crossed {
                             kpis.red_light(i, &b.id, t);

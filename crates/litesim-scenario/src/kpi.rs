@@ -224,6 +224,10 @@ fn ttc_shapes(a: &Shape, b: &Shape, wx: f64, wy: f64) -> Option<f64> {
     (exit >= 0.0 && enter.is_finite()).then_some(enter.max(0.0))
 }
 
+/// Up to this many actors the pair index is a table (n² × 4 bytes: 16 MiB
+/// at 2,048); beyond, a hash map.
+pub const DENSE_PAIRS: usize = 2048;
+
 /// How far below a pair's recorded minimum its distance may go unseen (m):
 /// a pair whose relative pose barely changed is not measured again while
 /// its distance provably stays within this of the minimum.
@@ -280,6 +284,10 @@ pub struct Kpis {
     /// (a lookup table only: the output is sorted by (i, j)).
     near: Vec<((u32, u32), PairKpi, Option<Last>)>,
     index_of: std::collections::HashMap<(u32, u32), usize, PairHash>,
+    /// The same index as a table `i · n + j` (u32::MAX: not met yet) for up
+    /// to [`DENSE_PAIRS`] actors: a hash lookup per candidate pair and step
+    /// led the profile of dense traffic.
+    dense: Vec<u32>,
     ids: Vec<String>,
     sq: Vec<f64>,
     n: usize,
@@ -313,6 +321,11 @@ impl Kpis {
                 .map(|(i, s)| (s.clone(), i))
                 .collect(),
             order: (0..ids.len() as u32).collect(),
+            dense: if ids.len() <= DENSE_PAIRS {
+                vec![u32::MAX; ids.len() * ids.len()]
+            } else {
+                Vec::new()
+            },
             ..Kpis::default()
         }
     }
@@ -335,6 +348,7 @@ impl Kpis {
         let mut near = std::mem::take(&mut self.near);
         near.sort_by_key(|(k, _, _)| *k);
         self.index_of.clear();
+        self.dense = Vec::new();
         self.pairs = near.into_iter().map(|(_, p, _)| p).collect();
     }
 
@@ -356,6 +370,14 @@ impl Kpis {
             self.swept.clear();
             self.near_box.clear();
             self.ttc_box.clear();
+            // Boxes are swept relative to the actors' mean velocity: moving
+            // both boxes of a pair by the same c·τ changes no overlap, so a
+            // pair can meet within the horizon only where the boxes swept
+            // along v − c meet — and traffic that moves together sweeps
+            // (almost) nothing.
+            let inv = 1.0 / n as f64;
+            let cx = boxes.iter().map(|b| b.vx).sum::<f64>() * inv;
+            let cy = boxes.iter().map(|b| b.vy).sum::<f64>() * inv;
             for b in boxes {
                 let sh = Shape::of(b);
                 let c = sh.corners;
@@ -368,7 +390,7 @@ impl Kpis {
                 }
                 let h = 0.5 * NEAR;
                 let grown = [x0 - h, x1 + h, y0 - h, y1 + h];
-                let (dx, dy) = (b.vx * TTC_HORIZON, b.vy * TTC_HORIZON);
+                let (dx, dy) = ((b.vx - cx) * TTC_HORIZON, (b.vy - cy) * TTC_HORIZON);
                 let swept = [
                     x0 + dx.min(0.0),
                     x1 + dx.max(0.0),
@@ -445,10 +467,14 @@ impl Kpis {
         }
         let (a, b) = (&boxes[i], &boxes[j]);
         let (sa, sb) = (&self.shapes[i], &self.shapes[j]);
-        let k = *self
-            .index_of
-            .entry((i as u32, j as u32))
-            .or_insert_with(|| {
+        let slot = (!self.dense.is_empty()).then(|| i * self.ids.len() + j);
+        let known = match slot {
+            Some(x) => (self.dense[x] != u32::MAX).then(|| self.dense[x] as usize),
+            None => self.index_of.get(&(i as u32, j as u32)).copied(),
+        };
+        let k = match known {
+            Some(k) => k,
+            None => {
                 self.near.push((
                     (i as u32, j as u32),
                     PairKpi {
@@ -459,8 +485,16 @@ impl Kpis {
                     },
                     None,
                 ));
-                self.near.len() - 1
-            });
+                let k = self.near.len() - 1;
+                match slot {
+                    Some(x) => self.dense[x] = k as u32,
+                    None => {
+                        self.index_of.insert((i as u32, j as u32), k);
+                    }
+                }
+                k
+            }
+        };
         let (pair, p) = {
             let e = &mut self.near[k];
             (&mut e.2, &mut e.1)
@@ -502,11 +536,17 @@ impl Kpis {
             p.collision_at = Some(t);
         }
         let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
+        let closing = math::hypot(wx, wy);
         // Separate boxes without relative motion never touch (what
-        // ttc_shapes answers too, at a cost).
+        // ttc_shapes answers too, at a cost). And boxes d apart closing at
+        // |w| cannot touch before d / |w|: where that is beyond the horizon
+        // or the pair's minimum (with a margin far above rounding), the
+        // swept test cannot set a new one.
+        let limit = p.min_ttc.map_or(TTC_HORIZON, |m| m.min(TTC_HORIZON));
         if d > 0.0
             && can_meet
-            && math::hypot(wx, wy) >= 1e-12
+            && closing >= 1e-12
+            && d <= closing * limit + 1e-6
             && let Some(ttc) = ttc_shapes(sa, sb, wx, wy)
             && ttc <= TTC_HORIZON
             && p.min_ttc.is_none_or(|m| ttc < m)
