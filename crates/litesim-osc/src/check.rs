@@ -16,6 +16,7 @@
 
 use crate::ast::*;
 use crate::diag::Diagnostic;
+use crate::index::{DeclIndex, modifier_key};
 use crate::loader::Program;
 use crate::source::Span;
 use std::collections::{BTreeMap, BTreeSet};
@@ -73,8 +74,6 @@ struct Model {
     enums: BTreeMap<String, BTreeSet<String>>,
     /// compound name (behaviours by their own name) → what it is
     compounds: BTreeMap<String, Compound>,
-    /// actor a scenario or action is declared on (`smoke` → `sut`)
-    owner: BTreeMap<String, String>,
     globals: BTreeMap<String, TypeRef>,
     /// Every compound's visible fields (own, extended, inherited) and their
     /// types, built once: field lookups are the checker's hot path.
@@ -116,62 +115,34 @@ fn levenshtein(a: &str, b: &str) -> usize {
 
 impl Model {
     fn collect(prog: &Program) -> Self {
-        let mut m = Model::default();
-        for (_, f) in &prog.files {
-            for d in &f.decls {
-                match d {
-                    Decl::PhysicalType { name, .. } => {
-                        m.physical.insert(name.text.clone());
-                    }
-                    Decl::Unit { name, of, .. } => {
-                        m.units.insert(name.text.clone(), of.text.clone());
-                    }
-                    Decl::Enum { name, members } | Decl::ExtendEnum { name, members } => {
-                        m.enums
-                            .entry(name.text.clone())
-                            .or_default()
-                            .extend(members.iter().map(|(n, _)| n.text.clone()));
-                    }
-                    Decl::Compound {
-                        kind,
-                        name,
-                        inherits,
-                        members,
-                        ..
-                    } => {
-                        let params = fields(members);
-                        let key = if *kind == DeclKind::Modifier {
-                            modifier_key(&name.name.text)
-                        } else {
-                            name.name.text.clone()
-                        };
-                        let entry = m.compounds.entry(key).or_insert((*kind, Vec::new(), None));
-                        entry.1.extend(params);
-                        if let Some((b, _)) = inherits {
-                            entry.2 = Some(b.name.text.clone());
-                        }
-                        if let Some(a) = &name.actor {
-                            m.owner.insert(name.name.text.clone(), a.text.clone());
-                        }
-                    }
-                    Decl::Global(f) => {
-                        for n in &f.names {
-                            m.globals.insert(n.text.clone(), f.ty.clone());
-                        }
-                    }
-                    _ => {}
-                }
-            }
-        }
-        for (_, f) in &prog.files {
-            for d in &f.decls {
-                if let Decl::Extend { target, members } = d
-                    && let Some(e) = m.compounds.get_mut(&target.name.text)
-                {
-                    e.1.extend(fields(members));
-                }
-            }
-        }
+        Self::from_index(&DeclIndex::build(prog))
+    }
+    /// The checker's view of the shared declaration index, with each
+    /// compound's field and parameter types resolved once.
+    fn from_index(ix: &DeclIndex<'_>) -> Self {
+        let mut m = Model {
+            physical: ix.physical.clone(),
+            units: ix
+                .units
+                .iter()
+                .map(|(k, u)| (k.clone(), u.of.clone()))
+                .collect(),
+            enums: ix.enums.clone(),
+            compounds: ix
+                .compounds
+                .iter()
+                .map(|(k, c)| {
+                    let own = c
+                        .members
+                        .iter()
+                        .map(|d| (d.name.clone(), d.ty.clone()))
+                        .collect();
+                    (k.clone(), (c.kind, own, c.base.clone()))
+                })
+                .collect(),
+            globals: ix.globals.clone(),
+            ..Model::default()
+        };
         let names: Vec<String> = m.compounds.keys().cloned().collect();
         for n in names {
             let mut map = BTreeMap::new();
@@ -261,31 +232,6 @@ impl Model {
             (a, b) => a == b,
         }
     }
-}
-
-fn fields(members: &[Member]) -> Vec<(String, TypeRef)> {
-    let mut out = Vec::new();
-    for m in members {
-        match m {
-            Member::Field(f) => out.extend(f.names.iter().map(|n| (n.text.clone(), f.ty.clone()))),
-            // Events and methods are names too; their type is not tracked.
-            Member::Event { name, .. } | Member::Method { name, .. } => out.push((
-                name.text.clone(),
-                TypeRef {
-                    list: false,
-                    base: QualName {
-                        actor: None,
-                        name: Name {
-                            text: "?".into(),
-                            span: name.span,
-                        },
-                    },
-                },
-            )),
-            _ => {}
-        }
-    }
-    out
 }
 
 /// Names visible while checking one declaration's body.
@@ -979,10 +925,6 @@ impl Checker<'_> {
 
 /// Modifiers live in their own namespace (`lane` is both a struct and a
 /// modifier in the domain model).
-fn modifier_key(name: &str) -> String {
-    format!("modifier {name}")
-}
-
 /// The name and arguments of `name(args)` or `x.name(args)`.
 fn call_target(e: &Expr) -> Option<(Name, &[Arg])> {
     match e {

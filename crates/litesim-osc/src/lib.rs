@@ -13,6 +13,7 @@
 pub mod ast;
 pub mod check;
 pub mod diag;
+pub mod index;
 pub mod lexer;
 pub mod loader;
 pub mod parser;

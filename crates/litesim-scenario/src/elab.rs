@@ -10,6 +10,7 @@
 
 use crate::error::ScenarioError;
 use litesim_osc::ast::{Arg, Decl, DeclKind, DoKind, DoMember, Expr, Member};
+use litesim_osc::index::{DeclIndex, modifier_key};
 use litesim_osc::{Program, Span};
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
@@ -180,8 +181,8 @@ pub enum Node {
         label: Option<String>,
         /// Actor id.
         actor: String,
-        /// `drive`, `remain_stationary`, `walk`, `move`.
-        action: String,
+        /// What the actor does.
+        action: crate::intent::Action,
         /// Modifiers.
         mods: Vec<Modifier>,
         /// Where.
@@ -266,120 +267,46 @@ pub struct Test {
     pub notes: Vec<String>,
 }
 
-/// Physical-type knowledge from the program.
+/// The program and its declaration index (shared with the checker).
 struct Lib<'a> {
     prog: &'a Program,
-    /// unit → SI factor
-    units: BTreeMap<String, f64>,
-    /// compound → base
-    bases: BTreeMap<String, String>,
-    /// scenario name → members (declaration and extensions), owner actor
-    scenarios: BTreeMap<String, Vec<&'a Member>>,
-    /// modifier / action / scenario → parameter names in order
-    params: BTreeMap<String, Vec<String>>,
-    enums: BTreeSet<String>,
+    ix: DeclIndex<'a>,
 }
-
-const ACTION_NAMES: &[&str] = &["drive", "remain_stationary", "walk", "move"];
 
 impl<'a> Lib<'a> {
     fn new(prog: &'a Program) -> Self {
-        let mut l = Lib {
+        Lib {
             prog,
-            units: BTreeMap::new(),
-            bases: BTreeMap::new(),
-            scenarios: BTreeMap::new(),
-            params: BTreeMap::new(),
-            enums: BTreeSet::new(),
-        };
-        for (_, f) in &prog.files {
-            for d in &f.decls {
-                match d {
-                    Decl::Unit { name, args, .. } => {
-                        let factor = args
-                            .iter()
-                            .find(|a| a.name.as_ref().is_some_and(|n| n.text == "factor"))
-                            .and_then(|a| const_num(&a.value))
-                            .unwrap_or(1.0);
-                        l.units.insert(name.text.clone(), factor);
-                    }
-                    Decl::Enum { members, .. } | Decl::ExtendEnum { members, .. } => {
-                        l.enums.extend(members.iter().map(|(n, _)| n.text.clone()));
-                    }
-                    Decl::Compound {
-                        kind,
-                        name,
-                        inherits,
-                        members,
-                        ..
-                    } => {
-                        if let Some((b, _)) = inherits {
-                            l.bases.insert(name.name.text.clone(), b.name.text.clone());
-                        }
-                        let names: Vec<String> = members
-                            .iter()
-                            .filter_map(|m| match m {
-                                Member::Field(f) => Some(f.names.iter().map(|n| n.text.clone())),
-                                _ => None,
-                            })
-                            .flatten()
-                            .collect();
-                        let key = if *kind == DeclKind::Modifier {
-                            format!("modifier {}", name.name.text)
-                        } else {
-                            name.name.text.clone()
-                        };
-                        l.params.entry(key).or_default().extend(names);
-                        if *kind == DeclKind::Scenario {
-                            l.scenarios
-                                .entry(name.name.text.clone())
-                                .or_default()
-                                .extend(members.iter());
-                        }
-                    }
-                    _ => {}
-                }
-            }
+            ix: DeclIndex::build(prog),
         }
-        for (_, f) in &prog.files {
-            for d in &f.decls {
-                if let Decl::Extend { target, members } = d
-                    && let Some(s) = l.scenarios.get_mut(&target.name.text)
-                {
-                    s.extend(members.iter());
-                }
-            }
-        }
-        l
     }
 
     fn is_a(&self, t: &str, base: &str) -> bool {
-        let mut cur = t;
-        for _ in 0..64 {
-            if cur == base {
-                return true;
-            }
-            match self.bases.get(cur) {
-                Some(b) => cur = b,
-                None => return false,
-            }
-        }
-        false
+        self.ix.is_a(t, base)
+    }
+
+    /// Parameter names of an action, modifier or scenario, in positional order.
+    fn params(&self, key: &str) -> Vec<String> {
+        self.ix
+            .params(key)
+            .into_iter()
+            .map(|m| m.name.clone())
+            .collect()
+    }
+
+    /// The members of scenario `name` (declaration and `extend`s).
+    fn scenario(&self, name: &str) -> Option<Vec<&'a Member>> {
+        self.ix
+            .compounds
+            .get(name)
+            .filter(|c| c.kind == DeclKind::Scenario)
+            .map(|c| c.body.clone())
     }
 
     fn at(&self, span: Span) -> String {
         let f = self.prog.sources.file(span.file);
         let (l, c) = f.line_col(span.start as usize);
         format!("{}:{l}:{c}", f.path)
-    }
-}
-
-fn const_num(e: &Expr) -> Option<f64> {
-    match e {
-        Expr::Int { value, .. } => Some(*value as f64),
-        Expr::Float { value, .. } => Some(*value),
-        Expr::Unary { op, expr, .. } if op == "-" => const_num(expr).map(|v| -v),
-        _ => None,
     }
 }
 
@@ -515,7 +442,7 @@ impl Elab<'_> {
 
     /// The SI factor of a unit.
     fn unit(&self, u: &str) -> f64 {
-        self.lib.units.get(u).copied().unwrap_or(1.0)
+        self.lib.ix.units.get(u).map_or(1.0, |u| u.factor)
     }
 
     /// Resolves an expression in a scope.
@@ -587,7 +514,7 @@ impl Elab<'_> {
                 if name == "sut" || name == "top" {
                     return Some(CExpr::Var(name.clone()));
                 }
-                if self.lib.enums.contains(name) {
+                if self.lib.ix.is_enum_member(name) {
                     return Some(CExpr::Const(Value::Enum(name.clone())));
                 }
                 Some(CExpr::Var(format!("{}.{name}", sc.ns)))
@@ -789,12 +716,7 @@ impl Elab<'_> {
                         Expr::Field { name, .. } => name.text.clone(),
                         _ => continue,
                     };
-                    let params = self
-                        .lib
-                        .params
-                        .get(&format!("modifier {name}"))
-                        .cloned()
-                        .unwrap_or_default();
+                    let params = self.lib.params(&modifier_key(&name));
                     out.push(Modifier {
                         args: self.bind(args, &params, sc),
                         name,
@@ -929,7 +851,7 @@ impl Elab<'_> {
                     })?;
                     return Ok(Some(Node::Switch { light, color, at }));
                 }
-                if ACTION_NAMES.contains(&name.as_str()) {
+                if let Some(action) = crate::intent::Action::parse(&name) {
                     let actor = base.and_then(|b| self.actor_of(b, sc)).ok_or_else(|| {
                         ScenarioError::Elaboration(format!(
                             "{at}: '{name}' needs an actor, e.g. `car1.{name}()`"
@@ -939,11 +861,11 @@ impl Elab<'_> {
                     Some(Node::Action {
                         label,
                         actor,
-                        action: name,
+                        action,
                         mods,
                         at,
                     })
-                } else if let Some(members) = self.lib.scenarios.get(&name).cloned() {
+                } else if let Some(members) = self.lib.scenario(&name) {
                     self.counter += 1;
                     let ns = match &label {
                         Some(l) if sc.ns == "top" => l.clone(),
@@ -962,7 +884,7 @@ impl Elab<'_> {
                     let sub = self.body(&members, inner)?;
                     // Arguments bind the instance's fields; the invocation's
                     // `with:` keeps see the caller's names (`s.r1`).
-                    let params = self.lib.params.get(&name).cloned().unwrap_or_default();
+                    let params = self.lib.params(&name);
                     for (p, v) in self.bind(args, &params, sc) {
                         self.test.constraints.push(Constraint {
                             soft: false,
@@ -983,7 +905,9 @@ impl Elab<'_> {
                 } else {
                     return Err(ScenarioError::Elaboration(format!(
                         "{at}: the engine cannot execute '{name}' (known actions: {})",
-                        ACTION_NAMES.join(", ")
+                        crate::intent::Action::ALL
+                            .map(crate::intent::Action::name)
+                            .join(", ")
                     )));
                 }
             }

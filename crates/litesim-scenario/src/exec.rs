@@ -11,6 +11,7 @@
 //! back, checked ([`crate::kpi`]) and, when asked, logged.
 
 use crate::error::ScenarioError;
+use crate::intent::{LaneRelation, Order};
 use crate::kpi::{BoxState, EgoKpi, Kpis};
 use crate::plan::Plan;
 use crate::reactive::{Body, GoalResult, LaneResult, Warp, shifted};
@@ -890,16 +891,15 @@ pub fn execute(
                         lane: p.lane,
                         s: p.s,
                     };
-                    match g.relation.as_str() {
-                        "left_of" => net.lane_beside(here, 1),
-                        "right_of" => net.lane_beside(here, -1),
-                        _ => Some(p.lane),
+                    match g.relation {
+                        LaneRelation::SameAs => Some(p.lane),
+                        r => net.lane_beside(here, r.offset()),
                     }
                 });
                 lane_results.push(LaneResult {
                     actor: g.actor.clone(),
                     reference: g.reference.clone(),
-                    relation: g.relation.clone(),
+                    relation: g.relation,
                     wanted,
                     got,
                     t,
@@ -924,7 +924,11 @@ pub fn execute(
                     goal_results.push(GoalResult {
                         actor: g.actor.clone(),
                         reference: g.reference.clone(),
-                        relation: if g.sign > 0.0 { "ahead_of" } else { "behind" }.into(),
+                        relation: if g.sign > 0.0 {
+                            Order::AheadOf
+                        } else {
+                            Order::Behind
+                        },
                         wanted: g.distance,
                         got,
                         t,

@@ -69,7 +69,10 @@ pub fn verdict(
             g.at,
             g.actor,
             g.got,
-            g.relation.replace('_', " "),
+            match g.relation {
+                crate::intent::Order::AheadOf => "ahead of",
+                crate::intent::Order::Behind => "behind",
+            },
             g.reference,
             g.t,
             g.wanted,
@@ -90,7 +93,7 @@ pub fn verdict(
             lane(g.got),
             g.t,
             lane(g.wanted),
-            g.relation,
+            g.relation.name(),
             g.reference
         );
         if g.strict {

@@ -20,6 +20,7 @@ pub mod calibrate;
 pub mod elab;
 pub mod error;
 pub mod exec;
+pub mod intent;
 pub mod judge;
 pub mod kpi;
 pub mod plan;

@@ -21,6 +21,7 @@
 
 use crate::elab::{ActorDef, ActorKind, CExpr, Modifier, Node, Test, Value};
 use crate::error::ScenarioError;
+use crate::intent::{Action, At, Intent, LaneRelation, RefKind, Side};
 use crate::solve::{Solution, sample};
 use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
@@ -208,7 +209,7 @@ pub struct Phase {
     /// Actor.
     pub actor: String,
     /// Action.
-    pub action: String,
+    pub action: Action,
     /// Start (s).
     pub t0: f64,
     /// End (s).
@@ -258,8 +259,8 @@ pub struct LaneGoal {
     pub actor: String,
     /// The actor whose lane counts.
     pub reference: String,
-    /// `same_as`, `left_of` or `right_of`.
-    pub relation: String,
+    /// Which lane of the reference's.
+    pub relation: LaneRelation,
     /// Phase start (s).
     pub t0: f64,
     /// Phase end (s): when the lane is judged.
@@ -347,7 +348,7 @@ pub struct LightSwitch {
 
 struct Leaf<'a> {
     actor: String,
-    action: String,
+    action: Action,
     label: Option<String>,
     mods: Vec<&'a Modifier>,
     at: String,
@@ -520,7 +521,7 @@ impl<'a> Timer<'a> {
                 let d = dur.unwrap_or(DEFAULT_PHASE_S);
                 self.leaves.push(Leaf {
                     actor: actor.clone(),
-                    action: action.clone(),
+                    action: *action,
                     label: label.clone(),
                     mods: mods.iter().collect(),
                     at: at.clone(),
@@ -622,11 +623,6 @@ struct Motion {
     across: f64,
     /// Lane change in progress: (from lane, to lane, t start, t end).
     change: Option<(i32, i32, f64, f64)>,
-}
-
-/// `run_mode` is strict unless the modifier says `best_effort`.
-fn strict(vals: &BTreeMap<String, Value>) -> bool {
-    vals.get("run_mode").and_then(Value::text) != Some("best_effort")
 }
 
 fn at_kind(m: &Modifier) -> String {
@@ -946,12 +942,12 @@ fn plan_once(
     leaves.sort_by(|a, b| a.t0.total_cmp(&b.t0).then(a.actor.cmp(&b.actor)));
     struct RLeaf {
         actor: String,
-        action: String,
+        action: Action,
         label: Option<String>,
         t0: f64,
         t1: f64,
         at: String,
-        mods: Vec<ResolvedMod>,
+        mods: Vec<Intent>,
     }
     let mut rleaves = Vec::new();
     for l in &leaves {
@@ -966,11 +962,11 @@ fn plan_once(
                     vals.insert(k.clone(), v);
                 }
             }
-            mods.push((m.name.clone(), at_kind(m), vals, refs));
+            mods.extend(Intent::decode(&m.name, &at_kind(m), &vals, &refs));
         }
         rleaves.push(RLeaf {
             actor: l.actor.clone(),
-            action: l.action.clone(),
+            action: l.action,
             label: l.label.clone(),
             t0: l.t0,
             t1: l.t1,
@@ -978,7 +974,6 @@ fn plan_once(
             mods,
         });
     }
-    let num = |vals: &BTreeMap<String, Value>, k: &str| vals.get(k).and_then(Value::num);
 
     // Actor attributes from the solution.
     let attr = |a: &ActorDef, k: &str| sol.values.get(&format!("{}.{k}", a.path)).cloned();
@@ -1055,13 +1050,13 @@ fn plan_once(
         for &i in &pending {
             let id = plans[i].id.clone();
             let leaf = first_leaf(&id).expect("active actors have a leaf");
-            let deps: Vec<&String> = leaf
+            let deps: Vec<&str> = leaf
                 .mods
                 .iter()
-                .filter(|(_, at, _, _)| at != "end")
-                .flat_map(|(_, _, _, refs)| refs.values())
+                .filter(|m| m.at() != At::End)
+                .flat_map(Intent::references)
                 .collect();
-            if deps.iter().any(|d| **d != id && !placed.contains_key(*d)) {
+            if deps.iter().any(|d| *d != id && !placed.contains_key(*d)) {
                 next.push(i);
                 continue;
             }
@@ -1091,7 +1086,16 @@ fn plan_once(
             .iter()
             .filter(|l| l.actor == plans[*i].id)
             .flat_map(|l| l.mods.iter())
-            .any(|(name, at, _, refs)| name == "position" && at == "end" && !refs.is_empty())
+            .any(|m| {
+                matches!(
+                    m,
+                    Intent::Position {
+                        reference: Some(_),
+                        at: At::End,
+                        ..
+                    }
+                )
+            })
     });
     for i in order {
         let id = plans[i].id.clone();
@@ -1130,65 +1134,65 @@ fn plan_once(
             while leaf_i < my.len() && my[leaf_i].t0 <= t + 1e-9 {
                 let l = my[leaf_i];
                 started = Some(leaf_i);
-                stationary = l.action == "remain_stationary";
+                stationary = l.action == Action::RemainStationary;
                 end_speed = None;
                 accel_up = ACCEL_UP;
                 accel_down = ACCEL_DOWN;
                 let first = leaf_i == 0;
-                for (name, at, vals, refs) in &l.mods {
-                    if name == "along"
-                        && at == "end"
-                        && let Some(road) = vals.get("road").and_then(|v| v.text())
-                    {
-                        along_end.push((l.t1, road.to_string(), l.at.clone()));
-                    }
-                    match name.as_str() {
-                        "acceleration" => {
-                            if let Some(a) = vals.get("acceleration").and_then(Value::num) {
-                                accel_up = a.abs().max(0.1);
-                                accel_down = a.abs().max(0.1);
-                            }
+                for m in &l.mods {
+                    match m {
+                        Intent::Along {
+                            road: Some(road),
+                            at: At::End,
+                            ..
+                        } => {
+                            along_end.push((l.t1, road.clone(), l.at.clone()));
                         }
-                        "speed" | "change_speed" => {
-                            let Some(v) = vals.get("speed").and_then(Value::num) else {
-                                continue;
-                            };
-                            let strict = strict(vals) && name == "speed";
-                            match at.as_str() {
-                                "end" => end_speed = Some((mo.v, v, l.t1)),
-                                _ => {
-                                    if first || (at == "start" && k == 0) {
-                                        mo.v = v;
-                                    }
-                                    target = Some(v);
-                                    if strict && !first {
-                                        strict_speed = Some((v, l.at.clone()));
-                                    }
+                        Intent::Acceleration { accel, .. } => {
+                            accel_up = accel.abs().max(0.1);
+                            accel_down = accel.abs().max(0.1);
+                        }
+                        &Intent::Speed {
+                            speed: v,
+                            at,
+                            strict,
+                            ..
+                        } => match at {
+                            At::End => end_speed = Some((mo.v, v, l.t1)),
+                            _ => {
+                                if first || (at == At::Start && k == 0) {
+                                    mo.v = v;
+                                }
+                                target = Some(v);
+                                if strict && !first {
+                                    strict_speed = Some((v, l.at.clone()));
                                 }
                             }
-                        }
-                        "position" if at == "end" => {
-                            let other = refs
-                                .get("ahead_of")
-                                .map(|o| (o, 1.0))
-                                .or(refs.get("behind").map(|o| (o, -1.0)));
-                            if let Some((o, sign)) = other
-                                && let Some(op) = plans.iter().find(|p| p.id == *o)
+                        },
+                        Intent::Position {
+                            distance,
+                            reference: Some((order, o)),
+                            at: At::End,
+                            strict,
+                            ..
+                        } => {
+                            let sign = order.sign();
+                            if let Some(op) = plans.iter().find(|p| p.id == *o)
                                 && !op.samples.is_empty()
                             {
+                                let distance = distance.unwrap_or(5.0);
                                 goals.push(GapGoal {
                                     actor: id.clone(),
                                     reference: o.clone(),
-                                    distance: num(vals, "distance").unwrap_or(5.0),
+                                    distance,
                                     sign,
                                     t0: l.t0,
                                     t1: l.t1,
-                                    strict: strict(vals),
+                                    strict: *strict,
                                     at: l.at.clone(),
                                     label: l.label.clone(),
                                 });
-                                let gap = num(vals, "distance").unwrap_or(5.0)
-                                    + (op.length + plans[i].length) / 2.0;
+                                let gap = distance + (op.length + plans[i].length) / 2.0;
                                 let me = net.lane_pos_pose(mo.pos, 0.0);
                                 let here_other = op.at(t, plan_dt);
                                 // Distance the other covers plus the change of gap.
@@ -1202,61 +1206,62 @@ fn plan_once(
                                 end_speed = Some((mo.v, v1, l.t1));
                             }
                         }
-                        "change_lane" | "lane" => {
-                            let to = if name == "change_lane" {
-                                let nl = num(vals, "num_of_lanes").unwrap_or(1.0) as i32;
-                                let side = vals
-                                    .get("side")
-                                    .and_then(|v| v.text().map(String::from))
-                                    .unwrap_or_else(|| "left".into());
-                                let d = if side == "right" { -nl } else { nl };
-                                Some(net.lane_beside(mo.pos, d).ok_or_else(|| {
-                                    ScenarioError::Plan(format!(
-                                        "{}: {id} cannot change {nl} lane(s) to the {side} on road {} (lane {})",
-                                        l.at, net.roads()[mo.pos.road].id, mo.pos.lane
-                                    ))
-                                })?)
-                            } else if at == "end" {
-                                let rel = refs.iter().next();
-                                if let Some((k2, o)) = rel {
-                                    lane_goals.push(LaneGoal {
-                                        actor: id.clone(),
-                                        reference: o.clone(),
-                                        relation: k2.clone(),
-                                        t0: l.t0,
-                                        t1: l.t1,
-                                        strict: strict(vals),
-                                        at: l.at.clone(),
-                                    });
-                                }
-                                match rel {
-                                    Some((k2, o)) => {
-                                        let ol = placed.get(o).map(|m| m.pos);
-                                        ol.and_then(|olp| {
-                                            let base = LanePos {
-                                                s: mo.pos.s,
-                                                road: mo.pos.road,
-                                                lane: olp.lane,
-                                            };
-                                            match k2.as_str() {
-                                                "left_of" => net.lane_beside(base, 1),
-                                                "right_of" => net.lane_beside(base, -1),
-                                                _ => Some(olp.lane),
-                                            }
-                                        })
+                        &Intent::ChangeLane {
+                            lanes: nl, side, ..
+                        } => {
+                            let d = if side == Side::Right { -nl } else { nl };
+                            let to = net.lane_beside(mo.pos, d).ok_or_else(|| {
+                                ScenarioError::Plan(format!(
+                                    "{}: {id} cannot change {nl} lane(s) to the {} on road {} (lane {})",
+                                    l.at,
+                                    if side == Side::Right { "right" } else { "left" },
+                                    net.roads()[mo.pos.road].id,
+                                    mo.pos.lane
+                                ))
+                            })?;
+                            if to != mo.pos.lane {
+                                let len = (l.t1 - l.t0).clamp(2.0, 6.0);
+                                mo.change = Some((mo.pos.lane, to, l.t0, l.t0 + len));
+                            }
+                        }
+                        Intent::Lane {
+                            lane,
+                            reference,
+                            at: At::End,
+                            strict,
+                        } => {
+                            if let Some((rel, o)) = reference {
+                                lane_goals.push(LaneGoal {
+                                    actor: id.clone(),
+                                    reference: o.clone(),
+                                    relation: *rel,
+                                    t0: l.t0,
+                                    t1: l.t1,
+                                    strict: *strict,
+                                    at: l.at.clone(),
+                                });
+                            }
+                            let to = match reference {
+                                Some((rel, o)) => placed.get(o).map(|m| m.pos).and_then(|olp| {
+                                    let base = LanePos {
+                                        s: mo.pos.s,
+                                        road: mo.pos.road,
+                                        lane: olp.lane,
+                                    };
+                                    match rel {
+                                        LaneRelation::SameAs => Some(olp.lane),
+                                        r => net.lane_beside(base, r.offset()),
                                     }
-                                    None => num(vals, "lane").and_then(|n| {
-                                        net.lanes_same_way(
-                                            mo.pos.road,
-                                            mo.pos.s,
-                                            net.travels_forward(mo.pos),
-                                        )
-                                        .get((n as usize).saturating_sub(1))
-                                        .copied()
-                                    }),
-                                }
-                            } else {
-                                None
+                                }),
+                                None => lane.and_then(|n| {
+                                    net.lanes_same_way(
+                                        mo.pos.road,
+                                        mo.pos.s,
+                                        net.travels_forward(mo.pos),
+                                    )
+                                    .get((n as usize).saturating_sub(1))
+                                    .copied()
+                                }),
                             };
                             if let Some(to) = to
                                 && to != mo.pos.lane
@@ -1379,7 +1384,7 @@ fn plan_once(
         .map(|l| Phase {
             label: l.label.clone(),
             actor: l.actor.clone(),
-            action: l.action.clone(),
+            action: l.action,
             t0: l.t0,
             t1: l.t1,
         })
@@ -1432,19 +1437,12 @@ fn travel(p: &ActorPlan, t0: f64, t1: f64, dt: f64) -> f64 {
     d
 }
 
-type ResolvedMod = (
-    String,
-    String,
-    BTreeMap<String, Value>,
-    BTreeMap<String, String>,
-);
-
 #[allow(clippy::too_many_arguments)]
 fn place(
     net: &RoadNetwork,
     plans: &[ActorPlan],
     i: usize,
-    mods: &[ResolvedMod],
+    mods: &[Intent],
     placed: &BTreeMap<String, Motion>,
     index: &BTreeMap<String, usize>,
     rng: &mut Rng,
@@ -1452,8 +1450,8 @@ fn place(
     at: &str,
 ) -> Result<Motion, ScenarioError> {
     let me = &plans[i];
-    let start = |m: &&ResolvedMod| m.1 != "end";
-    let find = |name: &str| mods.iter().filter(start).find(|m| m.0 == name);
+    // The modifiers that shape the start (`at: end` ones are goals).
+    let starting = || mods.iter().filter(|m| m.at() != At::End);
     let mut mo = Motion {
         pos: LanePos {
             road: roads_ok[0],
@@ -1466,18 +1464,30 @@ fn place(
         change: None,
     };
     // Road: along(road) or the reference actor's, else a seeded choice.
-    let along_road =
-        find("along").and_then(|m| m.2.get("road").and_then(|v| v.text().map(String::from)));
-    let reference = [
-        "ahead_of", "behind", "same_as", "left_of", "right_of", "side_of",
-    ]
-    .iter()
-    .find_map(|k| {
-        mods.iter()
-            .filter(start)
-            .find_map(|m| m.3.get(*k).map(|o| (m.0.clone(), k.to_string(), o.clone())))
+    let along = starting().find_map(|m| match m {
+        Intent::Along {
+            road, start_offset, ..
+        } => Some((road.clone(), *start_offset)),
+        _ => None,
     });
-    if let Some((_, _, o)) = &reference
+    let along_road = along.as_ref().and_then(|a| a.0.clone());
+    let reference: Option<String> = [
+        RefKind::AheadOf,
+        RefKind::Behind,
+        RefKind::SameAs,
+        RefKind::LeftOf,
+        RefKind::RightOf,
+        RefKind::SideOf,
+    ]
+    .into_iter()
+    .find_map(|k| starting().find_map(|m| m.reference(k).map(String::from)));
+    let lane_mod = starting().find_map(|m| match m {
+        Intent::Lane {
+            lane, reference, ..
+        } => Some((*lane, reference.clone())),
+        _ => None,
+    });
+    if let Some(o) = &reference
         && let Some(om) = placed.get(o)
     {
         mo.pos = om.pos;
@@ -1501,7 +1511,7 @@ fn place(
                 r.id
             )));
         }
-        let lane = match find("lane").and_then(|m| m.2.get("lane").and_then(Value::num)) {
+        let lane = match lane_mod.as_ref().and_then(|m| m.0) {
             Some(n) => *lanes.get((n as usize).saturating_sub(1)).ok_or_else(|| {
                 ScenarioError::Plan(format!(
                     "{at}: lane {n} asked for {} but road {} has {} lane(s) that way",
@@ -1513,7 +1523,7 @@ fn place(
             None => lanes[(rng.next_u64() % lanes.len() as u64) as usize],
         };
         mo.pos.lane = lane;
-        let offset = find("along").and_then(|m| m.2.get("start_offset").and_then(Value::num));
+        let offset = along.as_ref().and_then(|a| a.1);
         // A free s: clear of every placed actor on this road by their lengths + 5 m.
         let margin = me.length / 2.0 + 5.0;
         let lo = margin.min(r.length / 2.0);
@@ -1541,67 +1551,67 @@ fn place(
         }
     }
     // Lane relative to another actor.
-    if let Some(m) = find("lane") {
-        for (k, d) in [("left_of", 1), ("right_of", -1), ("same_as", 0)] {
-            if let Some(o) = m.3.get(k)
-                && let Some(om) = placed.get(o)
-            {
-                let base = LanePos {
-                    lane: om.pos.lane,
-                    ..mo.pos
-                };
-                mo.pos.lane = if d == 0 {
-                    om.pos.lane
-                } else {
-                    net.lane_beside(base, d).ok_or_else(|| {
-                        ScenarioError::Plan(format!(
-                            "{at}: no lane {} of {o} on road {} for {}",
-                            if d > 0 { "left" } else { "right" },
-                            net.roads()[base.road].id,
-                            me.id
-                        ))
-                    })?
-                };
-            }
-        }
+    if let Some((_, Some((rel, o)))) = &lane_mod
+        && let Some(om) = placed.get(o)
+    {
+        let base = LanePos {
+            lane: om.pos.lane,
+            ..mo.pos
+        };
+        mo.pos.lane = match rel {
+            LaneRelation::SameAs => om.pos.lane,
+            r => net.lane_beside(base, r.offset()).ok_or_else(|| {
+                ScenarioError::Plan(format!(
+                    "{at}: no lane {} of {o} on road {} for {}",
+                    if *r == LaneRelation::LeftOf {
+                        "left"
+                    } else {
+                        "right"
+                    },
+                    net.roads()[base.road].id,
+                    me.id
+                ))
+            })?,
+        };
     }
     // Longitudinal relation.
-    if let Some(m) = find("position") {
-        for (k, sign) in [("ahead_of", 1.0), ("behind", -1.0)] {
-            if let Some(o) = m.3.get(k)
-                && let Some(om) = placed.get(o)
-            {
-                let ol = index.get(o).map_or(4.6, |j| plans[*j].length);
-                let d = match (
-                    m.2.get("distance").and_then(Value::num),
-                    m.2.get("time").and_then(Value::num),
-                ) {
-                    (Some(d), _) => d,
-                    (None, Some(t)) => t * om.v,
-                    _ => 10.0,
-                };
-                let gap = d + (ol + me.length) / 2.0;
-                let lane = mo.pos.lane;
-                mo.pos = net.advance_path(
-                    LanePos {
-                        lane: om.pos.lane,
-                        ..om.pos
-                    },
-                    sign * gap,
-                    None,
-                );
-                mo.pos.lane = lane;
-            }
-        }
+    if let Some((distance, time, order, o)) = starting()
+        .find_map(|m| match m {
+            Intent::Position {
+                distance,
+                time,
+                reference,
+                ..
+            } => Some((*distance, *time, reference.clone())),
+            _ => None,
+        })
+        .and_then(|(d, t, r)| r.map(|(order, o)| (d, t, order, o)))
+        && let Some(om) = placed.get(&o)
+    {
+        let ol = index.get(&o).map_or(4.6, |j| plans[*j].length);
+        let d = match (distance, time) {
+            (Some(d), _) => d,
+            (None, Some(t)) => t * om.v,
+            _ => 10.0,
+        };
+        let gap = d + (ol + me.length) / 2.0;
+        let lane = mo.pos.lane;
+        mo.pos = net.advance_path(
+            LanePos {
+                lane: om.pos.lane,
+                ..om.pos
+            },
+            order.sign() * gap,
+            None,
+        );
+        mo.pos.lane = lane;
     }
     // Beside another actor (people, cyclists at the kerb).
-    if let Some(m) = find("lateral") {
-        let d = m.2.get("distance").and_then(Value::num).unwrap_or(2.0);
-        let side =
-            m.2.get("side")
-                .and_then(|v| v.text().map(String::from))
-                .unwrap_or_else(|| "right".into());
-        let sgn = if side == "left" { 1.0 } else { -1.0 };
+    if let Some((d, side)) = starting().find_map(|m| match m {
+        Intent::Lateral { distance, side, .. } => Some((*distance, *side)),
+        _ => None,
+    }) {
+        let sgn = if side == Side::Left { 1.0 } else { -1.0 };
         mo.lateral = sgn * d;
         if me.kind == ActorKind::Person || me.kind == ActorKind::Animal {
             mo.across = -sgn; // walk towards and across the lane
@@ -1609,13 +1619,20 @@ fn place(
     }
     // Initial speed: a speed modifier of the first phase (at start/all), else
     // the reference actor's speed, else a seeded 30–50 km/h for vehicles.
-    let v0 = find("speed").and_then(|m| m.2.get("speed").and_then(Value::num));
+    let v0 = starting().find_map(|m| match m {
+        Intent::Speed {
+            speed,
+            change: false,
+            ..
+        } => Some(*speed),
+        _ => None,
+    });
     mo.v = match (v0, me.kind) {
         (Some(v), _) => v,
         (None, ActorKind::Stationary) => 0.0,
         (None, ActorKind::Person | ActorKind::Animal) => WALK_SPEED,
         (None, _) => match &reference {
-            Some((_, _, o)) if placed.contains_key(o) => placed[o].v,
+            Some(o) if placed.contains_key(o) => placed[o].v,
             _ => sample(30.0 / 3.6, 50.0 / 3.6, rng),
         },
     };

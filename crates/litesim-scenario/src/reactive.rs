@@ -49,8 +49,8 @@ pub struct GoalResult {
     pub actor: String,
     /// Reference actor.
     pub reference: String,
-    /// `ahead_of` or `behind`.
-    pub relation: String,
+    /// In front of or behind the reference.
+    pub relation: crate::intent::Order,
     /// Wanted gap (m).
     pub wanted: f64,
     /// Gap at the phase's end (m, bumper to bumper, + on the wanted side).
@@ -76,8 +76,8 @@ pub struct LaneResult {
     pub actor: String,
     /// Reference actor.
     pub reference: String,
-    /// `same_as`, `left_of` or `right_of`.
-    pub relation: String,
+    /// Which lane of the reference's.
+    pub relation: crate::intent::LaneRelation,
     /// The lane wanted (OpenDRIVE id), when the reference is on a road.
     pub wanted: Option<i32>,
     /// The lane the actor is in, when on a road.

@@ -486,7 +486,7 @@ fn a_lane_goal_follows_the_lane_the_sut_really_takes() {
     let r = go("cut_in", SutChoice::External(Arc::new(LeftAt6Factory)));
     let g = &r.summary.lane_goals[0];
     assert_eq!(
-        (g.relation.as_str(), g.wanted, g.got),
+        (g.relation.name(), g.wanted, g.got),
         ("same_as", Some(-2), Some(-2)),
         "{g:?}"
     );

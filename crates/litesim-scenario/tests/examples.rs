@@ -236,7 +236,7 @@ fn outcomes_of_the_example_scenarios() {
     let ph = |actor: &str, action: &str| {
         ewu.phases
             .iter()
-            .find(|p| p.actor == actor && p.action == action)
+            .find(|p| p.actor == actor && p.action.name() == action)
             .map(|p| (p.t0, p.t1))
             .unwrap()
     };
@@ -272,7 +272,7 @@ fn outcomes_of_the_example_scenarios() {
         .plan
         .phases
         .iter()
-        .find(|p| p.actor == "other" && p.action == "drive")
+        .find(|p| p.actor == "other" && p.action.name() == "drive")
         .unwrap();
     assert!((5.0..=5.3).contains(&go.t0), "{go:?}");
     assert!(

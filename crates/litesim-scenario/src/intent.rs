@@ -1,0 +1,478 @@
+//! Typed actions and modifiers: what each phase asks of its actor, decoded
+//! once from the elaborated (name, arguments) after the test's parameters
+//! are sampled. The planner and the live executor match on these types;
+//! names are read here and nowhere else, so a modifier the domain adds is
+//! one variant and one decoding arm, and a misspelt name cannot silently do
+//! nothing in one place and something in another.
+
+use crate::elab::Value;
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+/// The action of a phase (`actor.drive()`, …).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Action {
+    /// `drive()`: a vehicle follows its lane.
+    Drive,
+    /// `remain_stationary()`: stands still for the phase.
+    RemainStationary,
+    /// `walk()`: a person or animal moves.
+    Walk,
+    /// `move()`: any actor moves.
+    Move,
+}
+
+impl Action {
+    /// Every action, in the order the domain declares them.
+    pub const ALL: [Action; 4] = [
+        Action::Drive,
+        Action::RemainStationary,
+        Action::Walk,
+        Action::Move,
+    ];
+
+    /// The action called `name`; `None` for names the domain does not have
+    /// (the checker rejects those before planning).
+    pub fn parse(name: &str) -> Option<Self> {
+        Some(match name {
+            "drive" => Action::Drive,
+            "remain_stationary" => Action::RemainStationary,
+            "walk" => Action::Walk,
+            "move" => Action::Move,
+            _ => return None,
+        })
+    }
+
+    /// The name as written in OSC.
+    pub fn name(self) -> &'static str {
+        match self {
+            Action::Drive => "drive",
+            Action::RemainStationary => "remain_stationary",
+            Action::Walk => "walk",
+            Action::Move => "move",
+        }
+    }
+}
+
+impl std::fmt::Display for Action {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::fmt::Display for LaneRelation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// When within its phase a modifier applies (`at:`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum At {
+    /// From the phase's start on (`at: start`).
+    Start,
+    /// Reached by the phase's end (`at: end`).
+    End,
+    /// Throughout (`at: all`, the default).
+    All,
+}
+
+impl At {
+    /// Decodes `at:` (anything but `start`/`end` is `all`, the default).
+    pub fn parse(text: &str) -> Self {
+        match text {
+            "start" => At::Start,
+            "end" => At::End,
+            _ => At::All,
+        }
+    }
+}
+
+/// A side of the road or of an actor.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    /// Left.
+    Left,
+    /// Right.
+    Right,
+}
+
+/// A longitudinal relation to another actor (`position(…, ahead_of: X)`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Order {
+    /// In front of it.
+    AheadOf,
+    /// Behind it.
+    Behind,
+}
+
+impl Order {
+    /// +1 ahead, −1 behind.
+    pub fn sign(self) -> f64 {
+        match self {
+            Order::AheadOf => 1.0,
+            Order::Behind => -1.0,
+        }
+    }
+}
+
+/// A lane relation to another actor (`lane(same_as: X)`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LaneRelation {
+    /// The lane left of its lane.
+    LeftOf,
+    /// The lane right of its lane.
+    RightOf,
+    /// Its lane.
+    SameAs,
+}
+
+impl LaneRelation {
+    /// The parameter name in OSC (`left_of`, …).
+    pub fn name(self) -> &'static str {
+        match self {
+            LaneRelation::LeftOf => "left_of",
+            LaneRelation::RightOf => "right_of",
+            LaneRelation::SameAs => "same_as",
+        }
+    }
+
+    /// Lanes to the left of the reference's lane: +1, −1 or 0.
+    pub fn offset(self) -> i32 {
+        match self {
+            LaneRelation::LeftOf => 1,
+            LaneRelation::RightOf => -1,
+            LaneRelation::SameAs => 0,
+        }
+    }
+}
+
+/// Which relation to another actor placement looks at first: the order in
+/// which a phase's modifiers name the actor it is placed relative to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum RefKind {
+    /// `ahead_of:`
+    AheadOf,
+    /// `behind:`
+    Behind,
+    /// `same_as:`
+    SameAs,
+    /// `left_of:`
+    LeftOf,
+    /// `right_of:`
+    RightOf,
+    /// `side_of:`
+    SideOf,
+}
+
+/// One modifier of a phase, its arguments evaluated.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "modifier", rename_all = "snake_case")]
+pub enum Intent {
+    /// `speed(v)` (`strict` unless `run_mode: best_effort`) and
+    /// `change_speed(v)` (never strict).
+    Speed {
+        /// Target speed (m/s).
+        speed: f64,
+        /// When.
+        at: At,
+        /// A strict `speed` that is not reached fails the run.
+        strict: bool,
+        /// Written as `change_speed` (it does not set the start speed).
+        change: bool,
+    },
+    /// `acceleration(a)`: the rate of the phase's speed changes.
+    Acceleration {
+        /// |a| (m/s²).
+        accel: f64,
+        /// When.
+        at: At,
+    },
+    /// `position(d | time: τ, ahead_of|behind: X)`.
+    Position {
+        /// Distance (m), if given.
+        distance: Option<f64>,
+        /// Headway (s), if given instead.
+        time: Option<f64>,
+        /// Relative to whom.
+        reference: Option<(Order, String)>,
+        /// When.
+        at: At,
+        /// A strict miss fails the run.
+        strict: bool,
+    },
+    /// `lane(n)` or `lane(same_as|left_of|right_of: X)`.
+    Lane {
+        /// Lane number counted from the road's edge in the direction of travel (1 = first).
+        lane: Option<f64>,
+        /// Relative to whom.
+        reference: Option<(LaneRelation, String)>,
+        /// When.
+        at: At,
+        /// A strict miss fails the run.
+        strict: bool,
+    },
+    /// `change_lane(num_of_lanes, side)`.
+    ChangeLane {
+        /// How many lanes.
+        lanes: i32,
+        /// Which way.
+        side: Side,
+        /// When.
+        at: At,
+    },
+    /// `lateral(distance, side, side_of: X)`: beside the lane (or beside another actor).
+    Lateral {
+        /// Offset from the lane centre (m).
+        distance: f64,
+        /// Which side.
+        side: Side,
+        /// The actor it stays beside, if any.
+        side_of: Option<String>,
+        /// When.
+        at: At,
+    },
+    /// `along(road, start_offset)`.
+    Along {
+        /// Road id, if given.
+        road: Option<String>,
+        /// Start s (m), if given.
+        start_offset: Option<f64>,
+        /// When.
+        at: At,
+    },
+    /// A modifier the planner has no use for (kept so a note can name it).
+    Other {
+        /// Its name.
+        name: String,
+        /// When.
+        at: At,
+    },
+}
+
+impl Intent {
+    /// Decodes one modifier: its name, `at:` text, evaluated values and the
+    /// actors its parameters name. `None` for a `speed`/`change_speed` or
+    /// `acceleration` without a value (they ask for nothing).
+    pub fn decode(
+        name: &str,
+        at: &str,
+        vals: &BTreeMap<String, Value>,
+        refs: &BTreeMap<String, String>,
+    ) -> Option<Self> {
+        let at = At::parse(at);
+        let num = |k: &str| vals.get(k).and_then(Value::num);
+        let text = |k: &str| vals.get(k).and_then(|v| v.text().map(String::from));
+        let strict = vals.get("run_mode").and_then(Value::text) != Some("best_effort");
+        let side = |default: Side| match text("side").as_deref() {
+            Some("left") => Side::Left,
+            Some("right") => Side::Right,
+            _ => default,
+        };
+        Some(match name {
+            "speed" | "change_speed" => Intent::Speed {
+                speed: num("speed")?,
+                at,
+                strict: strict && name == "speed",
+                change: name == "change_speed",
+            },
+            "acceleration" => Intent::Acceleration {
+                accel: num("acceleration")?,
+                at,
+            },
+            "position" => Intent::Position {
+                distance: num("distance"),
+                time: num("time"),
+                reference: refs
+                    .get("ahead_of")
+                    .map(|o| (Order::AheadOf, o.clone()))
+                    .or_else(|| refs.get("behind").map(|o| (Order::Behind, o.clone()))),
+                at,
+                strict,
+            },
+            "lane" => Intent::Lane {
+                lane: num("lane"),
+                // The first in parameter-name order, as written in the
+                // domain (left_of, right_of, same_as).
+                reference: [
+                    LaneRelation::LeftOf,
+                    LaneRelation::RightOf,
+                    LaneRelation::SameAs,
+                ]
+                .into_iter()
+                .find_map(|r| refs.get(r.name()).map(|o| (r, o.clone()))),
+                at,
+                strict,
+            },
+            "change_lane" => Intent::ChangeLane {
+                lanes: num("num_of_lanes").unwrap_or(1.0) as i32,
+                side: side(Side::Left),
+                at,
+            },
+            "lateral" => Intent::Lateral {
+                distance: num("distance").unwrap_or(2.0),
+                side: side(Side::Right),
+                side_of: refs.get("side_of").cloned(),
+                at,
+            },
+            "along" => Intent::Along {
+                road: text("road"),
+                start_offset: num("start_offset"),
+                at,
+            },
+            other => Intent::Other {
+                name: other.to_string(),
+                at,
+            },
+        })
+    }
+
+    /// When the modifier applies.
+    pub fn at(&self) -> At {
+        match self {
+            Intent::Speed { at, .. }
+            | Intent::Acceleration { at, .. }
+            | Intent::Position { at, .. }
+            | Intent::Lane { at, .. }
+            | Intent::ChangeLane { at, .. }
+            | Intent::Lateral { at, .. }
+            | Intent::Along { at, .. }
+            | Intent::Other { at, .. } => *at,
+        }
+    }
+
+    /// The other actor this modifier names under `kind`, if any.
+    pub fn reference(&self, kind: RefKind) -> Option<&str> {
+        match (self, kind) {
+            (
+                Intent::Position {
+                    reference: Some((o, id)),
+                    ..
+                },
+                RefKind::AheadOf | RefKind::Behind,
+            ) if (*o == Order::AheadOf) == (kind == RefKind::AheadOf) => Some(id),
+            (
+                Intent::Lane {
+                    reference: Some((r, id)),
+                    ..
+                },
+                RefKind::SameAs | RefKind::LeftOf | RefKind::RightOf,
+            ) if matches!(
+                (r, kind),
+                (LaneRelation::SameAs, RefKind::SameAs)
+                    | (LaneRelation::LeftOf, RefKind::LeftOf)
+                    | (LaneRelation::RightOf, RefKind::RightOf)
+            ) =>
+            {
+                Some(id)
+            }
+            (
+                Intent::Lateral {
+                    side_of: Some(id), ..
+                },
+                RefKind::SideOf,
+            ) => Some(id),
+            _ => None,
+        }
+    }
+
+    /// Every actor this modifier names.
+    pub fn references(&self) -> impl Iterator<Item = &str> {
+        let one = match self {
+            Intent::Position {
+                reference: Some((_, id)),
+                ..
+            }
+            | Intent::Lane {
+                reference: Some((_, id)),
+                ..
+            }
+            | Intent::Lateral {
+                side_of: Some(id), ..
+            } => Some(id.as_str()),
+            _ => None,
+        };
+        one.into_iter()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn vals(kv: &[(&str, Value)]) -> BTreeMap<String, Value> {
+        kv.iter().map(|(k, v)| (k.to_string(), v.clone())).collect()
+    }
+
+    fn refs(kv: &[(&str, &str)]) -> BTreeMap<String, String> {
+        kv.iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect()
+    }
+
+    #[test]
+    fn modifiers_decode_to_their_types() {
+        let s = Intent::decode(
+            "speed",
+            "end",
+            &vals(&[("speed", Value::Num(5.0))]),
+            &refs(&[]),
+        );
+        assert_eq!(
+            s,
+            Some(Intent::Speed {
+                speed: 5.0,
+                at: At::End,
+                strict: true,
+                change: false
+            })
+        );
+        let best = vals(&[
+            ("speed", Value::Num(5.0)),
+            ("run_mode", Value::Enum("best_effort".into())),
+        ]);
+        assert!(matches!(
+            Intent::decode("speed", "all", &best, &refs(&[])),
+            Some(Intent::Speed { strict: false, .. })
+        ));
+        assert!(matches!(
+            Intent::decode(
+                "change_speed",
+                "all",
+                &vals(&[("speed", Value::Num(1.0))]),
+                &refs(&[])
+            ),
+            Some(Intent::Speed { strict: false, .. })
+        ));
+        assert_eq!(Intent::decode("speed", "all", &vals(&[]), &refs(&[])), None);
+        let p = Intent::decode(
+            "position",
+            "end",
+            &vals(&[("distance", Value::Num(5.0))]),
+            &refs(&[("behind", "sut.car")]),
+        )
+        .unwrap();
+        assert_eq!(p.reference(RefKind::Behind), Some("sut.car"));
+        assert_eq!(p.reference(RefKind::AheadOf), None);
+        let l = Intent::decode("lane", "start", &vals(&[]), &refs(&[("left_of", "a")])).unwrap();
+        assert_eq!(l.reference(RefKind::LeftOf), Some("a"));
+        assert_eq!(l.references().collect::<Vec<_>>(), ["a"]);
+        let c = Intent::decode("change_lane", "all", &vals(&[]), &refs(&[])).unwrap();
+        assert_eq!(
+            c,
+            Intent::ChangeLane {
+                lanes: 1,
+                side: Side::Left,
+                at: At::All
+            }
+        );
+        assert_eq!(At::parse("bogus"), At::All);
+        assert_eq!(Action::parse("walk").map(Action::name), Some("walk"));
+        assert_eq!(Action::parse("fly"), None);
+    }
+}
