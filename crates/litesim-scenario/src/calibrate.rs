@@ -89,6 +89,7 @@ pub fn reference_plan(step_s: f64) -> Plan {
         lights: Vec::new(),
         goals: Vec::new(),
         lane_goals: Vec::new(),
+        side_follows: Vec::new(),
         conditions: Vec::new(),
         ids: Default::default(),
         notes: Vec::new(),

@@ -608,16 +608,36 @@ pub fn execute(
             if let Some(p) = rp {
                 route_hint = p.segment;
             }
-            // Lane goals relative to sut.car follow its sideways move off
-            // its planned path (its route).
-            if let Some(p) = rp {
-                for g in &plan.lane_goals {
-                    if g.reference != plan.actors[e].id || t < g.t0 - 1e-9 || t >= g.t1 - 1e-9 {
-                        continue;
-                    }
-                    if let Some(m) = plan.actors.iter().position(|a| a.id == g.actor) {
-                        warps[m].shift_towards(p.lateral, dt);
-                    }
+            // Lane goals and `lateral(side_of:)` phases follow their
+            // reference's sideways move off its planned path: sut.car's
+            // offset from its route, another actor's own shift (which may
+            // follow sut.car in turn).
+            let follows = plan
+                .lane_goals
+                .iter()
+                .map(|g| (&g.actor, &g.reference, g.t0, g.t1))
+                .chain(
+                    plan.side_follows
+                        .iter()
+                        .map(|f| (&f.actor, &f.reference, f.t0, f.t1)),
+                );
+            for (actor, reference, t0, t1) in follows {
+                if t < t0 - 1e-9 || t >= t1 - 1e-9 {
+                    continue;
+                }
+                let idx = |id: &str| plan.actors.iter().position(|a| a.id == id);
+                let (Some(m), Some(r)) = (idx(actor), idx(reference)) else {
+                    continue;
+                };
+                let target = if r == e {
+                    rp.map(|p| p.lateral)
+                } else {
+                    Some(warps[r].offset)
+                };
+                if let Some(target) = target
+                    && m != e
+                {
+                    warps[m].shift_towards(target, dt);
                 }
             }
             obs.distance_to_goal = rp.map_or(0.0, |p| route.length() - p.s);

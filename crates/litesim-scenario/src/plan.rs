@@ -239,6 +239,10 @@ pub struct Plan {
     /// (`lane(same_as: sut.car, at: end)`): re-solved against the lane that
     /// actor is really in.
     pub lane_goals: Vec<LaneGoal>,
+    /// Phases that keep an actor beside another (`lateral(d, side_of: x)`):
+    /// in a closed loop the actor's path follows x's sideways moves.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub side_follows: Vec<SideFollow>,
     /// State conditions of `wait` and `until` (`sut.car.speed > 30kph`,
     /// `rise(…)`) and when this plan has them hold: the closed-loop runtime
     /// evaluates them on the simulated state and plans again when they
@@ -249,6 +253,21 @@ pub struct Plan {
     pub ids: BTreeMap<String, String>,
     /// Remarks.
     pub notes: Vec<String>,
+}
+
+/// A phase keeps `actor` beside `reference` (`lateral(d, side_of:
+/// reference)`): while it runs, `actor`'s path is shifted sideways as
+/// `reference` moves off its own planned path.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SideFollow {
+    /// The actor that follows.
+    pub actor: String,
+    /// The actor it stays beside.
+    pub reference: String,
+    /// Phase start (s).
+    pub t0: f64,
+    /// Phase end (s).
+    pub t1: f64,
 }
 
 /// A phase asks `actor` to end in the lane `relation` (`same_as`,
@@ -936,6 +955,7 @@ fn plan_once(
     let mut violations = Vec::new();
     let mut goals: Vec<GapGoal> = Vec::new();
     let mut lane_goals: Vec<LaneGoal> = Vec::new();
+    let mut side_follows: Vec<SideFollow> = Vec::new();
 
     // Resolve each leaf's modifier arguments once, in time order (seeded).
     let mut leaves = leaves;
@@ -1148,6 +1168,16 @@ fn plan_once(
                         } => {
                             along_end.push((l.t1, road.clone(), l.at.clone()));
                         }
+                        Intent::Lateral {
+                            side_of: Some(o),
+                            at,
+                            ..
+                        } if *at != At::End => side_follows.push(SideFollow {
+                            actor: id.clone(),
+                            reference: o.clone(),
+                            t0: l.t0,
+                            t1: l.t1,
+                        }),
                         Intent::Acceleration { accel, .. } => {
                             accel_up = accel.abs().max(0.1);
                             accel_down = accel.abs().max(0.1);
@@ -1409,6 +1439,7 @@ fn plan_once(
             lights,
             goals,
             lane_goals,
+            side_follows,
             conditions: Vec::new(),
             ids: BTreeMap::new(),
             notes,

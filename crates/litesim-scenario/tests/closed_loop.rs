@@ -512,3 +512,73 @@ fn errors_keep_their_causes() {
         "{text}"
     );
 }
+
+/// sut.car, `a` 30 m ahead in its lane, `b` 30 m behind, and `c` abreast
+/// one lane to its left (`lateral(3.5m, side_of: sut.car, side: left)`);
+/// after 6 s `a` ends in sut.car's lane and `b` in `a`'s.
+const FOLLOWERS: &str = "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.followers()\nscenario sut.followers:\n    r: two_way_road\n    a: vehicle\n    b: vehicle\n    c: vehicle\n    do serial():\n        p: parallel(overlap: equal):\n            sut.car.drive() with:\n                speed(60kph)\n                along(r, at: start)\n                lane(1, at: start)\n            a.drive() with:\n                speed(60kph)\n                lane(same_as: sut.car, at: start)\n                position(30m, ahead_of: sut.car, at: start)\n            b.drive() with:\n                speed(60kph)\n                lane(same_as: sut.car, at: start)\n                position(30m, behind: sut.car, at: start)\n            c.drive() with:\n                speed(60kph)\n                lateral(3.5m, side_of: sut.car, side: left)\n        with: duration(6s)\n        q: parallel(overlap: equal):\n            sut.car.drive() with:\n                speed(60kph)\n            a.drive() with:\n                lane(same_as: sut.car, at: end)\n            b.drive() with:\n                lane(same_as: a, at: end)\n            c.drive() with:\n                lateral(3.5m, side_of: sut.car, side: left)\n        with: duration(4s)\n";
+
+#[test]
+fn lane_goals_chain_through_other_actors_and_side_of_follows_the_sut() {
+    let f = example_file(FOLLOWERS);
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let opts = |sut| RunOptions {
+        seed: Some(1),
+        record: true,
+        sut,
+        ..RunOptions::default()
+    };
+    let planned = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &opts(SutChoice::Planned),
+    )
+    .unwrap();
+    let lanes = |r: &RunResult| {
+        r.summary
+            .lane_goals
+            .iter()
+            .map(|g| (g.actor.clone(), g.wanted, g.got, g.met))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        lanes(&planned),
+        [
+            ("a".to_string(), Some(-3), Some(-3), true),
+            ("b".to_string(), Some(-3), Some(-3), true)
+        ]
+    );
+    // The SUT moves one lane left at 6 s: `a` follows it, and `b`, whose
+    // goal names `a`, follows `a` (not sut.car directly).
+    let r = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &opts(SutChoice::External(Arc::new(LeftAt6Factory))),
+    )
+    .unwrap();
+    assert_eq!(
+        lanes(&r),
+        [
+            ("a".to_string(), Some(-2), Some(-2), true),
+            ("b".to_string(), Some(-2), Some(-2), true)
+        ],
+        "{:?}",
+        r.summary.failures
+    );
+    // `c` stays 3.5 m to the left of the actual sut.car: it moved a lane
+    // left with it instead of being run into.
+    let (s, c) = (track(&r, "sut.car"), track(&r, "c"));
+    let k = s.state.x.len() - 1;
+    let (sn, cs) = (s.state.yaw[k].sin(), s.state.yaw[k].cos());
+    let side = -(c.state.x[k] - s.state.x[k]) * sn + (c.state.y[k] - s.state.y[k]) * cs;
+    assert!(
+        (side - 3.5).abs() < 0.3,
+        "c ends {side:.2} m left of sut.car"
+    );
+    assert!(
+        r.summary.pairs.iter().all(|p| p.collision_at.is_none()),
+        "{:?}",
+        r.summary.failures
+    );
+    assert!(pair(&r, "sut.car", "c").min_distance > 1.0);
+}
