@@ -80,26 +80,41 @@ const ACTOR_CALLS: &[&str] = &[
 ];
 
 impl Phase {
-    /// The calls allowed in this state.
-    pub fn allowed_calls(self) -> Vec<&'static str> {
-        let mut v: Vec<&'static str> = match self {
-            Phase::Uninitialized => vec!["init"],
-            Phase::Initialized => vec![
+    /// The calls of this phase's own (the actor calls come on top).
+    fn own_calls(self) -> &'static [&'static str] {
+        match self {
+            Phase::Uninitialized => &["init"],
+            Phase::Initialized => &[
                 "launch_simulator",
                 "terminate_simulator",
                 "start_simulation",
             ],
-            Phase::Starting => vec!["wait_start_simulation", "end_simulation"],
-            Phase::Running => vec![
+            Phase::Starting => &["wait_start_simulation", "end_simulation"],
+            Phase::Running => &[
                 "start_step",
                 "step",
                 "end_simulation",
                 "wait_start_simulation",
             ],
-            Phase::Stepping => vec!["wait_step", "end_simulation"],
-            Phase::Ended => vec!["get_actors_states", "terminate_simulator", "sim_command"],
-        };
-        if !matches!(self, Phase::Uninitialized | Phase::Ended) {
+            Phase::Stepping => &["wait_step", "end_simulation"],
+            Phase::Ended => &["get_actors_states", "terminate_simulator", "sim_command"],
+        }
+    }
+
+    fn has_actor_calls(self) -> bool {
+        !matches!(self, Phase::Uninitialized | Phase::Ended)
+    }
+
+    /// Whether `call` is allowed in this phase (every API call asks: no
+    /// list is built).
+    pub fn allows(self, call: &str) -> bool {
+        self.own_calls().contains(&call) || (self.has_actor_calls() && ACTOR_CALLS.contains(&call))
+    }
+
+    /// The calls allowed in this state.
+    pub fn allowed_calls(self) -> Vec<&'static str> {
+        let mut v = self.own_calls().to_vec();
+        if self.has_actor_calls() {
             v.extend_from_slice(ACTOR_CALLS);
         }
         v
@@ -310,7 +325,7 @@ impl Session {
     }
 
     fn require(&self, call: &str) -> SspResult<()> {
-        if self.phase.allowed_calls().contains(&call) {
+        if self.phase.allows(call) {
             Ok(())
         } else {
             Err(SspError::precondition(format!(

@@ -71,9 +71,10 @@ impl Route {
         if n < 2 {
             return None;
         }
-        // (distance², arc length, lateral) of the foot on segment i; the
-        // heading (an atan2) is computed for the winner only.
-        let seg = |i: usize| -> (f64, f64, f64) {
+        // (distance², u) of the foot on segment i; its arc length, lateral
+        // offset (a square root) and heading (an atan2) are computed for
+        // the winner only.
+        let seg = |i: usize| -> (f64, f64) {
             let (a, b) = (self.points[i], self.points[i + 1]);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
             let len2 = dx * dx + dy * dy;
@@ -83,29 +84,31 @@ impl Route {
                 0.0
             };
             let (fx, fy) = (a[0] + dx * u, a[1] + dy * u);
-            let d2 = (x - fx) * (x - fx) + (y - fy) * (y - fy);
-            let len = len2.sqrt();
-            let cross = if len > 0.0 {
+            ((x - fx) * (x - fx) + (y - fy) * (y - fy), u)
+        };
+        let best_in = |lo: usize, hi: usize| {
+            let mut best: Option<(usize, (f64, f64))> = None;
+            for i in lo..hi {
+                let c = seg(i);
+                if best.is_none_or(|b| c.0 < b.1.0) {
+                    best = Some((i, c));
+                }
+            }
+            best
+        };
+        let point = |(i, (_, u)): (usize, (f64, f64))| {
+            let (a, b) = (self.points[i], self.points[i + 1]);
+            let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
+            let len = (dx * dx + dy * dy).sqrt();
+            let lateral = if len > 0.0 {
                 (dx * (y - a[1]) - dy * (x - a[0])) / len
             } else {
                 0.0
             };
-            (d2, self.s[i] + u * (self.s[i + 1] - self.s[i]), cross)
-        };
-        let best_in = |lo: usize, hi: usize| {
-            (lo..hi)
-                .map(|i| (i, seg(i)))
-                .fold(None::<(usize, (f64, f64, f64))>, |b, c| match b {
-                    Some(b) if b.1.0 <= c.1.0 => Some(b),
-                    _ => Some(c),
-                })
-        };
-        let point = |(i, (_, s, lateral)): (usize, (f64, f64, f64))| {
-            let (a, b) = (self.points[i], self.points[i + 1]);
             RoutePoint {
-                s,
+                s: self.s[i] + u * (self.s[i + 1] - self.s[i]),
                 lateral,
-                heading: math::atan2(b[1] - a[1], b[0] - a[0]),
+                heading: math::atan2(dy, dx),
                 segment: i,
             }
         };
