@@ -13,11 +13,15 @@ use clap::{Parser, Subcommand};
 use std::io::Write;
 use std::path::PathBuf;
 
+/// Exit code of a command line litesim cannot parse (sysexits' EX_USAGE).
+const EXIT_USAGE: u8 = 64;
+
 #[derive(Parser)]
 #[command(
     name = "litesim",
     version,
-    about = "A lightweight, deterministic vehicle and scenario simulator"
+    about = "A lightweight, deterministic vehicle and scenario simulator",
+    after_help = "Exit codes (every command): 0 done and every check passed; 2 a check failed (a test failed, or some run of a batch failed); 1 could not run (bad input, unreadable test or map, SUT error, I/O); 64 the command line is not valid."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -220,6 +224,9 @@ enum Command {
         /// Output folder.
         #[arg(short, long)]
         out: PathBuf,
+        /// Merge even when shards or runs are missing (they are listed).
+        #[arg(long)]
+        allow_partial: bool,
     },
     /// Tune the dynamic drivers' gains for a profile; write its calibration file.
     Calibrate {
@@ -253,7 +260,20 @@ fn main() -> std::process::ExitCode {
         }
         default_hook(info);
     }));
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // --help and --version are answers, not errors; a usage error
+            // gets its own code (64, EX_USAGE) so that scripts can tell it
+            // from a failed check (2).
+            let _ = e.print();
+            return if e.use_stderr() {
+                std::process::ExitCode::from(EXIT_USAGE)
+            } else {
+                std::process::ExitCode::SUCCESS
+            };
+        }
+    };
     match run(cli) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
@@ -426,7 +446,9 @@ fn run(cli: Cli) -> Result<()> {
                 // A failed check is an outcome, not a crash: exit 2.
                 scenario::Outcome::Fail => std::process::exit(2),
                 // The system under test broke down: exit 1 (summary written).
-                scenario::Outcome::SutError => std::process::exit(1),
+                scenario::Outcome::SutError | scenario::Outcome::CouldNotRun => {
+                    std::process::exit(1)
+                }
             }
         }
         Command::Batch {
@@ -439,7 +461,7 @@ fn run(cli: Cli) -> Result<()> {
             resume,
             quiet,
             save_failed,
-        } => scenario::batch(
+        } => match scenario::batch(
             tests,
             &common,
             &seeds,
@@ -449,8 +471,18 @@ fn run(cli: Cli) -> Result<()> {
             resume,
             quiet,
             save_failed,
-        ),
-        Command::Merge { dirs, out } => scenario::merge(&dirs, &out),
+        )? {
+            scenario::Outcome::Pass => Ok(()),
+            // Some run failed its checks: the batch's verdict is a failure.
+            scenario::Outcome::Fail => std::process::exit(2),
+            // A test could not be read or run at all.
+            scenario::Outcome::SutError | scenario::Outcome::CouldNotRun => std::process::exit(1),
+        },
+        Command::Merge {
+            dirs,
+            out,
+            allow_partial,
+        } => scenario::merge(&dirs, &out, allow_partial),
         Command::Calibrate { profile, out } => scenario::calibrate_cmd(&profile, out),
         Command::Models => {
             for m in litesim_ssp::models() {

@@ -27,6 +27,11 @@ pub struct Common {
     /// `sut_timeout`, else 1).
     #[arg(long, value_name = "S")]
     pub sut_timeout: Option<f64>,
+    /// Folder of driver calibrations (`PROFILE.toml` from `litesim
+    /// calibrate`). Default: `calibration/` in the test's folder or the
+    /// nearest ancestor that has one — never the current directory.
+    #[arg(long, value_name = "DIR")]
+    pub calibration_dir: Option<PathBuf>,
 }
 
 impl Common {
@@ -153,9 +158,9 @@ pub fn run(
         record: true,
         plan_only,
         calibration,
-        // `litesim calibrate` writes calibration/PROFILE.toml: runs from
-        // this folder use it (the summary says which gains were used).
-        calibration_dir: Some(PathBuf::from("calibration")),
+        // The summary says which gains were used (path and hash).
+        calibration_dir: common.calibration_dir.clone(),
+        calibration_near_test: true,
         sut,
         sut_timeout,
         ..RunOptions::default()
@@ -289,6 +294,9 @@ pub enum Outcome {
     Fail,
     /// The system under test failed to answer (exit 1).
     SutError,
+    /// Something could not run at all, e.g. a batch's test could not be
+    /// read (exit 1).
+    CouldNotRun,
 }
 
 /// Parses `A..B` (inclusive) or a single seed.
@@ -303,6 +311,13 @@ pub fn seeds(text: &str) -> Result<(u64, u64)> {
             let (a, b) = (parse(a)?, parse(b.trim_start_matches('='))?);
             if b < a {
                 bail!("--seeds {text}: the range is empty");
+            }
+            if b - a >= batch::MAX_SEEDS {
+                bail!(
+                    "--seeds {text}: {} seeds; a batch takes at most {} (split it with --shard or several folders)",
+                    (b - a) as u128 + 1,
+                    batch::MAX_SEEDS
+                );
             }
             Ok((a, b))
         }
@@ -339,7 +354,7 @@ pub fn batch(
     resume: bool,
     quiet: bool,
     save_failed: bool,
-) -> Result<()> {
+) -> Result<Outcome> {
     let (a, b) = seeds(seed_range)?;
     let spec = batch::BatchSpec {
         tests,
@@ -351,7 +366,7 @@ pub fn batch(
         resume,
         mode: common.mode(),
         load: common.load(),
-        calibration_dir: Some(PathBuf::from("calibration")),
+        calibration_dir: common.calibration_dir.clone(),
         sut: common.sut()?,
         sut_timeout: common.sut_timeout()?,
         save_failed,
@@ -374,24 +389,39 @@ pub fn batch(
     bar.finish_and_clear();
     let secs = started.elapsed().as_secs_f64();
     println!(
-        "{} runs in this shard ({} resumed, {} run now in {:.2} s, {:.0} runs/s); {} passed, {} failed",
+        "{} runs in this shard ({} resumed, {} run now in {:.2} s, {:.0} runs/s, {} rows of other seeds dropped); {} passed, {} failed",
         report.total,
         report.skipped,
         report.ran,
         secs,
         report.ran as f64 / secs.max(1e-9),
+        report.foreign,
         report.passed,
         report.failed
     );
     println!("wrote {}/results.jsonl and results.csv", out.display());
-    Ok(())
+    Ok(if report.unreadable > 0 {
+        Outcome::CouldNotRun
+    } else if report.failed > 0 {
+        Outcome::Fail
+    } else {
+        Outcome::Pass
+    })
 }
 
 /// `litesim merge`.
-pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
-    let n = batch::merge(dirs, out)?;
+pub fn merge(dirs: &[PathBuf], out: &Path, allow_partial: bool) -> Result<()> {
+    let r = batch::merge(dirs, out, allow_partial)?;
+    if !r.missing_shards.is_empty() || !r.missing_jobs.is_empty() {
+        eprintln!(
+            "partial: missing shard(s) [{}], {} run(s) without a result",
+            r.missing_shards.join(", "),
+            r.missing_jobs.len()
+        );
+    }
     println!(
-        "merged {n} runs into {}/results.jsonl and results.csv",
+        "merged {} runs into {}/results.jsonl and results.csv",
+        r.runs,
         out.display()
     );
     Ok(())

@@ -717,7 +717,13 @@ fn batch_shards_merge_and_calibrate_from_the_command_line() {
         .arg(&failing)
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Failed runs make the batch's verdict a failure: exit 2.
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     for seed in [1, 2] {
         assert!(
             failing

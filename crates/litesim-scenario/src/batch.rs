@@ -18,6 +18,150 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
+/// Most seeds one batch runs per test: a typo such as `--seeds
+/// 1..18446744073709551615` is refused at once instead of filling memory
+/// with jobs.
+pub const MAX_SEEDS: u64 = 1_000_000;
+
+/// What produced a results folder: written first (`manifest.json`), checked
+/// by `--resume` (the same options and tests, or a refusal naming the
+/// difference) and by [`merge`] (the same everything but the shard).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Manifest {
+    /// litesim version.
+    pub litesim: String,
+    /// The tests, in job order.
+    pub tests: Vec<ManifestTest>,
+    /// `kinematic` or `dynamic`.
+    pub mode: String,
+    /// What drove sut.car.
+    pub sut: String,
+    /// The SUT's timeout option (s), if given.
+    pub sut_timeout: Option<f64>,
+    /// Seeds, `A..B`.
+    pub seeds: String,
+    /// Shard, `i/N`.
+    pub shard: String,
+}
+
+/// One test of a [`Manifest`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ManifestTest {
+    /// Path as given.
+    pub path: String,
+    /// SHA-256 of its sources (the file and its imports); `None` when it
+    /// could not be read.
+    pub sources: Option<String>,
+    /// SHA-256 of its map's text, if it has one.
+    pub map: Option<String>,
+    /// The profile its runs use.
+    pub profile: Option<String>,
+    /// The driver calibration its runs use (`built-in`, `given`, or path
+    /// and hash).
+    pub calibration: Option<String>,
+}
+
+impl Manifest {
+    /// What differs from `other` (`other` is the folder's, `self` this
+    /// command's), ignoring the seeds and, with `shard_too == false`, the
+    /// shard.
+    pub fn differences(&self, other: &Manifest, shard_too: bool) -> Vec<String> {
+        let mut d = Vec::new();
+        let mut cmp = |what: &str, now: String, was: String| {
+            if now != was {
+                d.push(format!("{what}: {was} there, {now} now"));
+            }
+        };
+        cmp("litesim", self.litesim.clone(), other.litesim.clone());
+        cmp("mode", self.mode.clone(), other.mode.clone());
+        cmp("sut", self.sut.clone(), other.sut.clone());
+        cmp(
+            "sut timeout",
+            format!("{:?}", self.sut_timeout),
+            format!("{:?}", other.sut_timeout),
+        );
+        if shard_too {
+            cmp("shard", self.shard.clone(), other.shard.clone());
+        }
+        let paths = |m: &Manifest| m.tests.iter().map(|t| t.path.clone()).collect::<Vec<_>>();
+        if paths(self) != paths(other) {
+            d.push(format!(
+                "tests: [{}] there, [{}] now",
+                paths(other).join(", "),
+                paths(self).join(", ")
+            ));
+        } else {
+            for (a, b) in self.tests.iter().zip(&other.tests) {
+                if a != b {
+                    let what = if a.sources != b.sources {
+                        "its sources changed"
+                    } else if a.map != b.map {
+                        "its map changed"
+                    } else if a.profile != b.profile {
+                        "its profile changed"
+                    } else {
+                        "its calibration changed"
+                    };
+                    d.push(format!("test {}: {what}", a.path));
+                }
+            }
+        }
+        d
+    }
+
+    /// Reads `dir/manifest.json` (`Ok(None)` when there is none).
+    pub fn read(dir: &Path) -> Result<Option<Manifest>, ScenarioError> {
+        let p = dir.join("manifest.json");
+        match std::fs::read_to_string(&p) {
+            Ok(t) => serde_json::from_str(&t)
+                .map(Some)
+                .map_err(|e| ScenarioError::Io(format!("{}: {e}", p.display()))),
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+            Err(e) => Err(ScenarioError::Io(format!("{}: {e}", p.display()))),
+        }
+    }
+
+    /// The seed range.
+    pub fn seed_range(&self) -> Option<(u64, u64)> {
+        let (a, b) = self.seeds.split_once("..")?;
+        Some((a.parse().ok()?, b.parse().ok()?))
+    }
+
+    /// The shard `(i, N)`.
+    pub fn shard_pair(&self) -> Option<(u64, u64)> {
+        let (i, n) = self.shard.split_once('/')?;
+        Some((i.parse().ok()?, n.parse().ok()?))
+    }
+
+    /// Every job `(test path, seed)` of this manifest's shard.
+    pub fn jobs(&self) -> Vec<(String, u64)> {
+        let (Some((a, b)), Some((si, sn))) = (self.seed_range(), self.shard_pair()) else {
+            return Vec::new();
+        };
+        jobs_of(self.tests.iter().map(|t| t.path.as_str()), a, b, (si, sn))
+    }
+}
+
+/// Jobs `(test, seed)` of shard `(i, N)`: job j in test-major, seed-minor
+/// order belongs to shard `j mod N`.
+fn jobs_of<'a>(
+    tests: impl Iterator<Item = &'a str>,
+    from: u64,
+    to: u64,
+    (si, sn): (u64, u64),
+) -> Vec<(String, u64)> {
+    let seeds = to - from + 1;
+    let mut out = Vec::new();
+    for (ti, name) in tests.enumerate() {
+        for k in 0..seeds {
+            if (ti as u64 * seeds + k) % sn.max(1) == si {
+                out.push((name.to_string(), from + k));
+            }
+        }
+    }
+    out
+}
+
 /// One run's result line.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunLine {
@@ -86,6 +230,11 @@ pub struct BatchReport {
     pub skipped: u64,
     /// Runs executed now.
     pub ran: u64,
+    /// Rows `--resume` found that are not jobs of this command (other
+    /// seeds): dropped from the results.
+    pub foreign: u64,
+    /// Tests that could not be read (their runs are failures).
+    pub unreadable: u64,
     /// Passed (over all lines in the folder).
     pub passed: u64,
     /// Failed.
@@ -203,11 +352,37 @@ pub fn write_sorted(dir: &Path, lines: &[RunLine]) -> Result<(), ScenarioError> 
     atomic(&dir.join("results.csv"), &csv)
 }
 
-fn atomic(path: &Path, text: &str) -> Result<(), ScenarioError> {
-    let tmp = path.with_extension("tmp");
+/// Writes `text` to `path` atomically: a temporary file in the same folder
+/// (named `.NAME.tmp`), flushed to disk, then renamed over `path` — a
+/// reader sees the old file or the new one, never a part.
+pub fn atomic(path: &Path, text: &str) -> Result<(), ScenarioError> {
+    let name = path
+        .file_name()
+        .map_or("out".into(), |n| n.to_string_lossy().into_owned());
+    let tmp = path.with_file_name(format!(".{name}.tmp"));
     let io = |e: std::io::Error| ScenarioError::Io(format!("{}: {e}", path.display()));
-    std::fs::write(&tmp, text).map_err(io)?;
+    {
+        let mut f = std::fs::File::create(&tmp).map_err(io)?;
+        f.write_all(text.as_bytes()).map_err(io)?;
+        f.sync_all().map_err(io)?;
+    }
     std::fs::rename(&tmp, path).map_err(io)
+}
+
+/// Removes temporary files a killed run left in `dir` (`.NAME.tmp`,
+/// `NAME.tmp`, `.tmp*`): every writer renames its temporary into place, so
+/// one that is still there belongs to a run that did not finish.
+pub fn clean_temporaries(dir: &Path) {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in rd.flatten() {
+        let n = e.file_name().to_string_lossy().into_owned();
+        let stale = n.ends_with(".tmp") || n.starts_with(".tmp");
+        if stale && e.file_type().is_ok_and(|t| t.is_file()) {
+            let _ = std::fs::remove_file(e.path());
+        }
+    }
 }
 
 /// Runs a batch; `progress(done, total)` is called as runs finish.
@@ -227,16 +402,15 @@ pub fn run_batch(
             spec.seed_from, spec.seed_to
         )));
     }
+    if spec.seed_to - spec.seed_from >= MAX_SEEDS {
+        return Err(ScenarioError::Io(format!(
+            "seeds {}..{}: a batch takes at most {MAX_SEEDS} seeds",
+            spec.seed_from, spec.seed_to
+        )));
+    }
     std::fs::create_dir_all(&spec.out)
         .map_err(|e| ScenarioError::Io(format!("{}: {e}", spec.out.display())))?;
     let results = spec.out.join("results.jsonl");
-    let mut lines = if spec.resume {
-        read_lines(&results)
-    } else {
-        Vec::new()
-    };
-    let done: std::collections::BTreeSet<(String, u64)> =
-        lines.iter().map(|l| (l.test.clone(), l.seed)).collect();
     // Each test is parsed and its map loaded once.
     let preps: Vec<(String, Result<Prepared, String>)> = spec
         .tests
@@ -248,23 +422,106 @@ pub fn run_batch(
             )
         })
         .collect();
-    let seeds = spec.seed_to - spec.seed_from + 1;
-    let mut jobs = Vec::new();
-    for (ti, (name, _)) in preps.iter().enumerate() {
-        for k in 0..seeds {
-            let j = ti as u64 * seeds + k;
-            if j % sn == si {
-                let seed = spec.seed_from + k;
-                if !done.contains(&(name.clone(), seed)) {
-                    jobs.push((ti, seed));
+    let base = RunOptions {
+        mode: spec.mode,
+        calibration_dir: spec.calibration_dir.clone(),
+        calibration_near_test: true,
+        sut: spec.sut.clone(),
+        sut_timeout: spec.sut_timeout,
+        ..RunOptions::default()
+    };
+    let manifest = Manifest {
+        litesim: env!("CARGO_PKG_VERSION").to_string(),
+        tests: preps
+            .iter()
+            .map(|(name, p)| ManifestTest {
+                path: name.clone(),
+                sources: p.as_ref().ok().map(|p| p.source_hash.clone()),
+                map: p
+                    .as_ref()
+                    .ok()
+                    .and_then(|p| p.map_text.as_ref())
+                    .map(|t| crate::sha256_hex(t.as_bytes())),
+                profile: p.as_ref().ok().map(|p| crate::profile_of(p, &base)),
+                calibration: p.as_ref().ok().map(|p| crate::calibration_used(p, &base)),
+            })
+            .collect(),
+        mode: match spec.mode {
+            DriveMode::Kinematic => "kinematic",
+            DriveMode::Dynamic => "dynamic",
+        }
+        .into(),
+        sut: spec.sut.name(),
+        sut_timeout: spec.sut_timeout,
+        seeds: format!("{}..{}", spec.seed_from, spec.seed_to),
+        shard: format!("{si}/{sn}"),
+    };
+    let wanted: Vec<(String, u64)> = jobs_of(
+        preps.iter().map(|(n, _)| n.as_str()),
+        spec.seed_from,
+        spec.seed_to,
+        (si, sn),
+    );
+    let wanted_set: std::collections::BTreeSet<&(String, u64)> = wanted.iter().collect();
+    let mut foreign = 0u64;
+    let mut lines = if spec.resume {
+        match Manifest::read(&spec.out)? {
+            Some(old) => {
+                let diffs = manifest.differences(&old, true);
+                if !diffs.is_empty() {
+                    return Err(ScenarioError::Io(format!(
+                        "{}: --resume refused, the folder holds results of another batch ({}); run without --resume to start over, or use a new folder",
+                        spec.out.display(),
+                        diffs.join("; ")
+                    )));
                 }
             }
+            None if results.exists() => {
+                return Err(ScenarioError::Io(format!(
+                    "{}: --resume refused, the folder has results but no manifest.json (not written by this litesim); run without --resume to start over, or use a new folder",
+                    spec.out.display()
+                )));
+            }
+            None => {}
         }
-    }
+        // Only this command's jobs are kept; the newest line of a job wins.
+        let mut by: BTreeMap<(String, u64), RunLine> = BTreeMap::new();
+        for l in read_lines(&results) {
+            let key = (l.test.clone(), l.seed);
+            if wanted_set.contains(&key) {
+                by.insert(key, l);
+            } else {
+                foreign += 1;
+            }
+        }
+        by.into_values().collect()
+    } else {
+        Vec::new()
+    };
+    clean_temporaries(&spec.out);
+    atomic(
+        &spec.out.join("manifest.json"),
+        &(serde_json::to_string_pretty(&manifest).map_err(|e| ScenarioError::Io(e.to_string()))?
+            + "\n"),
+    )?;
+    let done: std::collections::BTreeSet<(String, u64)> =
+        lines.iter().map(|l| (l.test.clone(), l.seed)).collect();
+    let index: BTreeMap<&str, usize> = preps
+        .iter()
+        .enumerate()
+        .map(|(i, (n, _))| (n.as_str(), i))
+        .collect();
+    let jobs: Vec<(usize, u64)> = wanted
+        .iter()
+        .filter(|k| !done.contains(*k))
+        .map(|(n, seed)| (index[n.as_str()], *seed))
+        .collect();
     let total = jobs.len() as u64;
     let mut report = BatchReport {
         total: total + done.len() as u64,
         skipped: done.len() as u64,
+        foreign,
+        unreadable: preps.iter().filter(|(_, p)| p.is_err()).count() as u64,
         ..BatchReport::default()
     };
     let file = std::fs::OpenOptions::new()
@@ -277,13 +534,6 @@ pub fn run_batch(
             .map_err(|e| ScenarioError::Io(e.to_string()))?;
     }
     let sink = Mutex::new((file, 0u64));
-    let base = RunOptions {
-        mode: spec.mode,
-        calibration_dir: spec.calibration_dir.clone(),
-        sut: spec.sut.clone(),
-        sut_timeout: spec.sut_timeout,
-        ..RunOptions::default()
-    };
     let work = || {
         jobs.par_iter()
             .map(|(ti, seed)| {
@@ -328,6 +578,7 @@ fn save_log(out: &Path, name: &str, prep: &Prepared, seed: u64, spec: &BatchSpec
         mode: spec.mode,
         record: true,
         calibration_dir: spec.calibration_dir.clone(),
+        calibration_near_test: true,
         sut: spec.sut.clone(),
         sut_timeout: spec.sut_timeout,
         ..RunOptions::default()
@@ -345,9 +596,32 @@ fn save_log(out: &Path, name: &str, prep: &Prepared, seed: u64, spec: &BatchSpec
     }
 }
 
-/// Merges shard folders into `out` (sorted JSON lines and CSV).
-pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, ScenarioError> {
-    let mut all = Vec::new();
+/// What [`merge`] wrote.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MergeReport {
+    /// Runs written.
+    pub runs: usize,
+    /// Shards missing (`i/N`), when allowed.
+    pub missing_shards: Vec<String>,
+    /// Jobs of the present shards without a result, when allowed.
+    pub missing_jobs: Vec<(String, u64)>,
+}
+
+/// Merges shard folders into `out` (sorted JSON lines, CSV, and a manifest
+/// whose shard is `0/1`: all of them). The folders must come from one batch: manifests
+/// equal but for the shard. Two different results for one run are an
+/// error listing them; missing shards or runs are an error listing them
+/// unless `allow_partial`, which still reports them.
+pub fn merge(
+    dirs: &[PathBuf],
+    out: &Path,
+    allow_partial: bool,
+) -> Result<MergeReport, ScenarioError> {
+    let mut first: Option<(PathBuf, Manifest)> = None;
+    let mut shards: BTreeMap<u64, PathBuf> = BTreeMap::new();
+    let mut expected: Vec<(String, u64)> = Vec::new();
+    let mut by: BTreeMap<(String, u64), (RunLine, PathBuf)> = BTreeMap::new();
+    let mut conflicts = Vec::new();
     for d in dirs {
         let p = d.join("results.jsonl");
         if !p.exists() {
@@ -356,10 +630,112 @@ pub fn merge(dirs: &[PathBuf], out: &Path) -> Result<usize, ScenarioError> {
                 d.display()
             )));
         }
-        all.extend(read_lines(&p));
+        let m = Manifest::read(d)?.ok_or_else(|| {
+            ScenarioError::Io(format!(
+                "{}: no manifest.json (not a folder written by litesim batch)",
+                d.display()
+            ))
+        })?;
+        let (si, sn) = m.shard_pair().ok_or_else(|| {
+            ScenarioError::Io(format!(
+                "{}: manifest shard '{}' is not i/N",
+                d.display(),
+                m.shard
+            ))
+        })?;
+        match &first {
+            None => first = Some((d.clone(), m.clone())),
+            Some((d0, m0)) => {
+                let mut diffs = m.differences(m0, false);
+                if m.seeds != m0.seeds {
+                    diffs.push(format!("seeds: {} there, {} here", m0.seeds, m.seeds));
+                }
+                if m0.shard_pair().map(|x| x.1) != Some(sn) {
+                    diffs.push(format!("shard count: {} there, {} here", m0.shard, m.shard));
+                }
+                if !diffs.is_empty() {
+                    return Err(ScenarioError::Io(format!(
+                        "{} and {} come from different batches: {}",
+                        d0.display(),
+                        d.display(),
+                        diffs.join("; ")
+                    )));
+                }
+            }
+        }
+        // The same shard twice (run again elsewhere) is fine as long as
+        // its results agree: rows are compared below.
+        if shards.insert(si, d.clone()).is_none() {
+            expected.extend(m.jobs());
+        }
+        for l in read_lines(&p) {
+            let key = (l.test.clone(), l.seed);
+            match by.get(&key) {
+                Some((old, from)) if *old != l => conflicts.push(format!(
+                    "{} seed {}: {} and {} differ",
+                    key.0,
+                    key.1,
+                    from.display(),
+                    d.display()
+                )),
+                _ => {
+                    by.insert(key, (l, d.clone()));
+                }
+            }
+        }
+    }
+    if !conflicts.is_empty() {
+        conflicts.sort();
+        conflicts.dedup();
+        return Err(ScenarioError::Io(format!(
+            "{} run(s) have conflicting results: {}",
+            conflicts.len(),
+            conflicts.join("; ")
+        )));
+    }
+    let Some((_, m0)) = first else {
+        return Err(ScenarioError::Io("merge: no folders given".into()));
+    };
+    let n = m0.shard_pair().map_or(1, |x| x.1);
+    let mut report = MergeReport {
+        missing_shards: (0..n)
+            .filter(|i| !shards.contains_key(i))
+            .map(|i| format!("{i}/{n}"))
+            .collect(),
+        missing_jobs: expected
+            .into_iter()
+            .filter(|k| !by.contains_key(k))
+            .collect(),
+        ..MergeReport::default()
+    };
+    if !allow_partial && (!report.missing_shards.is_empty() || !report.missing_jobs.is_empty()) {
+        let jobs: Vec<String> = report
+            .missing_jobs
+            .iter()
+            .take(20)
+            .map(|(t, s)| format!("{t} seed {s}"))
+            .collect();
+        return Err(ScenarioError::Io(format!(
+            "incomplete: missing shard(s) [{}], {} run(s) without a result{}{}; pass --allow-partial to merge what is there",
+            report.missing_shards.join(", "),
+            report.missing_jobs.len(),
+            if jobs.is_empty() { "" } else { ": " },
+            jobs.join(", ")
+        )));
     }
     std::fs::create_dir_all(out)
         .map_err(|e| ScenarioError::Io(format!("{}: {e}", out.display())))?;
+    let all: Vec<RunLine> = by.into_values().map(|(l, _)| l).collect();
+    let merged = Manifest {
+        shard: "0/1".into(),
+        ..m0
+    };
+    atomic(
+        &out.join("manifest.json"),
+        &(serde_json::to_string_pretty(&merged).map_err(|e| ScenarioError::Io(e.to_string()))?
+            + "\n"),
+    )?;
     write_sorted(out, &all)?;
-    Ok(all.len())
+    report.runs = all.len();
+    Ok(report)
 }

@@ -66,6 +66,9 @@ pub struct Prepared {
     pub map_name: String,
     /// The map has dynamic signals (traffic lights) the simulator must know.
     pub has_lights: bool,
+    /// SHA-256 of the test's source texts (the file and its imports, in
+    /// loading order): what a batch manifest records of the test.
+    pub source_hash: String,
 }
 
 /// Loads, checks and elaborates a test; loads its map.
@@ -75,6 +78,14 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
         None => std::env::var(k).ok(),
     };
     let prog = litesim_osc::load(path, &opts.include, &env).map_err(ScenarioError::Load)?;
+    let source_hash = {
+        let mut all = Vec::new();
+        for f in &prog.sources.files {
+            all.extend_from_slice(f.text.as_bytes());
+            all.push(0);
+        }
+        sha256_hex(&all)
+    };
     if prog.has_errors() {
         let text: Vec<String> = prog
             .diagnostics
@@ -124,12 +135,50 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
     });
     Ok(Prepared {
         has_lights,
+        source_hash,
         path: path.to_path_buf(),
         test,
         net,
         map_text,
         map_name,
     })
+}
+
+/// `calibration/PROFILE.toml` in the test's folder or the nearest
+/// ancestor that has one.
+/// The path is returned relative to the test's folder (`../../calibration/
+/// dummy.toml`) joined to it as given, so that what a summary names does
+/// not depend on where the checkout lives or where the command ran.
+pub fn calibration_near(test: &Path, profile: &str) -> Option<PathBuf> {
+    let given = test.parent().unwrap_or(Path::new(""));
+    // Ancestors of the real folder (a relative path's own ancestors would
+    // end at the current directory, which is not where the test lives).
+    let real = std::fs::canonicalize(if given.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        given
+    })
+    .ok()?;
+    let file = PathBuf::from("calibration").join(format!("{profile}.toml"));
+    real.ancestors().enumerate().find_map(|(up, d)| {
+        d.join(&file).is_file().then(|| {
+            let mut rel = given.to_path_buf();
+            for _ in 0..up {
+                rel.push("..");
+            }
+            rel.join(&file)
+        })
+    })
+}
+
+/// Lower-case hex SHA-256 of `bytes` (content hashes in manifests and
+/// summaries).
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    use sha2::Digest;
+    sha2::Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// How to run a prepared test.
@@ -146,6 +195,11 @@ pub struct RunOptions {
     /// Folder of calibration files (`PROFILE.toml`, written by `litesim
     /// calibrate`); used when `calibration` is `None` and the file exists.
     pub calibration_dir: Option<PathBuf>,
+    /// Without `calibration` and `calibration_dir`: look for
+    /// `calibration/PROFILE.toml` in the test's folder and its ancestors
+    /// (the nearest wins) — never in the current directory, so the same
+    /// command gives the same results from anywhere.
+    pub calibration_near_test: bool,
     /// Record the log.
     pub record: bool,
     /// Stop after planning.
@@ -277,6 +331,30 @@ pub fn plan_test_with(
     Ok((sol, plan))
 }
 
+/// The profile a run of `prep` under `opts` uses.
+pub fn profile_of(prep: &Prepared, opts: &RunOptions) -> String {
+    opts.profile
+        .clone()
+        .unwrap_or_else(|| simulator_of(&prep.test).0)
+}
+
+/// Which driver gains a run of `prep` under `opts` uses: `given`,
+/// `built-in`, or the file's path and content hash (what summaries and
+/// batch manifests record).
+pub fn calibration_used(prep: &Prepared, opts: &RunOptions) -> String {
+    let profile = profile_of(prep, opts);
+    let file = match (&opts.calibration, &opts.calibration_dir) {
+        (Some(_), _) => return "given".into(),
+        (None, Some(dir)) => Some(dir.join(format!("{profile}.toml"))),
+        (None, None) if opts.calibration_near_test => calibration_near(&prep.path, &profile),
+        (None, None) => None,
+    };
+    match file.and_then(|f| std::fs::read(&f).ok().map(|b| (f, b))) {
+        Some((f, bytes)) => format!("{} sha256:{}", f.display(), sha256_hex(&bytes)),
+        None => "built-in".into(),
+    }
+}
+
 /// Runs a prepared test on `ssp` under a seed.
 pub fn run(
     prep: &Prepared,
@@ -301,21 +379,24 @@ pub fn run(
     if !violations.is_empty() {
         return Err(ScenarioError::PostPlan(violations));
     }
-    let (calibration, calibration_src) = match (&opts.calibration, &opts.calibration_dir) {
+    let calibration_file = match (&opts.calibration, &opts.calibration_dir) {
+        (Some(_), _) => None,
+        (None, Some(dir)) => Some(dir.join(format!("{profile}.toml"))),
+        (None, None) if opts.calibration_near_test => calibration_near(&prep.path, &profile),
+        (None, None) => None,
+    };
+    let (calibration, calibration_src) = match (&opts.calibration, calibration_file) {
         (Some(c), _) => (Some(*c), "given".to_string()),
-        (None, Some(dir)) => {
-            let f = dir.join(format!("{profile}.toml"));
-            match std::fs::read_to_string(&f) {
-                Ok(text) => (
-                    Some(
-                        calibrate::from_toml(&text)
-                            .map_err(|e| ScenarioError::Io(format!("{}: {e}", f.display())))?,
-                    ),
-                    f.display().to_string(),
+        (None, Some(f)) => match std::fs::read_to_string(&f) {
+            Ok(text) => (
+                Some(
+                    calibrate::from_toml(&text)
+                        .map_err(|e| ScenarioError::Io(format!("{}: {e}", f.display())))?,
                 ),
-                Err(_) => (None, "built-in".to_string()),
-            }
-        }
+                format!("{} sha256:{}", f.display(), sha256_hex(text.as_bytes())),
+            ),
+            Err(_) => (None, "built-in".to_string()),
+        },
         (None, None) => (None, "built-in".to_string()),
     };
     let test_name = prep

@@ -376,6 +376,8 @@ struct Leaf<'a> {
 }
 
 struct Timer<'a> {
+    /// The first `duration(…)` out of range, as an error message.
+    bad_duration: Option<String>,
     rng: &'a mut Rng,
     sol: &'a Solution,
     leaves: Vec<Leaf<'a>>,
@@ -432,7 +434,17 @@ impl<'a> Timer<'a> {
     fn explicit(&mut self, n: &Node) -> Option<f64> {
         let m = mods_of(n).iter().find(|m| m.name == "duration")?;
         let e = m.args.get("duration")?;
-        eval(e, self.sol, self.rng)?.num().filter(|d| *d >= 0.0)
+        let d = eval(e, self.sol, self.rng)?.num()?;
+        // A phase lasts longer than nothing and at most the test's limit:
+        // `duration(-5s)` or `duration(0s)` is a mistake to report, not a
+        // phase to skip (the first one found is reported).
+        if !(d > 0.0 && d <= MAX_DURATION_S) && self.bad_duration.is_none() {
+            self.bad_duration = Some(format!(
+                "{}: duration({d} s) is out of range: a phase lasts more than 0 s and at most {MAX_DURATION_S} s",
+                m.at
+            ));
+        }
+        Some(d).filter(|d| *d >= 0.0)
     }
 
     /// Natural duration: explicit, or from the children.
@@ -881,6 +893,7 @@ fn plan_once(
         choice: BTreeMap::new(),
         until_after: BTreeMap::new(),
         switches: Vec::new(),
+        bad_duration: None,
         cond_events,
         conds: Vec::new(),
     };
@@ -910,6 +923,9 @@ fn plan_once(
             break;
         }
         timer.events = std::mem::take(&mut timer.seen);
+    }
+    if let Some(msg) = timer.bad_duration.take() {
+        return Err(ScenarioError::Plan(msg));
     }
     if duration.is_nan() || duration > MAX_DURATION_S {
         return Err(ScenarioError::Plan(format!(

@@ -564,7 +564,7 @@ fn batch_results_are_identical_across_threads_shards_and_resumes() {
         shards.push(d);
     }
     let merged = dir.path().join("merged");
-    assert_eq!(batch::merge(&shards, &merged).unwrap(), 24);
+    assert_eq!(batch::merge(&shards, &merged, false).unwrap().runs, 24);
     // Resume: half the seeds first, then all with --resume.
     let res = dir.path().join("resumed");
     batch::run_batch(&batch_spec(&res, (0, 1), 2, (1, 3)), &|_, _| {}).unwrap();

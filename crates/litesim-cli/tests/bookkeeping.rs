@@ -1,0 +1,302 @@
+//! Results you can trust: manifests, `--resume` and `merge` checks, no
+//! hidden inputs from the current directory, exit codes and bounded
+//! inputs — each as a user would hit it on the command line.
+
+mod common;
+use common::{litesim, workspace};
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+fn test_path(name: &str) -> PathBuf {
+    std::fs::canonicalize(workspace().join("examples/scenarios").join(name)).unwrap()
+}
+
+fn batch(cwd: &Path, args: &[&str], out: &Path) -> Output {
+    litesim()
+        .current_dir(cwd)
+        .arg("batch")
+        .args(args)
+        .args(["-q", "--threads", "1", "-o"])
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn rows(dir: &Path) -> Vec<(String, u64)> {
+    std::fs::read_to_string(dir.join("results.jsonl"))
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let v: serde_json::Value = serde_json::from_str(l).unwrap();
+            (
+                v["test"].as_str().unwrap().to_string(),
+                v["seed"].as_u64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn resume_refuses_other_options_and_keeps_only_the_current_jobs() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b");
+    let t = test_path("cut_in.osc");
+    let t = t.to_str().unwrap();
+    let o = batch(dir.path(), &[t, "--seeds", "1..6"], &out);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["mode"], "kinematic");
+    assert_eq!(manifest["seeds"], "1..6");
+    assert_eq!(manifest["tests"][0]["sources"].as_str().unwrap().len(), 64);
+    // Other options: refused, naming the difference; nothing changed.
+    let before = std::fs::read(out.join("results.jsonl")).unwrap();
+    let o = batch(
+        dir.path(),
+        &[t, "--seeds", "1..6", "--resume", "--dynamic"],
+        &out,
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("mode: kinematic there, dynamic now"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(std::fs::read(out.join("results.jsonl")).unwrap(), before);
+    let o = batch(
+        dir.path(),
+        &[t, "--seeds", "1..6", "--resume", "--sut", "acc"],
+        &out,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o).contains("sut: planned there, acc now"),
+        "{}",
+        text(&o)
+    );
+    // A smaller seed list: nothing runs, only its jobs are kept.
+    let o = batch(dir.path(), &[t, "--seeds", "2..3", "--resume"], &out);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(
+        text(&o).contains("(2 resumed, 0 run now")
+            && text(&o).contains("4 rows of other seeds dropped"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(rows(&out), [(t.to_string(), 2), (t.to_string(), 3)]);
+    // A larger one runs exactly the missing jobs.
+    let o = batch(dir.path(), &[t, "--seeds", "1..4", "--resume"], &out);
+    assert!(text(&o).contains("(2 resumed, 2 run now"), "{}", text(&o));
+    assert_eq!(rows(&out).len(), 4);
+    // A folder with results but no manifest is not resumed blindly.
+    let legacy = dir.path().join("legacy");
+    std::fs::create_dir_all(&legacy).unwrap();
+    std::fs::copy(out.join("results.jsonl"), legacy.join("results.jsonl")).unwrap();
+    let o = batch(dir.path(), &[t, "--seeds", "1..4", "--resume"], &legacy);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o).contains("no manifest.json"), "{}", text(&o));
+}
+
+#[test]
+fn merge_refuses_conflicts_and_missing_shards_and_lists_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = test_path("cut_in.osc");
+    let t = t.to_str().unwrap();
+    let shard = |i: u64, extra: &[&str]| {
+        let d = dir.path().join(format!("s{i}{}", extra.len()));
+        let shard = format!("{i}/3");
+        let mut args = vec![t, "--seeds", "1..6", "--shard", shard.as_str()];
+        args.extend_from_slice(extra);
+        let o = batch(dir.path(), &args, &d);
+        assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+        d
+    };
+    let (s0, s1, s2) = (shard(0, &[]), shard(1, &[]), shard(2, &[]));
+    let merge = |dirs: &[&PathBuf], extra: &[&str]| {
+        litesim()
+            .arg("merge")
+            .args(dirs)
+            .args(extra)
+            .arg("-o")
+            .arg(dir.path().join("merged"))
+            .output()
+            .unwrap()
+    };
+    let o = merge(&[&s0, &s1, &s2], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("merged 6 runs"), "{}", text(&o));
+    // Two of three shards: refused with what is missing, unless asked.
+    let o = merge(&[&s0, &s2], &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o).contains("missing shard(s) [1/3]"), "{}", text(&o));
+    let o = merge(&[&s0, &s2], &["--allow-partial"]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(
+        text(&o).contains("partial: missing shard(s) [1/3]") && text(&o).contains("merged 4 runs"),
+        "{}",
+        text(&o)
+    );
+    // A shard of another batch (other options): refused.
+    let other = shard(1, &["--sut", "acc"]);
+    let o = merge(&[&s0, &other, &s2], &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(text(&o).contains("different batches"), "{}", text(&o));
+    // Two different results for one run: refused, listing the run.
+    let forged = dir.path().join("forged");
+    std::fs::create_dir_all(&forged).unwrap();
+    std::fs::copy(s1.join("manifest.json"), forged.join("manifest.json")).unwrap();
+    let mut lines = std::fs::read_to_string(s1.join("results.jsonl")).unwrap();
+    lines = lines.replacen("\"pass\":true", "\"pass\":false", 1);
+    std::fs::write(forged.join("results.jsonl"), lines).unwrap();
+    // The same shard from two places agreeing is fine; disagreeing is
+    // refused, naming the run and both folders.
+    let again = shard(1, &["--sut", "planned"]);
+    let o = merge(&[&s0, &s1, &s2, &again], &[]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let o = merge(&[&s0, &s1, &s2, &forged], &[]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o).contains("1 run(s) have conflicting results") && text(&o).contains("forged"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn dynamic_batches_give_the_same_bytes_from_any_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    let t = test_path("lane_change.osc");
+    let t = t.to_str().unwrap();
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    // One from the repository root (where calibration/ lives), one from an
+    // empty temporary folder.
+    let o = batch(&workspace(), &[t, "--seeds", "1..3", "--dynamic"], &a);
+    assert!(o.status.code().is_some_and(|c| c != 1), "{}", text(&o));
+    let o = batch(dir.path(), &[t, "--seeds", "1..3", "--dynamic"], &b);
+    assert!(o.status.code().is_some_and(|c| c != 1), "{}", text(&o));
+    for f in ["results.jsonl", "results.csv", "manifest.json"] {
+        assert_eq!(
+            std::fs::read(a.join(f)).unwrap(),
+            std::fs::read(b.join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    // The manifest names the calibration found beside the test, with its hash.
+    let m = std::fs::read_to_string(a.join("manifest.json")).unwrap();
+    assert!(m.contains("calibration/dummy.toml sha256:"), "{m}");
+}
+
+#[test]
+fn exit_codes_follow_the_documented_matrix() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| {
+        litesim()
+            .current_dir(workspace())
+            .args(args)
+            .output()
+            .unwrap()
+            .status
+            .code()
+    };
+    let out = dir.path().join("x");
+    let out = out.to_str().unwrap();
+    // 0: everything passed.
+    assert_eq!(
+        run(&[
+            "batch",
+            "examples/scenarios/cut_in.osc",
+            "--seeds",
+            "1..2",
+            "-q",
+            "-o",
+            out
+        ]),
+        Some(0)
+    );
+    // 2: some run failed its checks.
+    assert_eq!(
+        run(&[
+            "batch",
+            "examples/scenarios/stationary_obstacle.osc",
+            "--seeds",
+            "1",
+            "-q",
+            "-o",
+            out
+        ]),
+        Some(2)
+    );
+    // 1: a test cannot be read.
+    assert_eq!(
+        run(&["batch", "no/such/test.osc", "--seeds", "1", "-q", "-o", out]),
+        Some(1)
+    );
+    assert_eq!(run(&["run", "no/such/test.osc", "--no-pictures"]), Some(1));
+    // 64: the command line itself is wrong.
+    assert_eq!(run(&["batch", "--no-such-flag"]), Some(64));
+    assert_eq!(run(&["frobnicate"]), Some(64));
+    assert_eq!(run(&["run"]), Some(64));
+    // Help and version are answers.
+    assert_eq!(run(&["--help"]), Some(0));
+    assert_eq!(run(&["--version"]), Some(0));
+    let help = litesim().arg("--help").output().unwrap();
+    assert!(String::from_utf8_lossy(&help.stdout).contains("64 the command line is not valid"));
+}
+
+#[test]
+fn absurd_seed_ranges_and_durations_are_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let started = std::time::Instant::now();
+    let o = litesim()
+        .current_dir(workspace())
+        .args([
+            "batch",
+            "examples/scenarios/cut_in.osc",
+            "--seeds",
+            "1..18446744073709551615",
+            "-o",
+        ])
+        .arg(dir.path().join("x"))
+        .output()
+        .unwrap();
+    let took = started.elapsed();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        text(&o).contains("a batch takes at most 1000000"),
+        "{}",
+        text(&o)
+    );
+    // Process start-up included; the check itself is immediate.
+    assert!(took.as_secs_f64() < 2.0, "{took:?}");
+    for (d, shown) in [("-5s", "-5"), ("0s", "0")] {
+        let f = tempfile::Builder::new()
+            .suffix(".osc")
+            .tempfile_in(workspace().join("examples/scenarios"))
+            .unwrap();
+        std::fs::write(
+            f.path(),
+            format!("import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.car.drive() with:\n        duration({d})\n"),
+        )
+        .unwrap();
+        let o = litesim()
+            .args(["run", "--no-pictures", "-o"])
+            .arg(dir.path().join("y"))
+            .arg(f.path())
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+        assert!(
+            text(&o).contains(&format!("duration({shown} s) is out of range")),
+            "{}",
+            text(&o)
+        );
+    }
+}
