@@ -165,6 +165,37 @@ pub fn run(
         sut_timeout,
         ..RunOptions::default()
     };
+    // The folder first: a stamp naming what this run is, and no summary
+    // from an earlier run (the summary is written last, so a folder with a
+    // stamp and no summary — or a summary older than its stamp — is a run
+    // that did not finish).
+    let run_seed = seed.or(prep.test.config.seed).unwrap_or(1);
+    let stem = test
+        .file_stem()
+        .map_or("test".into(), |s| s.to_string_lossy().into_owned());
+    let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{stem}-seed{run_seed}")));
+    std::fs::create_dir_all(&out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    batch::clean_temporaries(&out);
+    let stamp = serde_json::json!({
+        "litesim": env!("CARGO_PKG_VERSION"),
+        "test": test.display().to_string(),
+        "test_sources": prep.source_hash,
+        "seed": run_seed,
+        "mode": format!("{:?}", opts.mode).to_lowercase(),
+        "sut": opts.sut.name(),
+        "profile": litesim_scenario::profile_of(&prep, &opts),
+        "calibration": litesim_scenario::calibration_used(&prep, &opts),
+        "sim": sim.unwrap_or("in-process"),
+    });
+    let stamp = serde_json::to_string_pretty(&stamp)? + "\n";
+    let run_hash = litesim_scenario::sha256_hex(stamp.as_bytes());
+    match std::fs::remove_file(out.join("summary.json")) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            bail!("{}: {e}", out.join("summary.json").display())
+        }
+        _ => {}
+    }
+    batch::atomic(&out.join("run.json"), &stamp)?;
     let result = match sim {
         None | Some("inprocess") | Some("in-process") => {
             litesim_scenario::run(&prep, &mut litesim_scenario::in_process(), &opts)
@@ -177,17 +208,17 @@ pub fn run(
             litesim_scenario::run(&prep, &mut remote, &opts)
         }
     }?;
-    let stem = test
-        .file_stem()
-        .map_or("test".into(), |s| s.to_string_lossy().into_owned());
-    let out = out.unwrap_or_else(|| {
-        PathBuf::from("runs").join(format!("{stem}-seed{}", result.summary.seed))
-    });
-    std::fs::create_dir_all(&out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
     let s = &result.summary;
+    // The plan names its run: test, seed and the stamp's hash.
     let write_plan = || -> Result<()> {
         let p = out.join("plan.json");
-        std::fs::write(&p, serde_json::to_string_pretty(&result.plan)?)?;
+        let mut v = serde_json::to_value(&result.plan)?;
+        if let Some(o) = v.as_object_mut() {
+            o.insert("test".into(), test.display().to_string().into());
+            o.insert("seed".into(), s.seed.into());
+            o.insert("run".into(), run_hash.clone().into());
+        }
+        batch::atomic(&p, &serde_json::to_string_pretty(&v)?)?;
         println!("wrote {}", p.display());
         Ok(())
     };
@@ -231,6 +262,11 @@ pub fn run(
     write_plan()?;
     if let Some(log) = &result.log {
         let p = out.join("log.json");
+        let mut log = log.clone();
+        log.meta.insert("test".into(), test.display().to_string());
+        log.meta.insert("seed".into(), s.seed.to_string());
+        log.meta.insert("run".into(), run_hash.clone());
+        let log = &log;
         log.write_json(&p).map_err(|e| anyhow!("{e}"))?;
         println!("wrote {}", p.display());
         if !no_pictures {
@@ -251,7 +287,7 @@ pub fn run(
         }
     }
     let p = out.join("summary.json");
-    std::fs::write(&p, serde_json::to_string_pretty(s)? + "\n")?;
+    batch::atomic(&p, &(serde_json::to_string_pretty(s)? + "\n"))?;
     println!("wrote {}", p.display());
     println!(
         "{} {} seed {}: {} ({} steps, {:.2} s, profile {}, model {}, {:?}, sut {})",

@@ -300,3 +300,78 @@ fn absurd_seed_ranges_and_durations_are_refused_at_once() {
         );
     }
 }
+
+/// What a run folder says about itself: (run.json seed, summary seed if
+/// any, plan seed if any, log seed if any, summary newer than the stamp).
+fn folder_state(d: &Path) -> (Option<u64>, Option<u64>, Option<u64>, Option<u64>, bool) {
+    let json = |f: &str| -> Option<serde_json::Value> {
+        serde_json::from_str(&std::fs::read_to_string(d.join(f)).ok()?).ok()
+    };
+    let stamp = json("run.json").and_then(|v| v["seed"].as_u64());
+    let summary = json("summary.json").and_then(|v| v["seed"].as_u64());
+    let plan = json("plan.json").and_then(|v| v["seed"].as_u64());
+    let log = json("log.json").and_then(|v| v["meta"]["seed"].as_str()?.parse().ok());
+    let newer = match (
+        std::fs::metadata(d.join("summary.json")).and_then(|m| m.modified()),
+        std::fs::metadata(d.join("run.json")).and_then(|m| m.modified()),
+    ) {
+        (Ok(s), Ok(r)) => s >= r,
+        _ => false,
+    };
+    (stamp, summary, plan, log, newer)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(6))]
+    /// A run killed at any moment into a folder that held a passing run
+    /// never leaves a summary that disagrees with the stamp, plan or log
+    /// beside it: either the new run's complete set, or no summary.
+    #[test]
+    fn a_killed_run_never_leaves_a_summary_that_disagrees(kill_ms in 0u64..1500) {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path().join("run");
+        let o = litesim()
+            .current_dir(workspace())
+            .args(["run", "examples/scenarios/cut_in.osc", "--seed", "1", "--no-pictures", "-o"])
+            .arg(&d)
+            .output()
+            .unwrap();
+        proptest::prop_assert!(o.status.success());
+        let mut child = litesim()
+            .current_dir(workspace())
+            .args(["run", "examples/scenarios/cut_in.osc", "--seed", "2", "--gif", "-o"])
+            .arg(&d)
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(kill_ms));
+        let _ = child.kill(); // SIGKILL
+        let finished = child.wait().unwrap().success();
+        let (stamp, summary, plan, log, newer) = folder_state(&d);
+        match summary {
+            Some(seed) => {
+                proptest::prop_assert!(newer, "summary older than its stamp");
+                proptest::prop_assert_eq!(Some(seed), stamp);
+                proptest::prop_assert_eq!(Some(seed), plan);
+                proptest::prop_assert_eq!(Some(seed), log);
+                proptest::prop_assert_eq!(seed, 2);
+            }
+            None => proptest::prop_assert!(!finished, "a finished run has a summary"),
+        }
+        // The next run into the folder removes what the killed one left.
+        let o = litesim()
+            .current_dir(workspace())
+            .args(["run", "examples/scenarios/cut_in.osc", "--seed", "3", "--no-pictures", "-o"])
+            .arg(&d)
+            .output()
+            .unwrap();
+        proptest::prop_assert!(o.status.success());
+        let leftovers: Vec<String> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.contains("tmp"))
+            .collect();
+        proptest::prop_assert!(leftovers.is_empty(), "{:?}", leftovers);
+        proptest::prop_assert_eq!(folder_state(&d).1, Some(3));
+    }
+}

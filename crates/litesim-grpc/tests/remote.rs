@@ -483,4 +483,28 @@ fn step_many_equals_repeated_steps_and_refuses_bad_counts() {
     }
     // The session is intact after the refusals.
     assert_eq!(a.step(None, &f).unwrap().0.step_index, 26);
+    // A reply of more than MAX_STATES_PER_CALL states is refused before
+    // anything steps (100 actors × 10,000 steps = 1,000,000 states), with
+    // the count that would fit; a filter makes the same call fit.
+    for k in 0..99 {
+        let mut c = car(&format!("x{k}"));
+        c.position.y = Some(10.0 + k as f64 * 5.0);
+        a.create_actor(c).unwrap();
+    }
+    let e = a.step_many(MAX_STEPS_PER_CALL, &f).unwrap_err();
+    assert_eq!(e.code, ErrorCode::ResourceExhausted, "{e:?}");
+    assert!(
+        e.message.contains("at most 2000 steps per call"),
+        "{}",
+        e.message
+    );
+    assert_eq!(a.step(None, &f).unwrap().0.step_index, 27);
+    let only_c = ActorFilter {
+        actor_ids: vec!["c".into()],
+        ..ActorFilter::default()
+    };
+    assert_eq!(
+        a.step_many(MAX_STEPS_PER_CALL, &only_c).unwrap().len(),
+        10_000
+    );
 }

@@ -484,6 +484,11 @@ pub struct StepInfo {
 /// Most steps one [`Ssp::step_many`] call may run (bounds the reply's size).
 pub const MAX_STEPS_PER_CALL: u32 = 10_000;
 
+/// Most actor states one `step_many` reply holds (steps × actors): the
+/// reply is built whole, so this bounds the memory a single call can make
+/// a server take (about 300 bytes a state on the wire, 60 MB at the limit).
+pub const MAX_STATES_PER_CALL: u64 = 200_000;
+
 /// Refuses a step count outside `1..=MAX_STEPS_PER_CALL`, naming the range.
 pub fn check_step_count(steps: u32) -> SspResult<()> {
     if steps == 0 || steps > MAX_STEPS_PER_CALL {
@@ -565,6 +570,16 @@ pub trait Ssp {
         filter: &ActorFilter,
     ) -> SspResult<Vec<(StepInfo, Vec<ReportedState>)>> {
         check_step_count(steps)?;
+        if steps > 1 {
+            let per_step = self.get_actors_states(filter)?.len() as u64;
+            if u64::from(steps) * per_step > MAX_STATES_PER_CALL {
+                return Err(crate::SspError::exhausted(format!(
+                    "steps = {steps} with {per_step} actor states each is {} states in one reply; the limit is {MAX_STATES_PER_CALL}: ask for at most {} steps per call (or filter the states)",
+                    u64::from(steps) * per_step,
+                    (MAX_STATES_PER_CALL / per_step.max(1)).max(1)
+                )));
+            }
+        }
         (0..steps).map(|_| self.step(None, filter)).collect()
     }
 

@@ -241,3 +241,19 @@ fn replay_draws_road_surface_and_marks() {
     assert_eq!(stray, 0, "map outside the view drawn along the frame");
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// `examples/style.toml` (shown in the README) sets every key of the
+/// stylesheet to its default: it parses, equals the built-in style, and
+/// no key is missing.
+#[test]
+fn the_example_stylesheet_names_every_key() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/style.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let parsed = litesim_viz::style::Style::from_toml(&text).unwrap();
+    assert_eq!(parsed, litesim_viz::style::Style::default());
+    let given: toml::Table = toml::from_str(&text).unwrap();
+    let all: toml::Table =
+        toml::from_str(&toml::to_string(&litesim_viz::style::Style::default()).unwrap()).unwrap();
+    let missing: Vec<&String> = all.keys().filter(|k| !given.contains_key(*k)).collect();
+    assert!(missing.is_empty(), "examples/style.toml lacks {missing:?}");
+}
