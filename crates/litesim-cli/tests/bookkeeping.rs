@@ -375,3 +375,40 @@ proptest::proptest! {
         proptest::prop_assert_eq!(folder_state(&d).1, Some(3));
     }
 }
+
+#[test]
+fn a_map_written_in_the_test_is_found_beside_the_test_only() {
+    let dir = tempfile::tempdir().unwrap();
+    let (tests, cwd) = (dir.path().join("tests"), dir.path().join("cwd"));
+    std::fs::create_dir_all(&tests).unwrap();
+    std::fs::create_dir_all(&cwd).unwrap();
+    let osc = std::fs::canonicalize(workspace().join("osc/domain/config.osc")).unwrap();
+    let t = tests.join("t.osc");
+    std::fs::write(
+        &t,
+        format!(
+            "import \"{}\"\nextend test_config:\n    set map = \"m.xodr\"\nextend top.main:\n    do sut.car.drive() with:\n        duration(2s)\n",
+            osc.display()
+        ),
+    )
+    .unwrap();
+    let map = workspace().join("examples/maps/straight.xodr");
+    // Only in the current directory: not found (the error names where it looked).
+    std::fs::copy(&map, cwd.join("m.xodr")).unwrap();
+    let run = || {
+        litesim()
+            .current_dir(&cwd)
+            .args(["run", "--no-pictures", "-o"])
+            .arg(dir.path().join("out"))
+            .arg(&t)
+            .output()
+            .unwrap()
+    };
+    let o = run();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("tests/m.xodr"), "{}", text(&o));
+    // Beside the test: found, wherever the command runs.
+    std::fs::copy(&map, tests.join("m.xodr")).unwrap();
+    let o = run();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+}

@@ -102,10 +102,16 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
             let expanded = litesim_osc::loader::expand_env(m, &env).map_err(|v| {
                 ScenarioError::Map(format!("test_config.map '{m}' uses ${v}, which is not set"))
             })?;
+            // A path written in the test is relative to the test's folder
+            // only: a map found through the current directory would make
+            // results depend on where the command ran. One that starts
+            // from an environment variable (`$FTX/…`, the seed's layout)
+            // is where that variable says, as a shell would read it;
+            // `--map` names a map relative to where you are.
             let p = PathBuf::from(&expanded);
-            Some(if p.is_relative() {
-                let beside = path.parent().unwrap_or(Path::new(".")).join(&p);
-                if beside.exists() { beside } else { p }
+            let from_env = m.trim_start().starts_with('$');
+            Some(if p.is_relative() && !from_env {
+                path.parent().unwrap_or(Path::new(".")).join(&p)
             } else {
                 p
             })
