@@ -206,9 +206,13 @@ enum Command {
         /// Output folder.
         #[arg(short, long, default_value = "batch")]
         out: PathBuf,
-        /// Skip runs already in OUT/results.jsonl.
-        #[arg(long)]
+        /// Continue the batch in OUT: run only its missing jobs (refused
+        /// when OUT was made with other options or tests).
+        #[arg(long, conflicts_with = "force_new")]
         resume: bool,
+        /// Start over in OUT even though it holds results.
+        #[arg(long)]
+        force_new: bool,
         /// No progress bar.
         #[arg(long, short)]
         quiet: bool,
@@ -459,6 +463,7 @@ fn run(cli: Cli) -> Result<()> {
             threads,
             out,
             resume,
+            force_new,
             quiet,
             save_failed,
         } => match scenario::batch(
@@ -469,6 +474,7 @@ fn run(cli: Cli) -> Result<()> {
             threads,
             out,
             resume,
+            force_new,
             quiet,
             save_failed,
         )? {

@@ -388,6 +388,7 @@ pub fn batch(
     threads: Option<usize>,
     out: PathBuf,
     resume: bool,
+    force_new: bool,
     quiet: bool,
     save_failed: bool,
 ) -> Result<Outcome> {
@@ -400,6 +401,7 @@ pub fn batch(
         threads,
         out: out.clone(),
         resume,
+        force_new,
         mode: common.mode(),
         load: common.load(),
         calibration_dir: common.calibration_dir.clone(),

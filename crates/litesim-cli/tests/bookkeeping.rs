@@ -111,7 +111,7 @@ fn merge_refuses_conflicts_and_missing_shards_and_lists_them() {
     let t = test_path("cut_in.osc");
     let t = t.to_str().unwrap();
     let shard = |i: u64, extra: &[&str]| {
-        let d = dir.path().join(format!("s{i}{}", extra.len()));
+        let d = dir.path().join(format!("s{i}{}", extra.join("-")));
         let shard = format!("{i}/3");
         let mut args = vec![t, "--seeds", "1..6", "--shard", shard.as_str()];
         args.extend_from_slice(extra);
@@ -206,39 +206,38 @@ fn exit_codes_follow_the_documented_matrix() {
             .status
             .code()
     };
-    let out = dir.path().join("x");
-    let out = out.to_str().unwrap();
-    // 0: everything passed.
-    assert_eq!(
-        run(&[
+    let out = |n: &str| dir.path().join(n).to_str().unwrap().to_string();
+    let (x, y, z) = (out("x"), out("y"), out("z"));
+    let cut_in = |extra: &[&str]| {
+        let mut a = vec![
             "batch",
             "examples/scenarios/cut_in.osc",
             "--seeds",
             "1..2",
             "-q",
-            "-o",
-            out
-        ]),
-        Some(0)
-    );
+        ];
+        a.extend_from_slice(extra);
+        a.extend_from_slice(&["-o", &x]);
+        run(&a)
+    };
+    // 0: everything passed.
+    assert_eq!(cut_in(&[]), Some(0));
     // 2: some run failed its checks.
+    let obstacle = "examples/scenarios/stationary_obstacle.osc";
     assert_eq!(
-        run(&[
-            "batch",
-            "examples/scenarios/stationary_obstacle.osc",
-            "--seeds",
-            "1",
-            "-q",
-            "-o",
-            out
-        ]),
+        run(&["batch", obstacle, "--seeds", "1", "-q", "-o", &y]),
         Some(2)
     );
     // 1: a test cannot be read.
     assert_eq!(
-        run(&["batch", "no/such/test.osc", "--seeds", "1", "-q", "-o", out]),
+        run(&["batch", "no/such/test.osc", "--seeds", "1", "-q", "-o", &z]),
         Some(1)
     );
+    // 1: a folder with results is not overwritten unless asked.
+    assert_eq!(cut_in(&[]), Some(1));
+    assert_eq!(cut_in(&["--force-new"]), Some(0));
+    assert_eq!(cut_in(&["--resume"]), Some(0));
+    assert_eq!(cut_in(&["--resume", "--force-new"]), Some(64));
     assert_eq!(run(&["run", "no/such/test.osc", "--no-pictures"]), Some(1));
     // 64: the command line itself is wrong.
     assert_eq!(run(&["batch", "--no-such-flag"]), Some(64));

@@ -204,8 +204,11 @@ pub struct BatchSpec {
     pub threads: Option<usize>,
     /// Output folder.
     pub out: PathBuf,
-    /// Skip runs already in `results.jsonl`.
+    /// Skip runs already in `results.jsonl` (same manifest required).
     pub resume: bool,
+    /// Start over in a folder that holds results (without it, and without
+    /// `resume`, such a folder is refused rather than overwritten).
+    pub force_new: bool,
     /// Drive mode.
     pub mode: DriveMode,
     /// Loading options.
@@ -464,13 +467,19 @@ pub fn run_batch(
     );
     let wanted_set: std::collections::BTreeSet<&(String, u64)> = wanted.iter().collect();
     let mut foreign = 0u64;
+    if !spec.resume && !spec.force_new && std::fs::metadata(&results).is_ok_and(|m| m.len() > 0) {
+        return Err(ScenarioError::Io(format!(
+            "{} already holds results: --resume to continue that batch, --force-new to start over, or a new folder",
+            spec.out.display()
+        )));
+    }
     let mut lines = if spec.resume {
         match Manifest::read(&spec.out)? {
             Some(old) => {
                 let diffs = manifest.differences(&old, true);
                 if !diffs.is_empty() {
                     return Err(ScenarioError::Io(format!(
-                        "{}: --resume refused, the folder holds results of another batch ({}); run without --resume to start over, or use a new folder",
+                        "{}: --resume refused, the folder holds results of another batch ({}); --force-new to start over, or use a new folder",
                         spec.out.display(),
                         diffs.join("; ")
                     )));
@@ -478,7 +487,7 @@ pub fn run_batch(
             }
             None if results.exists() => {
                 return Err(ScenarioError::Io(format!(
-                    "{}: --resume refused, the folder has results but no manifest.json (not written by this litesim); run without --resume to start over, or use a new folder",
+                    "{}: --resume refused, the folder has results but no manifest.json (not written by this litesim); --force-new to start over, or use a new folder",
                     spec.out.display()
                 )));
             }

@@ -537,6 +537,7 @@ fn batch_spec(
         threads: Some(threads),
         out: out.to_path_buf(),
         resume: false,
+        force_new: false,
         mode: DriveMode::Kinematic,
         load: LoadOptions::default(),
         calibration_dir: None,
