@@ -86,7 +86,8 @@ pub fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, VizErr
     Ok(out)
 }
 
-/// Writes bytes atomically (temporary file in the same folder, then rename).
+/// Writes bytes atomically (temporary file in the same folder, flushed to
+/// disk, then renamed).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), VizError> {
     let io = |e: std::io::Error| VizError::Io {
         path: path.display().to_string(),
@@ -99,6 +100,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), VizError> {
     std::fs::create_dir_all(&dir).map_err(io)?;
     let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(io)?;
     std::io::Write::write_all(&mut tmp, bytes).map_err(io)?;
+    // On disk before the rename: a crash never leaves a named, empty picture.
+    tmp.as_file().sync_all().map_err(io)?;
     // Temporary files are created private (0600); a result is an ordinary file.
     #[cfg(unix)]
     {
@@ -109,6 +112,17 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), VizError> {
     }
     tmp.persist(path).map_err(|e| io(e.error))?;
     Ok(())
+}
+
+/// Flushes a finished temporary file to disk before it is renamed into
+/// place (GIF writers hold only its path).
+pub(crate) fn sync_path(tmp: &Path, target: &Path) -> Result<(), VizError> {
+    std::fs::File::open(tmp)
+        .and_then(|f| f.sync_all())
+        .map_err(|e| VizError::Io {
+            path: target.display().to_string(),
+            message: e.to_string(),
+        })
 }
 
 /// A temporary path next to `path` for writers that need a file name (GIF);

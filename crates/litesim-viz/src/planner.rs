@@ -153,6 +153,7 @@ pub fn write_exploration_gif(
             }
         }
     }
+    crate::sync_path(&tmp, path)?;
     tmp.persist(path).map_err(|e| VizError::Io {
         path: path.display().to_string(),
         message: e.to_string(),

@@ -429,6 +429,7 @@ pub fn write_gif(
             n += 1;
         }
     }
+    crate::sync_path(&tmp, path)?;
     tmp.persist(path).map_err(|e| VizError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
