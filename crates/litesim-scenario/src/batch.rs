@@ -508,6 +508,7 @@ pub fn run_batch(
         Vec::new()
     };
     clean_temporaries(&spec.out);
+    clean_temporaries(&spec.out.join("failed"));
     atomic(
         &spec.out.join("manifest.json"),
         &(serde_json::to_string_pretty(&manifest).map_err(|e| ScenarioError::Io(e.to_string()))?
