@@ -76,10 +76,10 @@ fn bad_input_gets_the_right_code_and_the_server_keeps_serving() {
         e.message
     );
     c.start_simulation(0).unwrap();
-    assert_eq!(
-        c.start_simulation(0).unwrap_err().code,
-        ErrorCode::AlreadyExists
-    );
+    // Valid in another state: FAILED_PRECONDITION naming the state.
+    let e = c.start_simulation(0).unwrap_err();
+    assert_eq!(e.code, ErrorCode::FailedPrecondition);
+    assert!(e.message.contains("STARTING"), "{}", e.message);
     c.wait_start_simulation(10).unwrap();
     let e = c.wait_step(10).unwrap_err();
     assert_eq!(e.code, ErrorCode::FailedPrecondition);
@@ -507,4 +507,41 @@ fn step_many_equals_repeated_steps_and_refuses_bad_counts() {
         a.step_many(MAX_STEPS_PER_CALL, &only_c).unwrap().len(),
         10_000
     );
+}
+
+#[test]
+fn huge_ids_get_bounded_answers_not_transport_errors() {
+    let server = start(ServerConfig::default());
+    let mut c = running(server.addr);
+    let huge = "x".repeat(1 << 20);
+    // An unknown session named by 1 MiB: NOT_FOUND, its id cut in the message.
+    let (rt, raw) = c.raw();
+    let e = rt
+        .block_on(raw.start_step(litesim_grpc::pb::StartStepRequest {
+            session_id: huge.clone(),
+            ..Default::default()
+        }))
+        .unwrap_err();
+    assert_eq!(e.code(), tonic::Code::NotFound, "{e:?}");
+    assert!(
+        e.message().contains("…(1048576 bytes)") && e.message().len() < 300,
+        "{}",
+        &e.message()[..e.message().len().min(300)]
+    );
+    // Unknown actor named by 1 MiB: NOT_FOUND, bounded.
+    let e = c.destroy_actor(&huge).unwrap_err();
+    assert_eq!(
+        e.code,
+        ErrorCode::NotFound,
+        "{}",
+        &e.message[..200.min(e.message.len())]
+    );
+    assert!(e.message.len() < 300, "{} bytes", e.message.len());
+    // An id over the documented maximum is refused at creation.
+    let e = c.create_actor(car(&"y".repeat(257))).unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArgument);
+    assert!(e.message.contains("at most 256 bytes"), "{}", e.message);
+    c.create_actor(car(&"y".repeat(256))).unwrap();
+    // The session goes on.
+    c.step(None, &ActorFilter::default()).unwrap();
 }

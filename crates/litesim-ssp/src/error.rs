@@ -38,12 +38,67 @@ pub struct SspError {
     pub message: String,
 }
 
+/// Longest quoted client input an error message repeats (bytes, cut at a
+/// character boundary): the rest is replaced by `…(N bytes)`.
+pub const QUOTE_MAX: usize = 64;
+
+/// Longest error message (bytes). gRPC carries a status message in a
+/// header (16 KiB by default): an error about a 1 MiB id must still arrive
+/// as that error, not as a transport failure.
+pub const MESSAGE_MAX: usize = 2048;
+
+/// Longest id a client may give an actor, traffic light or session (bytes).
+pub const ID_MAX: usize = 256;
+
+/// `s` cut to [`QUOTE_MAX`] bytes with its length noted when longer.
+pub fn quote(s: &str) -> String {
+    cut(s, QUOTE_MAX)
+}
+
+fn cut(s: &str, max: usize) -> String {
+    if s.len() <= max {
+        return s.to_string();
+    }
+    let mut end = max;
+    while !s.is_char_boundary(end) {
+        end -= 1;
+    }
+    format!("{}…({} bytes)", &s[..end], s.len())
+}
+
+/// Bounds a message: every quoted stretch (`'…'`) longer than
+/// [`QUOTE_MAX`] is cut, and the whole to [`MESSAGE_MAX`].
+fn bounded(message: String) -> String {
+    if message.len() <= QUOTE_MAX {
+        return message;
+    }
+    let mut out = String::with_capacity(message.len().min(MESSAGE_MAX + 32));
+    let mut rest = message.as_str();
+    while let Some(open) = rest.find('\'') {
+        out.push_str(&rest[..=open]);
+        let after = &rest[open + 1..];
+        match after.find('\'') {
+            Some(close) => {
+                out.push_str(&quote(&after[..close]));
+                out.push('\'');
+                rest = &after[close + 1..];
+            }
+            None => {
+                out.push_str(&quote(after));
+                rest = "";
+            }
+        }
+    }
+    out.push_str(rest);
+    cut(&out, MESSAGE_MAX)
+}
+
 impl SspError {
-    /// A new error.
+    /// A new error (its message bounded: see [`quote`]).
     pub fn new(code: ErrorCode, message: impl Into<String>) -> Self {
         Self {
             code,
-            message: message.into(),
+            message: bounded(message.into()),
         }
     }
     /// `INVALID_ARGUMENT`.

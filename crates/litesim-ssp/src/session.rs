@@ -556,9 +556,8 @@ impl Ssp for Session {
     fn launch_simulator(&mut self, connection_string: &str) -> SspResult<String> {
         self.require("launch_simulator")?;
         if self.launched {
-            return Err(SspError::new(
-                ErrorCode::AlreadyExists,
-                "the simulator is already launched",
+            return Err(SspError::precondition(
+                "launch_simulator was already called: the simulator is launched",
             ));
         }
         self.launched = true;
@@ -585,13 +584,13 @@ impl Ssp for Session {
             && self.phase != Phase::Uninitialized
             && self.phase != Phase::Ended
         {
-            return Err(SspError::new(
-                ErrorCode::AlreadyExists,
-                format!(
-                    "start_simulation was already called (session is {})",
-                    self.phase
-                ),
-            ));
+            // Valid in another life-cycle state: FAILED_PRECONDITION (gRPC's
+            // guidance), with the state the session is in.
+            return Err(SspError::precondition(format!(
+                "start_simulation was already called: the session is {}; allowed now: {}",
+                self.phase,
+                self.phase.allowed_calls().join(", ")
+            )));
         }
         self.require("start_simulation")?;
         if !start_time_ms.is_multiple_of(self.step_ms) {
@@ -675,6 +674,13 @@ impl Ssp for Session {
         self.require("create_actor")?;
         if req.actor_id.is_empty() {
             return Err(SspError::invalid("actor_id must not be empty"));
+        }
+        if req.actor_id.len() > crate::error::ID_MAX {
+            return Err(SspError::invalid(format!(
+                "actor_id is {} bytes; ids are at most {} bytes",
+                req.actor_id.len(),
+                crate::error::ID_MAX
+            )));
         }
         if self.meta.contains_key(&req.actor_id) {
             return Err(SspError::new(
