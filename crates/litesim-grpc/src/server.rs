@@ -73,6 +73,10 @@ struct Inner {
     trace: Option<Mutex<std::io::BufWriter<std::fs::File>>>,
 }
 
+/// Longest an Init (with its map) may take before the client is answered
+/// DEADLINE_EXCEEDED.
+pub const INIT_TIMEOUT: std::time::Duration = std::time::Duration::from_secs(60);
+
 /// The gRPC service; cheap to clone.
 #[derive(Clone)]
 pub struct SspService {
@@ -345,7 +349,22 @@ impl SimulatorSupport for SspService {
         &self,
         req: Request<pb::InitRequest>,
     ) -> Result<Response<pb::InitResponse>, Status> {
-        let resp = self.init_session(req.into_inner()).map_err(cv::status)?;
+        // Init may read and parse a map file: on a blocking thread, so that
+        // a slow or huge map never holds up other clients' calls, and with
+        // a deadline.
+        let svc = self.clone();
+        let r = req.into_inner();
+        let job = tokio::task::spawn_blocking(move || svc.init_session(r));
+        let resp = match tokio::time::timeout(INIT_TIMEOUT, job).await {
+            Ok(Ok(res)) => res.map_err(cv::status)?,
+            Ok(Err(e)) => return Err(Status::internal(format!("init failed: {e}"))),
+            Err(_) => {
+                return Err(Status::deadline_exceeded(format!(
+                    "init took longer than {} s (loading its map)",
+                    INIT_TIMEOUT.as_secs()
+                )));
+            }
+        };
         Ok(Response::new(pb::InitResponse {
             session_id: resp.session_id,
             capabilities: Some(cv::capabilities_pb(&resp.capabilities)),

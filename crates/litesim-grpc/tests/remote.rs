@@ -545,3 +545,78 @@ fn huge_ids_get_bounded_answers_not_transport_errors() {
     // The session goes on.
     c.step(None, &ActorFilter::default()).unwrap();
 }
+
+#[test]
+fn odd_map_paths_are_refused_at_once_and_never_hold_up_others() {
+    let server = start(ServerConfig::default());
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("map.fifo");
+    assert!(
+        std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    let mut bystander = running(server.addr);
+    bystander.create_actor(car("b")).unwrap();
+    for (path, what) in [
+        (fifo.display().to_string(), "not a regular file"),
+        ("/dev/zero".to_string(), "not a regular file"),
+        (dir.path().display().to_string(), "directory"),
+    ] {
+        // Another client keeps being answered while this Init is refused.
+        let addr = server.addr;
+        let p = path.clone();
+        let t = std::thread::spawn(move || {
+            let mut c = RemoteSsp::connect(&addr.to_string()).unwrap();
+            let started = std::time::Instant::now();
+            let e = c
+                .init(InitRequest {
+                    map: Some(p),
+                    ..InitRequest::default()
+                })
+                .unwrap_err();
+            (e, started.elapsed())
+        });
+        let started = std::time::Instant::now();
+        bystander.step(None, &ActorFilter::default()).unwrap();
+        assert!(started.elapsed() < std::time::Duration::from_millis(100));
+        let (e, took) = t.join().unwrap();
+        assert_eq!(e.code, ErrorCode::InvalidArgument, "{path}: {e}");
+        assert!(e.message.contains(what), "{path}: {}", e.message);
+        assert!(took < std::time::Duration::from_secs(1), "{path}: {took:?}");
+    }
+}
+
+#[test]
+fn nan_traffic_light_numbers_are_invalid_arguments_naming_the_field() {
+    let server = start(ServerConfig::default());
+    for (mut b, field) in [
+        (litesim_ssp::TrafficLightBox::default(), "pose.x"),
+        (litesim_ssp::TrafficLightBox::default(), "bulbs[0].counter"),
+        (litesim_ssp::TrafficLightBox::default(), ".s"),
+    ] {
+        b.id = "tl1".into();
+        b.pose = Coord6::xy_yaw(1.0, 2.0, 0.0);
+        b.bulbs = vec![litesim_ssp::Bulb::default()];
+        match field {
+            "pose.x" => b.pose.x = Some(f64::NAN),
+            ".s" => b.s = f64::INFINITY,
+            _ => b.bulbs[0].counter = Some(f64::NAN),
+        }
+        let mut c = RemoteSsp::connect(&server.addr.to_string()).unwrap();
+        let e = c
+            .init(InitRequest {
+                traffic_lights: vec![b],
+                ..InitRequest::default()
+            })
+            .unwrap_err();
+        assert_eq!(e.code, ErrorCode::InvalidArgument, "{field}: {e}");
+        assert!(
+            e.message.contains(field) && e.message.contains("tl1"),
+            "{field}: {}",
+            e.message
+        );
+    }
+}

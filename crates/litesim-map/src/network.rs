@@ -137,6 +137,9 @@ impl SegmentIndex {
     }
 }
 
+/// Largest map file [`RoadNetwork::load`] reads (bytes): 256 MiB.
+pub const MAX_MAP_BYTES: u64 = 256 * 1024 * 1024;
+
 /// A loaded OpenDRIVE road network.
 #[derive(Clone, Debug)]
 pub struct RoadNetwork {
@@ -160,14 +163,43 @@ fn step_for(k: f64, tol: f64, max: f64) -> f64 {
 
 impl RoadNetwork {
     /// Loads an `.xodr` file.
+    ///
+    /// Only a regular file of at most [`MAX_MAP_BYTES`] is read: a FIFO, a
+    /// device (`/dev/zero`) or a directory is refused at once, before it is
+    /// opened (opening a FIFO would wait for a writer).
     pub fn load(path: &std::path::Path) -> Result<Self, MapError> {
-        let text = std::fs::read_to_string(path).map_err(|e| MapError {
+        let fail = |message: String| MapError {
             file: path.display().to_string(),
             line: 0,
             column: 0,
             path: String::new(),
-            message: format!("cannot read: {e}"),
-        })?;
+            message,
+        };
+        let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot read: {e}")))?;
+        if !meta.is_file() {
+            return Err(fail(format!(
+                "not a regular file (a {}): a map is an OpenDRIVE file",
+                if meta.is_dir() {
+                    "directory"
+                } else {
+                    "FIFO, socket or device"
+                }
+            )));
+        }
+        if meta.len() > MAX_MAP_BYTES {
+            return Err(fail(format!(
+                "{} bytes; maps are at most {MAX_MAP_BYTES} bytes",
+                meta.len()
+            )));
+        }
+        let mut text = String::new();
+        use std::io::Read;
+        std::fs::File::open(path)
+            .and_then(|f| f.take(MAX_MAP_BYTES + 1).read_to_string(&mut text))
+            .map_err(|e| fail(format!("cannot read: {e}")))?;
+        if text.len() as u64 > MAX_MAP_BYTES {
+            return Err(fail(format!("more than {MAX_MAP_BYTES} bytes")));
+        }
         Self::from_xodr(&text, &path.display().to_string())
     }
 

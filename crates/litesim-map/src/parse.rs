@@ -166,8 +166,44 @@ fn speed(max: Option<&str>, unit: Option<&str>) -> Option<f64> {
     })
 }
 
+/// Published maps put a licence comment or blank lines before the XML
+/// declaration, or start with a byte-order mark; XML itself wants the
+/// declaration first. The mark is dropped and a declaration that is not
+/// first is blanked out (spaces of the same length, so that line and
+/// column numbers of later errors stay true). `None`: nothing to change.
+fn xml_prologue(text: &str) -> Option<String> {
+    let body = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let decl = body.find("<?xml");
+    // Only a declaration before the first element counts.
+    let first_elem = body
+        .match_indices('<')
+        .map(|(i, _)| i)
+        .find(|&i| !body[i..].starts_with("<?") && !body[i..].starts_with("<!"));
+    let misplaced = match (decl, first_elem) {
+        (Some(d), Some(e)) if d > 0 && d < e => Some(d),
+        (Some(d), None) if d > 0 => Some(d),
+        _ => None,
+    };
+    if misplaced.is_none() && body.len() == text.len() {
+        return None;
+    }
+    let mut out = body.to_string();
+    if let Some(d) = misplaced
+        && let Some(end) = body[d..].find("?>")
+    {
+        let blank: String = body[d..d + end + 2]
+            .chars()
+            .map(|c| if c == '\n' { '\n' } else { ' ' })
+            .collect();
+        out.replace_range(d..d + end + 2, &blank);
+    }
+    Some(out)
+}
+
 /// Parses OpenDRIVE text. `file` names the source in messages.
 pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapError> {
+    let cleaned = xml_prologue(text);
+    let text = cleaned.as_deref().unwrap_or(text);
     let doc = Document::parse(text).map_err(|e| {
         let p = e.pos();
         MapError {

@@ -375,3 +375,35 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn licence_headers_byte_order_marks_and_crlf_are_accepted() {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/maps/straight.xodr");
+    let text = std::fs::read_to_string(p).unwrap();
+    let plain = RoadNetwork::from_xodr(&text, "plain").unwrap();
+    let body = text.trim_start();
+    assert!(
+        body.starts_with("<?xml"),
+        "the fixture starts with its declaration"
+    );
+    let forms = [
+        format!("<!-- Licence: CC-BY 4.0, (c) somebody -->\n{body}"),
+        format!("\n\n   \n{body}"),
+        format!("\u{feff}{body}"),
+        format!("\u{feff}<!-- header -->\r\n{}", body.replace('\n', "\r\n")),
+        body.replace('\n', "\r\n"),
+    ];
+    for (k, f) in forms.iter().enumerate() {
+        let n = RoadNetwork::from_xodr(f, "form").unwrap_or_else(|e| panic!("form {k}: {e}"));
+        assert_eq!(n.roads().len(), plain.roads().len(), "form {k}");
+        assert_eq!(n.roads()[0].length, plain.roads()[0].length, "form {k}");
+    }
+    // Line numbers of later errors stay true after a header.
+    let broken = format!(
+        "<!-- header -->\n{}",
+        body.replacen("<road ", "<road length=\"x\" ", 1)
+    );
+    let e = RoadNetwork::from_xodr(&broken, "broken").unwrap_err();
+    let line = body.lines().position(|l| l.contains("<road ")).unwrap() + 2;
+    assert_eq!(e.line as usize, line, "{e}");
+}

@@ -167,9 +167,30 @@ impl TrafficLights {
     /// Checks ids: boxes unique, logical lights unique and naming existing boxes.
     pub fn new(boxes: Vec<TrafficLightBox>, logical: Vec<LogicalTrafficLight>) -> SspResult<Self> {
         let mut seen = std::collections::BTreeSet::new();
-        for b in &boxes {
+        for (k, b) in boxes.iter().enumerate() {
             if b.id.is_empty() {
                 return Err(SspError::invalid("traffic_lights: a box has an empty id"));
+            }
+            // Every number a client gives is checked, naming the field.
+            let field = |f: &str| format!("traffic_lights[{k}] (box '{}').{f}", b.id);
+            crate::error::finite(&field("s"), b.s)?;
+            crate::error::finite(&field("t"), b.t)?;
+            for (name, v) in [
+                ("pose.x", b.pose.x),
+                ("pose.y", b.pose.y),
+                ("pose.z", b.pose.z),
+                ("pose.roll", b.pose.roll),
+                ("pose.pitch", b.pose.pitch),
+                ("pose.yaw", b.pose.yaw),
+            ] {
+                if let Some(v) = v {
+                    crate::error::finite(&field(name), v)?;
+                }
+            }
+            for (j, bulb) in b.bulbs.iter().enumerate() {
+                if let Some(c) = bulb.counter {
+                    crate::error::finite(&field(&format!("bulbs[{j}].counter")), c)?;
+                }
             }
             if !seen.insert(b.id.as_str()) {
                 return Err(SspError::new(
