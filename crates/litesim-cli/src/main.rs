@@ -53,8 +53,9 @@ enum Command {
         /// Largest request (bytes).
         #[arg(long, default_value_t = 16 * 1024 * 1024)]
         max_message_bytes: usize,
-        /// End sessions idle this long (s): their client is gone.
-        #[arg(long, default_value_t = 300)]
+        /// A session's lease (s): one unused this long is ended (its client
+        /// is gone); every call, or an explicit KeepAlive, renews it.
+        #[arg(long, default_value_t = 30)]
         idle_timeout_s: u64,
         /// Server worker threads; 0 = one per CPU. For lock-step latency run
         /// one worker and put server and client on one CPU (`taskset -c 0`

@@ -90,6 +90,19 @@ impl RemoteSsp {
         (&self.rt, &mut self.client)
     }
 
+    /// Renews the session's lease without doing anything else; returns the
+    /// lease (a session unused that long is ended by the server).
+    pub fn keep_alive(&mut self) -> SspResult<std::time::Duration> {
+        let req = pb::KeepAliveRequest {
+            session_id: self.session_id.clone(),
+        };
+        let r = self
+            .rt
+            .block_on(self.client.keep_alive(req))
+            .map_err(crate::convert::error)?;
+        Ok(std::time::Duration::from_millis(r.into_inner().lease_ms))
+    }
+
     /// Ends the session on the server (also done when the client is dropped).
     pub fn shutdown(&mut self) -> SspResult<()> {
         if self.session_id.is_empty() || self.closed {

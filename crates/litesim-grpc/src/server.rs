@@ -37,7 +37,8 @@ pub struct ServerConfig {
     pub max_sessions: usize,
     /// Per-session limits.
     pub limits: SessionLimits,
-    /// A session unused this long is ended (its client is gone).
+    /// A session unused this long is ended (its client is gone): the
+    /// lease every call — or an explicit `KeepAlive` — renews.
     pub idle_timeout: Duration,
     /// Largest request accepted (bytes).
     pub max_message_bytes: usize,
@@ -52,7 +53,7 @@ impl Default for ServerConfig {
             default_model: "dummy".into(),
             max_sessions: 64,
             limits: SessionLimits::default(),
-            idle_timeout: Duration::from_secs(300),
+            idle_timeout: Duration::from_secs(30),
             max_message_bytes: 16 * 1024 * 1024,
             trace_rpc: None,
         }
@@ -220,6 +221,11 @@ impl SspService {
             self.inner.cfg.limits,
         );
         let result = (|| {
+            // At the limit, sessions whose lease ran out go first (the
+            // periodic reaper may not have come round yet).
+            if lock(&self.inner.sessions).len() >= self.inner.cfg.max_sessions {
+                self.reap();
+            }
             if lock(&self.inner.sessions).len() >= self.inner.cfg.max_sessions {
                 return Err(SspError::exhausted(format!(
                     "the server already runs {} sessions (the limit); shut one down first",
@@ -372,6 +378,17 @@ impl SimulatorSupport for SspService {
                 info: vec![],
                 warning: resp.diagnostics,
             }),
+        }))
+    }
+
+    async fn keep_alive(
+        &self,
+        req: Request<pb::KeepAliveRequest>,
+    ) -> Result<Response<pb::KeepAliveResponse>, Status> {
+        let id = req.into_inner().session_id;
+        self.with(&id, "keep_alive", || Value::Null, false, |_| Ok(()))?;
+        Ok(Response::new(pb::KeepAliveResponse {
+            lease_ms: self.inner.cfg.idle_timeout.as_millis() as u64,
         }))
     }
 

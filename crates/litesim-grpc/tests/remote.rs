@@ -620,3 +620,43 @@ fn nan_traffic_light_numbers_are_invalid_arguments_naming_the_field() {
         );
     }
 }
+
+#[test]
+fn sessions_of_vanished_clients_are_reclaimed_within_the_lease() {
+    let lease = std::time::Duration::from_millis(800);
+    let server = start(ServerConfig {
+        max_sessions: 4,
+        idle_timeout: lease,
+        ..ServerConfig::default()
+    });
+    // One client keeps its session with explicit keep-alives …
+    let mut keeper = RemoteSsp::connect(&server.addr.to_string()).unwrap();
+    keeper.init(InitRequest::default()).unwrap();
+    assert_eq!(keeper.keep_alive().unwrap(), lease);
+    // … three vanish without a word (no Shutdown: as if killed).
+    for _ in 0..3 {
+        // Init through the raw client: the RemoteSsp does not know the
+        // session, so dropping it closes the connection without Shutdown.
+        let mut c = RemoteSsp::connect(&server.addr.to_string()).unwrap();
+        let (rt, raw) = c.raw();
+        rt.block_on(raw.init(pb::InitRequest::default())).unwrap();
+    }
+    let mut fresh = RemoteSsp::connect(&server.addr.to_string()).unwrap();
+    let e = fresh.init(InitRequest::default()).unwrap_err();
+    assert_eq!(e.code, ErrorCode::ResourceExhausted);
+    // Within the lease (plus the reaper's beat) their places are free again.
+    let started = std::time::Instant::now();
+    for _ in 0..6 {
+        std::thread::sleep(lease / 4);
+        keeper.keep_alive().unwrap();
+    }
+    let mut others = Vec::new();
+    for _ in 0..3 {
+        let mut c = RemoteSsp::connect(&server.addr.to_string()).unwrap();
+        c.init(InitRequest::default()).unwrap();
+        others.push(c);
+    }
+    assert!(started.elapsed() < lease * 3);
+    // The kept session lived through it.
+    keeper.start_simulation(0).unwrap();
+}
