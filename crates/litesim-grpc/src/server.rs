@@ -588,7 +588,21 @@ impl SimulatorSupport for SspService {
             while let Some(msg) = input.next().await {
                 let cmd = match msg {
                     Ok(c) => c,
-                    Err(_) => break, // client went away
+                    Err(e) => {
+                        // A message over the size limit is answered like a
+                        // unary one (RESOURCE_EXHAUSTED, gRPC's code for
+                        // it; tonic reports OUT_OF_RANGE); other errors
+                        // mean the client went away.
+                        if matches!(
+                            e.code(),
+                            tonic::Code::OutOfRange | tonic::Code::ResourceExhausted
+                        ) {
+                            let _ = tx
+                                .send(Err(Status::resource_exhausted(e.message().to_string())))
+                                .await;
+                        }
+                        break;
+                    }
                 };
                 if session_id.is_empty() {
                     let slot = match svc.slot(&cmd.session_id) {

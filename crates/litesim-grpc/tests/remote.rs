@@ -660,3 +660,43 @@ fn sessions_of_vanished_clients_are_reclaimed_within_the_lease() {
     // The kept session lived through it.
     keeper.start_simulation(0).unwrap();
 }
+
+#[test]
+fn oversized_stream_messages_are_resource_exhausted() {
+    let server = start(ServerConfig {
+        max_message_bytes: 1 << 20,
+        ..ServerConfig::default()
+    });
+    let mut c = running(server.addr);
+    let sid = c.session_id().to_string();
+    let (rt, raw) = c.raw();
+    let mut raw = raw.clone();
+    let code = rt.block_on(async move {
+        let (tx, rx) = tokio::sync::mpsc::channel(4);
+        let call = raw.step_stream(tokio_stream::wrappers::ReceiverStream::new(rx));
+        // A 2 MiB command (a huge actor id list in the filter) on a server
+        // that takes 1 MiB per message.
+        tx.send(pb::StepCommand {
+            session_id: sid,
+            seq: 1,
+            state_filter: Some(pb::ActorFilter {
+                actor_ids: vec!["x".repeat(1 << 21)],
+                ..Default::default()
+            }),
+            ..Default::default()
+        })
+        .await
+        .unwrap();
+        match call.await {
+            Err(s) => s.code(),
+            Ok(resp) => {
+                let mut out = resp.into_inner();
+                match out.message().await {
+                    Err(s) => s.code(),
+                    Ok(m) => panic!("answered: {m:?}"),
+                }
+            }
+        }
+    });
+    assert_eq!(code, tonic::Code::ResourceExhausted);
+}
