@@ -274,7 +274,10 @@ impl RoadNetwork {
                     a: Vec2::new(p.x, p.y),
                     b: Vec2::new(q.x, q.y),
                 });
-                pad.push(width + 0.5);
+                // A lane wider than a kilometre is a bogus map: its index
+                // padding is capped so that every segment covers a bounded
+                // number of cells.
+                pad.push(width.min(1000.0) + 0.5);
                 s = s1;
                 p = q;
             }
@@ -286,7 +289,12 @@ impl RoadNetwork {
                 hi = Vec2::new(hi.x.max(p.x + w), hi.y.max(p.y + w));
             }
         }
-        let cell = 8.0;
+        // 8 m cells, coarser where that would make more than MAX_CELLS of
+        // them (a map spread over a huge area, or a bogus lane width):
+        // the index stays a bounded size whatever the input.
+        const MAX_CELLS: f64 = 4_000_000.0;
+        let area = (hi.x - lo.x).max(1e-3) * (hi.y - lo.y).max(1e-3);
+        let cell = 8.0f64.max((area / MAX_CELLS).sqrt());
         let nx = (((hi.x - lo.x) / cell).ceil() as usize).clamp(1, 20_000);
         let ny = (((hi.y - lo.y) / cell).ceil() as usize).clamp(1, 20_000);
         let cell = ((hi.x - lo.x) / nx as f64)

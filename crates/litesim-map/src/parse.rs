@@ -102,7 +102,40 @@ impl<'a> Ctx<'a> {
         if !x.is_finite() {
             return Err(self.err(n, path, format!("attribute '{name}' = '{v}' is not finite")));
         }
+        if x.abs() > MAX_NUMBER {
+            return Err(self.err(
+                n,
+                path,
+                format!("attribute '{name}' = '{v}' is beyond ±{MAX_NUMBER:e}, the largest number a map may hold"),
+            ));
+        }
         Ok(x)
+    }
+    /// A length (road, geometry) in `(0 or more, MAX_LENGTH_M]`.
+    fn length(&self, n: Node, path: &str) -> R<f64> {
+        let l = self.req_f64(n, path, "length")?;
+        if l > MAX_LENGTH_M {
+            return Err(self.err(
+                n,
+                path,
+                format!("length = {l} m; a road or geometry is at most {MAX_LENGTH_M} m"),
+            ));
+        }
+        Ok(l)
+    }
+    /// A curvature with |k| ≤ MAX_CURVATURE.
+    fn curvature(&self, n: Node, path: &str, name: &str) -> R<f64> {
+        let k = self.req_f64(n, path, name)?;
+        if k.abs() > MAX_CURVATURE {
+            return Err(self.err(
+                n,
+                path,
+                format!(
+                    "{name} = {k} 1/m; curvatures are at most ±{MAX_CURVATURE} 1/m (a 1 cm radius)"
+                ),
+            ));
+        }
+        Ok(k)
     }
     fn opt_f64(&self, n: Node, path: &str, name: &str) -> R<Option<f64>> {
         n.attribute(name)
@@ -122,7 +155,8 @@ impl<'a> Ctx<'a> {
         v.parse::<i32>()
             .or_else(|_| {
                 v.parse::<f64>().map_err(|_| ()).and_then(|f| {
-                    if f.fract() == 0.0 {
+                    // A whole number within i32 (`1e300` is no lane id).
+                    if f.fract() == 0.0 && f.abs() <= f64::from(i32::MAX) {
                         Ok(f as i32)
                     } else {
                         Err(())
@@ -165,6 +199,17 @@ fn speed(max: Option<&str>, unit: Option<&str>) -> Option<f64> {
         _ => v,
     })
 }
+
+/// Largest magnitude of any number in a map (projected coordinates, in
+/// metres, stay far below it): absurd but finite values are refused, not
+/// turned into hours of sampling or gigabytes of memory.
+pub const MAX_NUMBER: f64 = 1e9;
+
+/// Longest road or geometry (m).
+pub const MAX_LENGTH_M: f64 = 100_000.0;
+
+/// Largest |curvature| of an arc or spiral (1/m).
+pub const MAX_CURVATURE: f64 = 100.0;
 
 /// Published maps put a licence comment or blank lines before the XML
 /// declaration, or start with a byte-order mark; XML itself wants the
@@ -364,7 +409,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
     let id = n.attribute("id").unwrap_or("?").trim().to_string();
     let path = format!("OpenDRIVE/road[id={id}]");
     let id = cx.req_str(n, &path, "id")?;
-    let length = cx.req_f64(n, &path, "length")?;
+    let length = cx.length(n, &path)?;
     if length <= 0.0 {
         return Err(cx.err(n, &path, format!("length = {length} must be positive")));
     }
@@ -574,7 +619,7 @@ fn geometry(cx: &mut Ctx, g: Node, path: &str) -> R<Geometry> {
     let x = cx.req_f64(g, path, "x")?;
     let y = cx.req_f64(g, path, "y")?;
     let hdg = cx.req_f64(g, path, "hdg")?;
-    let length = cx.req_f64(g, path, "length")?;
+    let length = cx.length(g, path)?;
     if length < 0.0 {
         return Err(cx.err(g, path, format!("length = {length} must not be negative")));
     }
@@ -596,11 +641,11 @@ fn geometry(cx: &mut Ctx, g: Node, path: &str) -> R<Geometry> {
     let shape = match c.tag_name().name() {
         "line" => Shape::Line,
         "arc" => Shape::Arc {
-            curvature: cx.req_f64(c, &p, "curvature")?,
+            curvature: cx.curvature(c, &p, "curvature")?,
         },
         "spiral" => Shape::Spiral {
-            curv_start: cx.req_f64(c, &p, "curvStart")?,
-            curv_end: cx.req_f64(c, &p, "curvEnd")?,
+            curv_start: cx.curvature(c, &p, "curvStart")?,
+            curv_end: cx.curvature(c, &p, "curvEnd")?,
         },
         "poly3" => Shape::Poly3 {
             coef: [
@@ -672,13 +717,19 @@ fn section(cx: &mut Ctx, n: Node, path: &str) -> R<LaneSection> {
         }
     }
     sec.left.sort_by_key(|l| l.id);
-    sec.right.sort_by_key(|l| -l.id);
+    sec.right.sort_by_key(|l| std::cmp::Reverse(l.id));
     Ok(sec)
 }
 
 fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
+    let id = cx.req_i32(l, path, "id")?;
+    // Lane ids count lanes from the centre: arithmetic on them (the lane
+    // beside, the side's order) must not overflow.
+    if id.unsigned_abs() > 1000 {
+        return Err(cx.err(l, path, format!("lane id {id}: lane ids are within ±1000")));
+    }
     let mut lane = Lane {
-        id: cx.req_i32(l, path, "id")?,
+        id,
         kind: l.attribute("type").unwrap_or("none").trim().to_string(),
         level: boolean(l.attribute("level")),
         widths: Vec::new(),

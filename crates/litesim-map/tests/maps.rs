@@ -407,3 +407,40 @@ fn licence_headers_byte_order_marks_and_crlf_are_accepted() {
     let line = body.lines().position(|l| l.contains("<road ")).unwrap() + 2;
     assert_eq!(e.line as usize, line, "{e}");
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+    /// Any numeric attribute of a shipped map set to an extreme finite value
+    /// (or a tiny or negative one) gives an answer — a network or an error —
+    /// quickly, and `map info`'s queries on the result stay bounded too.
+    #[test]
+    fn extreme_numbers_are_answered_in_bounded_time(
+        map_k in 0usize..4, which in 0usize..10_000,
+        value in proptest::sample::select(vec![
+            "1e300", "-1e300", "1e9", "-1e9", "1e6", "-1e6", "1e-300", "0", "-1",
+        ]),
+    ) {
+        let name = ["straight.xodr", "circ.xodr", "curvy.xodr", "junction.xodr"][map_k];
+        let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/maps").join(name);
+        let text = std::fs::read_to_string(p).unwrap();
+        // The numeric attribute values, by position in the text.
+        let re_like: Vec<(usize, usize)> = text
+            .match_indices("=\"")
+            .filter_map(|(i, _)| {
+                let start = i + 2;
+                let end = start + text[start..].find('"')?;
+                text[start..end].parse::<f64>().ok().map(|_| (start, end))
+            })
+            .collect();
+        prop_assume!(!re_like.is_empty());
+        let (a, b) = re_like[which % re_like.len()];
+        let mangled = format!("{}{}{}", &text[..a], value, &text[b..]);
+        let started = std::time::Instant::now();
+        if let Ok(net) = RoadNetwork::from_xodr(&mangled, "mangled") {
+            let _ = net.road_summaries();
+            let _ = net.to_road(Vec2::new(1.0, 1.0));
+        }
+        let took = started.elapsed();
+        prop_assert!(took < std::time::Duration::from_secs(3), "{} = {} took {:?}", &text[a.saturating_sub(20)..a], value, took);
+    }
+}
