@@ -754,3 +754,23 @@ fn batch_shards_merge_and_calibrate_from_the_command_line() {
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stdout));
 }
+
+#[test]
+fn python_reflection_client_lists_the_services_through_v1alpha() {
+    ensure_grpcio();
+    let server = serve(&[]);
+    let out = Command::new("python3")
+        .arg(workspace().join("crates/litesim-cli/tests/python/reflection_client.py"))
+        .arg(&server.addr)
+        .output()
+        .expect("python3 runs");
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}\n{text}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for s in ["litesim.ssp.v1.SimulatorSupport", "grpc.health.v1.Health"] {
+        assert!(text.lines().any(|l| l == s), "{s} missing from:\n{text}");
+    }
+}

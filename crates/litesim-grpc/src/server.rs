@@ -914,10 +914,15 @@ pub async fn serve(
     reporter
         .set_serving::<SimulatorSupportServer<SspService>>()
         .await;
-    let reflection = tonic_reflection::server::Builder::configure()
-        .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
-        .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
-        .build_v1()?;
+    // Reflection in both versions: grpcurl asks v1, older grpcurl,
+    // Postman and grpcio's reflection client ask v1alpha.
+    let reflection_builder = || {
+        tonic_reflection::server::Builder::configure()
+            .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
+            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
+    };
+    let reflection = reflection_builder().build_v1()?;
+    let reflection_alpha = reflection_builder().build_v1alpha()?;
     let ssp = SimulatorSupportServer::new(svc)
         .max_decoding_message_size(max)
         .max_encoding_message_size(usize::MAX);
@@ -927,6 +932,7 @@ pub async fn serve(
         .layer(tower::util::MapResponseLayer::new(remap_oversize))
         .add_service(health)
         .add_service(reflection)
+        .add_service(reflection_alpha)
         .add_service(ssp)
         .serve_with_incoming_shutdown(incoming, shutdown)
         .await;

@@ -18,7 +18,7 @@ pub fn workspace() -> PathBuf {
 /// from PyPI into the user site when they are not (a fresh machine has pip).
 pub fn ensure_grpcio() {
     let ok = |c: &mut Command| c.status().is_ok_and(|s| s.success());
-    if ok(Command::new("python3").args(["-c", "import grpc, grpc_tools"])) {
+    if ok(Command::new("python3").args(["-c", "import grpc, grpc_tools, grpc_reflection"])) {
         return;
     }
     let installed = ok(Command::new("python3").args([
@@ -29,6 +29,7 @@ pub fn ensure_grpcio() {
         "--user",
         "grpcio",
         "grpcio-tools",
+        "grpcio-reflection",
     ])) || ok(Command::new("python3").args([
         "-m",
         "pip",
@@ -36,6 +37,7 @@ pub fn ensure_grpcio() {
         "--quiet",
         "grpcio",
         "grpcio-tools",
+        "grpcio-reflection",
     ]));
     assert!(
         installed,
