@@ -13,7 +13,7 @@ use std::collections::BTreeMap;
 
 /// A load error: where (element path, line, column) and what.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
-#[error("{file}:{line}:{column}: {path}: {message}")]
+#[error("{file}:{line}:{column}: {}{message}", if path.is_empty() { String::new() } else { format!("{path}: ") })]
 pub struct MapError {
     /// File name (for messages).
     pub file: String,
@@ -251,10 +251,19 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
     let text = cleaned.as_deref().unwrap_or(text);
     let doc = Document::parse(text).map_err(|e| {
         let p = e.pos();
+        // The input ended early: the place is where it ended (the parser
+        // reports the document's start).
+        let (line, column) = if matches!(e, roxmltree::Error::UnexpectedEndOfStream) {
+            let line = text.matches('\n').count() as u32 + 1;
+            let col = text.rsplit('\n').next().map_or(0, |l| l.chars().count()) as u32 + 1;
+            (line, col)
+        } else {
+            (p.row, p.col)
+        };
         MapError {
             file: file.into(),
-            line: p.row,
-            column: p.col,
+            line,
+            column,
             path: String::new(),
             message: format!("malformed XML: {e}"),
         }
@@ -277,6 +286,8 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
         ));
     }
     let mut od = OpenDrive::default();
+    // Road id → the line of its element (duplicates point at both).
+    let mut road_lines: BTreeMap<String, u32> = BTreeMap::new();
     let mut saw_header = false;
     for n in elements(root) {
         match n.tag_name().name() {
@@ -284,7 +295,21 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
                 saw_header = true;
                 od.header = header(&mut cx, n)?;
             }
-            "road" => od.roads.push(road(&mut cx, n)?),
+            "road" => {
+                let r = road(&mut cx, n)?;
+                let (line, _) = cx.pos(n);
+                if let Some(first) = road_lines.insert(r.id.clone(), line) {
+                    return Err(cx.err(
+                        n,
+                        &format!("OpenDRIVE/road[id={}]", r.id),
+                        format!(
+                            "road id '{}' is used twice (first defined at line {first})",
+                            r.id
+                        ),
+                    ));
+                }
+                od.roads.push(r)
+            }
             "junction" => od.junctions.push(junction(&mut cx, n)?),
             "controller" => {
                 let path = format!(
@@ -317,16 +342,30 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
             "no <road> elements: a map needs at least one road",
         ));
     }
-    let mut ids = std::collections::BTreeSet::new();
+    // Links to roads or junctions the file does not have: one warning per
+    // missing id, at the line of the road that names it.
+    let junction_ids: std::collections::BTreeSet<&str> =
+        od.junctions.iter().map(|j| j.id.as_str()).collect();
     for r in &od.roads {
-        if !ids.insert(r.id.as_str()) {
-            return Err(MapError {
-                file: file.into(),
-                line: 0,
-                column: 0,
-                path: format!("OpenDRIVE/road[id={}]", r.id),
-                message: format!("road id '{}' is used twice", r.id),
-            });
+        for (which, link) in [("predecessor", &r.predecessor), ("successor", &r.successor)] {
+            let missing = match link {
+                Some(LinkTarget::Road { id, .. }) if !road_lines.contains_key(id) => {
+                    Some(format!("road '{id}'"))
+                }
+                Some(LinkTarget::Junction(id)) if !junction_ids.contains(id.as_str()) => {
+                    Some(format!("junction '{id}'"))
+                }
+                _ => None,
+            };
+            if let Some(what) = missing {
+                cx.warnings.push(Warning {
+                    line: road_lines.get(&r.id).copied().unwrap_or(0),
+                    path: format!("OpenDRIVE/road[id={}]/link/{which}", r.id),
+                    message: format!(
+                        "links to {what}, which is not in the file; the link is ignored"
+                    ),
+                });
+            }
         }
     }
     let skipped = std::mem::take(&mut cx.skipped);
@@ -675,8 +714,16 @@ fn geometry(cx: &mut Ctx, g: Node, path: &str) -> R<Geometry> {
 }
 
 fn section(cx: &mut Ctx, n: Node, path: &str) -> R<LaneSection> {
+    let s0 = cx.req_f64(n, path, "s")?;
+    if s0 < 0.0 {
+        cx.warn(
+            n,
+            path,
+            format!("s = {s0} is negative: the section is taken to start at the road's start"),
+        );
+    }
     let mut sec = LaneSection {
-        s: cx.req_f64(n, path, "s")?,
+        s: s0,
         single_side: boolean(n.attribute("singleSide")),
         left: Vec::new(),
         center: None,
@@ -743,7 +790,23 @@ fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
     for c in elements(l) {
         let p = format!("{path}/{}", c.tag_name().name());
         match c.tag_name().name() {
-            "width" => lane.widths.push(cx.cubic(c, &p, "sOffset")?),
+            "width" => {
+                let w = cx.cubic(c, &p, "sOffset")?;
+                if w.a < 0.0 {
+                    cx.warn(
+                        c,
+                        &p,
+                        format!(
+                            "width a = {} is negative: the lane is taken as 0 m wide there",
+                            w.a
+                        ),
+                    );
+                }
+                if w.s < 0.0 {
+                    cx.warn(c, &p, format!("sOffset = {} is negative", w.s));
+                }
+                lane.widths.push(w)
+            }
             "border" => lane.borders.push(cx.cubic(c, &p, "sOffset")?),
             "roadMark" => lane.road_marks.push(RoadMark {
                 s_offset: cx.f64_or(c, &p, "sOffset", 0.0)?,

@@ -444,3 +444,53 @@ proptest! {
         prop_assert!(took < std::time::Duration::from_secs(3), "{} = {} took {:?}", &text[a.saturating_sub(20)..a], value, took);
     }
 }
+
+#[test]
+fn load_errors_and_warnings_name_the_place() {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/maps/straight.xodr");
+    let text = std::fs::read_to_string(p).unwrap();
+    // A truncated file: the error is where the input ended, with no empty field.
+    let cut = &text[..text.len() / 2];
+    let e = RoadNetwork::from_xodr(cut, "cut.xodr").unwrap_err();
+    assert_eq!(e.line as usize, cut.matches('\n').count() + 1, "{e}");
+    assert!(!e.to_string().contains(": :"), "{e}");
+    // A duplicate road id points at the second element and names the first.
+    let (i, j) = (
+        text.find("<road ").unwrap(),
+        text.find("</road>").unwrap() + 7,
+    );
+    let dup = format!("{}\n{}{}", &text[..j], &text[i..j], &text[j..]);
+    let e = RoadNetwork::from_xodr(&dup, "dup.xodr").unwrap_err();
+    let first = text[..i].matches('\n').count() + 1;
+    assert!(e.line as usize > first, "{e}");
+    assert!(
+        e.to_string()
+            .contains(&format!("first defined at line {first}")),
+        "{e}"
+    );
+    // Links to roads and junctions that are not there: one warning each, with the road's line.
+    let linked = text.replacen(
+        "<planView>",
+        "<link><predecessor elementType=\"road\" elementId=\"nowhere\" contactPoint=\"end\"/><successor elementType=\"junction\" elementId=\"j404\"/></link><planView>",
+        1,
+    );
+    let n = RoadNetwork::from_xodr(&linked, "linked.xodr").unwrap();
+    for id in ["road 'nowhere'", "junction 'j404'"] {
+        let w = n
+            .warnings
+            .iter()
+            .find(|w| w.message.contains(id))
+            .unwrap_or_else(|| panic!("{id}: {:?}", n.warnings));
+        assert_eq!(w.line as usize, first, "{w:?}");
+    }
+    // A negative lane width and section start are warnings naming the element.
+    let neg = text.replacen("<laneSection s=\"0", "<laneSection s=\"-5", 1);
+    let n = RoadNetwork::from_xodr(&neg, "neg.xodr").unwrap();
+    assert!(
+        n.warnings
+            .iter()
+            .any(|w| w.message.contains("s = -5") && w.path.contains("laneSection")),
+        "{:?}",
+        n.warnings
+    );
+}
