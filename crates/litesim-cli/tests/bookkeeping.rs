@@ -411,3 +411,37 @@ fn a_map_written_in_the_test_is_found_beside_the_test_only() {
     let o = run();
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
 }
+
+#[test]
+fn a_plan_failing_post_plan_checks_writes_its_summary_and_exits_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = tempfile::Builder::new()
+        .suffix(".osc")
+        .tempfile_in(workspace().join("examples/scenarios"))
+        .unwrap();
+    // A strict speed the car cannot reach in its phase.
+    std::fs::write(
+        f.path(),
+        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            duration(1s)\n        sut.car.drive() with:\n            speed(100kph)\n            duration(1s)\n",
+    )
+    .unwrap();
+    let out = dir.path().join("r");
+    let o = litesim()
+        .args(["run", "--no-pictures", "-o"])
+        .arg(&out)
+        .arg(f.path())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["pass"], false);
+    assert!(
+        s["failures"][0]
+            .as_str()
+            .unwrap()
+            .contains("post-plan check"),
+        "{s}"
+    );
+    assert!(out.join("plan.json").exists());
+}

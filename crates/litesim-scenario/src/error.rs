@@ -39,9 +39,6 @@ pub enum ScenarioError {
     /// The behaviour cannot be planned (e.g. no lane to the left).
     #[error("plan: {0}")]
     Plan(String),
-    /// The plan breaks the profile's post-plan limits.
-    #[error("post-plan checks failed:\n  {}", .0.join("\n  "))]
-    PostPlan(Vec<String>),
     /// The simulator refused a call.
     #[error("simulator")]
     Ssp(#[source] litesim_ssp::SspError),

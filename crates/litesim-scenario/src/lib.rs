@@ -381,9 +381,14 @@ pub fn run(
     let mut notes = prep.test.notes.clone();
     notes.extend(sol.notes.iter().cloned());
     notes.extend(plan.notes.iter().cloned());
-    let violations = postplan::check(&plan, prof.as_ref(), prep.net.as_deref());
+    // A plan that breaks the profile's post-plan limits is a failed test,
+    // not a crash: it is not executed, and the summary says why.
+    let violations: Vec<String> = postplan::check(&plan, prof.as_ref(), prep.net.as_deref())
+        .into_iter()
+        .map(|v| format!("post-plan check: {v}"))
+        .collect();
     if !violations.is_empty() {
-        return Err(ScenarioError::PostPlan(violations));
+        notes.push("the plan failed the profile's post-plan checks: it was not executed".into());
     }
     let calibration_file = match (&opts.calibration, &opts.calibration_dir) {
         (Some(_), _) => None,
@@ -409,13 +414,13 @@ pub fn run(
         .path
         .file_name()
         .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-    if opts.plan_only {
+    if opts.plan_only || !violations.is_empty() {
         return Ok(RunResult {
             summary: Summary {
                 test: test_name,
                 seed,
-                pass: true,
-                failures: Vec::new(),
+                pass: violations.is_empty(),
+                failures: violations,
                 map: prep.map_name.clone(),
                 profile,
                 model,

@@ -427,7 +427,9 @@ fn contradictions_and_bad_tests_are_precise_errors() {
         "{HEADER}extend top.main:\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            duration(1s)\n        sut.car.drive() with:\n            speed(100kph)\n            duration(1s)\n"
     ));
     let p = prepare(strict.path(), &LoadOptions::default()).unwrap();
-    let e = run_default(&p).unwrap_err().to_string();
+    let s = run_default(&p).unwrap().summary;
+    let e = s.failures.join("; ");
+    assert!(!s.pass && s.steps == 0, "{s:?}");
     assert!(e.contains("post-plan") && e.contains("strict speed"), "{e}");
 }
 
@@ -684,7 +686,15 @@ fn every_profile_and_model_config_runs_the_smoke_shape() {
 fn post_plan_checks_of_a_profile_stop_an_infeasible_plan_before_it_runs() {
     let harsh = "extend top.main:\n    do sut.harsh()\nscenario sut.harsh:\n    r: one_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, at: start)\n            duration(2s)\n        sut.car.drive() with:\n            change_speed(0kph)\n            acceleration(12mpsps)\n            duration(3s)\n";
     let (_f, prep) = beside_smoke("profile_dspace_config.osc", harsh);
-    let e = run_default(&prep).unwrap_err().to_string();
+    // A failed test with its reasons (and a summary), not a crash; nothing ran.
+    let s = run_default(&prep).unwrap().summary;
+    assert!(!s.pass && s.steps == 0);
+    assert!(
+        s.notes.iter().any(|n| n.contains("not executed")),
+        "{:?}",
+        s.notes
+    );
+    let e = s.failures.join("; ");
     assert!(
         e.contains("post-plan")
             && e.contains("sut.car: deceleration 12.00 m/s²")
@@ -747,7 +757,7 @@ fn along_at_end_is_checked_before_the_run() {
     assert!(run_default(&prep).unwrap().summary.pass);
     // 30 s more leaves it for the other half of the ring.
     let (_g, prep) = beside_smoke("model_ssp_dummy_config.osc", &body(30));
-    let e = run_default(&prep).unwrap_err().to_string();
+    let e = run_default(&prep).unwrap().summary.failures.join("; ");
     assert!(
         e.contains("post-plan") && e.contains("should end its phase on road"),
         "{e}"
