@@ -86,6 +86,11 @@ enum Command {
     },
     /// List the models.
     Models,
+    /// Read an RPC trace (`run --trace-rpc`, `serve --trace-rpc`).
+    Trace {
+        #[command(subcommand)]
+        command: TraceCommand,
+    },
     /// Plan (FMT*), smooth and track (MPC) a vehicle on a map; write the log and pictures.
     Plan {
         /// The TOML configuration (see examples/plan/).
@@ -187,6 +192,10 @@ enum Command {
         /// Stylesheet for the pictures (TOML; colours, sizes, fonts).
         #[arg(long)]
         style: Option<PathBuf>,
+        /// Write every SSP call the run makes (method, arguments, result,
+        /// duration) to FILE as JSON lines, in-process or over gRPC.
+        #[arg(long, value_name = "FILE")]
+        trace_rpc: Option<PathBuf>,
     },
     /// Run tests × seeds in parallel; JSON lines and CSV; resumable; shardable (i/N).
     Batch {
@@ -246,6 +255,15 @@ enum Command {
     Map {
         #[command(subcommand)]
         command: map::MapCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum TraceCommand {
+    /// Calls, errors and latency (p50, p99, max, total) per method.
+    Summarize {
+        /// The trace (JSON lines).
+        file: PathBuf,
     },
 }
 
@@ -433,6 +451,7 @@ fn run(cli: Cli) -> Result<()> {
             gif,
             calibration,
             style,
+            trace_rpc,
         } => {
             let outcome = scenario::run(
                 &test,
@@ -445,6 +464,7 @@ fn run(cli: Cli) -> Result<()> {
                 gif,
                 calibration.as_deref(),
                 style.as_deref(),
+                trace_rpc.as_deref(),
             )?;
             match outcome {
                 scenario::Outcome::Pass => Ok(()),
@@ -491,6 +511,33 @@ fn run(cli: Cli) -> Result<()> {
             allow_partial,
         } => scenario::merge(&dirs, &out, allow_partial),
         Command::Calibrate { profile, out } => scenario::calibrate_cmd(&profile, out),
+        Command::Trace {
+            command: TraceCommand::Summarize { file },
+        } => {
+            let text = std::fs::read_to_string(&file)
+                .with_context(|| format!("cannot read {}", file.display()))?;
+            let (stats, skipped) = litesim_ssp::trace::summarize(&text);
+            println!(
+                "{:<26} {:>8} {:>7} {:>10} {:>10} {:>10} {:>12}",
+                "method", "calls", "errors", "p50 µs", "p99 µs", "max µs", "total ms"
+            );
+            for m in &stats {
+                println!(
+                    "{:<26} {:>8} {:>7} {:>10.1} {:>10.1} {:>10.1} {:>12.3}",
+                    m.method,
+                    m.calls,
+                    m.errors,
+                    m.p50_us,
+                    m.p99_us,
+                    m.max_us,
+                    m.total_us / 1000.0
+                );
+            }
+            if skipped > 0 {
+                println!("({skipped} lines were not trace records)");
+            }
+            Ok(())
+        }
         Command::Models => {
             for m in litesim_ssp::models() {
                 println!("{:<8} {}", m.name(), m.summary());

@@ -137,6 +137,7 @@ pub fn run(
     gif: bool,
     calibration: Option<&Path>,
     style: Option<&Path>,
+    trace_rpc: Option<&Path>,
 ) -> Result<Outcome> {
     // A bad stylesheet or SUT name fails before anything runs.
     let style = crate::viz::load_style(style)?;
@@ -196,16 +197,29 @@ pub fn run(
         _ => {}
     }
     batch::atomic(&out.join("run.json"), &stamp)?;
+    // Every SSP call through a tracer when asked (in-process or remote).
+    let traced = |ssp: &mut dyn litesim_ssp::Ssp| -> Result<litesim_scenario::RunResult> {
+        match trace_rpc {
+            None => Ok(litesim_scenario::run(&prep, ssp, &opts)?),
+            Some(p) => {
+                let f = std::fs::File::create(p).map_err(|e| anyhow!("{}: {e}", p.display()))?;
+                let mut t = litesim_ssp::trace::TracingSsp::new(ssp, std::io::BufWriter::new(f));
+                let r = litesim_scenario::run(&prep, &mut t, &opts);
+                t.finish().map_err(|e| anyhow!("{}: {e}", p.display()))?;
+                Ok(r?)
+            }
+        }
+    };
     let result = match sim {
         None | Some("inprocess") | Some("in-process") => {
-            litesim_scenario::run(&prep, &mut litesim_scenario::in_process(), &opts)
+            traced(&mut litesim_scenario::in_process())
         }
         Some(url) => {
             let addr = url
                 .strip_prefix("grpc://")
                 .ok_or_else(|| anyhow!("--sim {url}: expected grpc://HOST:PORT or in-process"))?;
             let mut remote = litesim_grpc::RemoteSsp::connect(addr).map_err(|e| anyhow!("{e}"))?;
-            litesim_scenario::run(&prep, &mut remote, &opts)
+            traced(&mut remote)
         }
     }?;
     let s = &result.summary;

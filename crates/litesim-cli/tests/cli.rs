@@ -774,3 +774,68 @@ fn python_reflection_client_lists_the_services_through_v1alpha() {
         assert!(text.lines().any(|l| l == s), "{s} missing from:\n{text}");
     }
 }
+
+#[test]
+fn run_traces_every_ssp_call_in_process_and_over_grpc() {
+    let dir = tempfile::tempdir().unwrap();
+    let server = serve(&[]);
+    let sim = format!("grpc://{}", server.addr);
+    let mut traces = Vec::new();
+    for (name, extra) in [("local", vec![]), ("remote", vec!["--sim", sim.as_str()])] {
+        let trace = dir.path().join(format!("{name}.jsonl"));
+        let o = litesim()
+            .current_dir(workspace())
+            .args([
+                "run",
+                "examples/scenarios/cut_in.osc",
+                "--no-pictures",
+                "-o",
+            ])
+            .arg(dir.path().join(name))
+            .args(&extra)
+            .arg("--trace-rpc")
+            .arg(&trace)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let text = std::fs::read_to_string(&trace).unwrap();
+        let lines: Vec<serde_json::Value> = text
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(lines[0]["method"], "init");
+        assert!(lines.iter().all(|l| l["duration_us"].as_f64().is_some()));
+        assert!(
+            lines
+                .iter()
+                .any(|l| l["method"] == "create_actor" && l["args"]["actor_id"] == "sut.car")
+        );
+        traces.push(
+            lines
+                .iter()
+                .map(|l| {
+                    (
+                        l["method"].as_str().unwrap().to_string(),
+                        l.get("error").is_some(),
+                    )
+                })
+                .collect::<Vec<_>>(),
+        );
+        let s = litesim()
+            .arg("trace")
+            .arg("summarize")
+            .arg(&trace)
+            .output()
+            .unwrap();
+        let table = String::from_utf8_lossy(&s.stdout);
+        assert!(s.status.success());
+        assert!(
+            table
+                .lines()
+                .any(|l| l.starts_with("create_actor") && l.split_whitespace().nth(1) == Some("2")),
+            "{table}"
+        );
+    }
+    // The engine makes the same calls wherever its simulator lives.
+    assert_eq!(traces[0], traces[1]);
+}

@@ -19,6 +19,7 @@ pub mod model;
 pub mod profile;
 pub mod session;
 pub mod testkit;
+pub mod trace;
 pub mod traffic;
 
 pub use api::*;
