@@ -151,7 +151,7 @@ impl<W: Write> Ssp for TracingSsp<'_, W> {
         self.call("set_weather", args, |s| s.set_weather(weather))
     }
     fn set_time_of_day(&mut self, tod: TimeOfDay) -> SspResult<()> {
-        let args = serde_json::to_value(&tod).unwrap_or(Value::Null);
+        let args = serde_json::to_value(tod).unwrap_or(Value::Null);
         self.call("set_time_of_day", args, |s| s.set_time_of_day(tod))
     }
     fn sim_command(&mut self, command: &str, args: &[String]) -> SspResult<String> {
