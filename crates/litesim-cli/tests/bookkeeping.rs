@@ -329,13 +329,18 @@ proptest::proptest! {
     fn a_killed_run_never_leaves_a_summary_that_disagrees(kill_ms in 0u64..1500) {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path().join("run");
-        let o = litesim()
-            .current_dir(workspace())
-            .args(["run", "examples/scenarios/cut_in.osc", "--seed", "1", "--no-pictures", "-o"])
-            .arg(&d)
-            .output()
-            .unwrap();
-        proptest::prop_assert!(o.status.success());
+        // A complete run of the cut-in under `seed` into the folder.
+        let complete = |seed: &str| {
+            litesim()
+                .current_dir(workspace())
+                .args(["run", "examples/scenarios/cut_in.osc", "--seed", seed, "--no-pictures", "-o"])
+                .arg(&d)
+                .output()
+                .unwrap()
+                .status
+                .success()
+        };
+        proptest::prop_assert!(complete("1"));
         let mut child = litesim()
             .current_dir(workspace())
             .args(["run", "examples/scenarios/cut_in.osc", "--seed", "2", "--gif", "-o"])
@@ -358,13 +363,7 @@ proptest::proptest! {
             None => proptest::prop_assert!(!finished, "a finished run has a summary"),
         }
         // The next run into the folder removes what the killed one left.
-        let o = litesim()
-            .current_dir(workspace())
-            .args(["run", "examples/scenarios/cut_in.osc", "--seed", "3", "--no-pictures", "-o"])
-            .arg(&d)
-            .output()
-            .unwrap();
-        proptest::prop_assert!(o.status.success());
+        proptest::prop_assert!(complete("3"));
         let leftovers: Vec<String> = std::fs::read_dir(&d)
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
