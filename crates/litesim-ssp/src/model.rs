@@ -27,19 +27,18 @@ impl Model for DummyModel {
         "dummy"
     }
     fn summary(&self) -> &'static str {
-        "the seed's Model SSP: stored kinematic states, SspDynamics under pedals (wheelbase = 0.6·length)"
+        "the seed's Model SSP: stored kinematic states, SspDynamics under pedals (wheelbase = 0.6·length; max acceleration and wheel angle from the vehicle, brake 30 m/s² and top speed 40 m/s for every vehicle, as the seed states)"
     }
     fn vehicle_model(&self, entry: &CatalogEntry, _dt: f64) -> VehicleModelKind {
-        let mut m = SspDynamics::new(
+        // Only max_acceleration and max_wheels_angle come from the vehicle:
+        // the seed's brake deceleration (30 m/s²) and MAX_LINEAR_VELOCITY
+        // (40 m/s) hold for all (the catalogue's max_decel and max_speed
+        // apply in the bicycle and lag models).
+        VehicleModelKind::Ssp(SspDynamics::new(
             0.6 * entry.length,
             entry.max_accel,
             entry.max_steer_angle_deg,
-        );
-        m.brake_deceleration = entry.max_decel;
-        m.max_linear_velocity = entry
-            .max_speed
-            .min(litesim_core::vehicle::MAX_LINEAR_VELOCITY);
-        VehicleModelKind::Ssp(m)
+        ))
     }
 }
 
@@ -61,7 +60,7 @@ impl Model for BicycleModel {
         "bicycle"
     }
     fn summary(&self) -> &'static str {
-        "kinematic bicycle (seed 001 §1.1) with the catalog's wheelbase, steering and acceleration limits"
+        "kinematic bicycle (seed 001 §1.1) with the catalog's wheelbase, steering, acceleration, deceleration and speed limits"
     }
     fn vehicle_model(&self, entry: &CatalogEntry, _dt: f64) -> VehicleModelKind {
         VehicleModelKind::Bicycle(bicycle(entry))

@@ -1,0 +1,79 @@
+//! The dummy model's constants as the seed states them: brake deceleration
+//! 30 m/s² and MAX_LINEAR_VELOCITY 40 m/s for every vehicle; only the
+//! maximum acceleration and wheel angle come from the vehicle.
+
+use litesim_ssp::*;
+
+fn running(model: &str) -> Session {
+    let mut s = Session::new("dummy", model, SessionLimits::default());
+    s.init(InitRequest::default()).unwrap();
+    s.start_simulation(0).unwrap();
+    s.wait_start_simulation(100).unwrap();
+    s
+}
+
+fn pedals(s: &mut Session, throttle: f64, brake: f64) {
+    s.set_dynamic_move(
+        "van",
+        DynamicMove::Normalized {
+            throttle,
+            brake,
+            steering: 0.0,
+        },
+        0,
+    )
+    .unwrap();
+}
+
+fn speed(s: &mut Session) -> f64 {
+    s.step(None, &ActorFilter::default()).unwrap().1[0].speed
+}
+
+#[test]
+fn the_van_reaches_40_m_s_and_brakes_at_30_m_s2_under_the_dummy_model() {
+    let mut s = running("dummy");
+    s.create_actor(CreateActor {
+        actor_id: "van".into(),
+        spec: ActorSpec {
+            model_id: "van.delivery".into(),
+            ..ActorSpec::default()
+        },
+        position: Coord6::xy_yaw(0.0, 0.0, 0.0),
+        ..CreateActor::default()
+    })
+    .unwrap();
+    // Full throttle for 60 s: the van (catalogue max_speed 35 m/s) reaches
+    // the seed's 40 m/s and stays there.
+    pedals(&mut s, 1.0, 0.0);
+    let mut v = 0.0;
+    for _ in 0..3000 {
+        v = speed(&mut s);
+    }
+    assert!((v - 40.0).abs() < 1e-6, "top speed {v}");
+    // Full brake: 30 m/s² (0.6 m/s per 20 ms step; the catalogue says 8).
+    pedals(&mut s, 0.0, 1.0);
+    let (a, b) = (speed(&mut s), speed(&mut s));
+    assert!(
+        ((a - b) / 0.02 - 30.0).abs() < 1e-6,
+        "deceleration {}",
+        (a - b) / 0.02
+    );
+    let mut steps = 2;
+    while speed(&mut s) > 0.0 {
+        steps += 1;
+        assert!(steps < 100, "does not stop");
+    }
+    // 40 m/s at 30 m/s² stops in 1.33 s, i.e. 67 steps.
+    assert!((66..=68).contains(&steps), "{steps} steps");
+    // The bicycle model keeps the catalogue's limits (documented per model).
+    assert!(
+        models()
+            .iter()
+            .any(|m| m.name() == "bicycle" && m.summary().contains("speed limits"))
+    );
+    assert!(
+        models()
+            .iter()
+            .any(|m| m.name() == "dummy" && m.summary().contains("brake 30 m/s²"))
+    );
+}
