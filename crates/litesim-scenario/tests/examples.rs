@@ -657,6 +657,17 @@ fn every_profile_and_model_config_runs_the_smoke_shape() {
         ("profile_aisim_config.osc", "aisim", "dummy"),
         ("model_ssp_bicycle_config.osc", "dummy", "bicycle"),
         ("model_ssp_lag_config.osc", "dummy", "lag"),
+        // The seed's own file names (Model SSP §489.5).
+        ("model_dummy_config.osc", "dummy", "dummy"),
+        ("model_carla_0_9_12_config.osc", "carla-0.9.12", "dummy"),
+        ("model_carla_0_9_13_config.osc", "carla-0.9.13", "dummy"),
+        ("model_carla_0_9_15_config.osc", "carla-0.9.15", "dummy"),
+        ("model_sumo_config.osc", "sumo", "dummy"),
+        ("model_dspace_config.osc", "dspace", "dummy"),
+        ("model_carmaker_config.osc", "carmaker", "dummy"),
+        ("model_drivesim_config.osc", "drivesim", "dummy"),
+        ("model_simian_config.osc", "simian", "dummy"),
+        ("model_aisim_config.osc", "aisim", "dummy"),
     ];
     for (config, profile, model) in configs {
         let (_f, prep) = beside_smoke(config, PAIR);
