@@ -196,6 +196,17 @@ enum Command {
         /// duration) to FILE as JSON lines, in-process or over gRPC.
         #[arg(long, value_name = "FILE")]
         trace_rpc: Option<PathBuf>,
+        /// Pace the steps to the wall clock (hardware in the loop); on by
+        /// default under the dspace profile. The summary reports lateness.
+        #[arg(long, conflicts_with = "no_realtime")]
+        realtime: bool,
+        /// Run as fast as possible even under the dspace profile.
+        #[arg(long)]
+        no_realtime: bool,
+        /// What a late step does: catch-up (run late steps back to back),
+        /// skip (restart the schedule) or fail (stop with a verdict).
+        #[arg(long, default_value = "catch-up", value_name = "POLICY")]
+        realtime_policy: String,
     },
     /// Run tests × seeds in parallel; JSON lines and CSV; resumable; shardable (i/N).
     Batch {
@@ -452,7 +463,17 @@ fn run(cli: Cli) -> Result<()> {
             calibration,
             style,
             trace_rpc,
+            realtime,
+            no_realtime,
+            realtime_policy,
         } => {
+            let pacing = scenario::Pacing {
+                on: realtime,
+                off: no_realtime,
+                policy: realtime_policy
+                    .parse()
+                    .map_err(|e: String| anyhow::anyhow!("--realtime-policy: {e}"))?,
+            };
             let outcome = scenario::run(
                 &test,
                 &common,
@@ -465,6 +486,7 @@ fn run(cli: Cli) -> Result<()> {
                 calibration.as_deref(),
                 style.as_deref(),
                 trace_rpc.as_deref(),
+                pacing,
             )?;
             match outcome {
                 scenario::Outcome::Pass => Ok(()),

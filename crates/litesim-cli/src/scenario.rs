@@ -138,6 +138,7 @@ pub fn run(
     calibration: Option<&Path>,
     style: Option<&Path>,
     trace_rpc: Option<&Path>,
+    pacing: Pacing,
 ) -> Result<Outcome> {
     // A bad stylesheet or SUT name fails before anything runs.
     let style = crate::viz::load_style(style)?;
@@ -165,6 +166,14 @@ pub fn run(
         sut,
         sut_timeout,
         ..RunOptions::default()
+    };
+    // dSPACE is the hardware-in-the-loop platform: its runs keep pace with
+    // the wall clock unless told otherwise.
+    let paced = pacing.on
+        || (!pacing.off && !plan_only && litesim_scenario::profile_of(&prep, &opts) == "dspace");
+    let opts = RunOptions {
+        realtime: paced.then_some(pacing.policy),
+        ..opts
     };
     // The folder first: a stamp naming what this run is, and no summary
     // from an earlier run (the summary is written last, so a folder with a
@@ -323,6 +332,19 @@ pub fn run(
     if s.mode == DriveMode::Dynamic {
         println!("driver gains: {}", s.calibration);
     }
+    if let Some(r) = &s.realtime {
+        println!(
+            "real time ({:?}, {} ms steps): {} steps in {:.3} s; lateness p50 {:.3} ms, p99 {:.3} ms, max {:.3} ms; {} overruns",
+            r.policy,
+            r.step_ms,
+            r.steps,
+            r.wall_s,
+            r.lateness_p50_ms,
+            r.lateness_p99_ms,
+            r.lateness_max_ms,
+            r.overruns
+        );
+    }
     for n in &s.notes {
         println!("note: {n}");
     }
@@ -333,6 +355,17 @@ pub fn run(
     } else {
         Outcome::Fail
     })
+}
+
+/// Wall-clock pacing asked on the command line.
+#[derive(Clone, Copy, Debug)]
+pub struct Pacing {
+    /// `--realtime`.
+    pub on: bool,
+    /// `--no-realtime`.
+    pub off: bool,
+    /// `--realtime-policy`.
+    pub policy: litesim_scenario::realtime::Policy,
 }
 
 /// How a run ended, for the exit code.

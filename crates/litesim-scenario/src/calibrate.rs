@@ -111,6 +111,7 @@ fn trial(profile: &Profile, plan: &Plan, c: &Calibration) -> Result<Trial, Scena
         map_path: String::new(),
         map: None,
         sut_timeout: 1.0,
+        realtime: None,
     };
     let ex = execute(&mut ssp, plan, None, &cfg, None, None)?;
     let a = &ex.kpis.actors[0];

@@ -67,6 +67,8 @@ pub struct ExecConfig<'a> {
     pub map: Option<std::sync::Arc<RoadNetwork>>,
     /// How long the SUT may take per call (s).
     pub sut_timeout: f64,
+    /// Pace steps to the wall clock with this policy (`None`: no pacing).
+    pub realtime: Option<crate::realtime::Policy>,
 }
 
 /// What an execution produced.
@@ -94,6 +96,10 @@ pub struct Executed {
     pub live_events: Vec<LiveEvent>,
     /// The plan in force at the end, when live conditions changed it.
     pub plan: Option<Plan>,
+    /// Pacing figures of a real-time run.
+    pub realtime: Option<crate::realtime::Stats>,
+    /// A real-time run under the `fail` policy overran: the first overrun.
+    pub realtime_failure: Option<String>,
 }
 
 /// Plans the test again with the given condition times fixed.
@@ -400,7 +406,12 @@ pub fn execute(
     // handful of round trips per test over gRPC instead of one per step.
     // Replies stay bounded: ≤ 20,000 actor states per call.
     let open_loop = drivers.iter().all(Option::is_none) && ego_i.is_none();
-    let chunk = if open_loop {
+    // Paced to the wall clock: one step per call, each released on time.
+    let mut pacer = cfg
+        .realtime
+        .map(|p| crate::realtime::Pacer::new(step_ms as u32, p));
+    let mut realtime_failure: Option<String> = None;
+    let chunk = if open_loop && pacer.is_none() {
         (60_000 / step_ms).clamp(1, (20_000 / ids.len().max(1)) as u64)
     } else {
         1
@@ -792,6 +803,12 @@ pub fn execute(
         if sut_error.is_some() {
             break;
         }
+        if let Some(p) = pacer.as_mut()
+            && let Err(msg) = p.release(k)
+        {
+            realtime_failure = Some(msg);
+            break;
+        }
         let results = if n_steps == 1 {
             vec![ssp.step(None, &filter).map_err(ssp_err)?]
         } else {
@@ -1008,6 +1025,8 @@ pub fn execute(
         log,
         profile: caps.profile,
         model: caps.model,
+        realtime: pacer.as_ref().map(crate::realtime::Pacer::stats),
+        realtime_failure,
     })
 }
 

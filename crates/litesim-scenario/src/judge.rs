@@ -22,6 +22,9 @@ pub fn verdict(
 ) -> (Vec<String>, Vec<String>) {
     let mut failures = Vec::new();
     let mut notes = Vec::new();
+    if let Some(e) = &ex.realtime_failure {
+        failures.push(e.clone());
+    }
     if let Some(e) = &ex.sut_error {
         failures.push(e.clone());
     }

@@ -26,6 +26,7 @@ pub mod kpi;
 pub mod plan;
 pub mod postplan;
 pub mod reactive;
+pub mod realtime;
 pub mod solve;
 pub mod sut;
 
@@ -215,6 +216,9 @@ pub struct RunOptions {
     /// Time the SUT may take per call (s); `None`: the test's
     /// `sut_timeout`, else 1 s.
     pub sut_timeout: Option<f64>,
+    /// Pace the steps to the wall clock (hardware in the loop), with this
+    /// policy for late steps; `None`: as fast as possible.
+    pub realtime: Option<realtime::Policy>,
 }
 
 /// The run summary: deterministic (no wall-clock fields).
@@ -259,6 +263,9 @@ pub struct Summary {
     pub conditions: Vec<exec::LiveEvent>,
     /// Where the drivers' gains came from (`built-in` or a file).
     pub calibration: String,
+    /// How well a paced run kept to the wall clock (`--realtime`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub realtime: Option<realtime::Stats>,
     /// What the engine saw but did not execute, and solver remarks.
     pub notes: Vec<String>,
 }
@@ -436,6 +443,7 @@ pub fn run(
                 lane_goals: Vec::new(),
                 conditions: Vec::new(),
                 calibration: calibration_src,
+                realtime: None,
                 notes,
             },
             plan,
@@ -465,6 +473,7 @@ pub fn run(
             .sut_timeout
             .or(prep.test.config.thresholds.sut_timeout)
             .unwrap_or(1.0),
+        realtime: opts.realtime,
     };
     let mut sut = opts
         .sut
@@ -521,6 +530,7 @@ pub fn run(
             lane_goals: ex.lane_goals,
             conditions: ex.live_events,
             calibration: calibration_src,
+            realtime: ex.realtime,
             notes,
         },
         plan,

@@ -582,3 +582,106 @@ fn lane_goals_chain_through_other_actors_and_side_of_follows_the_sut() {
     );
     assert!(pair(&r, "sut.car", "c").min_distance > 1.0);
 }
+
+const THREE_SECONDS: &str = "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.car.drive() with:\n        speed(30kph)\n        duration(3s)\n";
+
+#[test]
+fn realtime_runs_keep_pace_with_the_wall_clock_and_give_the_same_results() {
+    let f = example_file(THREE_SECONDS);
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let fast = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap();
+    let opts = RunOptions {
+        realtime: Some(litesim_scenario::realtime::Policy::CatchUp),
+        ..RunOptions::default()
+    };
+    let started = std::time::Instant::now();
+    let paced = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    let wall = started.elapsed().as_secs_f64();
+    let rt = paced.summary.realtime.clone().expect("pacing figures");
+    // 150 steps of 20 ms: the last is released at 2.98 s.
+    assert!((wall - 3.0).abs() <= 0.06, "took {wall} s");
+    assert_eq!(rt.steps, 150);
+    // Generous here (tests run side by side on two cores); the quiet-machine
+    // figures are in BENCHMARKS.md.
+    assert!(rt.lateness_p99_ms <= 5.0, "{rt:?}");
+    // Pacing changes when, not what.
+    let strip = |s: &litesim_scenario::Summary| {
+        let mut s = s.clone();
+        s.realtime = None;
+        serde_json::to_string(&s).unwrap()
+    };
+    assert_eq!(strip(&fast.summary), strip(&paced.summary));
+}
+
+/// A SUT that takes 30 ms per 20 ms step: it cannot keep real time.
+struct Slow(litesim_scenario::sut::acc::Acc);
+
+impl Sut for Slow {
+    fn name(&self) -> String {
+        "slow".into()
+    }
+    fn reset(&mut self, info: &SutInfo) -> Result<(), SutError> {
+        self.0.reset(info)
+    }
+    fn step(&mut self, obs: &Observation) -> Result<SutCommand, SutError> {
+        std::thread::sleep(std::time::Duration::from_millis(30));
+        self.0.step(obs)
+    }
+}
+
+struct SlowFactory;
+
+impl SutFactory for SlowFactory {
+    fn name(&self) -> String {
+        "slow".into()
+    }
+    fn create(&self) -> Result<Box<dyn Sut>, SutError> {
+        Ok(Box::new(Slow(Default::default())))
+    }
+}
+
+#[test]
+fn a_realtime_overrun_fails_the_run_under_the_fail_policy() {
+    let f = example_file(THREE_SECONDS);
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let opts = |policy| RunOptions {
+        sut: SutChoice::External(Arc::new(SlowFactory)),
+        realtime: Some(policy),
+        ..RunOptions::default()
+    };
+    let r = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &opts(litesim_scenario::realtime::Policy::Fail),
+    )
+    .unwrap();
+    assert!(!r.summary.pass);
+    assert!(
+        r.summary
+            .failures
+            .iter()
+            .any(|m| m.starts_with("realtime overrun at t=")),
+        "{:?}",
+        r.summary.failures
+    );
+    assert!(
+        r.summary.steps < 10,
+        "stopped at the first overrun: {}",
+        r.summary.steps
+    );
+    // Skip: the run goes on, counting the overruns.
+    let r = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &opts(litesim_scenario::realtime::Policy::Skip),
+    )
+    .unwrap();
+    let rt = r.summary.realtime.unwrap();
+    assert_eq!(rt.steps, 150);
+    assert!(rt.overruns > 0 && rt.first_overrun.is_some(), "{rt:?}");
+}
