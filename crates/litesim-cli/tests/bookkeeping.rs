@@ -444,3 +444,50 @@ fn a_plan_failing_post_plan_checks_writes_its_summary_and_exits_2() {
     );
     assert!(out.join("plan.json").exists());
 }
+
+#[test]
+fn a_model_named_in_the_test_is_created_or_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |model: &str| {
+        let f = tempfile::Builder::new()
+            .suffix(".osc")
+            .tempfile_in(workspace().join("examples/scenarios"))
+            .unwrap();
+        std::fs::write(
+            f.path(),
+            format!("import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend sim_info:\n    set profile = \"carla-0.9.15\"\nextend top.main:\n    do sut.pair()\nscenario sut.pair:\n    other: vehicle with:\n        keep(it.model == \"{model}\")\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(30kph)\n            lane(1, at: start)\n        other.drive() with:\n            speed(30kph)\n            lane(left_of: sut.car, at: start)\n    with: duration(2s)\n"),
+        )
+        .unwrap();
+        let trace = dir.path().join("t.jsonl");
+        let o = litesim()
+            .args(["run", "--no-pictures", "--trace-rpc"])
+            .arg(&trace)
+            .arg("-o")
+            .arg(dir.path().join("out"))
+            .arg(f.path())
+            .output()
+            .unwrap();
+        (o, std::fs::read_to_string(&trace).unwrap_or_default())
+    };
+    let (o, trace) = run("vehicle.audi.tt");
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let created: Vec<serde_json::Value> = trace
+        .lines()
+        .map(|l| serde_json::from_str::<serde_json::Value>(l).unwrap())
+        .filter(|l| l["method"] == "create_actor" && l["args"]["actor_id"] == "other")
+        .collect();
+    assert_eq!(
+        created[0]["args"]["spec"]["model_id"], "vehicle.audi.tt",
+        "{trace}"
+    );
+    assert_eq!(created[0]["result"]["model_id"], "vehicle.audi.tt");
+    let (o, _) = run("vehicle.flying.carpet");
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains(
+            "model 'vehicle.flying.carpet' is not in the carla-0.9.15 profile's catalogue"
+        ),
+        "{}",
+        text(&o)
+    );
+}

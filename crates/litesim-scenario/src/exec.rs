@@ -320,17 +320,35 @@ pub fn execute(
             crate::elab::ActorKind::Stationary => (ActorCategory::StaticObject, "Object"),
         };
         // A catalogue entry of the asked category, else the default vehicle.
-        let entry = caps
-            .catalog
-            .iter()
-            .find(|e| e.category == a.category)
-            .or_else(|| {
-                caps.catalog.iter().find(|e| match category {
-                    ActorCategory::Pedestrian => e.category == "pedestrian",
-                    ActorCategory::StaticObject => e.category == "static",
-                    _ => false,
+        // A model the test names is honoured or refused, never swapped
+        // for another of the category.
+        let named = match &a.model {
+            Some(m) => Some(caps.catalog.iter().find(|e| &e.model_id == m).ok_or_else(|| {
+                ScenarioError::Simulator(format!(
+                    "actor '{}': model '{m}' is not in the {} profile's catalogue (it has: {})",
+                    a.id,
+                    caps.profile,
+                    caps.catalog
+                        .iter()
+                        .map(|e| e.model_id.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ))
+            })?),
+            None => None,
+        };
+        let entry = named.or_else(|| {
+            caps.catalog
+                .iter()
+                .find(|e| e.category == a.category)
+                .or_else(|| {
+                    caps.catalog.iter().find(|e| match category {
+                        ActorCategory::Pedestrian => e.category == "pedestrian",
+                        ActorCategory::StaticObject => e.category == "static",
+                        _ => false,
+                    })
                 })
-            });
+        });
         let closed_ego = ego_i == Some(dims.len());
         let dynamic = !closed_ego
             && cfg.mode == DriveMode::Dynamic

@@ -69,6 +69,10 @@ pub struct ActorPlan {
     pub ego: bool,
     /// Vehicle category asked for (`car`, `truck`, …).
     pub category: String,
+    /// Catalogue model asked for (`keep(it.model == "vehicle.audi.tt")`):
+    /// the simulator must create exactly this one, or the run is an error.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
     /// Length (m) and width (m) assumed by the plan.
     pub length: f64,
     /// Width (m).
@@ -107,6 +111,7 @@ impl ActorPlan {
             kind,
             ego,
             category,
+            model: None,
             length: size.0,
             width: size.1,
             samples: Vec::new(),
@@ -1044,7 +1049,11 @@ fn plan_once(
             };
             let length = attr(a, "bbox.length").and_then(|v| v.num()).unwrap_or(dl);
             let width = attr(a, "bbox.width").and_then(|v| v.num()).unwrap_or(dw);
-            ActorPlan::new(a.id.clone(), a.kind, a.ego, category, (length, width))
+            let mut p = ActorPlan::new(a.id.clone(), a.kind, a.ego, category, (length, width));
+            p.model = attr(a, "model")
+                .and_then(|v| v.text().map(String::from))
+                .filter(|m| !m.is_empty());
+            p
         })
         .collect();
     // Actors that take part in no phase are not planned (nor created).
