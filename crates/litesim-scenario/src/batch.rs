@@ -372,16 +372,20 @@ pub fn atomic(path: &Path, text: &str) -> Result<(), ScenarioError> {
     std::fs::rename(&tmp, path).map_err(io)
 }
 
-/// Removes temporary files a killed run left in `dir` (`.NAME.tmp`,
-/// `NAME.tmp`, `.tmp*`): every writer renames its temporary into place, so
-/// one that is still there belongs to a run that did not finish.
+/// Removes temporary files a killed run left in `dir`: litesim's own
+/// (`.NAME.tmp` from [`atomic`], `.tmpXXXX…` from the picture and log
+/// writers, `results.tmp` from older versions) and nothing else — every
+/// writer renames its temporary into place, so one that is still there
+/// belongs to a run that did not finish. A user's own files are left alone.
 pub fn clean_temporaries(dir: &Path) {
     let Ok(rd) = std::fs::read_dir(dir) else {
         return;
     };
     for e in rd.flatten() {
         let n = e.file_name().to_string_lossy().into_owned();
-        let stale = n.ends_with(".tmp") || n.starts_with(".tmp");
+        let stale = (n.starts_with('.') && n.ends_with(".tmp"))
+            || n.starts_with(".tmp")
+            || n == "results.tmp";
         if stale && e.file_type().is_ok_and(|t| t.is_file()) {
             let _ = std::fs::remove_file(e.path());
         }
@@ -748,4 +752,39 @@ pub fn merge(
     write_sorted(out, &all)?;
     report.runs = all.len();
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cleaning_removes_litesims_temporaries_only() {
+        let d = tempfile::tempdir().unwrap();
+        let names = [
+            ".summary.json.tmp",
+            ".tmpAb12Cd.gif",
+            "results.tmp",
+            "notes.tmp",
+            "mine.tmp.txt",
+            "summary.json",
+        ];
+        for n in names {
+            std::fs::write(d.path().join(n), "x").unwrap();
+        }
+        clean_temporaries(d.path());
+        let mut left: Vec<String> = std::fs::read_dir(d.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["mine.tmp.txt", "notes.tmp", "summary.json"]);
+        // An atomic write leaves only its target.
+        atomic(&d.path().join("a.json"), "{}").unwrap();
+        assert!(!d.path().join(".a.json.tmp").exists());
+        assert_eq!(
+            std::fs::read_to_string(d.path().join("a.json")).unwrap(),
+            "{}"
+        );
+    }
 }
