@@ -358,7 +358,9 @@ proptest::proptest! {
                 proptest::prop_assert_eq!(Some(seed), stamp);
                 proptest::prop_assert_eq!(Some(seed), plan);
                 proptest::prop_assert_eq!(Some(seed), log);
-                proptest::prop_assert_eq!(seed, 2);
+                // The old complete run (killed before the new one touched
+                // the folder) or the new complete one; never a mix.
+                proptest::prop_assert!(seed == 1 || seed == 2, "seed {}", seed);
             }
             None => proptest::prop_assert!(!finished, "a finished run has a summary"),
         }

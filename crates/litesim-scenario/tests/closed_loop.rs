@@ -606,9 +606,13 @@ fn realtime_runs_keep_pace_with_the_wall_clock_and_give_the_same_results() {
     // 150 steps of 20 ms: the last is released at 2.98 s.
     assert!((wall - 3.0).abs() <= 0.06, "took {wall} s");
     assert_eq!(rt.steps, 150);
-    // Generous here (tests run side by side on two cores); the quiet-machine
-    // figures are in BENCHMARKS.md.
-    assert!(rt.lateness_p99_ms <= 5.0, "{rt:?}");
+    // Generous here (tests run side by side on two cores, so the scheduler
+    // may hold a release back); the quiet-machine figures (p99 < 0.1 ms)
+    // are in BENCHMARKS.md.
+    assert!(
+        rt.lateness_p50_ms <= 1.0 && rt.lateness_p99_ms <= 20.0,
+        "{rt:?}"
+    );
     // Pacing changes when, not what.
     let strip = |s: &litesim_scenario::Summary| {
         let mut s = s.clone();
