@@ -436,8 +436,16 @@ pub fn execute(
     };
     // Traffic lights: the simulator's boxes, and which show red (tracked
     // here from the listing and every switch the plan makes).
-    let mut lights = if !plan.lights.is_empty() || cfg.map_text.is_some() {
+    let mut lights = if !plan.lights.is_empty() {
         Some(ssp.list_traffic_lights().map_err(ssp_err)?)
+    } else if cfg.map_text.is_some() {
+        // The map's signals, for the red-light check; a simulator without a
+        // traffic-light API (Simian) has none to list, and nothing switches.
+        match ssp.list_traffic_lights() {
+            Ok(l) => Some(l),
+            Err(e) if e.code == litesim_ssp::ErrorCode::Unimplemented => None,
+            Err(e) => return Err(ssp_err(e)),
+        }
     } else {
         None
     };

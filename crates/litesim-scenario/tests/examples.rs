@@ -873,3 +873,17 @@ extend sut.follow2:
     // 20 m bumper to bumper plus one car length between the centres.
     assert!(((xl - xs).abs() - 24.6).abs() < 0.5, "{xs} {xl}");
 }
+
+#[test]
+fn a_simulator_without_traffic_lights_drives_on_a_map_with_signals() {
+    // Simian has no traffic-light API: the junction map's signals are not
+    // simulated (the init diagnostics say so), and a test that switches
+    // none runs.
+    let f = example_file(
+        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/junction.xodr\"\nextend sim_info:\n    set profile = \"simian\"\nextend top.main:\n    do sut.car.drive() with:\n        speed(20kph)\n        duration(3s)\n",
+    );
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let r = run_default(&prep).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    assert_eq!(r.summary.profile, "simian");
+}

@@ -478,8 +478,11 @@ impl Ssp for Session {
                 profile.name, profile.min_step_ms, profile.max_step_ms
             )));
         }
+        let declared = !req.traffic_lights.is_empty() || !req.logical_lights.is_empty();
         let mut boxes = req.traffic_lights;
         let mut logical = req.logical_lights;
+        let no_light_api = profile.traffic_light_api == TrafficLightApi::None;
+        let mut map_lights_dropped = 0;
         let network = match req.map.as_deref() {
             None | Some("") => None,
             Some(m) => {
@@ -493,17 +496,29 @@ impl Ssp for Session {
         };
         if let Some(net) = &network {
             let (b, l) = crate::traffic::from_map(net);
-            boxes.extend(b);
-            logical.extend(l);
+            // A simulator without a traffic-light API still drives on a map
+            // with signals: they are simply not simulated (said below).
+            if no_light_api {
+                map_lights_dropped = b.len();
+            } else {
+                boxes.extend(b);
+                logical.extend(l);
+            }
         }
         let lights = TrafficLights::new(boxes, logical)?;
-        if profile.traffic_light_api == TrafficLightApi::None && !lights.boxes.is_empty() {
+        if no_light_api && declared {
             return Err(SspError::unimplemented(format!(
                 "profile {} has no traffic-light API; remove traffic_lights from init",
                 profile.name
             )));
         }
         let mut diagnostics = Vec::new();
+        if map_lights_dropped > 0 {
+            diagnostics.push(format!(
+                "profile {} has no traffic-light API: the map's {map_lights_dropped} signal(s) are not simulated",
+                profile.name
+            ));
+        }
         if step != profile.calibration.calibrated_step_ms {
             diagnostics.push(format!(
                 "profile {} is calibrated for {} ms steps; running at {step} ms",
