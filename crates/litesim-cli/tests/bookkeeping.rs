@@ -3,7 +3,7 @@
 //! inputs — each as a user would hit it on the command line.
 
 mod common;
-use common::{litesim, workspace};
+use common::{example_file, litesim, workspace};
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
@@ -276,15 +276,9 @@ fn absurd_seed_ranges_and_durations_are_refused_at_once() {
     // Process start-up included; the check itself is immediate.
     assert!(took.as_secs_f64() < 2.0, "{took:?}");
     for (d, shown) in [("-5s", "-5"), ("0s", "0")] {
-        let f = tempfile::Builder::new()
-            .suffix(".osc")
-            .tempfile_in(workspace().join("examples/scenarios"))
-            .unwrap();
-        std::fs::write(
-            f.path(),
-            format!("import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.car.drive() with:\n        duration({d})\n"),
-        )
-        .unwrap();
+        let f = example_file(&format!(
+            "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.car.drive() with:\n        duration({d})\n"
+        ));
         let o = litesim()
             .args(["run", "--no-pictures", "-o"])
             .arg(dir.path().join("y"))
@@ -416,16 +410,10 @@ fn a_map_written_in_the_test_is_found_beside_the_test_only() {
 #[test]
 fn a_plan_failing_post_plan_checks_writes_its_summary_and_exits_2() {
     let dir = tempfile::tempdir().unwrap();
-    let f = tempfile::Builder::new()
-        .suffix(".osc")
-        .tempfile_in(workspace().join("examples/scenarios"))
-        .unwrap();
     // A strict speed the car cannot reach in its phase.
-    std::fs::write(
-        f.path(),
+    let f = example_file(
         "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            duration(1s)\n        sut.car.drive() with:\n            speed(100kph)\n            duration(1s)\n",
-    )
-    .unwrap();
+    );
     let out = dir.path().join("r");
     let o = litesim()
         .args(["run", "--no-pictures", "-o"])
@@ -451,15 +439,9 @@ fn a_plan_failing_post_plan_checks_writes_its_summary_and_exits_2() {
 fn a_model_named_in_the_test_is_created_or_refused() {
     let dir = tempfile::tempdir().unwrap();
     let run = |model: &str| {
-        let f = tempfile::Builder::new()
-            .suffix(".osc")
-            .tempfile_in(workspace().join("examples/scenarios"))
-            .unwrap();
-        std::fs::write(
-            f.path(),
-            format!("import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend sim_info:\n    set profile = \"carla-0.9.15\"\nextend top.main:\n    do sut.pair()\nscenario sut.pair:\n    other: vehicle with:\n        keep(it.model == \"{model}\")\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(30kph)\n            lane(1, at: start)\n        other.drive() with:\n            speed(30kph)\n            lane(left_of: sut.car, at: start)\n    with: duration(2s)\n"),
-        )
-        .unwrap();
+        let f = example_file(&format!(
+            "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend sim_info:\n    set profile = \"carla-0.9.15\"\nextend top.main:\n    do sut.pair()\nscenario sut.pair:\n    other: vehicle with:\n        keep(it.model == \"{model}\")\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(30kph)\n            lane(1, at: start)\n        other.drive() with:\n            speed(30kph)\n            lane(left_of: sut.car, at: start)\n    with: duration(2s)\n"
+        ));
         let trace = dir.path().join("t.jsonl");
         let o = litesim()
             .args(["run", "--no-pictures", "--trace-rpc"])

@@ -44,3 +44,14 @@ pub fn ensure_grpcio() {
         "could not install grpcio and grpcio-tools with pip"
     );
 }
+
+/// Writes `text` as a test in `examples/scenarios` (so that relative
+/// imports and map paths resolve like the examples'); removed when dropped.
+pub fn example_file(text: &str) -> tempfile::NamedTempFile {
+    let f = tempfile::Builder::new()
+        .suffix(".osc")
+        .tempfile_in(workspace().join("examples/scenarios"))
+        .unwrap();
+    std::fs::write(f.path(), text).unwrap();
+    f
+}
