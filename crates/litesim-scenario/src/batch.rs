@@ -121,6 +121,16 @@ impl Manifest {
         }
     }
 
+    /// Writes `dir/manifest.json` atomically; returns its text's SHA-256
+    /// (what the folder's failed-run logs name).
+    pub fn write(&self, dir: &Path) -> Result<String, ScenarioError> {
+        let text = serde_json::to_string_pretty(self)
+            .map_err(|e| ScenarioError::Io(e.to_string()))?
+            + "\n";
+        atomic(&dir.join("manifest.json"), &text)?;
+        Ok(crate::sha256_hex(text.as_bytes()))
+    }
+
     /// The seed range.
     pub fn seed_range(&self) -> Option<(u64, u64)> {
         let (a, b) = self.seeds.split_once("..")?;
@@ -513,11 +523,7 @@ pub fn run_batch(
     };
     clean_temporaries(&spec.out);
     clean_temporaries(&spec.out.join("failed"));
-    atomic(
-        &spec.out.join("manifest.json"),
-        &(serde_json::to_string_pretty(&manifest).map_err(|e| ScenarioError::Io(e.to_string()))?
-            + "\n"),
-    )?;
+    manifest.write(&spec.out)?;
     let done: std::collections::BTreeSet<(String, u64)> =
         lines.iter().map(|l| (l.test.clone(), l.seed)).collect();
     let index: BTreeMap<&str, usize> = preps
@@ -744,11 +750,7 @@ pub fn merge(
         shard: "0/1".into(),
         ..m0
     };
-    atomic(
-        &out.join("manifest.json"),
-        &(serde_json::to_string_pretty(&merged).map_err(|e| ScenarioError::Io(e.to_string()))?
-            + "\n"),
-    )?;
+    merged.write(out)?;
     write_sorted(out, &all)?;
     report.runs = all.len();
     Ok(report)

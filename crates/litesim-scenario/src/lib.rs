@@ -355,16 +355,24 @@ pub fn profile_of(prep: &Prepared, opts: &RunOptions) -> String {
 /// `built-in`, or the file's path and content hash (what summaries and
 /// batch manifests record).
 pub fn calibration_used(prep: &Prepared, opts: &RunOptions) -> String {
-    let profile = profile_of(prep, opts);
-    let file = match (&opts.calibration, &opts.calibration_dir) {
-        (Some(_), _) => return "given".into(),
-        (None, Some(dir)) => Some(dir.join(format!("{profile}.toml"))),
-        (None, None) if opts.calibration_near_test => calibration_near(&prep.path, &profile),
-        (None, None) => None,
-    };
-    match file.and_then(|f| std::fs::read(&f).ok().map(|b| (f, b))) {
+    if opts.calibration.is_some() {
+        return "given".into();
+    }
+    match calibration_file(prep, opts, &profile_of(prep, opts))
+        .and_then(|f| std::fs::read(&f).ok().map(|b| (f, b)))
+    {
         Some((f, bytes)) => format!("{} sha256:{}", f.display(), sha256_hex(&bytes)),
         None => "built-in".into(),
+    }
+}
+
+/// The calibration file a run under `profile` reads when `opts` gives no
+/// gains: in `calibration_dir`, else (when asked) beside the test.
+fn calibration_file(prep: &Prepared, opts: &RunOptions, profile: &str) -> Option<PathBuf> {
+    match &opts.calibration_dir {
+        Some(dir) => Some(dir.join(format!("{profile}.toml"))),
+        None if opts.calibration_near_test => calibration_near(&prep.path, profile),
+        None => None,
     }
 }
 
@@ -397,13 +405,12 @@ pub fn run(
     if !violations.is_empty() {
         notes.push("the plan failed the profile's post-plan checks: it was not executed".into());
     }
-    let calibration_file = match (&opts.calibration, &opts.calibration_dir) {
-        (Some(_), _) => None,
-        (None, Some(dir)) => Some(dir.join(format!("{profile}.toml"))),
-        (None, None) if opts.calibration_near_test => calibration_near(&prep.path, &profile),
-        (None, None) => None,
-    };
-    let (calibration, calibration_src) = match (&opts.calibration, calibration_file) {
+    let file = opts
+        .calibration
+        .is_none()
+        .then(|| calibration_file(prep, opts, &profile))
+        .flatten();
+    let (calibration, calibration_src) = match (&opts.calibration, file) {
         (Some(c), _) => (Some(*c), "given".to_string()),
         (None, Some(f)) => match std::fs::read_to_string(&f) {
             Ok(text) => (
