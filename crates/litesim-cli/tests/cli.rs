@@ -725,11 +725,16 @@ fn batch_shards_merge_and_calibrate_from_the_command_line() {
         String::from_utf8_lossy(&o.stderr)
     );
     for seed in [1, 2] {
-        assert!(
-            failing
-                .join(format!("failed/stationary_obstacle-seed{seed}.json"))
-                .exists()
+        let p = failing.join(format!("failed/stationary_obstacle-seed{seed}.json"));
+        // Each log names its test, seed and the folder's manifest.
+        let log: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+        assert_eq!(
+            log["meta"]["test"],
+            "examples/scenarios/stationary_obstacle.osc"
         );
+        assert_eq!(log["meta"]["seed"], seed.to_string());
+        assert_eq!(log["meta"]["manifest"].as_str().unwrap().len(), 64);
     }
     let cal = dir.path().join("dummy.toml");
     let o = litesim()

@@ -523,7 +523,7 @@ pub fn run_batch(
     };
     clean_temporaries(&spec.out);
     clean_temporaries(&spec.out.join("failed"));
-    manifest.write(&spec.out)?;
+    let manifest_hash = manifest.write(&spec.out)?;
     let done: std::collections::BTreeSet<(String, u64)> =
         lines.iter().map(|l| (l.test.clone(), l.seed)).collect();
     let index: BTreeMap<&str, usize> = preps
@@ -563,7 +563,7 @@ pub fn run_batch(
                     && !line.pass
                     && let Ok(p) = prep
                 {
-                    save_log(&spec.out, name, p, *seed, spec);
+                    save_log(&spec.out, name, p, *seed, &base, &manifest_hash);
                 }
                 let text = serde_json::to_string(&line).unwrap_or_default();
                 let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
@@ -592,20 +592,27 @@ pub fn run_batch(
 
 /// Runs a failed job again with a recorder and writes its log (best effort:
 /// a batch does not stop because a debugging aid could not be written).
-fn save_log(out: &Path, name: &str, prep: &Prepared, seed: u64, spec: &BatchSpec) {
+fn save_log(
+    out: &Path,
+    name: &str,
+    prep: &Prepared,
+    seed: u64,
+    base: &RunOptions,
+    manifest_hash: &str,
+) {
     let opts = RunOptions {
         seed: Some(seed),
-        mode: spec.mode,
         record: true,
-        calibration_dir: spec.calibration_dir.clone(),
-        calibration_near_test: true,
-        sut: spec.sut.clone(),
-        sut_timeout: spec.sut_timeout,
-        ..RunOptions::default()
+        ..base.clone()
     };
     if let Ok(r) = crate::run(prep, &mut crate::in_process(), &opts)
-        && let Some(log) = r.log
+        && let Some(mut log) = r.log
     {
+        // The log names its run: test, seed and the folder's manifest.
+        log.meta.insert("test".into(), name.to_string());
+        log.meta.insert("seed".into(), seed.to_string());
+        log.meta
+            .insert("manifest".into(), manifest_hash.to_string());
         let stem = Path::new(name)
             .file_stem()
             .map_or("test".into(), |s| s.to_string_lossy().into_owned());
