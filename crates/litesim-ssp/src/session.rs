@@ -595,18 +595,8 @@ impl Ssp for Session {
     }
 
     fn start_simulation(&mut self, start_time_ms: u64) -> SspResult<()> {
-        if self.phase != Phase::Initialized
-            && self.phase != Phase::Uninitialized
-            && self.phase != Phase::Ended
-        {
-            // Valid in another life-cycle state: FAILED_PRECONDITION (gRPC's
-            // guidance), with the state the session is in.
-            return Err(SspError::precondition(format!(
-                "start_simulation was already called: the session is {}; allowed now: {}",
-                self.phase,
-                self.phase.allowed_calls().join(", ")
-            )));
-        }
+        // Called again (starting, running, stepping): `require` answers
+        // FAILED_PRECONDITION with the state and the allowed calls.
         self.require("start_simulation")?;
         if !start_time_ms.is_multiple_of(self.step_ms) {
             return Err(SspError::invalid(format!(
