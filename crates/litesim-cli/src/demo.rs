@@ -177,7 +177,7 @@ pub fn run(ssp: &mut dyn Ssp, opts: &DemoOptions, transport: &str) -> Result<()>
                 s.speed,
                 mass(&s.actor_id),
             );
-            if s.actor_id == "sut.car" {
+            if &*s.actor_id == "sut.car" {
                 speed = s.speed;
                 y = s.pose.position.y;
                 yaw = s.pose.yaw;
@@ -191,14 +191,14 @@ pub fn run(ssp: &mut dyn Ssp, opts: &DemoOptions, transport: &str) -> Result<()>
                     steering_angle: f64::NAN,
                 };
             }
-            let (len, wid, model) = match s.actor_id.as_str() {
+            let (len, wid, model) = match &*s.actor_id {
                 "sut.car" => (ego.length, ego.width, ego.model_id.clone()),
                 "car1" => (npc.length, npc.width, npc.model_id.clone()),
                 _ => (0.5, 0.6, "pedestrian".into()),
             };
             rec.actor(
                 &s.actor_id,
-                if s.actor_id == "walker" {
+                if &*s.actor_id == "walker" {
                     "person"
                 } else {
                     "vehicle/car"
@@ -219,7 +219,7 @@ pub fn run(ssp: &mut dyn Ssp, opts: &DemoOptions, transport: &str) -> Result<()>
         let pos = |id: &str| {
             states
                 .iter()
-                .find(|s| s.actor_id == id)
+                .find(|s| &*s.actor_id == id)
                 .map(|s| s.pose.position.xy())
         };
         if let (Some(a), Some(b)) = (pos("sut.car"), pos("car1")) {

@@ -147,7 +147,7 @@ pub fn state_pb(s: &api::ReportedState) -> pb::ActorState {
     use litesim_core::TrajectoryStatus as T;
     let p = &s.pose;
     pb::ActorState {
-        actor_id: s.actor_id.clone(),
+        actor_id: s.actor_id.to_string(),
         position: Some(pb::Coord6Dof {
             x: Some(p.position.x),
             y: Some(p.position.y),
@@ -189,7 +189,7 @@ pub fn state(s: pb::ActorState) -> SspResult<api::ReportedState> {
     let a = coord(s.acceleration);
     let z = |o: Option<f64>| o.unwrap_or(0.0);
     Ok(api::ReportedState {
-        actor_id: s.actor_id,
+        actor_id: s.actor_id.into(),
         pose: Pose {
             position: Vec3::new(z(p.x), z(p.y), z(p.z)),
             roll: z(p.roll),

@@ -854,8 +854,8 @@ pub fn execute(
                 // States usually come back in creation order: look there first
                 // (a search per actor would make a step quadratic in actors).
                 let st = match got.get(i) {
-                    Some(st) if st.actor_id == a.id => st,
-                    _ => got.iter().find(|s| s.actor_id == a.id).ok_or_else(|| {
+                    Some(st) if *st.actor_id == *a.id => st,
+                    _ => got.iter().find(|s| *s.actor_id == *a.id).ok_or_else(|| {
                         ScenarioError::Simulator(format!("the simulator lost actor '{}'", a.id))
                     })?,
                 };

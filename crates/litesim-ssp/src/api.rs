@@ -325,8 +325,9 @@ pub struct ActorControls {
 /// One actor's reported state.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ReportedState {
-    /// Actor id.
-    pub actor_id: String,
+    /// Actor id (shared: a state report per actor and step must not
+    /// allocate a copy of it).
+    pub actor_id: std::sync::Arc<str>,
     /// Pose (m, rad).
     pub pose: Pose,
     /// World-frame velocity (m/s).

@@ -144,6 +144,8 @@ impl Default for SessionLimits {
 
 #[derive(Clone, Debug)]
 struct ActorMeta {
+    /// The id as reports carry it.
+    id: std::sync::Arc<str>,
     category: ActorCategory,
     actual: ActualDescription,
     limits: ActuatorLimits,
@@ -382,7 +384,7 @@ impl Session {
             ControlMode::External(_) => MoveMode::External,
         };
         let mut r = ReportedState {
-            actor_id: a.id().to_string(),
+            actor_id: m.id.clone(),
             pose: s.pose,
             velocity: s.velocity,
             acceleration: s.acceleration,
@@ -814,8 +816,9 @@ impl Ssp for Session {
         let actor = Actor::new(req.actor_id.clone(), description, state, model);
         self.parts().0.add_actor(actor).map_err(world_err)?;
         self.meta.insert(
-            req.actor_id,
+            req.actor_id.clone(),
             ActorMeta {
+                id: req.actor_id.into(),
                 category: actual.category,
                 actual: actual.clone(),
                 limits,

@@ -42,7 +42,7 @@ fn runs_on_other_threads_are_identical() {
 fn mixed_run_behaves() {
     let run = mixed_scenario(&mut Session::default(), 1000).unwrap();
     let last = run.last().unwrap();
-    let get = |id: &str| last.iter().find(|s| s.actor_id == id).unwrap();
+    let get = |id: &str| last.iter().find(|s| &*s.actor_id == id).unwrap();
     for s in last {
         println!(
             "{:>8} x={:9.3} y={:8.3} yaw={:6.3} v={:6.3} {:?} {:?}",
@@ -70,8 +70,8 @@ fn mixed_run_behaves() {
     );
     // The IDM follower never runs into traj0, which it follows.
     for step in &run {
-        let f = step.iter().find(|s| s.actor_id == "follower").unwrap();
-        let l = step.iter().find(|s| s.actor_id == "traj0").unwrap();
+        let f = step.iter().find(|s| &*s.actor_id == "follower").unwrap();
+        let l = step.iter().find(|s| &*s.actor_id == "traj0").unwrap();
         assert!(
             l.pose.position.x - f.pose.position.x > 4.6,
             "follower too close"
