@@ -831,14 +831,250 @@ impl Checker<'_> {
                     let want = self.expr(path, None);
                     self.value_for(value, &want, || "this field".into());
                 }
-                Member::Coverage { args, .. } => {
-                    // The first argument names what is covered; the rest are options.
-                    for a in args.iter().skip(1) {
-                        self.expr(&a.value, None);
-                    }
+                Member::Coverage { record, args, span } => {
+                    let events: Vec<String> = members
+                        .iter()
+                        .filter_map(|m| match m {
+                            Member::Event { name, .. } => Some(name.text.clone()),
+                            _ => None,
+                        })
+                        .collect();
+                    self.coverage(*record, args, *span, &events);
                 }
             }
         }
+    }
+
+    /// `cover(name, expression:, unit:, range:, every:, event:, …)` and
+    /// `record(…)` (§3.11): the name, known arguments, a scalar expression,
+    /// a unit of the expression's dimension (mandatory for physical items),
+    /// range and bucket width in that dimension, a local event.
+    fn coverage(&mut self, record: bool, args: &[Arg], span: Span, events: &[String]) {
+        let what = if record { "record" } else { "cover" };
+        const KNOWN: &[&str] = &[
+            "name",
+            "expression",
+            "unit",
+            "range",
+            "every",
+            "event",
+            "text",
+            "items",
+            "ignore",
+            "illegal",
+            "buckets",
+            "target",
+            "disable",
+            "override",
+        ];
+        let named = |n: &str| {
+            args.iter()
+                .find(|a| a.name.as_ref().is_some_and(|x| x.text == n))
+        };
+        let mut name: Option<(&String, Span)> = None;
+        for (k, a) in args.iter().enumerate() {
+            match &a.name {
+                None if k == 0 => match &a.value {
+                    Expr::Ident { name: n, span } => name = Some((n, *span)),
+                    other => self.err(
+                        "E0320",
+                        other.span(),
+                        format!("the first argument of {what} must be the item's name"),
+                        Some(format!("write {what}(my_item, expression: …)")),
+                    ),
+                },
+                None => self.err(
+                    "E0320",
+                    a.value.span(),
+                    format!(
+                        "{what} takes one positional argument (the name); this one has no name"
+                    ),
+                    Some("name the argument: expression:, unit:, range:, every:, event:".into()),
+                ),
+                Some(n) if !KNOWN.contains(&n.text.as_str()) => self.err(
+                    "E0321",
+                    n.span,
+                    format!("{what} has no argument '{}'", n.text),
+                    Some(format!("expected one of: {}", KNOWN.join(", "))),
+                ),
+                Some(n) if n.text == "name" => match &a.value {
+                    Expr::Ident { name: x, span } => name = Some((x, *span)),
+                    other => self.err(
+                        "E0320",
+                        other.span(),
+                        format!("the name of a {what} item must be an identifier"),
+                        None,
+                    ),
+                },
+                Some(_) => {}
+            }
+        }
+        if name.is_none() && named("override").is_none() {
+            self.err(
+                "E0320",
+                span,
+                format!("{what} needs a name"),
+                Some(format!("write {what}(my_item, expression: …)")),
+            );
+        }
+        // What is sampled: `expression:`, else the field the name names.
+        let ty = match (named("expression"), name) {
+            (Some(e), _) => self.expr(&e.value, None),
+            (None, Some((n, sp))) => self.ident(n, sp, None),
+            (None, None) => Ty::Unknown,
+        };
+        let at = named("expression").map_or(span, |e| e.value.span());
+        if matches!(ty, Ty::Str | Ty::Compound(_) | Ty::List(_)) {
+            self.err(
+                "E0322",
+                at,
+                format!(
+                    "{what} samples a number, a physical value, an enum or a bool; this is {}",
+                    ty.describe()
+                ),
+                Some("sample a field of it, e.g. sut.car.speed".into()),
+            );
+        }
+        // The unit: a known unit of the expression's physical type.
+        let unit_ty = match named("unit").map(|a| &a.value) {
+            Some(Expr::Ident { name: u, span }) => match self.m.units.get(u) {
+                Some(p) => Some((p.clone(), *span)),
+                None => {
+                    let hint = close_names(u, self.m.units.keys());
+                    self.err(
+                        "E0302",
+                        *span,
+                        format!("unknown unit '{u}'"),
+                        (!hint.is_empty()).then(|| format!("known units like it: {hint}")),
+                    );
+                    None
+                }
+            },
+            Some(other) => {
+                self.err(
+                    "E0323",
+                    other.span(),
+                    "unit: takes a unit name (e.g. kph)".into(),
+                    None,
+                );
+                None
+            }
+            None => None,
+        };
+        match (&ty, &unit_ty) {
+            (Ty::Physical(p), None) if named("unit").is_none() => self.err(
+                "E0323",
+                at,
+                format!(
+                    "{what} of {} needs unit: (the unit its samples and buckets are in)",
+                    ty.describe()
+                ),
+                Some(format!("e.g. unit: {}", self.some_unit(p))),
+            ),
+            (Ty::Physical(p), Some((q, usp))) if p != q => self.err(
+                "E0324",
+                *usp,
+                format!("unit of a {q} for {what} of {}", ty.describe()),
+                Some(format!("a unit of {p}, e.g. {}", self.some_unit(p))),
+            ),
+            (Ty::Number | Ty::Enum(_) | Ty::Bool, Some((q, usp))) => self.err(
+                "E0324",
+                *usp,
+                format!("unit of a {q} for {what} of {}", ty.describe()),
+                Some("leave unit: out".into()),
+            ),
+            _ => {}
+        }
+        // Range and bucket width: in the unit (plain numbers) or physical
+        // values of the expression's dimension.
+        for key in ["range", "every"] {
+            let Some(a) = named(key) else { continue };
+            if record && key == "every" {
+                continue;
+            }
+            let t = self.expr(&a.value, None);
+            let bad = match (&t, &ty) {
+                (Ty::Physical(q), Ty::Physical(p)) => q != p,
+                (Ty::Physical(_), Ty::Number | Ty::Enum(_) | Ty::Bool) => true,
+                (Ty::Bool | Ty::Str | Ty::Enum(_) | Ty::Compound(_) | Ty::List(_), _) => true,
+                _ => false,
+            };
+            if key == "range" && !matches!(a.value, Expr::Range { .. }) {
+                self.err(
+                    "E0325",
+                    a.value.span(),
+                    format!("range: of {what} takes a range [lo..hi]"),
+                    None,
+                );
+            } else if bad {
+                self.err(
+                    "E0325",
+                    a.value.span(),
+                    format!("{key}: is {}, the item is {}", t.describe(), ty.describe()),
+                    None,
+                );
+            }
+            if key == "every"
+                && let Expr::Int { value, .. } = &a.value
+                && *value <= 0
+            {
+                self.err(
+                    "E0325",
+                    a.value.span(),
+                    "every: must be positive".into(),
+                    None,
+                );
+            }
+            if key == "every"
+                && let Expr::Physical { value, .. } | Expr::Float { value, .. } = &a.value
+                && *value <= 0.0
+            {
+                self.err(
+                    "E0325",
+                    a.value.span(),
+                    "every: must be positive".into(),
+                    None,
+                );
+            }
+        }
+        // The event: start, end, a declared event or a label of this scope.
+        if let Some(a) = named("event") {
+            match &a.value {
+                Expr::Ident { name: e, span } => {
+                    let known = e == "start"
+                        || e == "end"
+                        || events.contains(e)
+                        || self.scope.locals.iter().any(|(n, _)| n == e);
+                    if !known {
+                        self.err(
+                            "E0326",
+                            *span,
+                            format!("no event '{e}' here"),
+                            Some(
+                                "start, end, an event declared in this scenario or a label of its phases (sampled at the phase's end)"
+                                    .into(),
+                            ),
+                        );
+                    }
+                }
+                other => self.err(
+                    "E0326",
+                    other.span(),
+                    "event: takes a local event name".into(),
+                    None,
+                ),
+            }
+        }
+    }
+
+    /// A unit of a physical type, for hints.
+    fn some_unit(&self, p: &str) -> String {
+        self.m
+            .units
+            .iter()
+            .filter(|(_, q)| *q == p)
+            .min_by_key(|(u, _)| u.len())
+            .map_or_else(|| "?".into(), |(u, _)| u.clone())
     }
 
     fn event_spec(&mut self, s: &EventSpec) {
