@@ -5,6 +5,7 @@ mod check;
 mod demo;
 mod map;
 mod plan;
+mod report;
 mod scenario;
 mod viz;
 
@@ -240,6 +241,24 @@ enum Command {
         /// Keep the logs of failed runs in OUT/failed/.
         #[arg(long)]
         save_failed: bool,
+        /// Also write the results as JUnit XML (one testcase per test × seed).
+        #[arg(long, value_name = "FILE")]
+        junit: Option<PathBuf>,
+        /// Fail (exit 2) when a `cover` item has buckets no run hit.
+        #[arg(long)]
+        fail_on_holes: bool,
+    },
+    /// One self-contained HTML report of a batch folder: runs table,
+    /// failure reasons, coverage and its holes, KPI histograms, replays.
+    Report {
+        /// The batch (or merged) folder.
+        dir: PathBuf,
+        /// Output file (default DIR/report.html).
+        #[arg(short, long)]
+        out: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(long, short)]
+        quiet: bool,
     },
     /// Merge batch folders (shards) into one sorted result.
     Merge {
@@ -509,6 +528,8 @@ fn run(cli: Cli) -> Result<()> {
             force_new,
             quiet,
             save_failed,
+            junit,
+            fail_on_holes,
         } => match scenario::batch(
             tests,
             &common,
@@ -520,6 +541,8 @@ fn run(cli: Cli) -> Result<()> {
             force_new,
             quiet,
             save_failed,
+            junit,
+            fail_on_holes,
         )? {
             scenario::Outcome::Pass => Ok(()),
             // Some run failed its checks: the batch's verdict is a failure.
@@ -527,6 +550,11 @@ fn run(cli: Cli) -> Result<()> {
             // A test could not be read or run at all.
             scenario::Outcome::SutError | scenario::Outcome::CouldNotRun => std::process::exit(1),
         },
+        Command::Report { dir, out, quiet } => {
+            let p = report::write(&dir, out, quiet)?;
+            println!("wrote {}", p.display());
+            Ok(())
+        }
         Command::Merge {
             dirs,
             out,

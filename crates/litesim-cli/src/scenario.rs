@@ -1,6 +1,6 @@
 //! `litesim run`, `litesim batch`, `litesim merge`, `litesim calibrate`.
 
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Context, Result, anyhow, bail};
 use litesim_log::{ActorSample, LogRecorder, SimulationLog};
 use litesim_scenario::sut::SutChoice;
 use litesim_scenario::{DriveMode, LoadOptions, RunOptions, batch, calibrate, plan::Plan};
@@ -438,6 +438,8 @@ pub fn batch(
     force_new: bool,
     quiet: bool,
     save_failed: bool,
+    junit: Option<PathBuf>,
+    fail_on_holes: bool,
 ) -> Result<Outcome> {
     let (a, b) = seeds(seed_range)?;
     let spec = batch::BatchSpec {
@@ -485,9 +487,36 @@ pub fn batch(
         report.failed
     );
     println!("wrote {}/results.jsonl and results.csv", out.display());
+    if let Some(path) = &junit {
+        let text = std::fs::read_to_string(out.join("results.jsonl"))
+            .with_context(|| format!("cannot read {}/results.jsonl", out.display()))?;
+        let lines: Vec<batch::RunLine> = text
+            .lines()
+            .filter_map(|l| serde_json::from_str(l).ok())
+            .collect();
+        batch::atomic(path, &batch::junit(&lines))?;
+        println!("wrote {}", path.display());
+    }
+    let mut holes = 0;
+    if let Ok(text) = std::fs::read_to_string(out.join("coverage.json")) {
+        let c: litesim_scenario::coverage::CoverageFile = serde_json::from_str(&text)
+            .with_context(|| format!("{}/coverage.json", out.display()))?;
+        holes = c.holes;
+        let items = c.items.iter().filter(|i| i.def.kind == "cover").count();
+        println!(
+            "wrote {}/coverage.json: {items} cover item(s), {holes} hole(s)",
+            out.display()
+        );
+        for i in c.items.iter().filter(|i| !i.holes.is_empty()) {
+            println!("  {} {}: not hit {}", i.test, i.def.name, i.holes.join(" "));
+        }
+    }
     Ok(if report.unreadable > 0 {
         Outcome::CouldNotRun
     } else if report.failed > 0 {
+        Outcome::Fail
+    } else if fail_on_holes && holes > 0 {
+        eprintln!("--fail-on-holes: {holes} coverage hole(s)");
         Outcome::Fail
     } else {
         Outcome::Pass

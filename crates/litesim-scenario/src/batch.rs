@@ -197,6 +197,12 @@ pub struct RunLine {
     pub steps: u64,
     /// Roads chosen, `var=id` joined by `;`.
     pub roads: String,
+    /// The ego's largest deceleration (m/s²).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_decel: Option<f64>,
+    /// `cover`/`record` samples.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub coverage: Vec<crate::coverage::Sample>,
 }
 
 /// A batch.
@@ -274,6 +280,8 @@ pub fn run_line(
         duration: 0.0,
         steps: 0,
         roads: String::new(),
+        max_decel: None,
+        coverage: Vec::new(),
     };
     let prep = match prep {
         Ok(p) => p,
@@ -309,6 +317,8 @@ pub fn run_line(
                 .fold(0.0, f64::max);
             line.duration = s.duration;
             line.steps = s.steps;
+            line.max_decel = s.ego.as_ref().map(|e| e.max_decel);
+            line.coverage = s.coverage;
             line.roads = s
                 .roads
                 .iter()
@@ -331,9 +341,122 @@ fn read_lines(path: &Path) -> Vec<RunLine> {
         .collect()
 }
 
+/// The coverage items of the tests, as (test, definition).
+pub fn item_defs<'a>(
+    preps: impl Iterator<Item = (&'a str, &'a Prepared)>,
+) -> Vec<(String, crate::coverage::ItemDef)> {
+    preps
+        .flat_map(|(name, p)| {
+            p.test
+                .covers
+                .iter()
+                .map(move |c| (name.to_string(), c.def()))
+        })
+        .collect()
+}
+
+/// Reads the item definitions of a folder's `coverage.json` (none when it
+/// has none).
+pub fn read_defs(dir: &Path) -> Result<Vec<(String, crate::coverage::ItemDef)>, ScenarioError> {
+    let p = dir.join("coverage.json");
+    let Ok(text) = std::fs::read_to_string(&p) else {
+        return Ok(Vec::new());
+    };
+    let f: crate::coverage::CoverageFile = serde_json::from_str(&text)
+        .map_err(|e| ScenarioError::Io(format!("{}: {e}", p.display())))?;
+    Ok(f.items.into_iter().map(|i| (i.test, i.def)).collect())
+}
+
+/// The coverage of `lines` over the items `defs`.
+pub fn coverage_of(
+    defs: &[(String, crate::coverage::ItemDef)],
+    lines: &[RunLine],
+) -> crate::coverage::CoverageFile {
+    let mut fold = crate::coverage::Fold::default();
+    for (t, d) in defs {
+        fold.declare(t, d);
+    }
+    for l in lines {
+        fold.add(&l.test, &l.coverage);
+    }
+    fold.finish()
+}
+
+/// JUnit XML of the runs: one testsuite per test, one testcase per seed
+/// (a failure element with the reasons for a failed run) — the format
+/// GitLab, GitHub and Jenkins read.
+pub fn junit(lines: &[RunLine]) -> String {
+    let esc = |s: &str| {
+        s.chars()
+            .filter(|c| !c.is_control() || *c == '\n' || *c == '\t')
+            .collect::<String>()
+            .replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;")
+            .replace('"', "&quot;")
+    };
+    let mut by: BTreeMap<&str, Vec<&RunLine>> = BTreeMap::new();
+    for l in lines {
+        by.entry(l.test.as_str()).or_default().push(l);
+    }
+    let failures = lines.iter().filter(|l| !l.pass).count();
+    let mut x = format!(
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites name=\"litesim\" tests=\"{}\" failures=\"{failures}\" errors=\"0\">\n",
+        lines.len()
+    );
+    for (test, mut runs) in by {
+        runs.sort_by_key(|l| l.seed);
+        let f = runs.iter().filter(|l| !l.pass).count();
+        x += &format!(
+            "  <testsuite name=\"{}\" tests=\"{}\" failures=\"{f}\" errors=\"0\" skipped=\"0\">\n",
+            esc(test),
+            runs.len()
+        );
+        for l in runs {
+            // Simulated time, not wall time: the file is the same on every machine.
+            x += &format!(
+                "    <testcase name=\"seed {}\" classname=\"{}\" time=\"{}\"",
+                l.seed,
+                esc(test),
+                l.duration
+            );
+            if l.pass {
+                x += "/>\n";
+            } else {
+                let first = l.failures.first().map_or("failed", String::as_str);
+                x += &format!(
+                    ">\n      <failure message=\"{}\" type=\"litesim.failure\">{}</failure>\n    </testcase>\n",
+                    esc(first),
+                    esc(&l.failures.join("\n"))
+                );
+            }
+        }
+        x += "  </testsuite>\n";
+    }
+    x + "</testsuites>\n"
+}
+
 /// Writes `results.jsonl` (sorted, one line per (test, seed)) and
-/// `results.csv` into `dir`, atomically.
-pub fn write_sorted(dir: &Path, lines: &[RunLine]) -> Result<(), ScenarioError> {
+/// `results.csv` into `dir`, atomically; and `coverage.json` when the
+/// tests have `cover`/`record` items (`defs`).
+pub fn write_sorted(
+    dir: &Path,
+    lines: &[RunLine],
+    defs: &[(String, crate::coverage::ItemDef)],
+) -> Result<(), ScenarioError> {
+    if !defs.is_empty() {
+        let sorted: Vec<RunLine> = {
+            let mut by: BTreeMap<(String, u64), &RunLine> = BTreeMap::new();
+            for l in lines {
+                by.insert((l.test.clone(), l.seed), l);
+            }
+            by.into_values().cloned().collect()
+        };
+        let c = coverage_of(defs, &sorted);
+        let text =
+            serde_json::to_string_pretty(&c).map_err(|e| ScenarioError::Io(e.to_string()))?;
+        atomic(&dir.join("coverage.json"), &(text + "\n"))?;
+    }
     let mut by: BTreeMap<(String, u64), &RunLine> = BTreeMap::new();
     for l in lines {
         by.insert((l.test.clone(), l.seed), l);
@@ -584,7 +707,12 @@ pub fn run_batch(
     };
     report.ran = new.len() as u64;
     lines.extend(new);
-    write_sorted(&spec.out, &lines)?;
+    let defs = item_defs(
+        preps
+            .iter()
+            .filter_map(|(n, p)| p.as_ref().ok().map(|p| (n.as_str(), p))),
+    );
+    write_sorted(&spec.out, &lines, &defs)?;
     report.passed = lines.iter().filter(|l| l.pass).count() as u64;
     report.failed = lines.len() as u64 - report.passed;
     Ok(report)
@@ -649,7 +777,16 @@ pub fn merge(
     let mut expected: Vec<(String, u64)> = Vec::new();
     let mut by: BTreeMap<(String, u64), (RunLine, PathBuf)> = BTreeMap::new();
     let mut conflicts = Vec::new();
+    let mut defs: Vec<(String, crate::coverage::ItemDef)> = Vec::new();
     for d in dirs {
+        for def in read_defs(d)? {
+            if !defs
+                .iter()
+                .any(|(t, x)| *t == def.0 && x.name == def.1.name)
+            {
+                defs.push(def);
+            }
+        }
         let p = d.join("results.jsonl");
         if !p.exists() {
             return Err(ScenarioError::Io(format!(
@@ -758,7 +895,7 @@ pub fn merge(
         ..m0
     };
     merged.write(out)?;
-    write_sorted(out, &all)?;
+    write_sorted(out, &all, &defs)?;
     report.runs = all.len();
     Ok(report)
 }

@@ -112,6 +112,8 @@ fn trial(profile: &Profile, plan: &Plan, c: &Calibration) -> Result<Trial, Scena
         map: None,
         sut_timeout: 1.0,
         realtime: None,
+        covers: Vec::new(),
+        values: Default::default(),
     };
     let ex = execute(&mut ssp, plan, None, &cfg, None, None)?;
     let a = &ex.kpis.actors[0];

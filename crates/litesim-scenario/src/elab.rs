@@ -265,6 +265,8 @@ pub struct Test {
     pub root: Option<Node>,
     /// Things the engine saw but does not execute (reported, never silent).
     pub notes: Vec<String>,
+    /// `cover`/`record` items, in the order met.
+    pub covers: Vec<crate::coverage::CoverItem>,
 }
 
 /// The program and its declaration index (shared with the checker).
@@ -681,11 +683,128 @@ impl Elab<'_> {
                     .test
                     .notes
                     .push(format!("`on` in {}: not executed by the engine", sc.ns)),
+                Member::Coverage { record, args, span } => self.cover(*record, args, *span, &sc),
                 _ => {}
             }
         }
         self.depth -= 1;
         Ok(root)
+    }
+
+    /// A `cover`/`record` item (the checker has vetted its arguments).
+    fn cover(&mut self, record: bool, args: &[Arg], span: Span, sc: &Scope) {
+        use crate::coverage::{CoverItem, SampleAt};
+        let named = |n: &str| {
+            args.iter()
+                .find(|a| a.name.as_ref().is_some_and(|x| x.text == n))
+                .map(|a| &a.value)
+        };
+        let name = match (args.first(), named("name")) {
+            (_, Some(Expr::Ident { name, .. })) => name.clone(),
+            (
+                Some(Arg {
+                    name: None,
+                    value: Expr::Ident { name, .. },
+                }),
+                _,
+            ) => name.clone(),
+            _ => return,
+        };
+        let at = self.lib.at(span);
+        let expr = match named("expression") {
+            Some(e) => self.cexpr(e, sc),
+            None => self
+                .path(
+                    &Expr::Ident {
+                        name: name.clone(),
+                        span,
+                    },
+                    sc,
+                )
+                .unwrap_or(CExpr::Opaque(name.clone())),
+        };
+        let unit = match named("unit") {
+            Some(Expr::Ident { name, .. }) => Some(name.clone()),
+            _ => None,
+        };
+        let factor = unit.as_deref().map_or(1.0, |u| self.unit(u));
+        // A bound or width: physical literals convert to the item's unit,
+        // plain numbers are in it.
+        let in_unit = |e: &Expr| -> Option<f64> {
+            match e {
+                Expr::Physical { value, unit, .. } => Some(value * self.unit(unit) / factor),
+                Expr::Int { value, .. } => Some(*value as f64),
+                Expr::Float { value, .. } => Some(*value),
+                Expr::Unary { op, expr, .. } if op == "-" => match &**expr {
+                    Expr::Physical { value, unit, .. } => Some(-value * self.unit(unit) / factor),
+                    Expr::Int { value, .. } => Some(-(*value as f64)),
+                    Expr::Float { value, .. } => Some(-value),
+                    _ => None,
+                },
+                _ => None,
+            }
+        };
+        let range = match named("range") {
+            Some(Expr::Range { lo, hi, unit, .. }) => {
+                let scale = unit.as_deref().map_or(1.0, |u| self.unit(u) / factor);
+                match (
+                    lo.as_deref().and_then(in_unit),
+                    hi.as_deref().and_then(in_unit),
+                ) {
+                    (Some(a), Some(b)) => Some((a * scale, b * scale)),
+                    _ => None,
+                }
+            }
+            _ => None,
+        };
+        let every = named("every").and_then(in_unit);
+        // Enum and bool items bucket by value.
+        let values = match &expr {
+            CExpr::Var(p) => match self.test.vars.get(p).map(|v| v.type_name.as_str()) {
+                Some("bool") => vec!["false".into(), "true".into()],
+                Some(t) => self
+                    .lib
+                    .ix
+                    .enums
+                    .get(t)
+                    .map(|m| m.iter().cloned().collect())
+                    .unwrap_or_default(),
+                None => Vec::new(),
+            },
+            _ => Vec::new(),
+        };
+        let event = match named("event") {
+            Some(Expr::Ident { name: e, .. }) if e == "start" => SampleAt::Start,
+            Some(Expr::Ident { name: e, .. }) if e == "end" => SampleAt::End,
+            Some(Expr::Ident { name: e, .. }) => match sc.labels.get(e) {
+                Some(path) => SampleAt::PhaseEnd(path.clone()),
+                None => {
+                    self.test.notes.push(format!(
+                        "{at}: {} '{name}' is sampled at event '{e}', which the engine does not raise: sampled at the end instead",
+                        if record { "record" } else { "cover" }
+                    ));
+                    SampleAt::End
+                }
+            },
+            _ => SampleAt::End,
+        };
+        let text = match named("text") {
+            Some(Expr::Str { value, .. }) => Some(value.clone()),
+            _ => None,
+        };
+        self.test.covers.push(CoverItem {
+            name: format!("{}.{name}", sc.ns),
+            record,
+            expr,
+            unit,
+            factor,
+            range,
+            every,
+            values,
+            event,
+            text,
+            at,
+        });
     }
 
     fn collect_labels(&mut self, d: &DoMember, sc: &mut Scope) {

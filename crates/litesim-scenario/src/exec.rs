@@ -69,6 +69,10 @@ pub struct ExecConfig<'a> {
     pub sut_timeout: f64,
     /// Pace steps to the wall clock with this policy (`None`: no pacing).
     pub realtime: Option<crate::realtime::Policy>,
+    /// `cover`/`record` items to sample.
+    pub covers: Vec<crate::coverage::CoverItem>,
+    /// The solved scenario parameters (what items may read).
+    pub values: BTreeMap<String, crate::elab::Value>,
 }
 
 /// What an execution produced.
@@ -98,6 +102,8 @@ pub struct Executed {
     pub plan: Option<Plan>,
     /// Pacing figures of a real-time run.
     pub realtime: Option<crate::realtime::Stats>,
+    /// The `cover`/`record` items' samples, in item order.
+    pub coverage: Vec<crate::coverage::Sample>,
     /// A real-time run under the `fail` policy overran: the first overrun.
     pub realtime_failure: Option<String>,
 }
@@ -417,6 +423,13 @@ pub fn execute(
     let mut planned = Vec::with_capacity(ids.len());
     let mut off = Vec::with_capacity(ids.len());
     let mut controls = vec![ControlSample::default(); ids.len()];
+    // Coverage: each item's sample time (phase ends from the plan; the
+    // run's end is taken after the loop), the live state it reads.
+    let sampling = !cfg.covers.is_empty();
+    let mut live: Vec<crate::coverage::LiveActor> = Vec::new();
+    let mut samples: Vec<Option<crate::coverage::Sample>> = vec![None; cfg.covers.len()];
+    let mut last_t = 0.0;
+    let mut accels: Vec<f64> = Vec::new();
     let mut states: Vec<Option<ReportedState>> = vec![None; ids.len()];
     // Without closed-loop drivers nothing needs the states before the next
     // command: the plan is known, so trajectories go out a chunk (up to
@@ -848,6 +861,7 @@ pub fn execute(
             let t = info.sim_time_ms as f64 / 1000.0;
             boxes.clear();
             speeds.clear();
+            accels.clear();
             planned.clear();
             off.clear();
             for (i, a) in plan.actors.iter().enumerate() {
@@ -870,6 +884,10 @@ pub fn execute(
                     vy: st.velocity.y,
                 });
                 speeds.push(st.speed);
+                if sampling {
+                    let (sy, cy) = math::sin_cos(st.pose.yaw);
+                    accels.push(st.acceleration.x * cy + st.acceleration.y * sy);
+                }
                 planned.push((p.x, p.y, p.v));
                 let vehicle = a.kind == crate::elab::ActorKind::Vehicle;
                 let pos = if vehicle {
@@ -935,6 +953,21 @@ pub fn execute(
                 }
             }
             kpis.step(t, &boxes, &speeds, &planned, &off);
+            if sampling {
+                live.clear();
+                for (i, b) in boxes.iter().enumerate() {
+                    live.push(crate::coverage::LiveActor {
+                        speed: speeds[i],
+                        acceleration: accels.get(i).copied().unwrap_or(0.0),
+                        x: b.x,
+                        y: b.y,
+                        yaw: b.yaw,
+                        lane: None,
+                    });
+                }
+                last_t = t;
+                sample_items(cfg, &plan, net, &live, t, false, &mut samples);
+            }
             // Gap goals whose phase ends now: judged on the simulated state.
             while next_lane_goal < plan.lane_goals.len()
                 && t >= plan.lane_goals[next_lane_goal].t1 - 1e-9
@@ -1010,6 +1043,9 @@ pub fn execute(
     })
     .map_err(ssp_err)?;
     kpis.finish();
+    if sampling {
+        sample_items(cfg, &plan, net, &live, last_t, true, &mut samples);
+    }
     if let (Some(ek), Some(e)) = (ego_kpi.as_mut(), ego_index) {
         let last = plan.actors[e].samples.last().copied().unwrap_or_default();
         ek.finish(last.x, last.y);
@@ -1053,7 +1089,61 @@ pub fn execute(
         model: caps.model,
         realtime: pacer.as_ref().map(crate::realtime::Pacer::stats),
         realtime_failure,
+        coverage: samples.into_iter().flatten().collect(),
     })
+}
+
+/// Samples the items due at `t` (`end`: the run is over, every item not
+/// sampled yet is due — a phase that never ended is sampled at the end).
+fn sample_items(
+    cfg: &ExecConfig<'_>,
+    plan: &Plan,
+    net: Option<&RoadNetwork>,
+    live: &[crate::coverage::LiveActor],
+    t: f64,
+    end: bool,
+    out: &mut [Option<crate::coverage::Sample>],
+) {
+    use crate::coverage::{Sample, SampleAt, evaluate};
+    for (item, slot) in cfg.covers.iter().zip(out.iter_mut()) {
+        if slot.is_some() {
+            continue;
+        }
+        let due = end
+            || match &item.event {
+                SampleAt::Start => true,
+                SampleAt::End => false,
+                SampleAt::PhaseEnd(label) => plan
+                    .phases
+                    .iter()
+                    .filter(|p| {
+                        p.label.as_deref().is_some_and(|l| {
+                            l == label
+                                || l.strip_prefix(label.as_str())
+                                    .is_some_and(|r| r.starts_with('.'))
+                        })
+                    })
+                    .map(|p| p.t1)
+                    .reduce(f64::max)
+                    .is_some_and(|t1| t >= t1 - 1e-9),
+            };
+        if !due {
+            continue;
+        }
+        let actor = |id: &str| {
+            let i = plan.actors.iter().position(|a| a.id == id)?;
+            let mut a = *live.get(i)?;
+            a.lane = net
+                .and_then(|n| n.to_road(litesim_core::Vec2::new(a.x, a.y)))
+                .map(|p| p.lane);
+            Some(a)
+        };
+        *slot = Some(Sample {
+            item: item.name.clone(),
+            value: evaluate(item, &plan.ids, &cfg.values, &actor),
+            t,
+        });
+    }
 }
 
 /// The ego against its plan, for the log's tracking columns (the

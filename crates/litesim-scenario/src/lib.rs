@@ -17,6 +17,7 @@
 
 pub mod batch;
 pub mod calibrate;
+pub mod coverage;
 pub mod elab;
 pub mod error;
 pub mod exec;
@@ -266,6 +267,10 @@ pub struct Summary {
     /// How well a paced run kept to the wall clock (`--realtime`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub realtime: Option<realtime::Stats>,
+    /// `cover`/`record` samples of this run, in item order (absent when
+    /// the test has none).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub coverage: Vec<coverage::Sample>,
     /// What the engine saw but did not execute, and solver remarks.
     pub notes: Vec<String>,
 }
@@ -451,6 +456,7 @@ pub fn run(
                 conditions: Vec::new(),
                 calibration: calibration_src,
                 realtime: None,
+                coverage: Vec::new(),
                 notes,
             },
             plan,
@@ -481,6 +487,8 @@ pub fn run(
             .or(prep.test.config.thresholds.sut_timeout)
             .unwrap_or(1.0),
         realtime: opts.realtime,
+        covers: prep.test.covers.clone(),
+        values: sol.values.clone(),
     };
     let mut sut = opts
         .sut
@@ -538,6 +546,7 @@ pub fn run(
             conditions: ex.live_events,
             calibration: calibration_src,
             realtime: ex.realtime,
+            coverage: ex.coverage,
             notes,
         },
         plan,

@@ -1,0 +1,275 @@
+//! Coverage across seeds, the JUnit file and the HTML report, as a user
+//! runs them: `litesim batch … --junit`, shards merged or resumed
+//! (byte-identical coverage), `litesim report` opened in headless Chromium
+//! (Debian's `chromium` driven by Playwright for Python), the JUnit XML
+//! validated against the JUnit schema (Python's xmlschema). `.ci/run`
+//! installs chromium, playwright and xmlschema.
+
+mod common;
+use common::{litesim, workspace};
+use std::path::Path;
+use std::process::{Command, Output};
+
+const TEST: &str = "examples/scenarios/cut_in_coverage.osc";
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn batch(args: &[&str], out: &Path) -> Output {
+    litesim()
+        .current_dir(workspace())
+        .arg("batch")
+        .arg(TEST)
+        .args(args)
+        .arg("-q")
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+fn read(p: &Path) -> String {
+    std::fs::read_to_string(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+fn python(script: &str, args: &[&str]) {
+    let s = workspace()
+        .join("crates/litesim-cli/tests/python")
+        .join(script);
+    let o = Command::new("python3").arg(s).args(args).output().unwrap();
+    assert!(
+        o.status.success(),
+        "{script} failed (needs python3 with playwright/xmlschema and Debian's chromium, as .ci/run installs):\n{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn coverage_is_identical_whatever_the_shards_threads_or_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = dir.path().join("whole");
+    let o = batch(&["--seeds", "1..40", "--threads", "2"], &whole);
+    // Some runs of this example fail (the cut-in is tight): exit 2.
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("hole(s)"), "{}", text(&o));
+    let cov = read(&whole.join("coverage.json"));
+    let c: serde_json::Value = serde_json::from_str(&cov).unwrap();
+    let side = c["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|i| i["name"] == "c.side")
+        .unwrap();
+    // `keep(default it == left)`: right is a hole.
+    assert_eq!(side["holes"], serde_json::json!(["right"]));
+    assert!(c["holes"].as_u64().unwrap() > 0);
+    // Each run's samples are in its results line.
+    let first = read(&whole.join("results.jsonl"));
+    let line: serde_json::Value = serde_json::from_str(first.lines().next().unwrap()).unwrap();
+    assert_eq!(line["coverage"].as_array().unwrap().len(), 8);
+
+    // Three shards on one thread each, merged.
+    let mut shards = Vec::new();
+    for i in 0..3 {
+        let d = dir.path().join(format!("s{i}"));
+        let s = format!("{i}/3");
+        batch(&["--seeds", "1..40", "--threads", "1", "--shard", &s], &d);
+        shards.push(d);
+    }
+    let merged = dir.path().join("merged");
+    let o = litesim()
+        .arg("merge")
+        .args(&shards)
+        .arg("-o")
+        .arg(&merged)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(read(&merged.join("coverage.json")), cov);
+    assert_eq!(read(&merged.join("results.jsonl")), first);
+
+    // Half, then --resume for the rest.
+    let resumed = dir.path().join("resumed");
+    std::fs::create_dir_all(&resumed).unwrap();
+    batch(&["--seeds", "1..40", "--threads", "1"], &resumed);
+    let half: String = read(&resumed.join("results.jsonl"))
+        .lines()
+        .take(17)
+        .map(|l| format!("{l}\n"))
+        .collect();
+    std::fs::write(resumed.join("results.jsonl"), half).unwrap();
+    std::fs::remove_file(resumed.join("coverage.json")).unwrap();
+    batch(&["--seeds", "1..40", "--resume"], &resumed);
+    assert_eq!(read(&resumed.join("coverage.json")), cov);
+}
+
+#[test]
+fn junit_validates_and_fail_on_holes_fails() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b");
+    let junit = dir.path().join("results.xml");
+    let o = litesim()
+        .current_dir(workspace())
+        .args([
+            "batch",
+            "examples/scenarios/cut_in.osc",
+            "--seeds",
+            "1..6",
+            "-q",
+            "--junit",
+        ])
+        .arg(&junit)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let xsd = workspace().join("crates/litesim-cli/tests/data/junit.xsd");
+    let (j, x) = (junit.to_str().unwrap(), xsd.to_str().unwrap());
+    python("check_junit.py", &[j, "6", "0", x]);
+
+    // A test whose runs fail: failures with their reasons; and holes
+    // fail the batch under --fail-on-holes even where every run passes.
+    let out2 = dir.path().join("c");
+    let junit2 = dir.path().join("c.xml");
+    let o = batch(
+        &["--seeds", "1..30", "--junit", junit2.to_str().unwrap()],
+        &out2,
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let rows = read(&out2.join("results.jsonl"));
+    let failed = rows
+        .lines()
+        .filter(|l| l.contains("\"pass\":false"))
+        .count();
+    assert!(failed > 0);
+    python(
+        "check_junit.py",
+        &[junit2.to_str().unwrap(), "30", &failed.to_string(), x],
+    );
+    let cov = workspace().join("examples/scenarios/cov_pass.osc");
+    let _rm = Remove(cov.clone());
+    std::fs::write(
+        &cov,
+        read(&workspace().join("examples/scenarios/cut_in.osc")).replace(
+            "    other: vehicle\n",
+            "    other: vehicle\n    cover(ego_end, expression: sut.car.speed, unit: kph, range: [0..200], every: 20)\n",
+        ),
+    )
+    .unwrap();
+    let o = litesim()
+        .current_dir(workspace())
+        .args([
+            "batch",
+            "examples/scenarios/cov_pass.osc",
+            "--seeds",
+            "1..3",
+            "-q",
+            "--fail-on-holes",
+            "-o",
+        ])
+        .arg(dir.path().join("d"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--fail-on-holes"), "{}", text(&o));
+}
+
+struct Remove(std::path::PathBuf);
+impl Drop for Remove {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+    }
+}
+
+#[test]
+fn report_renders_in_chromium_with_bad_lines_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("b");
+    let o = batch(&["--seeds", "1..50", "--save-failed"], &out);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    let rows = read(&out.join("results.jsonl"));
+    let failed = rows
+        .lines()
+        .filter(|l| l.contains("\"pass\":false"))
+        .count();
+    // A truncated line and a foreign one: named, skipped, the rest renders.
+    let mut f = rows.clone();
+    f += "{\"test\":\"x\",\"seed\":";
+    f += "\nnot json at all\n";
+    std::fs::write(out.join("results.jsonl"), f).unwrap();
+    let o = litesim()
+        .current_dir(workspace())
+        .arg("report")
+        .arg(&out)
+        .arg("-q")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let t = text(&o);
+    assert!(
+        t.contains("line 51: skipped") && t.contains("line 52: skipped"),
+        "{t}"
+    );
+    let html = out.join("report.html");
+    let h = read(&html);
+    assert!(
+        h.contains("results.jsonl line 51"),
+        "the report names skipped lines"
+    );
+    assert!(
+        !h.contains("http://") && !h.contains("https://"),
+        "no network in the report"
+    );
+    // Failed runs got their replay pictures.
+    assert!(
+        out.join("failed")
+            .read_dir()
+            .unwrap()
+            .any(|e| { e.unwrap().path().extension().is_some_and(|x| x == "png") })
+    );
+    // ego_speed: [40..120] every 10 kph → 8 buckets; the drawn speeds stop
+    // at 80 kph → 4 holes.
+    python(
+        "check_report.py",
+        &[
+            html.to_str().unwrap(),
+            "50",
+            &failed.to_string(),
+            "c.ego_speed",
+            "8",
+            "4",
+        ],
+    );
+}
+
+#[test]
+fn report_of_an_empty_batch_says_so_and_of_no_batch_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("results.jsonl"), "").unwrap();
+    let o = litesim()
+        .arg("report")
+        .arg(dir.path())
+        .arg("-q")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let html = dir.path().join("report.html");
+    assert!(read(&html).contains("no runs"));
+    python(
+        "check_report.py",
+        &[html.to_str().unwrap(), "0", "0", "-", "0", "0"],
+    );
+    let o = litesim()
+        .arg("report")
+        .arg(dir.path().join("nowhere"))
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    assert!(text(&o).contains("not a folder"), "{}", text(&o));
+}
