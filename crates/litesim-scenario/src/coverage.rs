@@ -78,6 +78,20 @@ pub struct ItemDef {
 }
 
 impl CoverItem {
+    /// Whether its expression reads an actor's lane (a map lookup).
+    pub fn reads_lane(&self) -> bool {
+        fn walk(e: &CExpr) -> bool {
+            match e {
+                CExpr::Var(p) => p.ends_with(".lane"),
+                CExpr::Unary(_, x) => walk(x),
+                CExpr::Binary(_, a, b) => walk(a) || walk(b),
+                CExpr::List(xs) => xs.iter().any(walk),
+                _ => false,
+            }
+        }
+        walk(&self.expr)
+    }
+
     /// Its batch-level definition.
     pub fn def(&self) -> ItemDef {
         ItemDef {

@@ -430,6 +430,7 @@ pub fn execute(
     let mut samples: Vec<Option<crate::coverage::Sample>> = vec![None; cfg.covers.len()];
     let mut last_t = 0.0;
     let mut accels: Vec<f64> = Vec::new();
+    let mut next_due = due_time(cfg, &plan, &samples);
     let mut states: Vec<Option<ReportedState>> = vec![None; ids.len()];
     // Without closed-loop drivers nothing needs the states before the next
     // command: the plan is known, so trajectories go out a chunk (up to
@@ -578,6 +579,7 @@ pub fn execute(
                     ));
                 }
                 plan = Cow::Owned(new);
+                next_due = due_time(cfg, &plan, &samples);
                 steps = litesim_core::steps_for_horizon(plan.duration, dt);
                 goal_actors = goal_indices(&plan);
                 // Goals ended and switches due by now belong to the past.
@@ -953,7 +955,8 @@ pub fn execute(
                 }
             }
             kpis.step(t, &boxes, &speeds, &planned, &off);
-            if sampling {
+            last_t = t;
+            if sampling && t >= next_due - 1e-9 {
                 live.clear();
                 for (i, b) in boxes.iter().enumerate() {
                     live.push(crate::coverage::LiveActor {
@@ -965,8 +968,8 @@ pub fn execute(
                         lane: None,
                     });
                 }
-                last_t = t;
                 sample_items(cfg, &plan, net, &live, t, false, &mut samples);
+                next_due = due_time(cfg, &plan, &samples);
             }
             // Gap goals whose phase ends now: judged on the simulated state.
             while next_lane_goal < plan.lane_goals.len()
@@ -1044,6 +1047,17 @@ pub fn execute(
     .map_err(ssp_err)?;
     kpis.finish();
     if sampling {
+        live.clear();
+        for (i, b) in boxes.iter().enumerate() {
+            live.push(crate::coverage::LiveActor {
+                speed: speeds[i],
+                acceleration: accels.get(i).copied().unwrap_or(0.0),
+                x: b.x,
+                y: b.y,
+                yaw: b.yaw,
+                lane: None,
+            });
+        }
         sample_items(cfg, &plan, net, &live, last_t, true, &mut samples);
     }
     if let (Some(ek), Some(e)) = (ego_kpi.as_mut(), ego_index) {
@@ -1093,6 +1107,38 @@ pub fn execute(
     })
 }
 
+/// When the next item not sampled yet is due (s; infinite: at the end).
+fn due_time(cfg: &ExecConfig<'_>, plan: &Plan, samples: &[Option<crate::coverage::Sample>]) -> f64 {
+    cfg.covers
+        .iter()
+        .zip(samples)
+        .filter(|(_, s)| s.is_none())
+        .map(|(item, _)| item_due(item, plan))
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// When an item is due by the plan (s; infinite: at the end).
+fn item_due(item: &crate::coverage::CoverItem, plan: &Plan) -> f64 {
+    use crate::coverage::SampleAt;
+    match &item.event {
+        SampleAt::Start => 0.0,
+        SampleAt::End => f64::INFINITY,
+        SampleAt::PhaseEnd(label) => plan
+            .phases
+            .iter()
+            .filter(|p| {
+                p.label.as_deref().is_some_and(|l| {
+                    l == label
+                        || l.strip_prefix(label.as_str())
+                            .is_some_and(|r| r.starts_with('.'))
+                })
+            })
+            .map(|p| p.t1)
+            .reduce(f64::max)
+            .unwrap_or(f64::INFINITY),
+    }
+}
+
 /// Samples the items due at `t` (`end`: the run is over, every item not
 /// sampled yet is due — a phase that never ended is sampled at the end).
 fn sample_items(
@@ -1104,38 +1150,21 @@ fn sample_items(
     end: bool,
     out: &mut [Option<crate::coverage::Sample>],
 ) {
-    use crate::coverage::{Sample, SampleAt, evaluate};
+    use crate::coverage::{Sample, evaluate};
     for (item, slot) in cfg.covers.iter().zip(out.iter_mut()) {
-        if slot.is_some() {
+        if slot.is_some() || !(end || t >= item_due(item, plan) - 1e-9) {
             continue;
         }
-        let due = end
-            || match &item.event {
-                SampleAt::Start => true,
-                SampleAt::End => false,
-                SampleAt::PhaseEnd(label) => plan
-                    .phases
-                    .iter()
-                    .filter(|p| {
-                        p.label.as_deref().is_some_and(|l| {
-                            l == label
-                                || l.strip_prefix(label.as_str())
-                                    .is_some_and(|r| r.starts_with('.'))
-                        })
-                    })
-                    .map(|p| p.t1)
-                    .reduce(f64::max)
-                    .is_some_and(|t1| t >= t1 - 1e-9),
-            };
-        if !due {
-            continue;
-        }
+        // The map lookup only for items that read a lane.
+        let lane = item.reads_lane();
         let actor = |id: &str| {
             let i = plan.actors.iter().position(|a| a.id == id)?;
             let mut a = *live.get(i)?;
-            a.lane = net
-                .and_then(|n| n.to_road(litesim_core::Vec2::new(a.x, a.y)))
-                .map(|p| p.lane);
+            if lane {
+                a.lane = net
+                    .and_then(|n| n.to_road(litesim_core::Vec2::new(a.x, a.y)))
+                    .map(|p| p.lane);
+            }
             Some(a)
         };
         *slot = Some(Sample {
