@@ -71,7 +71,20 @@ fn coverage_is_identical_whatever_the_shards_threads_or_resume() {
     // Each run's samples are in its results line.
     let first = read(&whole.join("results.jsonl"));
     let line: serde_json::Value = serde_json::from_str(first.lines().next().unwrap()).unwrap();
-    assert_eq!(line["coverage"].as_array().unwrap().len(), 8);
+    assert_eq!(line["coverage"].as_array().unwrap().len(), 10);
+    // gap_to at the end of phase b (10 s), ttc_to at the end of phase a (6 s).
+    let item = |n: &str| {
+        line["coverage"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|s| s["item"] == n)
+            .unwrap()
+            .clone()
+    };
+    assert!(item("c.gap_after_cut")["value"].as_f64().unwrap() >= 0.0);
+    assert_eq!(item("c.gap_after_cut")["t"], 10.0);
+    assert_eq!(item("c.ttc_before_cut")["t"], 6.0);
 
     // Three shards on one thread each, merged.
     let mut shards = Vec::new();

@@ -794,13 +794,32 @@ impl Checker<'_> {
                     }
                 }
                 Member::Method {
-                    params, ret, expr, ..
+                    params,
+                    ret,
+                    expr,
+                    body,
+                    ..
                 } => {
                     params.iter().for_each(|p| self.type_ref(&p.ty));
                     if let Some(r) = ret {
                         self.type_ref(r);
                     }
-                    if let Some(e) = expr {
+                    // `is external lib.fn(args)`: the callee names something
+                    // outside the program; only its arguments are checked.
+                    let external = body.trim_start().starts_with("external");
+                    if external && let Some(Expr::Call { args, .. }) = expr {
+                        let n = self.scope.locals.len();
+                        for p in params {
+                            let t = self.m.ty_of(&p.ty);
+                            for name in &p.names {
+                                self.scope.locals.push((name.text.clone(), t.clone()));
+                            }
+                        }
+                        for a in args {
+                            self.expr(&a.value, None);
+                        }
+                        self.scope.locals.truncate(n);
+                    } else if let Some(e) = expr {
                         let n = self.scope.locals.len();
                         for p in params {
                             let t = self.m.ty_of(&p.ty);

@@ -1,5 +1,5 @@
 //! What coverage costs (`cargo bench -p litesim-scenario --bench coverage`):
-//! the coverage example run with its eight `cover`/`record` items and
+//! the coverage example run with its ten `cover`/`record` items and
 //! without them (the same test, the items' lines removed), in one run of
 //! the benchmark; and folding 100,000 runs' samples into coverage.json.
 #![allow(missing_docs)]
@@ -30,7 +30,7 @@ fn main() {
     std::fs::write(f.path(), bare).unwrap();
     let with = prepare(&path, &LoadOptions::default()).unwrap();
     let without = prepare(f.path(), &LoadOptions::default()).unwrap();
-    assert_eq!(with.test.covers.len(), 8);
+    assert_eq!(with.test.covers.len(), 10);
     assert!(without.test.covers.is_empty());
     let opts = RunOptions {
         seed: Some(3),
@@ -40,10 +40,10 @@ fn main() {
     g.bench_function("run_without_items", |b| {
         b.iter(|| black_box(run(&without, &mut litesim_scenario::in_process(), &opts).unwrap()))
     });
-    g.bench_function("run_with_8_items", |b| {
+    g.bench_function("run_with_10_items", |b| {
         b.iter(|| black_box(run(&with, &mut litesim_scenario::in_process(), &opts).unwrap()))
     });
-    // 100k runs × 8 samples folded (what a batch does once at its end).
+    // 100k runs × 10 samples folded (what a batch does once at its end).
     let defs: Vec<_> = with.test.covers.iter().map(|c| c.def()).collect();
     let runs: Vec<Vec<Sample>> = (0..100_000u64)
         .map(|k| {

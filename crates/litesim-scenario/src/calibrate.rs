@@ -92,6 +92,7 @@ pub fn reference_plan(step_s: f64) -> Plan {
         side_follows: Vec::new(),
         conditions: Vec::new(),
         ids: Default::default(),
+        events: Default::default(),
         notes: Vec::new(),
     }
 }

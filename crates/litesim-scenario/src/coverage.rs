@@ -142,11 +142,35 @@ pub struct LiveActor {
     pub yaw: f64,
     /// Lane id on the map, if on a lane.
     pub lane: Option<i32>,
+    /// Box length (m).
+    pub length: f64,
+    /// Box width (m).
+    pub width: f64,
+    /// World velocity (m/s).
+    pub vx: f64,
+    /// World velocity (m/s).
+    pub vy: f64,
+}
+
+impl LiveActor {
+    fn bx(&self) -> crate::kpi::BoxState {
+        crate::kpi::BoxState {
+            x: self.x,
+            y: self.y,
+            yaw: self.yaw,
+            length: self.length,
+            width: self.width,
+            vx: self.vx,
+            vy: self.vy,
+        }
+    }
 }
 
 /// Evaluates an item's expression: scenario parameters from `values`,
 /// actor fields (`speed`, `acceleration`, `position.x`/`.y`, `yaw`,
-/// `lane`) from `actor(id)`; numbers come back in the item's unit.
+/// `lane`) and `a.gap_to(b)` (box to box, m) / `a.ttc_to(b)` (s; none
+/// when they never meet within [`crate::kpi::TTC_HORIZON`]) from
+/// `actor(id)`; numbers come back in the item's unit.
 pub fn evaluate(
     item: &CoverItem,
     ids: &BTreeMap<String, String>,
@@ -180,6 +204,18 @@ fn eval(
         CExpr::Const(Value::Bool(b)) => V::Word(b.to_string()),
         CExpr::Const(Value::Enum(w) | Value::Str(w)) => V::Word(w.clone()),
         CExpr::Unary(op, x) if op == "-" => V::Num(-num(x)?),
+        CExpr::Binary(op, a, b) if op == "gap_to" || op == "ttc_to" => {
+            let live = |e: &CExpr| match e {
+                CExpr::Var(p) => actor(ids.get(p).map_or(p.as_str(), String::as_str)),
+                _ => None,
+            };
+            let (a, b) = (live(a)?.bx(), live(b)?.bx());
+            V::Num(if op == "gap_to" {
+                crate::kpi::distance(&a, &b)
+            } else {
+                crate::kpi::time_to_collision(&a, &b).filter(|t| *t <= crate::kpi::TTC_HORIZON)?
+            })
+        }
         CExpr::Binary(op, a, b) if ["+", "-", "*", "/"].contains(&op.as_str()) => {
             let (a, b) = (num(a)?, num(b)?);
             V::Num(match op.as_str() {

@@ -486,6 +486,17 @@ impl Elab<'_> {
                 Some(p) => p,
                 None => CExpr::Opaque(format!("{e:?}")),
             },
+            // The engine's own methods over two actors (osc/domain):
+            // `a.gap_to(b)`, `a.ttc_to(b)`.
+            Expr::Call { callee, args, .. }
+                if args.len() == 1
+                    && matches!(&**callee, Expr::Field { name, .. } if name.text == "gap_to" || name.text == "ttc_to")
+                    && let Expr::Field { base, name, .. } = &**callee
+                    && let (Some(a), Some(b)) =
+                        (self.path(base, sc), self.path(&args[0].value, sc)) =>
+            {
+                CExpr::Binary(name.text.clone(), Box::new(a), Box::new(b))
+            }
             Expr::Ternary { span, .. }
             | Expr::Cast { span, .. }
             | Expr::Index { span, .. }

@@ -966,6 +966,10 @@ pub fn execute(
                         y: b.y,
                         yaw: b.yaw,
                         lane: None,
+                        length: b.length,
+                        width: b.width,
+                        vx: b.vx,
+                        vy: b.vy,
                     });
                 }
                 sample_items(cfg, &plan, net, &live, t, false, &mut samples);
@@ -1056,6 +1060,10 @@ pub fn execute(
                 y: b.y,
                 yaw: b.yaw,
                 lane: None,
+                length: b.length,
+                width: b.width,
+                vx: b.vx,
+                vy: b.vy,
             });
         }
         sample_items(cfg, &plan, net, &live, last_t, true, &mut samples);
@@ -1123,18 +1131,16 @@ fn item_due(item: &crate::coverage::CoverItem, plan: &Plan) -> f64 {
     match &item.event {
         SampleAt::Start => 0.0,
         SampleAt::End => f64::INFINITY,
+        // The plan keys label times by the label as written (`a.end`);
+        // the item knows its path (`c.a`).
         SampleAt::PhaseEnd(label) => plan
-            .phases
-            .iter()
-            .filter(|p| {
-                p.label.as_deref().is_some_and(|l| {
-                    l == label
-                        || l.strip_prefix(label.as_str())
-                            .is_some_and(|r| r.starts_with('.'))
-                })
+            .events
+            .get(&format!("{label}.end"))
+            .or_else(|| {
+                let own = label.rsplit('.').next().unwrap_or(label);
+                plan.events.get(&format!("{own}.end"))
             })
-            .map(|p| p.t1)
-            .reduce(f64::max)
+            .copied()
             .unwrap_or(f64::INFINITY),
     }
 }

@@ -256,6 +256,9 @@ pub struct Plan {
     /// Actor paths (`s.other`) to ids, for evaluating conditions.
     #[serde(skip)]
     pub ids: BTreeMap<String, String>,
+    /// When labelled phases start and end (`c.a.start`, `c.a.end`, s).
+    #[serde(skip)]
+    pub events: BTreeMap<String, f64>,
     /// Remarks.
     pub notes: Vec<String>,
 }
@@ -942,6 +945,7 @@ fn plan_once(
         leaves,
         switches,
         conds,
+        events,
         ..
     } = timer;
     let conds: Vec<(String, f64, CExpr)> = conds
@@ -1467,6 +1471,7 @@ fn plan_once(
             side_follows,
             conditions: Vec::new(),
             ids: BTreeMap::new(),
+            events,
             notes,
         },
         conds,
