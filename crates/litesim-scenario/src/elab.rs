@@ -797,6 +797,10 @@ impl Elab<'_> {
                     SampleAt::End
                 }
             },
+            // The default: the end of the enclosing scenario — its
+            // invocation's end where the plan knows it (a labelled
+            // invocation), else the end of the run.
+            _ if sc.ns != "top" => SampleAt::PhaseEnd(sc.ns.clone()),
             _ => SampleAt::End,
         };
         let text = match named("text") {
