@@ -387,13 +387,7 @@ impl Checker<'_> {
                 Some(p) => Ty::Physical(p.clone()),
                 None if unit.contains('/') || unit.contains('*') => Ty::Unknown,
                 None => {
-                    let hint = close_names(unit, self.m.units.keys());
-                    self.err(
-                        "E0302",
-                        *span,
-                        format!("unknown unit '{unit}'"),
-                        (!hint.is_empty()).then(|| format!("known units like it: {hint}")),
-                    );
+                    self.unknown_unit(unit, *span);
                     Ty::Unknown
                 }
             },
@@ -959,13 +953,7 @@ impl Checker<'_> {
             Some(Expr::Ident { name: u, span }) => match self.m.units.get(u) {
                 Some(p) => Some((p.clone(), *span)),
                 None => {
-                    let hint = close_names(u, self.m.units.keys());
-                    self.err(
-                        "E0302",
-                        *span,
-                        format!("unknown unit '{u}'"),
-                        (!hint.is_empty()).then(|| format!("known units like it: {hint}")),
-                    );
+                    self.unknown_unit(u, *span);
                     None
                 }
             },
@@ -1084,6 +1072,17 @@ impl Checker<'_> {
                 ),
             }
         }
+    }
+
+    /// E0302 with the known units that look like it.
+    fn unknown_unit(&mut self, unit: &str, span: Span) {
+        let hint = close_names(unit, self.m.units.keys());
+        self.err(
+            "E0302",
+            span,
+            format!("unknown unit '{unit}'"),
+            (!hint.is_empty()).then(|| format!("known units like it: {hint}")),
+        );
     }
 
     /// A unit of a physical type, for hints.

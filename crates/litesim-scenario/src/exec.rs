@@ -957,21 +957,7 @@ pub fn execute(
             kpis.step(t, &boxes, &speeds, &planned, &off);
             last_t = t;
             if sampling && t >= next_due - 1e-9 {
-                live.clear();
-                for (i, b) in boxes.iter().enumerate() {
-                    live.push(crate::coverage::LiveActor {
-                        speed: speeds[i],
-                        acceleration: accels.get(i).copied().unwrap_or(0.0),
-                        x: b.x,
-                        y: b.y,
-                        yaw: b.yaw,
-                        lane: None,
-                        length: b.length,
-                        width: b.width,
-                        vx: b.vx,
-                        vy: b.vy,
-                    });
-                }
+                live_state(&boxes, &speeds, &accels, &mut live);
                 sample_items(cfg, &plan, net, &live, t, false, &mut samples);
                 next_due = due_time(cfg, &plan, &samples);
             }
@@ -1051,21 +1037,7 @@ pub fn execute(
     .map_err(ssp_err)?;
     kpis.finish();
     if sampling {
-        live.clear();
-        for (i, b) in boxes.iter().enumerate() {
-            live.push(crate::coverage::LiveActor {
-                speed: speeds[i],
-                acceleration: accels.get(i).copied().unwrap_or(0.0),
-                x: b.x,
-                y: b.y,
-                yaw: b.yaw,
-                lane: None,
-                length: b.length,
-                width: b.width,
-                vx: b.vx,
-                vy: b.vy,
-            });
-        }
+        live_state(&boxes, &speeds, &accels, &mut live);
         sample_items(cfg, &plan, net, &live, last_t, true, &mut samples);
     }
     if let (Some(ek), Some(e)) = (ego_kpi.as_mut(), ego_index) {
@@ -1113,6 +1085,31 @@ pub fn execute(
         realtime_failure,
         coverage: samples.into_iter().flatten().collect(),
     })
+}
+
+/// The step's state as coverage items read it (lanes are looked up only
+/// by items that read one).
+fn live_state(
+    boxes: &[BoxState],
+    speeds: &[f64],
+    accels: &[f64],
+    live: &mut Vec<crate::coverage::LiveActor>,
+) {
+    live.clear();
+    for (i, b) in boxes.iter().enumerate() {
+        live.push(crate::coverage::LiveActor {
+            speed: speeds[i],
+            acceleration: accels.get(i).copied().unwrap_or(0.0),
+            x: b.x,
+            y: b.y,
+            yaw: b.yaw,
+            lane: None,
+            length: b.length,
+            width: b.width,
+            vx: b.vx,
+            vy: b.vy,
+        });
+    }
 }
 
 /// When the next item not sampled yet is due (s; infinite: at the end).
