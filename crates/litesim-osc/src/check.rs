@@ -1197,6 +1197,177 @@ fn call_target(e: &Expr) -> Option<(Name, &[Arg])> {
     }
 }
 
+/// Names defined twice (E0330–E0336), each with where it was first
+/// defined: enum types, enum members (an `extend` included), enum values
+/// that do not increase, physical types, units, SI base exponents, and the
+/// members of one compound (its own and its `extend`s').
+fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
+    let twice = |code, span: Span, what: String, first: Span, hint: &str| {
+        Diagnostic::error(code, span, what)
+            .with_hint(hint)
+            .with_related(first, "first defined here")
+    };
+    let mut enums: BTreeMap<String, Span> = BTreeMap::new();
+    let mut enum_members: BTreeMap<String, BTreeMap<String, Span>> = BTreeMap::new();
+    let mut enum_last: BTreeMap<String, i128> = BTreeMap::new();
+    let mut physical: BTreeMap<String, Span> = BTreeMap::new();
+    let mut units: BTreeMap<String, Span> = BTreeMap::new();
+    // (compound key) → member name → first span
+    let mut members: BTreeMap<String, BTreeMap<String, Span>> = BTreeMap::new();
+    let qual = |q: &QualName| {
+        q.actor.as_ref().map_or(q.name.text.clone(), |a| {
+            format!("{}.{}", a.text, q.name.text)
+        })
+    };
+    let mut member_names = |key: String, ms: &[Member], out: &mut Vec<Diagnostic>| {
+        let seen = members.entry(key.clone()).or_default();
+        for m in ms {
+            let names: Vec<&Name> = match m {
+                Member::Field(f) => f.names.iter().collect(),
+                Member::Event { name, .. } => vec![name],
+                Member::Method { name, .. } => vec![name],
+                _ => continue,
+            };
+            for n in names {
+                match seen.get(&n.text) {
+                    Some(first) => out.push(twice(
+                        "E0336",
+                        n.span,
+                        format!("'{}' is defined twice in '{key}'", n.text),
+                        *first,
+                        "rename one of them; an `extend` adds members, it cannot redefine one",
+                    )),
+                    None => {
+                        seen.insert(n.text.clone(), n.span);
+                    }
+                }
+            }
+        }
+    };
+    for (_, f) in &prog.files {
+        for d in &f.decls {
+            match d {
+                Decl::Enum { name, members: ms } | Decl::ExtendEnum { name, members: ms } => {
+                    if matches!(d, Decl::Enum { .. }) {
+                        match enums.get(&name.text) {
+                            Some(first) => out.push(twice(
+                                "E0330",
+                                name.span,
+                                format!("enum '{}' is defined twice", name.text),
+                                *first,
+                                "use `extend` to add members to an enum",
+                            )),
+                            None => {
+                                enums.insert(name.text.clone(), name.span);
+                            }
+                        }
+                    }
+                    let seen = enum_members.entry(name.text.clone()).or_default();
+                    for (m, value) in ms {
+                        if let Some(first) = seen.get(&m.text) {
+                            out.push(twice(
+                                "E0331",
+                                m.span,
+                                format!("'{}' is a member of enum '{}' twice", m.text, name.text),
+                                *first,
+                                "each member once",
+                            ));
+                            continue;
+                        }
+                        seen.insert(m.text.clone(), m.span);
+                        // Values strictly increase: explicit ones as
+                        // written, implicit ones one above the last.
+                        let last = enum_last.get(&name.text).copied();
+                        let v = match value {
+                            Some(Expr::Int { value, .. }) => *value,
+                            _ => last.map_or(0, |l| l + 1),
+                        };
+                        if let (Some(l), Some(e)) = (last, value)
+                            && v <= l
+                        {
+                            out.push(
+                                Diagnostic::error(
+                                    "E0332",
+                                    e.span(),
+                                    format!(
+                                        "'{}' = {v} in enum '{}' does not increase (the member before is {l})",
+                                        m.text, name.text
+                                    ),
+                                )
+                                .with_hint("enum values must be strictly increasing"),
+                            );
+                        }
+                        enum_last.insert(name.text.clone(), v.max(last.unwrap_or(i128::MIN)));
+                    }
+                }
+                Decl::PhysicalType { name, si } => {
+                    match physical.get(&name.text) {
+                        Some(first) => out.push(twice(
+                            "E0333",
+                            name.span,
+                            format!("physical type '{}' is defined twice", name.text),
+                            *first,
+                            "one `type … is SI(…)` per physical type",
+                        )),
+                        None => {
+                            physical.insert(name.text.clone(), name.span);
+                        }
+                    }
+                    si_twice(si, out);
+                }
+                Decl::Unit { name, args, .. } => {
+                    match units.get(&name.text) {
+                        Some(first) => out.push(twice(
+                            "E0334",
+                            name.span,
+                            format!("unit '{}' is defined twice", name.text),
+                            *first,
+                            "unit names are global: pick another name",
+                        )),
+                        None => {
+                            units.insert(name.text.clone(), name.span);
+                        }
+                    }
+                    si_twice(args, out);
+                }
+                Decl::Compound {
+                    name,
+                    members: ms,
+                    kind,
+                    ..
+                } if *kind != DeclKind::Modifier => member_names(qual(name), ms, out),
+                Decl::Extend {
+                    target,
+                    members: ms,
+                } => member_names(qual(target), ms, out),
+                _ => {}
+            }
+        }
+    }
+}
+
+/// An SI base exponent given twice in `SI(m: 1, m: 2)` (E0335).
+fn si_twice(args: &[Arg], out: &mut Vec<Diagnostic>) {
+    let mut seen: BTreeMap<&str, Span> = BTreeMap::new();
+    for a in args {
+        if let Some(n) = &a.name {
+            if let Some(first) = seen.get(n.text.as_str()) {
+                out.push(
+                    Diagnostic::error(
+                        "E0335",
+                        n.span,
+                        format!("'{}' is given twice in SI(…)", n.text),
+                    )
+                    .with_hint("each base unit once, with its exponent")
+                    .with_related(*first, "first given here"),
+                );
+            } else {
+                seen.insert(n.text.as_str(), n.span);
+            }
+        }
+    }
+}
+
 /// Semantic diagnostics of a loaded program.
 pub fn check(prog: &Program) -> Vec<Diagnostic> {
     let m = Model::collect(prog);
@@ -1205,7 +1376,8 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
         diags: Vec::new(),
         scope: Scope::default(),
     };
-    let mut seen: BTreeSet<String> = BTreeSet::new();
+    redefinitions(prog, &mut c.diags);
+    let mut seen: BTreeMap<String, Span> = BTreeMap::new();
     for (_, f) in &prog.files {
         for d in &f.decls {
             match d {
@@ -1223,15 +1395,20 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
                             .map_or(String::new(), |a| format!("{}.", a.text)),
                         name.name.text
                     );
-                    if !seen.insert(key.clone()) && *kind != DeclKind::Modifier {
-                        c.diags.push(
+                    match seen.get(&key) {
+                        Some(first) if *kind != DeclKind::Modifier => c.diags.push(
                             Diagnostic::error(
                                 "E0307",
                                 name.name.span,
                                 format!("'{key}' is declared twice"),
                             )
-                            .with_hint("use `extend` to add to an existing declaration"),
-                        );
+                            .with_hint("use `extend` to add to an existing declaration")
+                            .with_related(*first, "first declared here"),
+                        ),
+                        Some(_) => {}
+                        None => {
+                            seen.insert(key.clone(), name.name.span);
+                        }
                     }
                     if let Some(a) = &name.actor
                         && !matches!(m.compounds.get(&a.text), Some((DeclKind::Actor, ..)))

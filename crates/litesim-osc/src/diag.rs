@@ -27,6 +27,9 @@ pub struct Diagnostic {
     pub span: Span,
     /// How to fix it, when known.
     pub hint: Option<String>,
+    /// Another place that explains this one (`first defined here`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub related: Option<(Span, String)>,
 }
 
 impl Diagnostic {
@@ -38,6 +41,7 @@ impl Diagnostic {
             message: message.into(),
             span,
             hint: None,
+            related: None,
         }
     }
     /// A warning.
@@ -48,11 +52,18 @@ impl Diagnostic {
             message: message.into(),
             span,
             hint: None,
+            related: None,
         }
     }
     /// Adds a hint.
     pub fn with_hint(mut self, hint: impl Into<String>) -> Self {
         self.hint = Some(hint.into());
+        self
+    }
+
+    /// Points at another place (`first defined here`).
+    pub fn with_related(mut self, span: Span, what: impl Into<String>) -> Self {
+        self.related = Some((span, what.into()));
         self
     }
 
@@ -86,6 +97,26 @@ impl Diagnostic {
         if let Some(h) = &self.hint {
             s += &format!("{:gutter$} = hint: {h}\n", "");
         }
+        if let Some((sp, what)) = &self.related {
+            let g = sources.file(sp.file);
+            let (l, c) = g.line_col(sp.start as usize);
+            let (el, ec) = g.line_col(sp.end as usize);
+            let w = if el == l {
+                ec.saturating_sub(c).max(1)
+            } else {
+                1
+            };
+            let gut = l.to_string().len();
+            s += &format!(
+                "{}:{l}:{c}: note: {what}\n{:gut$} |\n{l} | {}\n{:gut$} | {}{}\n",
+                g.path,
+                "",
+                g.line(l),
+                "",
+                " ".repeat(c - 1),
+                "-".repeat(w)
+            );
+        }
         s
     }
 
@@ -97,6 +128,11 @@ impl Diagnostic {
         serde_json::json!({
             "file": f.path, "line": line, "column": col, "end_line": eline, "end_column": ecol,
             "severity": self.severity, "code": self.code, "message": self.message, "hint": self.hint,
+            "related": self.related.as_ref().map(|(sp, what)| {
+                let g = sources.file(sp.file);
+                let (l, c) = g.line_col(sp.start as usize);
+                serde_json::json!({"file": g.path, "line": l, "column": c, "message": what})
+            }),
         })
     }
 }

@@ -39,6 +39,13 @@ fn load(path: &Path) -> (serde_json::Value, SourceMap, Vec<Diagnostic>) {
         let root = prog.files.iter().find(|(id, _)| *id == 0).unwrap();
         let tree = serde_json::to_value(&root.1).unwrap();
         prog.sources.files[0].path = name;
+        // Library files too (notes point into them): machine-independent.
+        for f in prog.sources.files.iter_mut().skip(1) {
+            let base = Path::new(&f.path)
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+            f.path = format!("domain/{base}");
+        }
         (tree, prog.sources, prog.diagnostics)
     } else {
         let (sources, ast, diags) = parse_str(&name, &text);
