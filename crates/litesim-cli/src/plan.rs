@@ -59,13 +59,24 @@ pub fn run(
     std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
     r.log.write_json(&dir.join("log.json"))?;
     r.log.write_csv(&dir.join("log.csv"))?;
+    // The rule and where the run ended, so that a miss says why.
+    let (tol, stop) = r.goal_rule;
+    let why = if r.reached_goal {
+        String::new()
+    } else if r.goal_distance > tol {
+        format!(" — {:.2} m away", r.goal_distance)
+    } else {
+        " — still moving".to_string()
+    };
     println!(
-        "{name}: {}",
+        "{name}: {} (within {tol} m and below {stop} m/s: {:.2} m, {:.2} m/s{why})",
         if r.reached_goal {
             "reached the goal"
         } else {
             "did NOT reach the goal"
-        }
+        },
+        r.goal_distance,
+        r.final_speed
     );
     println!(
         "  simulated time   {:8.2} s ({} steps, {:.0} ms wall)",

@@ -252,6 +252,11 @@ fn plan_runs_configs_from_obstacles_png_and_opendrive() {
             text.contains("reached the goal") && text.contains("cross-track"),
             "{text}"
         );
+        // The goal rule and where the run ended are stated.
+        assert!(
+            text.contains("(within ") && text.contains(" m/s: "),
+            "{text}"
+        );
         let log =
             litesim_log::SimulationLog::read_json(&dir.path().join(name).join("log.json")).unwrap();
         assert!(log.plan.is_some() && log.tracking.is_some());

@@ -386,6 +386,12 @@ pub struct ClosedLoopResult {
     pub log: SimulationLog,
     /// Goal reached (within tolerance, below the stop speed).
     pub reached_goal: bool,
+    /// The goal rule: (tolerance m, stop speed m/s).
+    pub goal_rule: (f64, f64),
+    /// Where the run ended: distance to the goal (m) and speed (m/s).
+    pub goal_distance: f64,
+    /// Speed at the end (m/s).
+    pub final_speed: f64,
     /// Simulated time (s).
     pub time: f64,
     /// Steps executed.
@@ -615,6 +621,10 @@ pub fn run_closed_loop(
         return Err(PlanError::Mpc(e));
     }
     let reached = stop.reached(&world);
+    let (goal_distance, final_speed) = world.actor("ego").map_or((f64::NAN, f64::NAN), |a| {
+        let st = a.state();
+        (st.pose.position.xy().distance(goal), st.speed.abs())
+    });
     let abs: Vec<f64> = tracking.lateral_error.iter().map(|e| e.abs()).collect();
     let max_cte = abs.iter().copied().fold(0.0, f64::max);
     let mean_cte = if abs.is_empty() {
@@ -657,6 +667,9 @@ pub fn run_closed_loop(
         time: world.time(),
         steps,
         reached_goal: reached,
+        goal_rule: (cfg.goal.tolerance, cfg.goal.stop_speed),
+        goal_distance,
+        final_speed,
         path_length: fmt.path_cost,
         max_cross_track: max_cte,
         mean_cross_track: mean_cte,
