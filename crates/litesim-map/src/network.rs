@@ -153,6 +153,19 @@ pub struct RoadNetwork {
 }
 
 /// Step (m) that keeps a chord within `tol` of an arc of curvature `k`.
+/// Distance from `p` to the segment `a`–`b`.
+fn seg_distance(p: Vec2, a: Vec2, b: Vec2) -> f64 {
+    let (dx, dy) = (b.x - a.x, b.y - a.y);
+    let l2 = dx * dx + dy * dy;
+    let u = if l2 > 0.0 {
+        (((p.x - a.x) * dx + (p.y - a.y) * dy) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let (fx, fy) = (a.x + dx * u, a.y + dy * u);
+    ((p.x - fx).powi(2) + (p.y - fy).powi(2)).sqrt()
+}
+
 fn step_for(k: f64, tol: f64, max: f64) -> f64 {
     if k.abs() < 1e-9 {
         max
@@ -555,9 +568,12 @@ impl RoadNetwork {
     }
 
     /// Centre and border polylines of every lane (not the zero-width centre
-    /// lanes), within `tolerance` m of the true curves (chord error on the
-    /// reference line, plus a sample wherever lane width changes or a road
-    /// mark starts).
+    /// lanes), within `tolerance` m of the true curves: a sample where
+    /// geometry pieces meet, lane offsets and lane width/border records
+    /// change and road marks start; between them, pieces are halved until
+    /// every lane line's exact points at a quarter, half and three quarters
+    /// of each piece lie within `tolerance` of its chord
+    /// (`tests/export_tolerance.rs` checks every 2 cm of every example map).
     pub fn lane_polylines(&self, tolerance: f64) -> Vec<LanePolyline> {
         let mut all = self.all_lane_polylines(tolerance);
         all.retain(|l| l.lane != 0);
@@ -586,13 +602,41 @@ impl RoadNetwork {
                 if s_end - sec.s < 1e-6 {
                     continue;
                 }
-                let mut ss = vec![sec.s];
-                let mut s = sec.s;
-                while s < s_end {
-                    let k = r.reference(s).curvature.abs() + 0.02; // margin for width changes
-                    s = (s + step_for(k, tol, 5.0)).min(s_end);
-                    ss.push(s);
+                // Breakpoints: where geometry pieces meet, lane offsets and
+                // lane widths/borders change record — the lines may bend
+                // sharply (or jump) there, so a sample sits on each.
+                let mut ss = vec![sec.s, s_end];
+                let inside = |x: f64| x > sec.s + 1e-9 && x < s_end - 1e-9;
+                ss.extend(r.plan_view.iter().map(|g| g.s).filter(|x| inside(*x)));
+                ss.extend(r.lane_offsets.iter().map(|c| c.s).filter(|x| inside(*x)));
+                for l in sec.left.iter().chain(&sec.right) {
+                    for c in l.widths.iter().chain(&l.borders) {
+                        let x = sec.s + c.s;
+                        if inside(x) {
+                            ss.push(x);
+                        }
+                    }
                 }
+                ss.sort_by(f64::total_cmp);
+                ss.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+                // Between breakpoints: a first step from the curvature, then
+                // halving every piece until each lane border's exact points
+                // at a quarter, half and three quarters of it are within
+                // `tol` of the chord (checked against the exact evaluation).
+                let mut fine = Vec::with_capacity(ss.len() * 4);
+                for w in ss.windows(2) {
+                    let (a, b) = (w[0], w[1]);
+                    let mut s = a;
+                    fine.push(a);
+                    while s < b - 1e-9 {
+                        let k = r.reference(s).curvature.abs();
+                        let next = (s + step_for(k, tol, 5.0)).min(b);
+                        self.refine_piece(r, sec, s, next, s_end, tol, 0, &mut fine);
+                        s = next;
+                    }
+                }
+                fine.push(s_end);
+                let mut ss = fine;
                 // A sample where each road mark starts, so that runs meet.
                 let starts = sec
                     .center
@@ -659,6 +703,60 @@ impl RoadNetwork {
             }
         }
         out
+    }
+
+    /// Adds the samples in (a, b] that keep every lane border of the
+    /// section within `tol` of its chords (bisecting up to 12 times: at
+    /// most 4096 pieces per first step).
+    #[allow(clippy::too_many_arguments)]
+    fn refine_piece(
+        &self,
+        r: &Road,
+        sec: &crate::model::LaneSection,
+        a: f64,
+        b: f64,
+        s_end: f64,
+        tol: f64,
+        depth: u32,
+        out: &mut Vec<f64>,
+    ) {
+        let inside = |s: f64| {
+            if s >= s_end {
+                (s_end - 1e-6).max(sec.s)
+            } else {
+                s
+            }
+        };
+        let borders = |s: f64| -> Vec<Vec2> {
+            let s = inside(s);
+            let mut v = Vec::new();
+            for span in r.lane_spans(s) {
+                for t in [span.t_inner, span.t_outer, span.t_center()] {
+                    let (x, y, _) = r.st_to_xyz(s, t);
+                    v.push(Vec2::new(x, y));
+                }
+            }
+            v
+        };
+        let ok = depth >= 12 || {
+            let (pa, pb) = (borders(a), borders(b));
+            [0.25, 0.5, 0.75].iter().all(|u| {
+                let pm = borders(a + (b - a) * u);
+                pm.len() == pa.len()
+                    && pa.len() == pb.len()
+                    && pm
+                        .iter()
+                        .zip(pa.iter().zip(&pb))
+                        .all(|(m, (p, q))| seg_distance(*m, *p, *q) <= tol)
+            })
+        };
+        if ok {
+            out.push(b);
+        } else {
+            let m = 0.5 * (a + b);
+            self.refine_piece(r, sec, a, m, s_end, tol, depth + 1, out);
+            self.refine_piece(r, sec, m, b, s_end, tol, depth + 1, out);
+        }
     }
 
     /// Lane spans of a road at `s` (convenience).
