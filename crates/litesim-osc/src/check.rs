@@ -1229,17 +1229,14 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                 _ => continue,
             };
             for n in names {
-                match seen.get(&n.text) {
-                    Some(first) => out.push(twice(
+                if let Some(first) = first_place(seen, n) {
+                    out.push(twice(
                         "E0336",
                         n.span,
                         format!("'{}' is defined twice in '{key}'", n.text),
-                        *first,
+                        first,
                         "rename one of them; an `extend` adds members, it cannot redefine one",
-                    )),
-                    None => {
-                        seen.insert(n.text.clone(), n.span);
-                    }
+                    ));
                 }
             }
         }
@@ -1248,33 +1245,29 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
         for d in &f.decls {
             match d {
                 Decl::Enum { name, members: ms } | Decl::ExtendEnum { name, members: ms } => {
-                    if matches!(d, Decl::Enum { .. }) {
-                        match enums.get(&name.text) {
-                            Some(first) => out.push(twice(
-                                "E0330",
-                                name.span,
-                                format!("enum '{}' is defined twice", name.text),
-                                *first,
-                                "use `extend` to add members to an enum",
-                            )),
-                            None => {
-                                enums.insert(name.text.clone(), name.span);
-                            }
-                        }
+                    if matches!(d, Decl::Enum { .. })
+                        && let Some(first) = first_place(&mut enums, name)
+                    {
+                        out.push(twice(
+                            "E0330",
+                            name.span,
+                            format!("enum '{}' is defined twice", name.text),
+                            first,
+                            "use `extend` to add members to an enum",
+                        ));
                     }
                     let seen = enum_members.entry(name.text.clone()).or_default();
                     for (m, value) in ms {
-                        if let Some(first) = seen.get(&m.text) {
+                        if let Some(first) = first_place(seen, m) {
                             out.push(twice(
                                 "E0331",
                                 m.span,
                                 format!("'{}' is a member of enum '{}' twice", m.text, name.text),
-                                *first,
+                                first,
                                 "each member once",
                             ));
                             continue;
                         }
-                        seen.insert(m.text.clone(), m.span);
                         // Values strictly increase: explicit ones as
                         // written, implicit ones one above the last.
                         let last = enum_last.get(&name.text).copied();
@@ -1301,32 +1294,26 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     }
                 }
                 Decl::PhysicalType { name, si } => {
-                    match physical.get(&name.text) {
-                        Some(first) => out.push(twice(
+                    if let Some(first) = first_place(&mut physical, name) {
+                        out.push(twice(
                             "E0333",
                             name.span,
                             format!("physical type '{}' is defined twice", name.text),
-                            *first,
+                            first,
                             "one `type … is SI(…)` per physical type",
-                        )),
-                        None => {
-                            physical.insert(name.text.clone(), name.span);
-                        }
+                        ));
                     }
                     si_twice(si, out);
                 }
                 Decl::Unit { name, args, .. } => {
-                    match units.get(&name.text) {
-                        Some(first) => out.push(twice(
+                    if let Some(first) = first_place(&mut units, name) {
+                        out.push(twice(
                             "E0334",
                             name.span,
                             format!("unit '{}' is defined twice", name.text),
-                            *first,
+                            first,
                             "unit names are global: pick another name",
-                        )),
-                        None => {
-                            units.insert(name.text.clone(), name.span);
-                        }
+                        ));
                     }
                     si_twice(args, out);
                 }
@@ -1342,6 +1329,17 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                 } => member_names(qual(target), ms, out),
                 _ => {}
             }
+        }
+    }
+}
+
+/// Where `name` was first defined, if it was; else it is noted as first.
+fn first_place(seen: &mut BTreeMap<String, Span>, name: &Name) -> Option<Span> {
+    match seen.get(&name.text) {
+        Some(first) => Some(*first),
+        None => {
+            seen.insert(name.text.clone(), name.span);
+            None
         }
     }
 }
