@@ -534,9 +534,14 @@ pub fn merge(dirs: &[PathBuf], out: &Path, allow_partial: bool) -> Result<()> {
         );
     }
     println!(
-        "merged {} runs into {}/results.jsonl and results.csv",
+        "merged {} runs into {}/results.jsonl and results.csv{}",
         r.runs,
-        out.display()
+        out.display(),
+        if out.join("coverage.json").exists() {
+            " (and coverage.json)"
+        } else {
+            ""
+        }
     );
     Ok(())
 }
