@@ -246,8 +246,8 @@ fn report_renders_in_chromium_with_bad_lines_skipped() {
             .unwrap()
             .any(|e| { e.unwrap().path().extension().is_some_and(|x| x == "png") })
     );
-    // ego_speed: [40..120] every 10 kph → 8 buckets; the drawn speeds stop
-    // at 80 kph → 4 holes.
+    // ego_speed: [40..120] every 10 kph → 8 buckets; the drawn speeds are
+    // in 50..70 kph → 6 holes.
     python(
         "check_report.py",
         &[
@@ -256,7 +256,7 @@ fn report_renders_in_chromium_with_bad_lines_skipped() {
             &failed.to_string(),
             "c.ego_speed",
             "8",
-            "4",
+            "6",
         ],
     );
 }
