@@ -153,6 +153,14 @@ pub struct RoadNetwork {
 }
 
 /// Step (m) that keeps a chord within `tol` of an arc of curvature `k`.
+/// How often the lane sampler may halve a first step (the first step is
+/// already sized by the curvature; halving serves width changes).
+pub const MAX_REFINE_DEPTH: u32 = 6;
+
+/// Pieces the lane sampler may test per lane section (about 0.1 s of
+/// work): enough for 0.1 mm on kilometres of ordinary road.
+pub const MAX_REFINED_PIECES: usize = 50_000;
+
 /// Distance from `p` to the segment `a`–`b`.
 fn seg_distance(p: Vec2, a: Vec2, b: Vec2) -> f64 {
     let (dx, dy) = (b.x - a.x, b.y - a.y);
@@ -608,12 +616,17 @@ impl RoadNetwork {
                 let mut ss = vec![sec.s, s_end];
                 let inside = |x: f64| x > sec.s + 1e-9 && x < s_end - 1e-9;
                 ss.extend(r.plan_view.iter().map(|g| g.s).filter(|x| inside(*x)));
-                ss.extend(r.lane_offsets.iter().map(|c| c.s).filter(|x| inside(*x)));
+                // A record may jump: a sample just before it too (on the
+                // old record), so that the jump is one short step.
+                let mut records: Vec<f64> = r.lane_offsets.iter().map(|c| c.s).collect();
                 for l in sec.left.iter().chain(&sec.right) {
-                    for c in l.widths.iter().chain(&l.borders) {
-                        let x = sec.s + c.s;
-                        if inside(x) {
-                            ss.push(x);
+                    records.extend(l.widths.iter().chain(&l.borders).map(|c| sec.s + c.s));
+                }
+                for x in records {
+                    if inside(x) {
+                        ss.push(x);
+                        if inside(x - 1e-6) {
+                            ss.push(x - 1e-6);
                         }
                     }
                 }
@@ -624,6 +637,7 @@ impl RoadNetwork {
                 // at a quarter, half and three quarters of it are within
                 // `tol` of the chord (checked against the exact evaluation).
                 let mut fine = Vec::with_capacity(ss.len() * 4);
+                let mut budget = MAX_REFINED_PIECES;
                 for w in ss.windows(2) {
                     let (a, b) = (w[0], w[1]);
                     let mut s = a;
@@ -631,7 +645,7 @@ impl RoadNetwork {
                     while s < b - 1e-9 {
                         let k = r.reference(s).curvature.abs();
                         let next = (s + step_for(k, tol, 5.0)).min(b);
-                        self.refine_piece(r, sec, s, next, s_end, tol, 0, &mut fine);
+                        self.refine_piece(r, sec, (s, next), s_end, tol, 0, &mut budget, &mut fine);
                         s = next;
                     }
                 }
@@ -706,20 +720,23 @@ impl RoadNetwork {
     }
 
     /// Adds the samples in (a, b] that keep every lane border of the
-    /// section within `tol` of its chords (bisecting up to 12 times: at
-    /// most 4096 pieces per first step).
+    /// section within `tol` of its chords (bisecting up to
+    /// [`MAX_REFINE_DEPTH`] times: at most 64 pieces per first step, and at most `budget` pieces per
+    /// section — absurd but finite maps, a lane width growing as s³, must
+    /// not take minutes: past the budget pieces are taken as they are).
     #[allow(clippy::too_many_arguments)]
     fn refine_piece(
         &self,
         r: &Road,
         sec: &crate::model::LaneSection,
-        a: f64,
-        b: f64,
+        (a, b): (f64, f64),
         s_end: f64,
         tol: f64,
         depth: u32,
+        budget: &mut usize,
         out: &mut Vec<f64>,
     ) {
+        *budget = budget.saturating_sub(1);
         let inside = |s: f64| {
             if s >= s_end {
                 (s_end - 1e-6).max(sec.s)
@@ -738,7 +755,7 @@ impl RoadNetwork {
             }
             v
         };
-        let ok = depth >= 12 || {
+        let ok = depth >= MAX_REFINE_DEPTH || *budget == 0 || {
             let (pa, pb) = (borders(a), borders(b));
             [0.25, 0.5, 0.75].iter().all(|u| {
                 let pm = borders(a + (b - a) * u);
@@ -754,8 +771,8 @@ impl RoadNetwork {
             out.push(b);
         } else {
             let m = 0.5 * (a + b);
-            self.refine_piece(r, sec, a, m, s_end, tol, depth + 1, out);
-            self.refine_piece(r, sec, m, b, s_end, tol, depth + 1, out);
+            self.refine_piece(r, sec, (a, m), s_end, tol, depth + 1, budget, out);
+            self.refine_piece(r, sec, (m, b), s_end, tol, depth + 1, budget, out);
         }
     }
 
