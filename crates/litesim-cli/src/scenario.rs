@@ -488,12 +488,7 @@ pub fn batch(
     );
     println!("wrote {}/results.jsonl and results.csv", out.display());
     if let Some(path) = &junit {
-        let text = std::fs::read_to_string(out.join("results.jsonl"))
-            .with_context(|| format!("cannot read {}/results.jsonl", out.display()))?;
-        let lines: Vec<batch::RunLine> = text
-            .lines()
-            .filter_map(|l| serde_json::from_str(l).ok())
-            .collect();
+        let lines = batch::read_lines(&out.join("results.jsonl"));
         batch::atomic(path, &batch::junit(&lines))?;
         println!("wrote {}", path.display());
     }

@@ -331,7 +331,8 @@ pub fn run_line(
     line
 }
 
-fn read_lines(path: &Path) -> Vec<RunLine> {
+/// The result lines of a `results.jsonl` (none when it cannot be read).
+pub fn read_lines(path: &Path) -> Vec<RunLine> {
     let Ok(text) = std::fs::read_to_string(path) else {
         return Vec::new();
     };
@@ -368,9 +369,9 @@ pub fn read_defs(dir: &Path) -> Result<Vec<(String, crate::coverage::ItemDef)>, 
 }
 
 /// The coverage of `lines` over the items `defs`.
-pub fn coverage_of(
+pub fn coverage_of<'a>(
     defs: &[(String, crate::coverage::ItemDef)],
-    lines: &[RunLine],
+    lines: impl IntoIterator<Item = &'a RunLine>,
 ) -> crate::coverage::CoverageFile {
     let mut fold = crate::coverage::Fold::default();
     for (t, d) in defs {
@@ -444,22 +445,17 @@ pub fn write_sorted(
     lines: &[RunLine],
     defs: &[(String, crate::coverage::ItemDef)],
 ) -> Result<(), ScenarioError> {
-    if !defs.is_empty() {
-        let sorted: Vec<RunLine> = {
-            let mut by: BTreeMap<(String, u64), &RunLine> = BTreeMap::new();
-            for l in lines {
-                by.insert((l.test.clone(), l.seed), l);
-            }
-            by.into_values().cloned().collect()
-        };
-        let c = coverage_of(defs, &sorted);
-        let text =
-            serde_json::to_string_pretty(&c).map_err(|e| ScenarioError::Io(e.to_string()))?;
-        atomic(&dir.join("coverage.json"), &(text + "\n"))?;
-    }
+    // One line per (test, seed), the last one given winning: the results
+    // and the coverage are both made from these.
     let mut by: BTreeMap<(String, u64), &RunLine> = BTreeMap::new();
     for l in lines {
         by.insert((l.test.clone(), l.seed), l);
+    }
+    if !defs.is_empty() {
+        let c = coverage_of(defs, by.values().copied());
+        let text =
+            serde_json::to_string_pretty(&c).map_err(|e| ScenarioError::Io(e.to_string()))?;
+        atomic(&dir.join("coverage.json"), &(text + "\n"))?;
     }
     let mut jsonl = String::new();
     let mut csv = String::from(
