@@ -184,6 +184,10 @@ impl<'w> ActorRef<'w> {
     fn actor(&self) -> &'w Actor {
         &self.world.actors[self.index]
     }
+    /// Position in [`World::actors`] (see [`World::position`]).
+    pub fn index(&self) -> usize {
+        self.index
+    }
     /// Unique id.
     pub fn id(&self) -> &'w str {
         &self.actor().id
@@ -386,6 +390,12 @@ impl World {
         self.index
             .get(id)
             .map(|&index| ActorRef { world: self, index })
+    }
+    /// An actor's position in [`World::actors`] (creation order, closed up
+    /// when an actor is removed): lets a caller keep per-actor data in a
+    /// `Vec` beside the world instead of looking ids up every step.
+    pub fn position(&self, id: &str) -> Option<usize> {
+        self.index.get(id).copied()
     }
     fn index_of(&self, id: &str) -> Result<usize, WorldError> {
         self.index

@@ -1,6 +1,7 @@
 //! The road network: a parsed map plus the indices queries need.
 
-use crate::model::{LinkTarget, OpenDrive, Road};
+use crate::geometry::Shape;
+use crate::model::{Cubic, Lane, LinkTarget, OpenDrive, Road};
 use crate::parse::{MapError, Warning, parse};
 use crate::road::{Direction, LaneSpan};
 use litesim_core::{Pose, Vec2, math, wrap_angle};
@@ -150,6 +151,84 @@ pub struct RoadNetwork {
     index: BTreeMap<String, usize>,
     segments: SegmentIndex,
     graph: BTreeMap<LaneRef, Vec<(LaneRef, f64)>>,
+    edges: Vec<EdgeBounds>,
+}
+
+/// What [`RoadNetwork::on_road_radius`] needs to know about a road: how
+/// fast its outer edges can move sideways and its reference line can turn,
+/// and where either may jump.
+#[derive(Clone, Debug, Default)]
+struct EdgeBounds {
+    /// Bound on |d(edge t)/ds| between breaks: the lane offset's slope plus
+    /// the sum of one side's lane-width slopes.
+    slope: f64,
+    /// Bound on the reference line's |curvature| (infinite for polynomial
+    /// shapes, whose curvature is not bounded cheaply: no radius there).
+    curvature: f64,
+    /// Road s of every section, width/border/offset record and geometry
+    /// start, sorted: edges and headings are continuous between them.
+    breaks: Vec<f64>,
+}
+
+impl EdgeBounds {
+    fn of(r: &Road) -> Self {
+        // |b + 2c·x + 3d·x²| on [0, len].
+        let slope = |c: &Cubic, len: f64| {
+            let len = len.max(0.0);
+            c.b.abs() + 2.0 * c.c.abs() * len + 3.0 * c.d.abs() * len * len
+        };
+        let max_slope = |recs: &[Cubic], base: f64, end: f64| {
+            recs.iter()
+                .enumerate()
+                .map(|(i, c)| {
+                    let next = recs.get(i + 1).map_or(end, |n| base + n.s);
+                    slope(c, next - (base + c.s))
+                })
+                .fold(0.0, f64::max)
+        };
+        let mut breaks = vec![0.0, r.length];
+        breaks.extend(r.lane_offsets.iter().map(|c| c.s));
+        breaks.extend(r.plan_view.iter().map(|g| g.s));
+        let offset = max_slope(&r.lane_offsets, 0.0, r.length);
+        let mut lanes: f64 = 0.0;
+        for (k, sec) in r.sections.iter().enumerate() {
+            let end = r.sections.get(k + 1).map_or(r.length, |n| n.s);
+            breaks.push(sec.s);
+            let mut side = |ls: &[Lane]| {
+                let mut sum = 0.0;
+                for l in ls {
+                    for recs in [&l.widths, &l.borders] {
+                        breaks.extend(recs.iter().map(|c| sec.s + c.s));
+                        sum += max_slope(recs, sec.s, end);
+                    }
+                }
+                sum
+            };
+            let (left, right) = (side(&sec.left), side(&sec.right));
+            lanes = lanes.max(left).max(right);
+        }
+        let curvature = r
+            .plan_view
+            .iter()
+            .map(|g| match g.shape {
+                Shape::Line => 0.0,
+                Shape::Arc { curvature } => curvature.abs(),
+                Shape::Spiral {
+                    curv_start,
+                    curv_end,
+                } => curv_start.abs().max(curv_end.abs()),
+                Shape::Poly3 { .. } | Shape::ParamPoly3 { .. } => f64::INFINITY,
+            })
+            .fold(0.0, f64::max);
+        breaks.retain(|b| b.is_finite());
+        breaks.sort_by(f64::total_cmp);
+        breaks.dedup();
+        Self {
+            slope: offset + lanes,
+            curvature,
+            breaks,
+        }
+    }
 }
 
 /// Step (m) that keeps a chord within `tol` of an arc of curvature `k`.
@@ -239,7 +318,9 @@ impl RoadNetwork {
             index,
             segments: SegmentIndex::default(),
             graph: BTreeMap::new(),
+            edges: Vec::new(),
         };
+        net.edges = net.od.roads.iter().map(EdgeBounds::of).collect();
         net.build_segments();
         net.build_graph(&mut warnings);
         net.warnings = warnings;
@@ -435,6 +516,45 @@ impl RoadNetwork {
             }
             _ => self.locate(p),
         }
+    }
+
+    /// A distance within which every point is on a road, given that `at`
+    /// is where [`RoadNetwork::locate`] put a point: a caller that checks
+    /// each vehicle each step for leaving the road checks again only once
+    /// the vehicle has moved that far (0 where the map gives no bound:
+    /// polynomial reference lines, a point at a section or record border).
+    ///
+    /// Why it holds: moving a distance d changes the point's t by at most d
+    /// and its s by at most d·c, c = 1/(1 − κ·|t|) on a reference line of
+    /// curvature ≤ κ; between breaks the road's edges move by at most
+    /// slope·Δs. The radius keeps t inside the edges and s between breaks,
+    /// with a 10 % and 1 cm reserve for rounding.
+    pub fn on_road_radius(&self, at: &Located) -> f64 {
+        let (Some(r), Some(b)) = (self.od.roads.get(at.road), self.edges.get(at.road)) else {
+            return 0.0;
+        };
+        if !(b.curvature.is_finite() && b.slope.is_finite()) {
+            return 0.0;
+        }
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        r.find_span(at.s, |l| {
+            if l.width() > 1e-3 {
+                lo = lo.min(l.t_inner.min(l.t_outer));
+                hi = hi.max(l.t_inner.max(l.t_outer));
+            }
+            false
+        });
+        let m_t = (at.t - lo).min(hi - at.t) - 0.01;
+        let i = b.breaks.partition_point(|&x| x <= at.s);
+        let prev = if i > 0 { b.breaks[i - 1] } else { 0.0 };
+        let next = b.breaks.get(i).copied().unwrap_or(r.length);
+        let m_s = (at.s - prev).min(next - at.s);
+        let k = b.curvature * (at.t.abs() + m_t.max(0.0));
+        if !(m_t > 0.0 && m_s > 0.0 && k < 0.5) {
+            return 0.0;
+        }
+        let c = 1.0 / (1.0 - k);
+        0.9 * (m_t / (1.0 + b.slope * c)).min(m_s / c)
     }
 
     /// The point on road `ri` (projection refined from `s_guess`), if it

@@ -468,6 +468,12 @@ pub fn execute(
         .map(|l| l.boxes.iter().map(shows_red).collect())
         .unwrap_or_default();
     let mut last_pos: Vec<Option<litesim_map::Located>> = vec![None; ids.len()];
+    // Where each vehicle was last located and how far it may move from
+    // there and surely still be on a road (`on_road_radius`): the off-road
+    // check locates it again only beyond that. Not for the SUT's car (it
+    // sees its road position each step) nor with traffic lights (red-light
+    // crossings need every step's s).
+    let mut on_road_until: Vec<Option<(f64, f64, f64)>> = vec![None; ids.len()];
     // Each light box's road as an index into the map's roads (compared per
     // vehicle and step; a box on a road the map lacks never matches).
     let box_roads: Vec<Option<usize>> = match (lights.as_ref(), net) {
@@ -892,25 +898,39 @@ pub fn execute(
                 }
                 planned.push((p.x, p.y, p.v));
                 let vehicle = a.kind == crate::elab::ActorKind::Vehicle;
-                let pos = if vehicle {
-                    net.and_then(|n| n.locate_near(st.pose.position.xy(), last_pos[i]))
+                let here = st.pose.position.xy();
+                let surely_on = on_road_until[i]
+                    .is_some_and(|(x, y, r)| (here.x - x).powi(2) + (here.y - y).powi(2) < r * r);
+                if surely_on {
+                    off.push(false);
                 } else {
-                    None
-                };
-                off.push(vehicle && net.is_some() && pos.is_none());
-                // Red light: the car's s passes a red box's s on a lane it controls.
-                if let (Some(info), Some(p), Some(q)) = (lights.as_ref(), &pos, &last_pos[i]) {
-                    for ((b, is_red), road) in info.boxes.iter().zip(&red).zip(&box_roads) {
-                        let lane_ok = b.valid_lanes.is_empty() || b.valid_lanes.contains(&p.lane);
-                        let crossed = *road == Some(p.road)
-                            && *road == Some(q.road)
-                            && ((q.s < b.s && p.s >= b.s) || (q.s > b.s && p.s <= b.s));
-                        if *is_red && lane_ok && crossed {
-                            kpis.red_light(i, &b.id, t);
+                    let pos = if vehicle {
+                        net.and_then(|n| n.locate_near(here, last_pos[i]))
+                    } else {
+                        None
+                    };
+                    off.push(vehicle && net.is_some() && pos.is_none());
+                    // Red light: the car's s passes a red box's s on a lane it controls.
+                    if let (Some(info), Some(p), Some(q)) = (lights.as_ref(), &pos, &last_pos[i]) {
+                        for ((b, is_red), road) in info.boxes.iter().zip(&red).zip(&box_roads) {
+                            let lane_ok =
+                                b.valid_lanes.is_empty() || b.valid_lanes.contains(&p.lane);
+                            let crossed = *road == Some(p.road)
+                                && *road == Some(q.road)
+                                && ((q.s < b.s && p.s >= b.s) || (q.s > b.s && p.s <= b.s));
+                            if *is_red && lane_ok && crossed {
+                                kpis.red_light(i, &b.id, t);
+                            }
                         }
                     }
+                    on_road_until[i] = match (net, &pos) {
+                        (Some(n), Some(p)) if lights.is_none() && Some(i) != ego_i => {
+                            Some((here.x, here.y, n.on_road_radius(p)))
+                        }
+                        _ => None,
+                    };
+                    last_pos[i] = pos;
                 }
-                last_pos[i] = pos;
                 if let Some(r) = rec.as_mut() {
                     if i == 0 {
                         r.begin(info.step_index, t);

@@ -24,6 +24,12 @@ pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) 
                 out.push(msg);
             }
         };
+        // The map check skips samples within `on_road_radius` of the last
+        // located one (they are surely on the road) and starts each
+        // projection from the last one.
+        let mut hint: Option<litesim_map::Located> = None;
+        let mut surely_on: Option<(f64, f64, f64)> = None;
+        let mut off_map = false;
         for w in a.samples.windows(2) {
             let (p, q) = (&w[0], &w[1]);
             if let Some(l) = limits {
@@ -68,10 +74,16 @@ pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) 
                     }
                 }
             }
-            if let Some(n) = net
-                && n.to_road(litesim_core::geometry::Vec2::new(q.x, q.y))
-                    .is_none()
-            {
+            let Some(n) = net.filter(|_| !off_map) else {
+                continue;
+            };
+            if surely_on.is_some_and(|(x, y, r)| (q.x - x).powi(2) + (q.y - y).powi(2) < r * r) {
+                continue;
+            }
+            hint = n.locate_near(litesim_core::geometry::Vec2::new(q.x, q.y), hint);
+            surely_on = hint.map(|h| (q.x, q.y, n.on_road_radius(&h)));
+            if hint.is_none() {
+                off_map = true;
                 report(
                     4,
                     format!(

@@ -162,7 +162,9 @@ pub struct Session {
     model: Option<Box<dyn Model>>,
     world: Option<World>,
     step_ms: u64,
-    meta: BTreeMap<String, ActorMeta>,
+    // In world order (`World::actors`): a step's report reads it by
+    // position, not by id.
+    meta: Vec<ActorMeta>,
     weather: Weather,
     time_of_day: TimeOfDay,
     lights: TrafficLights,
@@ -288,7 +290,7 @@ impl Session {
             model: None,
             world: None,
             step_ms: 0,
-            meta: BTreeMap::new(),
+            meta: Vec::new(),
             weather: Weather::default(),
             time_of_day: TimeOfDay::default(),
             lights: TrafficLights::default(),
@@ -360,14 +362,20 @@ impl Session {
         c
     }
 
-    fn meta(&self, id: &str) -> SspResult<&ActorMeta> {
-        self.meta
-            .get(id)
+    fn slot(&self, id: &str) -> SspResult<usize> {
+        self.world
+            .as_ref()
+            .and_then(|w| w.position(id))
+            .filter(|&i| i < self.meta.len())
             .ok_or_else(|| SspError::not_found(format!("no actor with id '{id}'")))
     }
 
+    fn meta(&self, id: &str) -> SspResult<&ActorMeta> {
+        self.slot(id).map(|i| &self.meta[i])
+    }
+
     fn report(&self, a: ActorRef<'_>) -> ReportedState {
-        let m = &self.meta[a.id()];
+        let m = &self.meta[a.index()];
         let s = a.state();
         let mut controls = m.controls.clone();
         if let VehicleInput::Pedals(p) = a.last_input()
@@ -671,7 +679,7 @@ impl Ssp for Session {
             })
             .filter(|a| {
                 filter.categories.is_empty()
-                    || filter.categories.contains(&self.meta[a.id()].category)
+                    || filter.categories.contains(&self.meta[a.index()].category)
             })
             .map(|a| self.report(a))
             .collect())
@@ -689,7 +697,7 @@ impl Ssp for Session {
                 crate::error::ID_MAX
             )));
         }
-        if self.meta.contains_key(&req.actor_id) {
+        if self.slot(&req.actor_id).is_ok() {
             return Err(SspError::new(
                 ErrorCode::AlreadyExists,
                 format!("an actor with id '{}' already exists", req.actor_id),
@@ -815,24 +823,21 @@ impl Ssp for Session {
         };
         let actor = Actor::new(req.actor_id.clone(), description, state, model);
         self.parts().0.add_actor(actor).map_err(world_err)?;
-        self.meta.insert(
-            req.actor_id.clone(),
-            ActorMeta {
-                id: req.actor_id.into(),
-                category: actual.category,
-                actual: actual.clone(),
-                limits,
-                controls: ActorControls::default(),
-            },
-        );
+        self.meta.push(ActorMeta {
+            id: req.actor_id.into(),
+            category: actual.category,
+            actual: actual.clone(),
+            limits,
+            controls: ActorControls::default(),
+        });
         Ok(actual)
     }
 
     fn destroy_actor(&mut self, actor_id: &str) -> SspResult<()> {
         self.require("destroy_actor")?;
-        self.meta(actor_id)?;
+        let i = self.slot(actor_id)?;
         self.parts().0.remove_actor(actor_id).map_err(world_err)?;
-        self.meta.remove(actor_id);
+        self.meta.remove(i);
         Ok(())
     }
 
@@ -877,7 +882,8 @@ impl Ssp for Session {
                 })?;
             friction = Some(v);
         }
-        let m = self.meta.get_mut(actor_id).expect("checked above");
+        let i = self.slot(actor_id)?;
+        let m = &mut self.meta[i];
         m.actual.properties.extend(params.clone());
         if let Some(c) = controls {
             m.controls = c;

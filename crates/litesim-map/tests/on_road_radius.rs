@@ -1,0 +1,86 @@
+//! `on_road_radius`: every point within the radius of a located point is
+//! on a road too (what lets a run skip the per-step off-road check of a
+//! vehicle that has not moved that far), on the shipped maps and on the
+//! stress map of varying widths, offsets and sections.
+
+use litesim_core::Vec2;
+use litesim_map::RoadNetwork;
+use proptest::prelude::*;
+use std::path::Path;
+use std::sync::OnceLock;
+
+fn maps() -> &'static [(String, RoadNetwork)] {
+    static MAPS: OnceLock<Vec<(String, RoadNetwork)>> = OnceLock::new();
+    MAPS.get_or_init(|| {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let mut paths: Vec<_> = ["straight", "circ", "curvy", "junction"]
+            .iter()
+            .map(|n| root.join(format!("../../examples/maps/{n}.xodr")))
+            .collect();
+        paths.push(root.join("tests/data/widths.xodr"));
+        paths
+            .into_iter()
+            .map(|p| {
+                let net = RoadNetwork::load(&p).unwrap_or_else(|e| panic!("{e}"));
+                (p.file_name().unwrap().to_string_lossy().into_owned(), net)
+            })
+            .collect()
+    })
+}
+
+/// A point at (s, t) of a road, t spread over the road's width and 1 m
+/// beyond each edge.
+fn point(net: &RoadNetwork, road: f64, s: f64, t: f64) -> Vec2 {
+    let roads = net.roads();
+    let r = &roads[((road * roads.len() as f64) as usize).min(roads.len() - 1)];
+    let s = s * r.length;
+    let spans = r.lane_spans(s);
+    let lo = spans.iter().map(|l| l.t_outer).fold(0.0, f64::min) - 1.0;
+    let hi = spans.iter().map(|l| l.t_outer).fold(0.0, f64::max) + 1.0;
+    let (x, y, _) = r.st_to_xyz(s, lo + (hi - lo) * t);
+    Vec2::new(x, y)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(3000))]
+    #[test]
+    fn points_within_the_radius_are_on_a_road(
+        m in 0usize..5,
+        road in 0.0f64..1.0,
+        s in 0.0f64..1.0,
+        t in 0.0f64..1.0,
+        angle in 0.0f64..std::f64::consts::TAU,
+        u in 0.0f64..1.0,
+    ) {
+        let (name, net) = &maps()[m];
+        let p = point(net, road, s, t);
+        let Some(at) = net.locate(p) else { return Ok(()) };
+        let r = net.on_road_radius(&at);
+        prop_assert!(r >= 0.0 && r.is_finite());
+        let q = Vec2::new(p.x + r * u * angle.cos(), p.y + r * u * angle.sin());
+        prop_assert!(
+            net.locate(q).is_some(),
+            "{name}: {p:?} located {at:?}, radius {r}, but {q:?} is off road"
+        );
+    }
+}
+
+#[test]
+fn the_radius_is_useful_in_a_lane_and_zero_on_an_edge() {
+    let (_, net) = &maps()[0];
+    let r = &net.roads()[0];
+    let lane = r.lane_spans(100.0)[0];
+    let (x, y, _) = r.st_to_xyz(100.0, lane.t_center());
+    let at = net.locate(Vec2::new(x, y)).unwrap();
+    let radius = net.on_road_radius(&at);
+    // The road counts, not the lane: 90 % of the way to the nearer edge
+    // (sidewalks included), less the 1 cm reserve.
+    let spans = r.lane_spans(100.0);
+    let edge = spans.iter().map(|l| l.t_outer).fold(0.0, f64::max);
+    let low = spans.iter().map(|l| l.t_outer).fold(0.0, f64::min);
+    let want = 0.9 * ((edge - at.t).min(at.t - low) - 0.01);
+    assert!((radius - want).abs() < 1e-9, "{radius}, wanted {want}");
+    let (x, y, _) = r.st_to_xyz(100.0, edge - 0.005);
+    let at = net.locate(Vec2::new(x, y)).unwrap();
+    assert_eq!(net.on_road_radius(&at), 0.0);
+}
