@@ -15,9 +15,15 @@ pub struct Common {
     /// Map file overriding the test's `test_config.map`.
     #[arg(long)]
     pub map: Option<PathBuf>,
-    /// Drive actors dynamically (pedals and steering) instead of kinematically.
-    #[arg(long)]
+    /// Drive actors dynamically (pedals and steering) instead of
+    /// kinematically. Default: the test's configuration (the seed's dummy
+    /// configuration is dynamic), else kinematic.
+    #[arg(long, conflicts_with = "kinematic")]
     pub dynamic: bool,
+    /// Drive actors kinematically (trajectories) even where the test's
+    /// configuration is dynamic.
+    #[arg(long)]
+    pub kinematic: bool,
     /// What drives sut.car: planned (its plan; default), acc (built-in
     /// adaptive cruise), fmt-mpc (FMT* + MPC) or grpc://HOST:PORT (an
     /// external process serving litesim.sut.v1).
@@ -54,11 +60,13 @@ impl Common {
             t => Ok(t),
         }
     }
-    fn mode(&self) -> DriveMode {
+    fn mode(&self) -> Option<DriveMode> {
         if self.dynamic {
-            DriveMode::Dynamic
+            Some(DriveMode::Dynamic)
+        } else if self.kinematic {
+            Some(DriveMode::Kinematic)
         } else {
-            DriveMode::Kinematic
+            None
         }
     }
 }
@@ -550,14 +558,11 @@ pub fn calibrate_cmd(profile: &str, out: Option<PathBuf>) -> Result<()> {
         std::fs::create_dir_all(d)?;
     }
     std::fs::write(&path, calibrate::to_toml(&c))?;
-    println!(
-        "profile {}: {} candidates; rms path error {:.4} → {:.4} m, max speed error {:.4} → {:.4} m/s",
+    print!(
+        "profile {}: {} candidates (tuned on launch, speed steps, lane change; held out: stop, curve)\n{}",
         c.profile,
         c.trials,
-        c.before.rms_path_error,
-        c.best.rms_path_error,
-        c.before.max_speed_error,
-        c.best.max_speed_error
+        calibrate::report(&c)
     );
     println!("wrote {}", path.display());
     Ok(())

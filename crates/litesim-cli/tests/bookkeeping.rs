@@ -54,7 +54,7 @@ fn resume_refuses_other_options_and_keeps_only_the_current_jobs() {
     assert_eq!(o.status.code(), Some(0), "{}", text(&o));
     let manifest: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
-    assert_eq!(manifest["mode"], "kinematic");
+    assert_eq!(manifest["mode"], "as configured");
     assert_eq!(manifest["seeds"], "1..6");
     assert_eq!(manifest["tests"][0]["sources"].as_str().unwrap().len(), 64);
     // Other options: refused, naming the difference; nothing changed.
@@ -66,7 +66,7 @@ fn resume_refuses_other_options_and_keeps_only_the_current_jobs() {
     );
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(
-        text(&o).contains("mode: kinematic there, dynamic now"),
+        text(&o).contains("mode: as configured there, dynamic now"),
         "{}",
         text(&o)
     );

@@ -32,7 +32,8 @@ pub struct Manifest {
     pub litesim: String,
     /// The tests, in job order.
     pub tests: Vec<ManifestTest>,
-    /// `kinematic` or `dynamic`.
+    /// `kinematic`, `dynamic` or `as configured` (each test's
+    /// `sim_info.dynamic`).
     pub mode: String,
     /// What drove sut.car.
     pub sut: String,
@@ -225,8 +226,8 @@ pub struct BatchSpec {
     /// Start over in a folder that holds results (without it, and without
     /// `resume`, such a folder is refused rather than overwritten).
     pub force_new: bool,
-    /// Drive mode.
-    pub mode: DriveMode,
+    /// Drive mode (`None`: each test's configuration).
+    pub mode: Option<DriveMode>,
     /// Loading options.
     pub load: LoadOptions,
     /// Folder of calibration files (see [`RunOptions::calibration_dir`]).
@@ -583,8 +584,9 @@ pub fn run_batch(
             })
             .collect(),
         mode: match spec.mode {
-            DriveMode::Kinematic => "kinematic",
-            DriveMode::Dynamic => "dynamic",
+            Some(DriveMode::Kinematic) => "kinematic",
+            Some(DriveMode::Dynamic) => "dynamic",
+            None => "as configured",
         }
         .into(),
         sut: spec.sut.name(),

@@ -1,28 +1,84 @@
-//! Driver calibration: tunes the dynamic drivers' gains for a profile's
-//! default vehicle and step size. A reference manoeuvre (speed steps up and
-//! down, then a 3.5 m lane change) is driven in-process with each candidate
-//! of a grid; throttle gains are chosen first (speed tracking), then
-//! steering gains (path tracking). The result is the `[calibration]` table
-//! a profile uses, written as TOML.
+//! Driver calibration: tunes every gain of the dynamic drivers (throttle,
+//! brake and steering P/I/D, see docs/drivers.md) for a profile's default
+//! vehicle and step size.
+//!
+//! Five reference manoeuvres are driven in-process: a launch from rest, a
+//! stop, speed steps, a lane change and a curve. The gains are tuned on the
+//! first, third and fourth ([`TUNED_ON`]) by coordinate descent (each gain
+//! scaled up and down in turn, kept where the score falls, up to six rounds);
+//! the stop and the curve ([`HELD_OUT`]) are never used for tuning and
+//! report how the gains do on manoeuvres they were not tuned on. The result
+//! is the `[calibration]` table a profile uses, written as TOML.
 
 use crate::ScenarioError;
 use crate::elab::ActorKind;
 use crate::exec::{DriveMode, ExecConfig, execute};
 use crate::plan::{ActorPlan, Plan, PlanSample};
 use litesim_core::math;
-use litesim_ssp::profile::{Calibration, PidGains, Profile};
+use litesim_ssp::profile::{Calibration, Profile};
 use serde::Serialize;
 
-/// One evaluated candidate.
+/// A reference manoeuvre.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Manoeuvre {
+    /// From rest to 15 m/s at 2.5 m/s², then hold.
+    Launch,
+    /// From 15 m/s to a stop at 4 m/s², then stand.
+    Stop,
+    /// 5 → 15 → 8 m/s.
+    SpeedSteps,
+    /// A 3.5 m lane change over 4 s at 12 m/s.
+    LaneChange,
+    /// A quarter circle of 40 m radius at 10 m/s between straights.
+    Curve,
+}
+
+/// The manoeuvres the gains are tuned on.
+pub const TUNED_ON: [Manoeuvre; 3] = [
+    Manoeuvre::Launch,
+    Manoeuvre::SpeedSteps,
+    Manoeuvre::LaneChange,
+];
+
+/// The manoeuvres kept out of tuning (evaluation only).
+pub const HELD_OUT: [Manoeuvre; 2] = [Manoeuvre::Stop, Manoeuvre::Curve];
+
+/// Tracking errors over a set of manoeuvres: RMS values are the root of
+/// the mean square over all of them, maxima the largest.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct Errors {
+    /// RMS path error (m).
+    pub rms_path_error: f64,
+    /// Largest path error (m).
+    pub max_path_error: f64,
+    /// RMS speed error (m/s).
+    pub rms_speed_error: f64,
+    /// Largest speed error (m/s).
+    pub max_speed_error: f64,
+}
+
+impl Errors {
+    /// What the search minimises (m).
+    pub fn score(&self) -> f64 {
+        let s = self.rms_path_error
+            + 0.1 * self.max_path_error
+            + 0.5 * self.rms_speed_error
+            + 0.1 * self.max_speed_error;
+        if s.is_finite() { s } else { f64::INFINITY }
+    }
+}
+
+/// Gains and how they track.
 #[derive(Clone, Debug, Serialize)]
 pub struct Trial {
     /// Gains tried.
     pub calibration: Calibration,
-    /// Largest speed error (m/s).
-    pub max_speed_error: f64,
-    /// RMS path error (m).
-    pub rms_path_error: f64,
-    /// Score (lower is better).
+    /// On the manoeuvres tuned on.
+    pub tuned: Errors,
+    /// On the held-out manoeuvres.
+    pub held_out: Errors,
+    /// Score on the tuned manoeuvres (lower is better).
     pub score: f64,
 }
 
@@ -33,43 +89,97 @@ pub struct Calibrated {
     pub profile: String,
     /// Best gains.
     pub best: Trial,
-    /// The profile's current gains on the same manoeuvre.
+    /// The starting gains on the same manoeuvres.
     pub before: Trial,
     /// Candidates tried.
     pub trials: usize,
 }
 
-/// The reference manoeuvre at the given step.
-pub fn reference_plan(step_s: f64) -> Plan {
+/// A reference manoeuvre's plan at the given step.
+pub fn reference_plan(m: Manoeuvre, step_s: f64) -> Plan {
     let dt = step_s * (0.1 / step_s).round().max(1.0);
-    let duration = 16.0;
+    let (v0, duration): (f64, f64) = match m {
+        Manoeuvre::Launch => (0.0, 12.0),
+        Manoeuvre::Stop => (15.0, 10.0),
+        Manoeuvre::SpeedSteps => (5.0, 14.0),
+        Manoeuvre::LaneChange => (12.0, 9.0),
+        Manoeuvre::Curve => (10.0, 14.0),
+    };
+    let target = |t: f64| match m {
+        Manoeuvre::Launch => {
+            if t < 1.0 {
+                0.0
+            } else {
+                15.0
+            }
+        }
+        Manoeuvre::Stop => {
+            if t < 2.0 {
+                15.0
+            } else {
+                0.0
+            }
+        }
+        Manoeuvre::SpeedSteps => {
+            if t < 7.0 {
+                15.0
+            } else {
+                8.0
+            }
+        }
+        Manoeuvre::LaneChange | Manoeuvre::Curve => v0,
+    };
+    let radius = 40.0;
+    let kappa = |s: f64| {
+        let arc = std::f64::consts::FRAC_PI_2 * radius;
+        if m == Manoeuvre::Curve && (30.0..30.0 + arc).contains(&s) {
+            1.0 / radius
+        } else {
+            0.0
+        }
+    };
+    // Lateral offset and its rate: a smoothstep over 3.5 m from 2 to 6 s.
+    let lateral = |t: f64| {
+        if m != Manoeuvre::LaneChange {
+            return (0.0, 0.0);
+        }
+        let u = ((t - 2.0) / 4.0).clamp(0.0, 1.0);
+        (
+            3.5 * u * u * (3.0 - 2.0 * u),
+            3.5 * 6.0 * u * (1.0 - u) / 4.0,
+        )
+    };
     let n = (duration / dt).ceil() as usize + 1;
     let mut samples = Vec::with_capacity(n);
-    let (mut x, mut v): (f64, f64) = (0.0, 5.0);
+    let (mut s, mut v, mut bx, mut by, mut bh) = (0.0f64, v0, 0.0f64, 0.0f64, 0.0f64);
     for k in 0..n {
         let t = k as f64 * dt;
-        let target = if t < 7.0 { 15.0 } else { 8.0 };
-        let a = if (target - v).abs() < 1e-9 {
+        let goal = target(t);
+        let a = if (goal - v).abs() < 1e-9 {
             0.0
-        } else if target > v {
-            2.5f64.min((target - v) / dt)
+        } else if goal > v {
+            2.5f64.min((goal - v) / dt)
         } else {
-            -(4.0f64.min((v - target) / dt))
+            -(4.0f64.min((v - goal) / dt))
         };
-        // Lane change between 10 s and 14 s: smoothstep over 3.5 m.
-        let u = ((t - 10.0) / 4.0).clamp(0.0, 1.0);
-        let y = 3.5 * u * u * (3.0 - 2.0 * u);
-        let dy = 3.5 * 6.0 * u * (1.0 - u) / 4.0;
+        let (l, dl) = lateral(t);
+        let (sh, ch) = math::sin_cos(bh);
         samples.push(PlanSample {
             t,
-            x,
-            y,
-            yaw: math::atan(dy / v.max(0.1)),
+            x: bx - sh * l,
+            y: by + ch * l,
+            yaw: bh + math::atan(dl / v.max(0.1)),
             v,
             a,
         });
-        x += v * dt;
-        v += a * dt;
+        let ds = v * dt + 0.5 * a * dt * dt;
+        let k = kappa(s);
+        let (sm, cm) = math::sin_cos(bh + 0.5 * k * ds);
+        bx += ds * cm;
+        by += ds * sm;
+        bh += k * ds;
+        s += ds;
+        v = (v + a * dt).max(0.0);
     }
     Plan {
         dt,
@@ -97,75 +207,135 @@ pub fn reference_plan(step_s: f64) -> Plan {
     }
 }
 
-fn trial(profile: &Profile, plan: &Plan, c: &Calibration) -> Result<Trial, ScenarioError> {
-    let mut ssp = crate::in_process();
-    let cfg = ExecConfig {
-        profile: profile.name.clone(),
-        model: String::new(),
-        seed: 1,
-        step_ms: profile.step_ms,
-        map_text: None,
-        mode: DriveMode::Dynamic,
-        calibration: Some(*c),
-        record: false,
-        test_name: String::new(),
-        map_path: String::new(),
-        map: None,
-        sut_timeout: 1.0,
-        realtime: None,
-        covers: Vec::new(),
-        values: Default::default(),
-    };
-    let ex = execute(&mut ssp, plan, None, &cfg, None, None)?;
-    let a = &ex.kpis.actors[0];
-    let score = a.rms_path_error + 0.3 * a.max_speed_error;
+/// Tracking errors of `c` on each of `set`, combined.
+pub fn errors(
+    profile: &Profile,
+    set: &[Manoeuvre],
+    c: &Calibration,
+) -> Result<Errors, ScenarioError> {
+    let mut e = Errors::default();
+    let (mut sq_p, mut sq_v) = (0.0, 0.0);
+    for &m in set {
+        let plan = reference_plan(m, f64::from(profile.step_ms) / 1000.0);
+        let mut ssp = crate::in_process();
+        let cfg = ExecConfig {
+            profile: profile.name.clone(),
+            model: String::new(),
+            seed: 1,
+            step_ms: profile.step_ms,
+            map_text: None,
+            mode: DriveMode::Dynamic,
+            calibration: Some(*c),
+            record: false,
+            test_name: String::new(),
+            map_path: String::new(),
+            map: None,
+            sut_timeout: 1.0,
+            realtime: None,
+            covers: Vec::new(),
+            values: Default::default(),
+        };
+        let ex = execute(&mut ssp, &plan, None, &cfg, None, None)?;
+        let a = &ex.kpis.actors[0];
+        sq_p += a.rms_path_error.powi(2);
+        sq_v += a.rms_speed_error.powi(2);
+        e.max_path_error = e.max_path_error.max(a.max_path_error);
+        e.max_speed_error = e.max_speed_error.max(a.max_speed_error);
+    }
+    let n = set.len().max(1) as f64;
+    e.rms_path_error = (sq_p / n).sqrt();
+    e.rms_speed_error = (sq_v / n).sqrt();
+    Ok(e)
+}
+
+fn trial(profile: &Profile, c: &Calibration) -> Result<Trial, ScenarioError> {
+    let tuned = errors(profile, &TUNED_ON, c)?;
+    let held_out = errors(profile, &HELD_OUT, c)?;
     Ok(Trial {
         calibration: *c,
-        max_speed_error: a.max_speed_error,
-        rms_path_error: a.rms_path_error,
-        score: if score.is_finite() {
-            score
-        } else {
-            f64::INFINITY
-        },
+        tuned,
+        held_out,
+        score: tuned.score(),
     })
 }
 
-/// Calibrates a built-in profile's drivers.
+/// Calibrates a built-in profile's drivers, starting from its gains.
 pub fn calibrate(profile_name: &str) -> Result<Calibrated, ScenarioError> {
     let profile = Profile::builtin(profile_name).map_err(ScenarioError::Ssp)?;
-    let plan = reference_plan(f64::from(profile.step_ms) / 1000.0);
-    let before = trial(&profile, &plan, &profile.calibration)?;
-    let mut best = before.clone();
+    let start = profile.calibration;
+    calibrate_from(&profile, start)
+}
+
+/// `x` to three significant digits: gains a person can read and write.
+fn three_digits(x: f64) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(2 - x.abs().log10().floor() as i32);
+    (x * scale).round() / scale
+}
+
+/// The nine gains of a calibration, in search order.
+fn gain_mut(c: &mut Calibration, k: usize) -> &mut f64 {
+    let pid = match k / 3 {
+        0 => &mut c.throttle,
+        1 => &mut c.brake,
+        _ => &mut c.steering,
+    };
+    match k % 3 {
+        0 => &mut pid.kp,
+        1 => &mut pid.ki,
+        _ => &mut pid.kd,
+    }
+}
+
+/// Calibrates `profile`'s drivers starting from `start` (coordinate
+/// descent over all nine gains on [`TUNED_ON`]).
+pub fn calibrate_from(profile: &Profile, start: Calibration) -> Result<Calibrated, ScenarioError> {
+    let before = trial(profile, &start)?;
+    let mut best_c = start;
+    let mut best = errors(profile, &TUNED_ON, &best_c)?.score();
     let mut trials = 1;
-    let g = |kp: f64, ki: f64, kd: f64| PidGains { kp, ki, kd };
-    for kp in [0.05, 0.1, 0.2, 0.4, 0.8, 1.6] {
-        for ki in [0.0, 0.02, 0.05, 0.1, 0.2] {
-            let mut c = best.calibration;
-            c.throttle = g(kp, ki, 0.0);
-            c.brake = g(kp, 0.0, 0.0);
-            let t = trial(&profile, &plan, &c)?;
-            trials += 1;
-            if t.score < best.score {
-                best = t;
+    for _round in 0..6 {
+        let mut moved = false;
+        for k in 0..9 {
+            let now = *gain_mut(&mut best_c, k);
+            let candidates: Vec<f64> = if now == 0.0 {
+                // A gain at zero is tried at small values of its kind.
+                match k % 3 {
+                    0 => vec![0.05, 0.2],
+                    1 => vec![0.01, 0.05],
+                    _ => vec![0.005, 0.02],
+                }
+            } else {
+                let mut v = vec![now * 0.5, now * 0.75, now * 1.33, now * 2.0];
+                // Proportional gains stay: without one a loop leaves a
+                // steady error uncorrected (the manoeuvres may not show it).
+                if k % 3 != 0 {
+                    v.push(0.0);
+                }
+                v
+            };
+            for v in candidates {
+                let mut c = best_c;
+                *gain_mut(&mut c, k) = three_digits(v);
+                let sc = errors(profile, &TUNED_ON, &c)?.score();
+                trials += 1;
+                if sc < best - 1e-9 {
+                    best = sc;
+                    best_c = c;
+                    moved = true;
+                }
             }
         }
-    }
-    for kp in [0.02, 0.05, 0.1, 0.2, 0.4, 0.8] {
-        for kd in [0.0, 0.05, 0.1, 0.2] {
-            let mut c = best.calibration;
-            c.steering = g(kp, 0.0, kd);
-            let t = trial(&profile, &plan, &c)?;
-            trials += 1;
-            if t.score < best.score {
-                best = t;
-            }
+        if !moved {
+            break;
         }
     }
-    best.calibration.calibrated_step_ms = profile.step_ms;
+    best_c.calibrated_step_ms = profile.step_ms;
     Ok(Calibrated {
-        profile: profile.name,
-        best,
+        profile: profile.name.clone(),
+        best: trial(profile, &best_c)?,
         before,
         trials,
     })
@@ -182,13 +352,13 @@ pub fn to_toml(c: &Calibrated) -> String {
     })
     .unwrap_or_default();
     format!(
-        "# litesim calibration for profile '{}' (written by `litesim calibrate`)\n# reference manoeuvre: speed steps 5→15→8 m/s and a 3.5 m lane change\n# before: rms path error {:.4} m, max speed error {:.4} m/s\n# after:  rms path error {:.4} m, max speed error {:.4} m/s ({} candidates)\n{body}",
+        "# litesim calibration for profile '{}' (written by `litesim calibrate`, {} candidates)\n# tuned on launch, speed steps, lane change; held out: stop, curve\n{}{body}",
         c.profile,
-        c.before.rms_path_error,
-        c.before.max_speed_error,
-        c.best.rms_path_error,
-        c.best.max_speed_error,
-        c.trials
+        c.trials,
+        report(c)
+            .lines()
+            .map(|l| format!("# {l}\n"))
+            .collect::<String>()
     )
 }
 
@@ -201,4 +371,24 @@ pub fn from_toml(text: &str) -> Result<Calibration, ScenarioError> {
     toml::from_str::<File>(text)
         .map(|f| f.calibration)
         .map_err(|e| ScenarioError::Io(format!("calibration: {e}")))
+}
+
+/// A table of the errors before and after, on the tuned and the held-out
+/// manoeuvres.
+pub fn report(c: &Calibrated) -> String {
+    let row = |name: &str, b: &Errors, a: &Errors| {
+        format!(
+            "{name:<9} rms path {:.4} → {:.4} m, max path {:.4} → {:.4} m, rms speed {:.4} → {:.4} m/s, max speed {:.4} → {:.4} m/s\n",
+            b.rms_path_error,
+            a.rms_path_error,
+            b.max_path_error,
+            a.max_path_error,
+            b.rms_speed_error,
+            a.rms_speed_error,
+            b.max_speed_error,
+            a.max_speed_error
+        )
+    };
+    row("tuned", &c.before.tuned, &c.best.tuned)
+        + &row("held out", &c.before.held_out, &c.best.held_out)
 }

@@ -37,6 +37,13 @@ impl Value {
             _ => None,
         }
     }
+    /// The truth value, when it is one.
+    pub fn boolean(&self) -> Option<bool> {
+        match self {
+            Value::Bool(b) => Some(*b),
+            _ => None,
+        }
+    }
     /// The text of a string or enum member.
     pub fn text(&self) -> Option<&str> {
         match self {
@@ -228,6 +235,9 @@ pub struct RunConfig {
     pub simulator_name: String,
     /// `sim_info.profile`.
     pub profile: String,
+    /// `sim_info.dynamic`: drive with pedals and steering unless the run
+    /// says otherwise.
+    pub dynamic: bool,
     /// Pass/fail thresholds on the system under test.
     pub thresholds: Thresholds,
 }
@@ -405,6 +415,7 @@ impl Elab<'_> {
                         self.test.config.simulator_name = v.text().ok_or_else(bad)?.to_string()
                     }
                     "profile" => self.test.config.profile = v.text().ok_or_else(bad)?.to_string(),
+                    "dynamic" => self.test.config.dynamic = v.boolean().ok_or_else(bad)?,
                     "min_ttc" | "min_gap" | "max_decel" | "max_jerk" | "goal_tolerance"
                     | "sut_timeout" => {
                         let x = v.num().ok_or_else(bad)?;

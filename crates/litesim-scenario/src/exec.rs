@@ -21,7 +21,7 @@ use litesim_core::math;
 use litesim_log::{ActorSample, ControlSample, LogRecorder, SimulationLog};
 use litesim_map::RoadNetwork;
 use litesim_ssp::api::*;
-use litesim_ssp::profile::Calibration;
+use litesim_ssp::profile::{Calibration, PidGains};
 use litesim_ssp::traffic::{
     BulbColor, BulbMode, BulbState, LightTarget, TrafficLightBox, TrafficLights,
 };
@@ -232,26 +232,85 @@ impl Limits {
 }
 
 struct Driver {
+    /// Integral of the speed error (m).
     integral: f64,
+    /// Last speed error (m/s), for its rate.
     last_err: f64,
+    /// Integral of the steering error (m·s).
+    steer_integral: f64,
+    /// Last steering error (m), for its rate.
+    last_steer_err: f64,
     lim: Limits,
     mirror: bool,
+    /// The profile's command resolution (a fraction of full travel).
+    resolution: f64,
 }
+
+/// Lever (m) that turns a heading error into the steering error: the
+/// steering loop acts on `e_lat + HEADING_LEVER · e_yaw`, the lateral offset
+/// of a point this far ahead of the car (docs/drivers.md).
+pub const HEADING_LEVER_M: f64 = 1.0;
 
 impl Driver {
     /// The pedal command (in units of the maximum acceleration; negative =
-    /// brake) that gives the planned acceleration `a` at planned speed `v`
-    /// by itself. Holding a speed is a feather-light throttle, not no pedal:
-    /// in the seed's model a moving car on no pedal coasts at its free
-    /// deceleration (2 m/s²), while any throttle replaces that by
-    /// `throttle · max_acceleration`.
-    fn feed_forward(&self, a: f64, v: f64) -> f64 {
-        let u = a / self.lim.max_accel;
-        if u == 0.0 && v > 0.01 {
-            f64::MIN_POSITIVE
+    /// brake) that gives the planned acceleration `a` by itself.
+    fn feed_forward(&self, a: f64) -> f64 {
+        a / self.lim.max_accel
+    }
+
+    /// One step of the speed loop (docs/drivers.md): feed-forward plus PID
+    /// on the speed error, with the throttle gains while the car is too
+    /// slow and the brake gains while it is too fast. Returns `u` in units
+    /// of the maximum acceleration (negative = brake).
+    fn longitudinal(&mut self, g: &Calibration, a_ref: f64, v_ref: f64, v: f64, dt: f64) -> f64 {
+        let err = v_ref - v;
+        self.integral = (self.integral + err * dt).clamp(-5.0, 5.0);
+        let derr = (err - self.last_err) / dt;
+        self.last_err = err;
+        let k = if err >= 0.0 { &g.throttle } else { &g.brake };
+        self.feed_forward(a_ref) + k.kp * err + k.ki * self.integral + k.kd * derr
+    }
+
+    /// Throttle and brake fractions for `u` (units of the maximum
+    /// acceleration, negative = brake), clamped and rounded to the
+    /// profile's resolution. In the seed's model a car on no pedal coasts
+    /// at 2 m/s²: while the plan holds or gains speed, a command that
+    /// rounds to no pedal at all becomes the smallest throttle instead (a
+    /// readable 0.0001, where an exact hold would need a denormal).
+    fn pedals(&self, u: f64, a_ref: f64, v_ref: f64) -> (f64, f64) {
+        let r = self.resolution;
+        let (throttle, brake) = if u >= 0.0 {
+            (quantise(u.clamp(0.0, 1.0), r), 0.0)
         } else {
-            u
+            let b = -u * self.lim.max_accel / self.lim.max_decel;
+            (0.0, quantise(b.clamp(0.0, 1.0), r))
+        };
+        if throttle == 0.0 && brake == 0.0 && v_ref > 0.01 && a_ref >= 0.0 {
+            (r, 0.0)
+        } else {
+            (throttle, brake)
         }
+    }
+
+    /// One step of the steering loop: the reference curvature's wheel
+    /// angle plus PID on `e = e_lat + HEADING_LEVER_M · e_yaw`. Returns the
+    /// wheel angle (rad).
+    fn lateral(&mut self, g: &PidGains, kappa: f64, e_lat: f64, e_yaw: f64, dt: f64) -> f64 {
+        let e = e_lat + HEADING_LEVER_M * e_yaw;
+        self.steer_integral = (self.steer_integral + e * dt).clamp(-2.0, 2.0);
+        let de = (e - self.last_steer_err) / dt;
+        self.last_steer_err = e;
+        math::atan(self.lim.wheelbase * kappa) + g.kp * e + g.ki * self.steer_integral + g.kd * de
+    }
+}
+
+/// `x` rounded to a multiple of `res` (commands travel at the resolution
+/// the profile declares).
+fn quantise(x: f64, res: f64) -> f64 {
+    if res > 0.0 {
+        (x / res).round() * res
+    } else {
+        x
     }
 }
 
@@ -301,6 +360,11 @@ pub fn execute(
     // engine works in the map's frame and converts at the boundary, so the
     // simulator's world matches its map (traffic lights, its own roads).
     let mirror = profile.as_ref().is_some_and(|p| p.mirror_y);
+    let command_resolution = profile
+        .as_ref()
+        .map_or(litesim_ssp::profile::DEFAULT_COMMAND_RESOLUTION, |p| {
+            p.command_resolution
+        });
     ssp.start_simulation(0).map_err(ssp_err)?;
     ssp.wait_start_simulation(1000).map_err(ssp_err)?;
     let mut rec = cfg.record.then(|| LogRecorder::new(dt));
@@ -405,11 +469,21 @@ pub fn execute(
             ego_lim = lim;
         }
         dims.push((desc.length, desc.width, e.map_or(1500.0, |e| e.mass)));
+        // The drivers scale brake commands by the deceleration the model
+        // really has: the seed's dummy brakes at 30 m/s² whatever the
+        // catalogue says.
+        let mut lim = lim;
+        if caps.model == "dummy" {
+            lim.max_decel = litesim_core::vehicle::BRAKE_DECELERATION;
+        }
         drivers.push(dynamic.then_some(Driver {
             integral: 0.0,
             last_err: 0.0,
+            steer_integral: 0.0,
+            last_steer_err: 0.0,
             lim,
             mirror,
+            resolution: command_resolution,
         }));
     }
     let ids: Vec<String> = plan.actors.iter().map(|a| a.id.clone()).collect();
@@ -792,7 +866,7 @@ pub fn execute(
                     let Some(st) = &states[i] else {
                         // First step: the actor starts at the plan's speed; hold it.
                         let p = a.at(warps[i].tau(t_next), plan.dt);
-                        let u = d.feed_forward(p.a, p.v);
+                        let u = d.pedals(d.feed_forward(p.a), p.a, p.v);
                         send_dynamic(ssp, &a.id, u, 0.0, d, &mut controls[i])?;
                         continue;
                     };
@@ -819,15 +893,9 @@ pub fn execute(
                         p.a = warps[i].accel;
                     }
                     let here = shifted(a.at(warps[i].tau(t_now), plan.dt), off);
-                    let err = p.v - st.speed;
-                    d.integral = (d.integral + err * dt).clamp(-5.0, 5.0);
-                    let derr = (err - d.last_err) / dt;
-                    d.last_err = err;
                     let g = &calibration;
-                    let u = d.feed_forward(p.a, p.v)
-                        + g.throttle.kp * err
-                        + g.throttle.ki * d.integral
-                        + g.throttle.kd * derr;
+                    let u = d.longitudinal(g, p.a, p.v, st.speed, dt);
+                    let u = d.pedals(u, p.a, p.v);
                     // Lateral error: planned point relative to the car, left positive.
                     let (sy, cy) = math::sin_cos(st.pose.yaw);
                     let ex = here.x - st.pose.position.x;
@@ -838,10 +906,7 @@ pub fn execute(
                     // 0.2 s of plan time ahead: the plan's speed sets the arc.
                     let ds = (v_plan.max(0.5)) * 0.2;
                     let kappa = wrap_angle(ahead.yaw - p.yaw) / ds;
-                    let delta = math::atan(d.lim.wheelbase * kappa)
-                        + g.steering.kp * e_lat
-                        + g.steering.kd * e_yaw / dt.max(1e-3) * 0.02
-                        + 0.5 * e_yaw;
+                    let delta = d.lateral(&g.steering, kappa, e_lat, e_yaw, dt);
                     let steer = (delta / d.lim.max_steer).clamp(-1.0, 1.0);
                     send_dynamic(ssp, &a.id, u, steer, d, &mut controls[i])?;
                 }
@@ -1353,21 +1418,12 @@ fn to_sim(mut c: Coord6, mirror: bool) -> Coord6 {
 fn send_dynamic(
     ssp: &mut dyn Ssp,
     id: &str,
-    u: f64,
+    (throttle, brake): (f64, f64),
     steer: f64,
     d: &Driver,
     control: &mut ControlSample,
 ) -> Result<(), ScenarioError> {
-    // `u` is in units of the maximum acceleration; braking rescales it to
-    // the brake's own maximum deceleration.
-    let (throttle, brake) = if u >= 0.0 {
-        (u.clamp(0.0, 1.0), 0.0)
-    } else {
-        (
-            0.0,
-            (-u * d.lim.max_accel / d.lim.max_decel).clamp(0.0, 1.0),
-        )
-    };
+    let steer = quantise(steer.clamp(-1.0, 1.0), d.resolution);
     let mv = pedals(throttle, brake, steer, &d.lim, d.mirror, control);
     ssp.set_dynamic_move(id, mv, 0).map_err(ssp_err)
 }

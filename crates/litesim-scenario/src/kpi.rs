@@ -171,6 +171,10 @@ pub struct ActorKpi {
     pub max_path_error: f64,
     /// RMS distance from the planned position (m).
     pub rms_path_error: f64,
+    /// RMS |speed − planned speed| (m/s); for calibration reports, not in
+    /// run summaries.
+    #[serde(skip)]
+    pub rms_speed_error: f64,
     /// First time off every road (s), vehicles only.
     pub off_road_at: Option<f64>,
     /// Distance travelled (m).
@@ -301,6 +305,7 @@ pub struct Kpis {
     dense: Vec<u32>,
     ids: Vec<String>,
     sq: Vec<f64>,
+    sq_v: Vec<f64>,
     n: usize,
     last: Vec<Option<(f64, f64)>>,
     index: BTreeMap<String, usize>,
@@ -383,6 +388,7 @@ impl Kpis {
                 .collect(),
             ids: ids.to_vec(),
             sq: vec![0.0; ids.len()],
+            sq_v: vec![0.0; ids.len()],
             n: 0,
             last: vec![None; ids.len()],
             index: ids
@@ -518,7 +524,10 @@ impl Kpis {
             a.max_path_error = a.max_path_error.max(e);
             self.sq[i] += e * e;
             a.rms_path_error = (self.sq[i] / self.n as f64).sqrt();
-            a.max_speed_error = a.max_speed_error.max((speeds[i] - pv).abs());
+            let ev = speeds[i] - pv;
+            a.max_speed_error = a.max_speed_error.max(ev.abs());
+            self.sq_v[i] += ev * ev;
+            a.rms_speed_error = (self.sq_v[i] / self.n as f64).sqrt();
             a.max_speed = a.max_speed.max(speeds[i]);
             if off_road[i] && a.off_road_at.is_none() {
                 a.off_road_at = Some(t);

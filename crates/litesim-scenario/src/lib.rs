@@ -194,8 +194,9 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 pub struct RunOptions {
     /// Seed (`None`: the test's, else 1).
     pub seed: Option<u64>,
-    /// Drive mode.
-    pub mode: DriveMode,
+    /// Drive mode (`None`: the test's configuration — `sim_info.dynamic`,
+    /// set by the seed's dummy configuration — else kinematic).
+    pub mode: Option<DriveMode>,
     /// Profile override (`None`: the test's `sim_info`).
     pub profile: Option<String>,
     /// Driver gains override (from `litesim calibrate`).
@@ -429,6 +430,11 @@ pub fn run(
         },
         (None, None) => (None, "built-in".to_string()),
     };
+    let mode = opts.mode.unwrap_or(if prep.test.config.dynamic {
+        DriveMode::Dynamic
+    } else {
+        DriveMode::Kinematic
+    });
     let test_name = prep
         .path
         .file_name()
@@ -443,7 +449,7 @@ pub fn run(
                 map: prep.map_name.clone(),
                 profile,
                 model,
-                mode: opts.mode,
+                mode,
                 sut: opts.sut.name(),
                 duration: plan.duration,
                 steps: 0,
@@ -476,7 +482,7 @@ pub fn run(
             .as_deref()
             .map(String::as_str)
             .filter(|_| prep.has_lights),
-        mode: opts.mode,
+        mode,
         calibration,
         record: opts.record,
         test_name: test_name.clone(),
@@ -513,7 +519,7 @@ pub fn run(
     let (failures, judge_notes) = judge::verdict(
         &ex,
         &prep.test.config.thresholds,
-        opts.mode,
+        mode,
         sut.is_some(),
         ego_id.as_deref(),
     );
@@ -533,7 +539,7 @@ pub fn run(
             map: prep.map_name.clone(),
             profile: ex.profile,
             model: ex.model,
-            mode: opts.mode,
+            mode,
             sut: opts.sut.name(),
             duration: plan.duration,
             steps: ex.steps,

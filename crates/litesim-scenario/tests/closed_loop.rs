@@ -15,7 +15,7 @@ fn go_with(name: &str, sut: SutChoice, mode: DriveMode) -> RunResult {
         seed: Some(1),
         record: true,
         sut,
-        mode,
+        mode: Some(mode),
         ..RunOptions::default()
     };
     run(&example(name), &mut litesim_scenario::in_process(), &opts)

@@ -16,7 +16,7 @@ fn go(name: &str, seed: u64, mode: DriveMode) -> RunResult {
     let prep = example(name);
     let opts = RunOptions {
         seed: Some(seed),
-        mode,
+        mode: Some(mode),
         record: true,
         ..RunOptions::default()
     };
@@ -350,8 +350,12 @@ fn dynamic_constant_speed_is_held_exactly() {
     for n in ["follow", "truck_follow", "three_abreast"] {
         let r = go(n, 1, DriveMode::Dynamic);
         for a in &r.summary.actors {
+            // Within a few mm/s: commands travel at the profile's
+            // resolution (1e-4), so a hold alternates the smallest
+            // throttle and the controller's brake (an exact hold needed a
+            // 2e-308 throttle).
             assert!(
-                a.max_speed_error < 1e-9,
+                a.max_speed_error < 0.005,
                 "{n}/{}: {}",
                 a.id,
                 a.max_speed_error
@@ -372,7 +376,9 @@ fn dynamic_runs_follow_the_plan() {
         let r = go(n, 1, DriveMode::Dynamic);
         // From standstill at ≥ 2 m/s² the dummy model's throttle saturates
         // (4 m/s² minus its 2 m/s² free deceleration): the lag is physical.
-        let tol = if ["accelerate", "state_conditions"].contains(n) {
+        // A hard stop (lead_brakes) lags its plan by about a metre under
+        // the tuned brake loop.
+        let tol = if ["accelerate", "state_conditions", "lead_brakes"].contains(n) {
             1.5
         } else {
             1.0
@@ -461,8 +467,11 @@ fn digest(r: &RunResult) -> (String, u64) {
 #[test]
 fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
     let prep = smoke();
+    // Kinematic, as the golden always was (the configuration's default,
+    // dynamic, has its own golden below).
     let opts = RunOptions {
         record: true,
+        mode: Some(DriveMode::Kinematic),
         ..RunOptions::default()
     };
     let a = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
@@ -498,6 +507,61 @@ fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
 /// FNV-1a of the smoke run's log JSON (seed 1, kinematic, dummy).
 const GOLDEN_SMOKE_LOG: u64 = 0xef02_e064_66f6_8ed9;
 
+/// The seed's dummy configuration drives with pedals and steering by
+/// default ("internal dynamic simulation with preconfigured PID
+/// controllers"), `--kinematic` one option away; every command is one a
+/// person can read: within its travel and a multiple of the profile's
+/// resolution (1e-4), never a denormal.
+#[test]
+fn the_dummy_configuration_drives_dynamically_with_readable_commands() {
+    let prep = smoke();
+    let opts = RunOptions {
+        record: true,
+        ..RunOptions::default()
+    };
+    let a = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    assert_eq!(a.summary.mode, DriveMode::Dynamic);
+    assert!(a.summary.pass, "{:?}", a.summary.failures);
+    let log = a.log.as_ref().unwrap();
+    let mut seen = 0;
+    for track in &log.tracks {
+        let c = &track.control;
+        for (key, xs) in [
+            ("throttle", &c.throttle),
+            ("brake", &c.brake),
+            ("steering", &c.steering),
+        ] {
+            for &x in xs.iter().filter(|x| x.is_finite()) {
+                seen += 1;
+                let k = x / 1e-4;
+                assert!(
+                    (k - k.round()).abs() < 1e-6 && x.abs() <= 1.0,
+                    "{} {key} = {x:e} is not a multiple of 1e-4 within its travel",
+                    track.id
+                );
+            }
+        }
+    }
+    assert!(seen > 100, "no commands found in the log");
+    let b = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    assert_eq!(digest(&a), digest(&b));
+    let (_, d) = digest(&a);
+    assert_eq!(
+        d, GOLDEN_SMOKE_DYNAMIC_LOG,
+        "dynamic smoke log digest changed: {d:#018x}"
+    );
+    let kinematic = RunOptions {
+        mode: Some(DriveMode::Kinematic),
+        ..RunOptions::default()
+    };
+    let k = run(&prep, &mut litesim_scenario::in_process(), &kinematic).unwrap();
+    assert_eq!(k.summary.mode, DriveMode::Kinematic);
+}
+
+/// FNV-1a of the smoke run's log JSON under its configuration (seed 1,
+/// dynamic, dummy).
+const GOLDEN_SMOKE_DYNAMIC_LOG: u64 = 0xdbaf_a3c7_e687_b96d;
+
 #[test]
 fn in_process_and_grpc_runs_are_identical() {
     let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();
@@ -511,7 +575,7 @@ fn in_process_and_grpc_runs_are_identical() {
         let mut remote = litesim_grpc::RemoteSsp::connect(&addr.to_string()).unwrap();
         let opts = RunOptions {
             seed: Some(3),
-            mode,
+            mode: Some(mode),
             record: true,
             ..RunOptions::default()
         };
@@ -540,7 +604,7 @@ fn batch_spec(
         out: out.to_path_buf(),
         resume: false,
         force_new: false,
-        mode: DriveMode::Kinematic,
+        mode: Some(DriveMode::Kinematic),
         load: LoadOptions::default(),
         calibration_dir: None,
         sut: Default::default(),
@@ -673,7 +737,7 @@ fn every_profile_and_model_config_runs_the_smoke_shape() {
         let (_f, prep) = beside_smoke(config, PAIR);
         for mode in [DriveMode::Kinematic, DriveMode::Dynamic] {
             let opts = RunOptions {
-                mode,
+                mode: Some(mode),
                 ..RunOptions::default()
             };
             let r = run(&prep, &mut litesim_scenario::in_process(), &opts)
@@ -721,7 +785,12 @@ fn post_plan_checks_of_a_profile_stop_an_infeasible_plan_before_it_runs() {
 fn a_left_handed_profile_sees_the_world_mirrored_like_its_map() {
     let (_f, prep) = beside_smoke("profile_carla_0_9_15_config.osc", PAIR);
     let mut session = litesim_scenario::in_process();
-    let r = run(&prep, &mut session, &RunOptions::default()).unwrap();
+    // Kinematic: the dummy configuration it imports would drive dynamically.
+    let kinematic = RunOptions {
+        mode: Some(DriveMode::Kinematic),
+        ..RunOptions::default()
+    };
+    let r = run(&prep, &mut session, &kinematic).unwrap();
     // Inside the simulator (CARLA's left-handed frame) y is negated; the
     // engine converted at the boundary, so the summary is in the map's frame.
     let world = session.world().unwrap();
@@ -780,14 +849,72 @@ fn calibration_never_does_worse_than_the_profile_and_round_trips() {
     for profile in ["dummy", "carla-0.9.15", "sumo"] {
         let c = litesim_scenario::calibrate::calibrate(profile).unwrap();
         assert!(c.best.score <= c.before.score, "{profile}: {c:?}");
-        assert!(c.trials > 50);
         let p = litesim_ssp::Profile::builtin(profile).unwrap();
         assert_eq!(c.best.calibration.calibrated_step_ms, p.step_ms);
         let text = litesim_scenario::calibrate::to_toml(&c);
+        assert!(text.contains("# held out"), "{text}");
         let back = litesim_scenario::calibrate::from_toml(&text).unwrap();
         assert_eq!(back, c.best.calibration);
     }
     assert!(litesim_scenario::calibrate::calibrate("no-such-profile").is_err());
+}
+
+/// `litesim calibrate` calibrates: from gains far off (a fifth of the
+/// dummy profile's), it tunes all nine on the launch, speed steps and lane
+/// change, and the stop and the curve — never used for tuning — track
+/// better in path, RMS and maximum. Their speed error sits at a floor the
+/// gains do not move (about 0.034 m/s RMS: holds and stops at the
+/// command resolution), so it is only held to within 5 %.
+#[test]
+fn calibration_improves_manoeuvres_it_did_not_tune_on() {
+    use litesim_scenario::calibrate::{Manoeuvre, calibrate_from, errors};
+    let p = litesim_ssp::Profile::builtin("dummy").unwrap();
+    let mut start = p.calibration;
+    for g in [&mut start.throttle, &mut start.brake, &mut start.steering] {
+        g.kp *= 0.2;
+        g.ki *= 0.2;
+        g.kd *= 0.2;
+    }
+    let c = calibrate_from(&p, start).unwrap();
+    assert!(c.trials > 50, "{}", c.trials);
+    let (b, a) = (&c.before.held_out, &c.best.held_out);
+    assert!(a.rms_path_error < b.rms_path_error, "{b:?} → {a:?}");
+    assert!(a.max_path_error < b.max_path_error, "{b:?} → {a:?}");
+    assert!(
+        a.rms_speed_error < 1.05 * b.rms_speed_error,
+        "{b:?} → {a:?}"
+    );
+    assert!(
+        a.max_speed_error < 1.05 * b.max_speed_error,
+        "{b:?} → {a:?}"
+    );
+    let (b, a) = (&c.before.tuned, &c.best.tuned);
+    assert!(a.rms_path_error < b.rms_path_error, "{b:?} → {a:?}");
+    assert!(a.rms_speed_error < b.rms_speed_error, "{b:?} → {a:?}");
+    assert!(c.best.score < c.before.score);
+    // Every kind of gain is in play: the brake gains decide the stop, the
+    // steering's integral and derivative the curve.
+    let stop = [Manoeuvre::Stop];
+    let curve = [Manoeuvre::Curve];
+    let base = c.best.calibration;
+    let mut other = base;
+    other.brake.kp *= 3.0;
+    assert_ne!(
+        errors(&p, &stop, &base).unwrap(),
+        errors(&p, &stop, &other).unwrap()
+    );
+    let mut other = base;
+    other.steering.ki = 0.05;
+    assert_ne!(
+        errors(&p, &curve, &base).unwrap(),
+        errors(&p, &curve, &other).unwrap()
+    );
+    let mut other = base;
+    other.steering.kd *= 2.0;
+    assert_ne!(
+        errors(&p, &curve, &base).unwrap(),
+        errors(&p, &curve, &other).unwrap()
+    );
 }
 
 /// The dashboard's command series of a scenario run is the plan's (labelled

@@ -81,6 +81,11 @@ pub struct Profile {
     pub pedal_encoding: PedalEncoding,
     /// What to do with out-of-range actuator values.
     pub range_policy: RangePolicy,
+    /// Resolution of the engine's pedal and steering commands, as a
+    /// fraction of full travel: each command is rounded to a multiple of
+    /// it (a throttle reads 0.0312, not 2e-308).
+    #[serde(default = "default_command_resolution")]
+    pub command_resolution: f64,
     /// Steering torque at full lock (N·m) for torque commands.
     pub max_steering_torque_nm: f64,
     /// Mirror y at the boundary (CARLA's left-handed frame).
@@ -101,6 +106,13 @@ pub struct Profile {
     pub post_plan: PostPlanChecks,
     /// Actor catalogue.
     pub catalog: Vec<CatalogEntry>,
+}
+
+/// The command resolution of a profile that declares none.
+pub const DEFAULT_COMMAND_RESOLUTION: f64 = 1e-4;
+
+fn default_command_resolution() -> f64 {
+    DEFAULT_COMMAND_RESOLUTION
 }
 
 /// The built-in profiles: (name, TOML text).
@@ -159,6 +171,12 @@ impl Profile {
     }
 
     fn validate(&self) -> SspResult<()> {
+        if !(self.command_resolution > 0.0 && self.command_resolution <= 0.1) {
+            return Err(SspError::invalid(format!(
+                "profile {}: command_resolution = {} must be in (0, 0.1]",
+                self.name, self.command_resolution
+            )));
+        }
         if self.min_step_ms == 0 || self.min_step_ms > self.max_step_ms {
             return Err(SspError::invalid(format!(
                 "profile {}: step range [{}, {}] ms is empty or starts at 0",

@@ -19,7 +19,9 @@ mod ssp_dynamics;
 pub use bicycle::{KinematicBicycle, ReferencePoint};
 pub use derived::Derived;
 pub use lag::ActuatorLag;
-pub use ssp_dynamics::{MAX_LINEAR_VELOCITY, MAX_STEERING_WHEEL_ANGLE, SspDynamics};
+pub use ssp_dynamics::{
+    BRAKE_DECELERATION, MAX_LINEAR_VELOCITY, MAX_STEERING_WHEEL_ANGLE, SspDynamics,
+};
 
 use crate::control::NormalizedPedals;
 use serde::{Deserialize, Serialize};

@@ -25,6 +25,10 @@ use crate::geometry::wrap_angle;
 use crate::math::{self, SinCosCache};
 use serde::{Deserialize, Serialize};
 
+/// Deceleration at full brake (m/s²), the seed's `brake_deceleration`,
+/// the same for every vehicle.
+pub const BRAKE_DECELERATION: f64 = 30.0;
+
 /// Steering-wheel angle at full lock (rad): 450°. The seed uses the constant
 /// without giving its value.
 pub const MAX_STEERING_WHEEL_ANGLE: f64 = 7.853_981_633_974_483;
@@ -75,7 +79,7 @@ impl SspDynamics {
             wheelbase,
             max_acceleration,
             max_wheels_angle_deg,
-            brake_deceleration: 30.0,
+            brake_deceleration: BRAKE_DECELERATION,
             free_deceleration: 2.0,
             max_linear_velocity: MAX_LINEAR_VELOCITY,
             cache_wheels: None,
