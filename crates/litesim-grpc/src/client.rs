@@ -103,6 +103,20 @@ impl RemoteSsp {
         Ok(std::time::Duration::from_millis(r.into_inner().lease_ms))
     }
 
+    /// Asks the server to pace this session's steps to the wall clock
+    /// (`realtime`) or to step as fast as possible; returns the step (ms).
+    pub fn set_pacing(&mut self, realtime: bool) -> SspResult<u32> {
+        let req = pb::SetPacingRequest {
+            session_id: self.session_id.clone(),
+            realtime,
+        };
+        let r = self
+            .rt
+            .block_on(self.client.set_pacing(req))
+            .map_err(crate::convert::error)?;
+        Ok(r.into_inner().step_ms)
+    }
+
     /// Ends the session on the server (also done when the client is dropped).
     pub fn shutdown(&mut self) -> SspResult<()> {
         if self.session_id.is_empty() || self.closed {

@@ -64,6 +64,9 @@ struct Slot {
     session: Mutex<Session>,
     last_used: Mutex<Instant>,
     streaming: AtomicBool,
+    /// Paced stepping: the wall-clock instant and simulated time (ms) the
+    /// pacing started from (`SetPacing`).
+    pacing: Mutex<Option<(Instant, u64)>>,
 }
 
 struct Inner {
@@ -190,6 +193,21 @@ impl SspService {
         result.map_err(cv::status)
     }
 
+    /// Under paced stepping, waits (without holding the session or a
+    /// runtime thread) until the wall clock reaches simulated time
+    /// `sim_ms` on the session's schedule.
+    async fn pace(&self, session_id: &str, sim_ms: u64) {
+        let Ok(slot) = self.slot(session_id) else {
+            return;
+        };
+        let due = lock(&slot.pacing).map(|(origin, from_ms)| {
+            origin + Duration::from_millis(sim_ms.saturating_sub(from_ms))
+        });
+        if let Some(due) = due {
+            tokio::time::sleep_until(tokio::time::Instant::from_std(due)).await;
+        }
+    }
+
     fn init_session(&self, r: pb::InitRequest) -> SspResult<litesim_ssp::InitResponse> {
         let map = r.map.map(|m| match m {
             pb::init_request::Map::MapPath(p) => p,
@@ -249,6 +267,7 @@ impl SspService {
                     session: Mutex::new(std::mem::take(&mut session)),
                     last_used: Mutex::new(Instant::now()),
                     streaming: AtomicBool::new(false),
+                    pacing: Mutex::new(None),
                 }),
             );
             resp.session_id = id;
@@ -389,6 +408,27 @@ impl SimulatorSupport for SspService {
         self.with(&id, "keep_alive", || Value::Null, false, |_| Ok(()))?;
         Ok(Response::new(pb::KeepAliveResponse {
             lease_ms: self.inner.cfg.idle_timeout.as_millis() as u64,
+        }))
+    }
+
+    async fn set_pacing(
+        &self,
+        req: Request<pb::SetPacingRequest>,
+    ) -> Result<Response<pb::SetPacingResponse>, Status> {
+        let r = req.into_inner();
+        let realtime = r.realtime;
+        let (sim_ms, step_ms) = self.with(
+            &r.session_id,
+            "set_pacing",
+            || json!({ "realtime": realtime }),
+            false,
+            |s| Ok((s.sim_time_ms(), s.step_ms())),
+        )?;
+        if let Ok(slot) = self.slot(&r.session_id) {
+            *lock(&slot.pacing) = realtime.then(|| (Instant::now(), sim_ms));
+        }
+        Ok(Response::new(pb::SetPacingResponse {
+            step_ms: step_ms as u32,
         }))
     }
 
@@ -546,6 +586,7 @@ impl SimulatorSupport for SspService {
                 s.step(t, &f)
             },
         )?;
+        self.pace(&r.session_id, info.sim_time_ms).await;
         Ok(Response::new(step_pb(&info, &states)))
     }
 
@@ -566,6 +607,9 @@ impl SimulatorSupport for SspService {
                 s.step_many(steps, &f)
             },
         )?;
+        if let Some((info, _)) = out.last() {
+            self.pace(&r.session_id, info.sim_time_ms).await;
+        }
         Ok(Response::new(pb::StepManyResponse {
             steps: out
                 .iter()

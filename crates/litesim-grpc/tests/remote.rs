@@ -700,3 +700,42 @@ fn oversized_stream_messages_are_resource_exhausted() {
     });
     assert_eq!(code, tonic::Code::ResourceExhausted);
 }
+
+/// Paced stepping per session (issue 16 point 5): a session that asks for
+/// it answers its steps no earlier than the wall clock reaches the
+/// simulated time; another session on the same server steps at full speed
+/// meanwhile; pacing can be switched off again.
+#[test]
+fn a_session_can_ask_for_paced_stepping() {
+    use litesim_ssp::{ActorFilter, Ssp};
+    let server = start(ServerConfig::default());
+    let mut paced = running(server.addr);
+    paced.create_actor(car("a")).unwrap();
+    assert_eq!(paced.set_pacing(true).unwrap(), 20);
+    let fast_addr = server.addr;
+    let t0 = std::time::Instant::now();
+    // 25 steps of 20 ms = 0.5 s, in five StepMany calls and five Steps.
+    let other = std::thread::spawn(move || {
+        let mut fast = running(fast_addr);
+        let t = std::time::Instant::now();
+        fast.step_many(500, &ActorFilter::default()).unwrap();
+        t.elapsed()
+    });
+    for _ in 0..4 {
+        paced.step_many(5, &ActorFilter::default()).unwrap();
+    }
+    for _ in 0..5 {
+        paced.step(None, &ActorFilter::default()).unwrap();
+    }
+    let took = t0.elapsed().as_secs_f64();
+    assert!(
+        (0.495..0.65).contains(&took),
+        "25 paced steps of 20 ms took {took} s"
+    );
+    // 500 unpaced steps (10 s simulated) in well under their simulated time.
+    assert!(other.join().unwrap().as_secs_f64() < 2.0);
+    paced.set_pacing(false).unwrap();
+    let t = std::time::Instant::now();
+    paced.step_many(100, &ActorFilter::default()).unwrap();
+    assert!(t.elapsed().as_secs_f64() < 1.0);
+}

@@ -323,7 +323,12 @@ impl Session {
         self.network.as_deref()
     }
 
-    /// Current simulation time (ms).
+    /// Step size (ms) set at `init`.
+    pub fn step_ms(&self) -> u64 {
+        self.step_ms
+    }
+
+    /// Simulated time (ms).
     pub fn sim_time_ms(&self) -> u64 {
         self.world.as_ref().map_or(0, |w| w.tick() * self.step_ms)
     }
