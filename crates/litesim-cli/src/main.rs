@@ -413,6 +413,23 @@ fn run(cli: Cli) -> Result<()> {
                 "step {} ms (allowed {}..={}), actuators {:?}, traffic lights {:?}",
                 p.step_ms, p.min_step_ms, p.max_step_ms, p.pedal_encoding, p.traffic_light_api
             );
+            if !p.step_source.is_empty() {
+                println!("step source: {}", p.step_source);
+            }
+            if p.post_plan.enabled {
+                println!(
+                    "post-plan checks: {:?} (speed ≤ {} m/s, acceleration ≤ {} m/s², deceleration ≤ {} m/s²{})",
+                    p.post_plan.level,
+                    p.post_plan.max_speed,
+                    p.post_plan.max_acceleration,
+                    p.post_plan.max_deceleration,
+                    if p.post_plan.level == litesim_ssp::profile::PostPlanLevel::Full {
+                        format!(", curvature ≤ {} 1/m", p.post_plan.max_curvature)
+                    } else {
+                        String::new()
+                    }
+                );
+            }
             println!(
                 "\n{:<36} {:<12} {:>7} {:>6} {:>6} {:>8}",
                 "blueprint", "category", "length", "width", "height", "mass"

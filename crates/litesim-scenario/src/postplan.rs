@@ -61,7 +61,7 @@ pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) 
                     );
                 }
                 let ds = ((q.x - p.x).powi(2) + (q.y - p.y).powi(2)).sqrt();
-                if ds > 0.05 {
+                if l.level == litesim_ssp::profile::PostPlanLevel::Full && ds > 0.05 {
                     let k = wrap_angle(q.yaw - p.yaw).abs() / ds;
                     if k > l.max_curvature + 1e-9 {
                         report(

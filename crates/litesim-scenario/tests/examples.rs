@@ -796,7 +796,13 @@ fn a_left_handed_profile_sees_the_world_mirrored_like_its_map() {
     let world = session.world().unwrap();
     let car = world.actor("sut.car").unwrap();
     let planned = r.plan.actors.iter().find(|a| a.id == "sut.car").unwrap();
-    let at = planned.at(r.summary.steps as f64 * 0.02, r.plan.dt);
+    // CARLA's step: 50 ms.
+    let step = f64::from(
+        litesim_ssp::Profile::builtin("carla-0.9.15")
+            .unwrap()
+            .step_ms,
+    ) / 1000.0;
+    let at = planned.at(r.summary.steps as f64 * step, r.plan.dt);
     let p = car.state().pose.position;
     assert!(
         (p.x - at.x).abs() < 1e-6 && (p.y - at.y).abs() < 1e-6,
@@ -1013,4 +1019,52 @@ fn a_simulator_without_traffic_lights_drives_on_a_map_with_signals() {
     let r = run_default(&prep).unwrap();
     assert!(r.summary.pass, "{:?}", r.summary.failures);
     assert_eq!(r.summary.profile, "simian");
+}
+
+/// Profiles as the simulators are (issue 16 point 4): each default step
+/// and range from the simulator's documentation (named in `step_source`),
+/// not 20 ms everywhere; a configuration built on the dummy one runs at its
+/// profile's step; dSPACE's post-plan checks are the full implementation,
+/// CarMaker's and DriveSim's the base one (no curvature limit).
+#[test]
+fn profiles_take_their_steps_and_checks_from_the_simulators() {
+    use litesim_ssp::profile::PostPlanLevel;
+    let step = |n: &str| {
+        let p = litesim_ssp::Profile::builtin(n).unwrap();
+        assert!(
+            !p.step_source.is_empty(),
+            "{n} names no source for its step"
+        );
+        (p.step_ms, p.min_step_ms, p.max_step_ms)
+    };
+    assert_eq!(step("carla-0.9.15"), (50, 1, 100));
+    assert_eq!(step("sumo"), (1000, 1, 10000));
+    assert_eq!(step("dspace"), (1, 1, 100));
+    assert_eq!(step("carmaker"), (1, 1, 100));
+    assert_eq!(step("drivesim"), (33, 1, 1000));
+    assert_eq!(step("dummy"), (20, 1, 1000));
+    let level = |n: &str| litesim_ssp::Profile::builtin(n).unwrap().post_plan;
+    assert_eq!(level("dspace").level, PostPlanLevel::Full);
+    assert_eq!(level("carmaker").level, PostPlanLevel::Base);
+    assert_eq!(level("drivesim").level, PostPlanLevel::Base);
+    // The CARLA configuration runs at CARLA's 50 ms: 5 s in 100 steps.
+    let (_f, prep) = beside_smoke("profile_carla_0_9_15_config.osc", PAIR);
+    let s = run_default(&prep).unwrap().summary;
+    assert_eq!(s.steps, 100, "{s:?}");
+    // A 40 m curve against a curvature limit of 0.01 1/m: only the full
+    // checks see it.
+    let plan = litesim_scenario::calibrate::reference_plan(
+        litesim_scenario::calibrate::Manoeuvre::Curve,
+        0.02,
+    );
+    for (name, curvature_checked) in [("dspace", true), ("carmaker", false)] {
+        let mut p = litesim_ssp::Profile::builtin(name).unwrap();
+        p.post_plan.max_curvature = 0.01;
+        let v = litesim_scenario::postplan::check(&plan, Some(&p), None);
+        assert_eq!(
+            v.iter().any(|m| m.contains("curvature")),
+            curvature_checked,
+            "{name}: {v:?}"
+        );
+    }
 }

@@ -47,11 +47,28 @@ pub enum TrafficLightApi {
     Physical,
 }
 
+/// How much a profile's post-plan checks cover.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PostPlanLevel {
+    /// The seed's "base implementation" (CarMaker, DriveSim): speed,
+    /// acceleration and deceleration limits (and every planned position in
+    /// a lane, which every profile checks).
+    Base,
+    /// The seed's dSPACE "implementation": the base checks plus the
+    /// curvature limit.
+    #[default]
+    Full,
+}
+
 /// Limits a plan is checked against before it runs (post-plan checks).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct PostPlanChecks {
     /// Checks are enabled.
     pub enabled: bool,
+    /// Which checks.
+    #[serde(default)]
+    pub level: PostPlanLevel,
     /// Maximum speed (m/s).
     pub max_speed: f64,
     /// Maximum acceleration (m/s²).
@@ -71,6 +88,10 @@ pub struct Profile {
     pub simulator: String,
     /// One-line description.
     pub description: String,
+    /// Where the step and its range come from (the simulator's
+    /// documentation, or why litesim chose them).
+    #[serde(default)]
+    pub step_source: String,
     /// Default step (ms).
     pub step_ms: u32,
     /// Smallest allowed step (ms).
