@@ -886,13 +886,18 @@ pub fn execute(
                     // A re-timed actor moves `rate` times its plan's speed.
                     let rate = warps[i].rate;
                     let off = warps[i].offset;
+                    let here = shifted(a.at(warps[i].tau(t_now), plan.dt), off);
                     let mut p = shifted(a.at(t_next, plan.dt), off);
                     let v_plan = p.v;
+                    // The feed-forward is the acceleration planned over the
+                    // coming step, i.e. the one in force now (the next
+                    // point's may already be the following segment's: a
+                    // step early at every change, a·dt of speed error).
+                    p.a = here.a;
                     if warps[i].lag != 0.0 || rate != 1.0 {
                         p.v *= rate;
                         p.a = warps[i].accel;
                     }
-                    let here = shifted(a.at(warps[i].tau(t_now), plan.dt), off);
                     let g = &calibration;
                     let u = d.longitudinal(g, p.a, p.v, st.speed, dt);
                     let u = d.pedals(u, p.a, p.v);

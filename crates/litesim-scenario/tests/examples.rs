@@ -377,8 +377,17 @@ fn dynamic_runs_follow_the_plan() {
         // From standstill at ≥ 2 m/s² the dummy model's throttle saturates
         // (4 m/s² minus its 2 m/s² free deceleration): the lag is physical.
         // A hard stop (lead_brakes) lags its plan by about a metre under
-        // the tuned brake loop.
-        let tol = if ["accelerate", "state_conditions", "lead_brakes"].contains(n) {
+        // the tuned brake loop; a car re-timed live (emit_wait_until's
+        // parked car pulls away when the event comes) overshoots its speed
+        // by 0.4 m/s after its launch: 1.4 m.
+        let tol = if [
+            "accelerate",
+            "state_conditions",
+            "lead_brakes",
+            "emit_wait_until",
+        ]
+        .contains(n)
+        {
             1.5
         } else {
             1.0
@@ -560,7 +569,7 @@ fn the_dummy_configuration_drives_dynamically_with_readable_commands() {
 
 /// FNV-1a of the smoke run's log JSON under its configuration (seed 1,
 /// dynamic, dummy).
-const GOLDEN_SMOKE_DYNAMIC_LOG: u64 = 0xdbaf_a3c7_e687_b96d;
+const GOLDEN_SMOKE_DYNAMIC_LOG: u64 = 0xe972_e189_2e89_0f11;
 
 #[test]
 fn in_process_and_grpc_runs_are_identical() {
@@ -868,7 +877,7 @@ fn calibration_never_does_worse_than_the_profile_and_round_trips() {
 /// `litesim calibrate` calibrates: from gains far off (speed gains 20
 /// times the dummy profile's, steering a fifth), it tunes all nine on the
 /// launch, speed steps and lane change, and the stop and the curve — never
-/// used for tuning — track better in path, RMS and maximum.
+/// used for tuning — track better in path and speed, RMS and maximum.
 #[test]
 fn calibration_improves_manoeuvres_it_did_not_tune_on() {
     use litesim_scenario::calibrate::{Manoeuvre, calibrate_from, errors};
@@ -886,14 +895,8 @@ fn calibration_improves_manoeuvres_it_did_not_tune_on() {
     eprintln!("held out: {b:?} → {a:?}");
     assert!(a.rms_path_error < b.rms_path_error, "{b:?} → {a:?}");
     assert!(a.max_path_error < b.max_path_error, "{b:?} → {a:?}");
-    assert!(
-        a.rms_speed_error < 1.05 * b.rms_speed_error,
-        "{b:?} → {a:?}"
-    );
-    assert!(
-        a.max_speed_error < 1.05 * b.max_speed_error,
-        "{b:?} → {a:?}"
-    );
+    assert!(a.rms_speed_error < b.rms_speed_error, "{b:?} → {a:?}");
+    assert!(a.max_speed_error < b.max_speed_error, "{b:?} → {a:?}");
     let (b, a) = (&c.before.tuned, &c.best.tuned);
     assert!(a.rms_path_error < b.rms_path_error, "{b:?} → {a:?}");
     assert!(a.rms_speed_error < b.rms_speed_error, "{b:?} → {a:?}");
