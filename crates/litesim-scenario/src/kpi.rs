@@ -169,7 +169,7 @@ pub struct ActorKpi {
     pub max_speed_error: f64,
     /// Largest distance from the planned position (m).
     pub max_path_error: f64,
-    /// RMS distance from the planned position (m).
+    /// RMS distance from the planned position (m), set by [`Kpis::finish`].
     pub rms_path_error: f64,
     /// RMS |speed − planned speed| (m/s); for calibration reports, not in
     /// run summaries.
@@ -422,8 +422,16 @@ impl Kpis {
         self.index.get(id).copied()
     }
 
-    /// Moves the pairs that came near into [`Kpis::pairs`], in (i, j) order.
+    /// Moves the pairs that came near into [`Kpis::pairs`], in (i, j) order,
+    /// and sets each actor's RMS errors from the sums of squares.
     pub fn finish(&mut self) {
+        if self.n > 0 {
+            let n = self.n as f64;
+            for ((a, sq), sq_v) in self.actors.iter_mut().zip(&self.sq).zip(&self.sq_v) {
+                a.rms_path_error = (sq / n).sqrt();
+                a.rms_speed_error = (sq_v / n).sqrt();
+            }
+        }
         let mut near = std::mem::take(&mut self.near);
         near.sort_by_key(|e| e.ij);
         self.index_of.clear();
@@ -523,11 +531,9 @@ impl Kpis {
             let e = ((b.x - px).powi(2) + (b.y - py).powi(2)).sqrt();
             a.max_path_error = a.max_path_error.max(e);
             self.sq[i] += e * e;
-            a.rms_path_error = (self.sq[i] / self.n as f64).sqrt();
             let ev = speeds[i] - pv;
             a.max_speed_error = a.max_speed_error.max(ev.abs());
             self.sq_v[i] += ev * ev;
-            a.rms_speed_error = (self.sq_v[i] / self.n as f64).sqrt();
             a.max_speed = a.max_speed.max(speeds[i]);
             if off_road[i] && a.off_road_at.is_none() {
                 a.off_road_at = Some(t);
