@@ -26,7 +26,7 @@ pub mod road;
 pub use grid::{GridError, Obstacle, OccupancyGrid};
 pub use lanes::LanePos;
 pub use network::{
-    LanePolyline, LaneRef, Located, MarkRun, RoadNetwork, RoadPosition, RoadSummary,
+    LanePolyline, LaneRef, Located, MarkRun, RoadNetwork, RoadPosition, RoadSummary, SurelyOnRoad,
 };
 pub use parse::{MapError, Warning, parse};
 pub use road::{Direction, LaneSpan};

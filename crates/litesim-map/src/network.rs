@@ -154,6 +154,23 @@ pub struct RoadNetwork {
     edges: Vec<EdgeBounds>,
 }
 
+/// A disc every point of which is on a road (see
+/// [`RoadNetwork::surely_on_road`]): a point inside needs no map lookup to
+/// know it is not off road.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurelyOnRoad {
+    centre: Vec2,
+    radius: f64,
+}
+
+impl SurelyOnRoad {
+    /// True when `p` lies strictly inside the disc.
+    pub fn contains(&self, p: Vec2) -> bool {
+        let d = p - self.centre;
+        d.dot(d) < self.radius * self.radius
+    }
+}
+
 /// What [`RoadNetwork::on_road_radius`] needs to know about a road: how
 /// fast its outer edges can move sideways and its reference line can turn,
 /// and where either may jump.
@@ -555,6 +572,15 @@ impl RoadNetwork {
         }
         let c = 1.0 / (1.0 - k);
         0.9 * (m_t / (1.0 + b.slope * c)).min(m_s / c)
+    }
+
+    /// The disc of [`RoadNetwork::on_road_radius`] around `p`, which
+    /// [`RoadNetwork::locate`] put at `at`.
+    pub fn surely_on_road(&self, p: Vec2, at: &Located) -> SurelyOnRoad {
+        SurelyOnRoad {
+            centre: p,
+            radius: self.on_road_radius(at),
+        }
     }
 
     /// The point on road `ri` (projection refined from `s_guess`), if it

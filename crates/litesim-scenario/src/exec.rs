@@ -360,6 +360,8 @@ pub fn execute(
     // engine works in the map's frame and converts at the boundary, so the
     // simulator's world matches its map (traffic lights, its own roads).
     let mirror = profile.as_ref().is_some_and(|p| p.mirror_y);
+    // The model the simulator reports: its brake decides the drivers'.
+    let model = litesim_ssp::model::model_by_name(&caps.model).ok();
     let command_resolution = profile
         .as_ref()
         .map_or(litesim_ssp::profile::DEFAULT_COMMAND_RESOLUTION, |p| {
@@ -470,11 +472,11 @@ pub fn execute(
         }
         dims.push((desc.length, desc.width, e.map_or(1500.0, |e| e.mass)));
         // The drivers scale brake commands by the deceleration the model
-        // really has: the seed's dummy brakes at 30 m/s² whatever the
-        // catalogue says.
+        // really has (the seed's dummy brakes at 30 m/s² whatever the
+        // catalogue says).
         let mut lim = lim;
-        if caps.model == "dummy" {
-            lim.max_decel = litesim_core::vehicle::BRAKE_DECELERATION;
+        if let Some(d) = model.as_ref().and_then(|m| m.brake_deceleration(e)) {
+            lim.max_decel = d;
         }
         drivers.push(dynamic.then_some(Driver {
             integral: 0.0,
@@ -547,7 +549,7 @@ pub fn execute(
     // check locates it again only beyond that. Not for the SUT's car (it
     // sees its road position each step) nor with traffic lights (red-light
     // crossings need every step's s).
-    let mut on_road_until: Vec<Option<(f64, f64, f64)>> = vec![None; ids.len()];
+    let mut on_road_until: Vec<Option<litesim_map::SurelyOnRoad>> = vec![None; ids.len()];
     // Each light box's road as an index into the map's roads (compared per
     // vehicle and step; a box on a road the map lacks never matches).
     let box_roads: Vec<Option<usize>> = match (lights.as_ref(), net) {
@@ -969,8 +971,7 @@ pub fn execute(
                 planned.push((p.x, p.y, p.v));
                 let vehicle = a.kind == crate::elab::ActorKind::Vehicle;
                 let here = st.pose.position.xy();
-                let surely_on = on_road_until[i]
-                    .is_some_and(|(x, y, r)| (here.x - x).powi(2) + (here.y - y).powi(2) < r * r);
+                let surely_on = on_road_until[i].is_some_and(|z| z.contains(here));
                 if surely_on {
                     off.push(false);
                 } else {
@@ -995,7 +996,7 @@ pub fn execute(
                     }
                     on_road_until[i] = match (net, &pos) {
                         (Some(n), Some(p)) if lights.is_none() && Some(i) != ego_i => {
-                            Some((here.x, here.y, n.on_road_radius(p)))
+                            Some(n.surely_on_road(here, p))
                         }
                         _ => None,
                     };

@@ -28,7 +28,7 @@ pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) 
         // located one (they are surely on the road) and starts each
         // projection from the last one.
         let mut hint: Option<litesim_map::Located> = None;
-        let mut surely_on: Option<(f64, f64, f64)> = None;
+        let mut surely_on: Option<litesim_map::SurelyOnRoad> = None;
         let mut off_map = false;
         for w in a.samples.windows(2) {
             let (p, q) = (&w[0], &w[1]);
@@ -77,11 +77,12 @@ pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) 
             let Some(n) = net.filter(|_| !off_map) else {
                 continue;
             };
-            if surely_on.is_some_and(|(x, y, r)| (q.x - x).powi(2) + (q.y - y).powi(2) < r * r) {
+            let here = litesim_core::geometry::Vec2::new(q.x, q.y);
+            if surely_on.is_some_and(|z| z.contains(here)) {
                 continue;
             }
-            hint = n.locate_near(litesim_core::geometry::Vec2::new(q.x, q.y), hint);
-            surely_on = hint.map(|h| (q.x, q.y, n.on_road_radius(&h)));
+            hint = n.locate_near(here, hint);
+            surely_on = hint.map(|h| n.surely_on_road(here, &h));
             if hint.is_none() {
                 off_map = true;
                 report(

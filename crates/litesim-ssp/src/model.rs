@@ -16,6 +16,13 @@ pub trait Model: Send + Sync {
     fn summary(&self) -> &'static str;
     /// The vehicle dynamics of an actor created from `entry`, for steps of `dt` s.
     fn vehicle_model(&self, entry: &CatalogEntry, dt: f64) -> VehicleModelKind;
+    /// Deceleration at full brake (m/s²) of a vehicle created from `entry`
+    /// (`None`: no entry and no model-wide value): what a driver scales
+    /// its brake commands by. The catalogue's `max_decel` unless the model
+    /// has its own.
+    fn brake_deceleration(&self, entry: Option<&CatalogEntry>) -> Option<f64> {
+        entry.map(|e| e.max_decel)
+    }
 }
 
 /// The seed's dummy model: [`SspDynamics`] with wheelbase = 0.6 · length.
@@ -39,6 +46,9 @@ impl Model for DummyModel {
             entry.max_accel,
             entry.max_steer_angle_deg,
         ))
+    }
+    fn brake_deceleration(&self, _entry: Option<&CatalogEntry>) -> Option<f64> {
+        Some(litesim_core::vehicle::BRAKE_DECELERATION)
     }
 }
 
