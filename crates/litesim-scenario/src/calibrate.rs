@@ -294,7 +294,7 @@ fn gain_mut(c: &mut Calibration, k: usize) -> &mut f64 {
 pub fn calibrate_from(profile: &Profile, start: Calibration) -> Result<Calibrated, ScenarioError> {
     let before = trial(profile, &start)?;
     let mut best_c = start;
-    let mut best = errors(profile, &TUNED_ON, &best_c)?.score();
+    let mut best = before.score;
     let mut trials = 1;
     for _round in 0..6 {
         let mut moved = false;
