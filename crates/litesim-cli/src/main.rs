@@ -187,6 +187,10 @@ enum Command {
         /// Also write an animated replay (GIF).
         #[arg(long)]
         gif: bool,
+        /// Also write the run as MCAP (Foxglove scene, transforms and actor
+        /// states; ASAM OSI GroundTruth) to FILE.
+        #[arg(long, value_name = "FILE")]
+        mcap: Option<PathBuf>,
         /// Driver gains from `litesim calibrate` (TOML).
         #[arg(long)]
         calibration: Option<PathBuf>,
@@ -241,6 +245,10 @@ enum Command {
         /// Keep the logs of failed runs in OUT/failed/.
         #[arg(long)]
         save_failed: bool,
+        /// With --save-failed: also write each failed run as MCAP
+        /// (OUT/failed/TEST-seedN.mcap; Foxglove schemas and OSI GroundTruth).
+        #[arg(long, requires = "save_failed")]
+        mcap: bool,
         /// Also write the results as JUnit XML (one testcase per test × seed).
         #[arg(long, value_name = "FILE")]
         junit: Option<PathBuf>,
@@ -496,6 +504,7 @@ fn run(cli: Cli) -> Result<()> {
             plan_only,
             no_pictures,
             gif,
+            mcap,
             calibration,
             style,
             trace_rpc,
@@ -519,6 +528,7 @@ fn run(cli: Cli) -> Result<()> {
                 plan_only,
                 no_pictures,
                 gif,
+                mcap.as_deref(),
                 calibration.as_deref(),
                 style.as_deref(),
                 trace_rpc.as_deref(),
@@ -545,6 +555,7 @@ fn run(cli: Cli) -> Result<()> {
             force_new,
             quiet,
             save_failed,
+            mcap,
             junit,
             fail_on_holes,
         } => match scenario::batch(
@@ -558,6 +569,7 @@ fn run(cli: Cli) -> Result<()> {
             force_new,
             quiet,
             save_failed,
+            mcap,
             junit,
             fail_on_holes,
         )? {

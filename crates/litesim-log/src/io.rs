@@ -45,8 +45,9 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> LogError + '_ {
     }
 }
 
-/// Writes `fill`'s output to `path` atomically.
-pub(crate) fn write_atomic(
+/// Writes `fill`'s output to `path` atomically: a temporary file in the
+/// same folder, synced, made an ordinary 0644 file and renamed over `path`.
+pub fn write_atomic(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), LogError> {

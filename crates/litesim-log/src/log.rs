@@ -122,7 +122,7 @@ impl ActorTrack {
         self.tick.is_empty()
     }
     /// Column lengths that disagree with `tick` (name, length).
-    pub(crate) fn bad_columns(&self) -> Vec<(&'static str, usize)> {
+    pub fn bad_columns(&self) -> Vec<(&'static str, usize)> {
         let n = self.tick.len();
         let s = &self.state;
         let c = &self.control;

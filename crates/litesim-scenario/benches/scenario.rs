@@ -192,6 +192,36 @@ fn main() {
         });
     }
     g.finish();
+    // A run's MCAP (issue: ≤ 10 % of a run): the README example recorded
+    // (run + log.json text), and its MCAP written from that log.
+    let mut g = c.benchmark_group("mcap");
+    let cut_in = prepare(
+        &root().join("examples/scenarios/cut_in.osc"),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    let rec = RunOptions {
+        record: true,
+        ..RunOptions::default()
+    };
+    g.bench_function("cut_in_run_recorded_with_log_json", |b| {
+        b.iter(|| {
+            let r = run(&cut_in, &mut litesim_scenario::in_process(), &rec).unwrap();
+            black_box(serde_json::to_string(&r.log.unwrap()).unwrap().len())
+        })
+    });
+    let log = run(&cut_in, &mut litesim_scenario::in_process(), &rec)
+        .unwrap()
+        .log
+        .unwrap();
+    g.bench_function("cut_in_write_mcap", |b| {
+        b.iter(|| {
+            let mut out = std::io::Cursor::new(Vec::new());
+            black_box(litesim_mcap::write_to(&log, cut_in.net.as_deref(), &mut out).unwrap());
+            black_box(out.into_inner().len())
+        })
+    });
+    g.finish();
     // Over gRPC: a server on loopback in this process.
     let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();
     let addr = server.addr.to_string();

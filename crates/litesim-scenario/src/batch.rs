@@ -239,6 +239,9 @@ pub struct BatchSpec {
     /// Keep the log of every failed run as `OUT/failed/TEST-seedN.json`
     /// (failed runs are run again with a recorder; passing runs cost nothing).
     pub save_failed: bool,
+    /// With `save_failed`: also write each failed run as
+    /// `OUT/failed/TEST-seedN.mcap` (see `litesim_mcap`).
+    pub save_failed_mcap: bool,
 }
 
 /// What a batch did.
@@ -684,7 +687,15 @@ pub fn run_batch(
                     && !line.pass
                     && let Ok(p) = prep
                 {
-                    save_log(&spec.out, name, p, *seed, &base, &manifest_hash);
+                    save_log(
+                        &spec.out,
+                        name,
+                        p,
+                        *seed,
+                        &base,
+                        &manifest_hash,
+                        spec.save_failed_mcap,
+                    );
                 }
                 let text = serde_json::to_string(&line).unwrap_or_default();
                 let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
@@ -725,6 +736,7 @@ fn save_log(
     seed: u64,
     base: &RunOptions,
     manifest_hash: &str,
+    mcap: bool,
 ) {
     let opts = RunOptions {
         seed: Some(seed),
@@ -745,6 +757,10 @@ fn save_log(
         let dir = out.join("failed");
         if std::fs::create_dir_all(&dir).is_ok() {
             let _ = log.write_json(&dir.join(format!("{stem}-seed{seed}.json")));
+            if mcap {
+                let path = dir.join(format!("{stem}-seed{seed}.mcap"));
+                let _ = litesim_mcap::write(&log, prep.net.as_deref(), &path);
+            }
         }
     }
 }

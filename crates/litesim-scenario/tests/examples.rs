@@ -619,6 +619,7 @@ fn batch_spec(
         sut: Default::default(),
         sut_timeout: None,
         save_failed: false,
+        save_failed_mcap: false,
     }
 }
 
