@@ -7,6 +7,7 @@ mod map;
 mod plan;
 mod report;
 mod scenario;
+mod view;
 mod viz;
 
 use anyhow::{Context, Result};
@@ -255,6 +256,26 @@ enum Command {
         /// Fail (exit 2) when a `cover` item has buckets no run hit.
         #[arg(long)]
         fail_on_holes: bool,
+    },
+    /// Watch a run in the browser: map, actors, time slider, play, zoom,
+    /// follow, actor state on click, speed/gap/TTC plots, failures on the
+    /// timeline. Serves on 127.0.0.1 (no network needed); `--export`
+    /// writes the same viewer as one self-contained HTML file instead.
+    View {
+        /// A run folder (from `litesim run`) or a log.json.
+        run: PathBuf,
+        /// Port (0: any free port; the URL is printed).
+        #[arg(long, default_value_t = 8765)]
+        port: u16,
+        /// Address to listen on (the viewer is for this machine unless you say otherwise).
+        #[arg(long, default_value = "127.0.0.1")]
+        host: String,
+        /// OpenDRIVE map to draw (default: the one the run's summary names).
+        #[arg(long)]
+        map: Option<PathBuf>,
+        /// Write the viewer with the whole run inside to FILE (works from file://) and exit.
+        #[arg(long, value_name = "FILE")]
+        export: Option<PathBuf>,
     },
     /// One self-contained HTML report of a batch folder: runs table,
     /// failure reasons, coverage and its holes, KPI histograms, replays.
@@ -579,6 +600,27 @@ fn run(cli: Cli) -> Result<()> {
             // A test could not be read or run at all.
             scenario::Outcome::SutError | scenario::Outcome::CouldNotRun => std::process::exit(1),
         },
+        Command::View {
+            run,
+            port,
+            host,
+            map,
+            export,
+        } => {
+            // Everything is read and checked before a port is opened: a
+            // bad log starts no server.
+            let data = view::ViewData::new(view::Run::load(&run, map.as_deref())?);
+            if let Some(out) = export {
+                view::export(&data, &out)?;
+                println!("wrote {}", out.display());
+                return Ok(());
+            }
+            let listener = view::bind(&host, port)?;
+            let addr = listener.local_addr()?;
+            println!("litesim viewer: http://{addr}/  (Ctrl-C to stop)");
+            std::io::stdout().flush()?;
+            view::serve(data, listener)
+        }
         Command::Report { dir, out, quiet } => {
             let p = report::write(&dir, out, quiet)?;
             println!("wrote {}", p.display());

@@ -177,3 +177,187 @@ fn an_mcap_path_that_cannot_be_written_is_a_clear_error() {
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("/proc/litesim"), "{}", text(&o));
 }
+
+/// A `litesim view` server, stopped when dropped.
+struct Viewer {
+    child: std::process::Child,
+    url: String,
+}
+
+impl Drop for Viewer {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn view(target: &Path) -> Viewer {
+    use std::io::BufRead;
+    let mut child = litesim()
+        .current_dir(workspace())
+        .arg("view")
+        .arg(target)
+        .args(["--port", "0"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let url = line
+        .split_whitespace()
+        .find(|w| w.starts_with("http://127.0.0.1:"))
+        .unwrap_or_else(|| panic!("no URL in {line:?}"))
+        .to_string();
+    Viewer { child, url }
+}
+
+/// A failing run (a collision at 7.84 s: a failure marker on the timeline).
+fn failing_run(dir: &Path) -> std::path::PathBuf {
+    let out = dir.join("run");
+    let o = run(
+        &[
+            "examples/scenarios/cut_in_coverage.osc",
+            "--seed",
+            "6",
+            "--no-pictures",
+        ],
+        &out,
+    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    out
+}
+
+#[test]
+fn the_viewer_serves_a_run_that_a_browser_scrubs_plays_and_inspects() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = failing_run(dir.path());
+    let v = view(&out);
+    let said = python(
+        "check_viewer.py",
+        &[v.url.as_ref(), out.join("log.json").as_os_str()],
+    );
+    assert!(said.contains("5 markers"), "{said}");
+}
+
+#[test]
+fn an_exported_viewer_works_from_a_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = failing_run(dir.path());
+    let html = dir.path().join("shared.html");
+    let o = litesim()
+        .current_dir(workspace())
+        .arg("view")
+        .arg(&out)
+        .arg("--export")
+        .arg(&html)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    // Moved away from the run (and the map): it still has everything.
+    let moved = tempfile::tempdir().unwrap();
+    let there = moved.path().join("shared.html");
+    std::fs::copy(&html, &there).unwrap();
+    drop(dir);
+    let keep = tempfile::tempdir().unwrap();
+    let out = failing_run(keep.path());
+    python(
+        "check_viewer.py",
+        &[
+            format!("file://{}", there.display()).as_ref(),
+            out.join("log.json").as_os_str(),
+        ],
+    );
+}
+
+/// A synthetic ten-minute log at 20 ms (30,000 ticks) of `actors` cars.
+fn long_log(path: &Path, actors: usize) {
+    let mut rec = litesim_log::LogRecorder::new(0.02);
+    for a in 0..actors {
+        rec.actor(&format!("car{a}"), "vehicle/car", "car", 4.5, 1.8, 1500.0);
+    }
+    for k in 0..30_000u64 {
+        let t = k as f64 * 0.02;
+        rec.begin(k, t);
+        for a in 0..actors {
+            let v = 10.0 + a as f64;
+            let s = litesim_log::ActorSample::from_kinematics(
+                litesim_core::geometry::Pose::planar(v * t, 3.5 * a as f64, 0.0),
+                litesim_core::geometry::Vec3::new(v, 0.0, 0.0),
+                litesim_core::geometry::Vec3::new(0.0, 0.0, 0.0),
+                0.0,
+                v,
+                1500.0,
+            );
+            rec.sample(&format!("car{a}"), "trajectory", &s);
+        }
+    }
+    rec.finish().write_json(path).unwrap();
+}
+
+#[test]
+fn a_ten_minute_run_loads_within_a_second_and_streams() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("long.json");
+    long_log(&log, 4);
+    let v = view(&log);
+    // Plots come decimated (≤ 2,000 points), positions in 2,000-tick chunks.
+    let said = python(
+        "check_viewer.py",
+        &[
+            v.url.as_ref(),
+            log.as_os_str(),
+            "--max-load-ms".as_ref(),
+            "1000".as_ref(),
+        ],
+    );
+    println!("{said}");
+}
+
+#[test]
+fn bad_targets_and_busy_ports_are_clear_errors_and_start_no_server() {
+    let dir = tempfile::tempdir().unwrap();
+    let view_of = |args: &[&std::ffi::OsStr]| {
+        litesim()
+            .current_dir(workspace())
+            .arg("view")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let missing = dir.path().join("nope");
+    let o = view_of(&[missing.as_os_str()]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("nope") && !text(&o).contains("viewer:"),
+        "{}",
+        text(&o)
+    );
+    // A folder without a log.
+    let o = view_of(&[dir.path().as_os_str()]);
+    assert!(text(&o).contains("no log.json"), "{}", text(&o));
+    // A corrupt log: where and what.
+    let bad = dir.path().join("log.json");
+    std::fs::write(
+        &bad,
+        "{\"format_version\": 1, \"dt\": 0.02, \"tick\": [1,2,",
+    )
+    .unwrap();
+    let o = view_of(&[bad.as_os_str()]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("line 1"), "{}", text(&o));
+    assert!(!text(&o).contains("viewer:"), "{}", text(&o));
+    // A port in use: said, with the way out.
+    let busy = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = busy.local_addr().unwrap().port().to_string();
+    let out = failing_run(dir.path());
+    let o = view_of(&[out.as_os_str(), "--port".as_ref(), port.as_ref()]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(
+        text(&o).contains("in use") && text(&o).contains("--port"),
+        "{}",
+        text(&o)
+    );
+}

@@ -52,21 +52,25 @@ pub fn world_bounds(log: &SimulationLog) -> Option<Range2> {
             ));
         }
     }
-    let mut b: Option<Range2> = None;
-    for t in &log.tracks {
-        for (x, y) in t.state.x.iter().zip(&t.state.y) {
-            if !(x.is_finite() && y.is_finite()) {
-                continue;
-            }
-            let r = b.get_or_insert(((*x, *x), (*y, *y)));
-            r.0 = (r.0.0.min(*x), r.0.1.max(*x));
-            r.1 = (r.1.0.min(*y), r.1.1.max(*y));
-        }
-    }
-    b.map(|((x0, x1), (y0, y1))| {
+    path_bounds(log).map(|((x0, x1), (y0, y1))| {
         let m = ((x1 - x0).max(y1 - y0) * 0.08).max(5.0);
         ((x0 - m, x1 + m), (y0 - m, y1 + m))
     })
+}
+
+/// The extent of every actor's finite positions (no margin).
+pub fn path_bounds(log: &SimulationLog) -> Option<Range2> {
+    let mut b: Option<Range2> = None;
+    for t in &log.tracks {
+        for (x, y) in t.state.x.iter().zip(&t.state.y) {
+            if x.is_finite() && y.is_finite() {
+                let r = b.get_or_insert(((*x, *x), (*y, *y)));
+                r.0 = (r.0.0.min(*x), r.0.1.max(*x));
+                r.1 = (r.1.0.min(*y), r.1.1.max(*y));
+            }
+        }
+    }
+    b
 }
 
 /// Widens a range so that metres have the same size on both axes for a plot area of `w × h` px.

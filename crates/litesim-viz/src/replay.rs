@@ -2,7 +2,7 @@
 //! map (PNG), and a GIF of all actors' footprints over time.
 
 use crate::animation::frame_timing;
-use crate::draw::{Range2, draw_track_vehicle, equal_aspect, world_bounds};
+use crate::draw::{Range2, draw_track_vehicle, equal_aspect, path_bounds, world_bounds};
 use crate::style::Style;
 use crate::{VizError, check_size, draw_err, encode_png, fonts, temp_sibling, write_atomic};
 use litesim_log::SimulationLog;
@@ -299,22 +299,26 @@ fn frame<DB: DrawingBackend>(
     style: &Style,
     tick: Option<u64>,
     title: &str,
-) -> Result<(), VizError> {
+) -> Result<Drawn, VizError> {
+    let b = framed(log)?;
+    let builder = || {
+        let mut c = ChartBuilder::on(root);
+        c.caption(title, ("sans-serif", style.title_font))
+            .margin(6)
+            .x_label_area_size(30)
+            .y_label_area_size(45);
+        c
+    };
+    // Equal axes exactly: the plot area's pixel size is measured on a
+    // probe chart, then the ranges are widened to its shape.
     root.fill(&style.c(&style.background)).map_err(draw_err)?;
-    // The view follows the actors, not the whole map: a 500 m road with two
-    // cars on 100 m of it would draw them as specks. The map shows around
-    // them (at least 20 m, or 15 % of their extent), clipped to the view.
-    let b = world_bounds(log)
-        .ok_or_else(|| VizError::Empty("the log has no positions to replay".into()))?;
-    let m = ((b.0.1 - b.0.0).max(b.1.1 - b.1.0) * 0.15).max(20.0);
-    let b = ((b.0.0 - m, b.0.1 + m), (b.1.0 - m, b.1.1 + m));
-    let (w, h) = root.dim_in_pixel();
-    let r = equal_aspect(b, w as f64 - 55.0, h as f64 - 60.0);
-    let mut chart = ChartBuilder::on(root)
-        .caption(title, ("sans-serif", style.title_font))
-        .margin(6)
-        .x_label_area_size(30)
-        .y_label_area_size(45)
+    let probe = builder()
+        .build_cartesian_2d(0.0..1.0, 0.0..1.0)
+        .map_err(draw_err)?;
+    let (pw, ph) = probe.plotting_area().dim_in_pixel();
+    root.fill(&style.c(&style.background)).map_err(draw_err)?;
+    let r = equal_aspect(b, pw as f64, ph as f64);
+    let mut chart = builder()
         .build_cartesian_2d(r.0.0..r.0.1, r.1.0..r.1.1)
         .map_err(draw_err)?;
     chart
@@ -349,6 +353,17 @@ fn frame<DB: DrawingBackend>(
         };
         if let Some(i) = at {
             draw_track_vehicle(&mut chart, t, i, t.control.steering_angle[i], c)?;
+            // The id beside the box: legible without matching colours.
+            let (x, y) = (t.state.x[i], t.state.y[i]);
+            if x.is_finite() && y.is_finite() {
+                chart
+                    .draw_series(std::iter::once(Text::new(
+                        t.id.clone(),
+                        (x, y + t.width.max(1.0)),
+                        ("sans-serif", style.tick_font).into_font().color(&BLACK),
+                    )))
+                    .map_err(draw_err)?;
+            }
         }
     }
     chart
@@ -360,7 +375,55 @@ fn frame<DB: DrawingBackend>(
         .draw()
         .map_err(draw_err)?;
     root.present().map_err(draw_err)?;
-    Ok(())
+    Ok(Drawn {
+        view: r,
+        plot_px: (pw, ph),
+    })
+}
+
+/// What [`frame`] drew: the world ranges and the plot area's pixel size
+/// (what the tests check equal axes and framing on).
+#[derive(Clone, Copy, Debug)]
+#[cfg_attr(not(test), allow(dead_code))]
+struct Drawn {
+    view: Range2,
+    plot_px: (u32, u32),
+}
+
+/// The world area a replay shows: the actors' paths, not the whole map (a
+/// 500 m road with two cars on 100 m of it would draw them as specks), with
+/// a margin of 10 % of their extent and at least 8 m, where the map shows
+/// around them.
+fn framed(log: &SimulationLog) -> Result<Range2, VizError> {
+    // A planner run frames its grid; a scenario run its actors' paths
+    // (their bare extent: the margin is added once, here).
+    let grid = log
+        .plan
+        .as_ref()
+        .is_some_and(|p| p.grid.width > 0 && p.grid.height > 0);
+    let b = if grid {
+        world_bounds(log)
+    } else {
+        path_bounds(log)
+    }
+    .ok_or_else(|| VizError::Empty("the log has no positions to replay".into()))?;
+    let m = ((b.0.1 - b.0.0).max(b.1.1 - b.1.0) * 0.10).max(8.0);
+    Ok(((b.0.0 - m, b.0.1 + m), (b.1.0 - m, b.1.1 + m)))
+}
+
+/// Pixel size of the overview picture: metres are equal on both axes, so
+/// the picture takes the shape of what it frames — a long straight run is
+/// a wide, low picture (up to twice the stylesheet's width) rather than a
+/// thin strip in a square; a compact one keeps the stylesheet's size.
+pub fn overview_size(log: &SimulationLog, style: &Style) -> Result<(u32, u32), VizError> {
+    let [w, h] = style.frame_size;
+    let ((x0, x1), (y0, y1)) = framed(log)?;
+    let ratio = (x1 - x0).max(1e-6) / (y1 - y0).max(1e-6);
+    // Chrome around the plot area: title, axis labels (see `frame`).
+    let (cw, ch) = (55.0, 60.0);
+    let width = (w as f64 * (ratio / 1.33).clamp(1.0, 2.0)).round();
+    let height = ((width - cw) / ratio + ch).clamp(300.0_f64.min(h as f64), h as f64);
+    Ok((width as u32, height.round() as u32))
 }
 
 /// Writes the replay overview (all tracks) as PNG.
@@ -371,7 +434,7 @@ pub fn write_png(
     path: &Path,
 ) -> Result<(), VizError> {
     fonts();
-    let [w, h] = style.frame_size;
+    let (w, h) = overview_size(log, style)?;
     check_size(w, h)?;
     let mut buf = vec![0u8; (w * h * 3) as usize];
     {
@@ -440,6 +503,57 @@ pub fn write_gif(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use litesim_log::{ActorSample, LogRecorder};
+
+    /// Two cars on 200 m of straight road, 3.5 m apart.
+    fn straight_run() -> SimulationLog {
+        let mut rec = LogRecorder::new(0.1);
+        rec.actor("sut.car", "vehicle/car", "car", 4.6, 1.9, 1500.0);
+        rec.actor("other", "vehicle/car", "car", 4.6, 1.9, 1500.0);
+        for k in 0..100u64 {
+            rec.begin(k, k as f64 * 0.1);
+            for (id, y, v) in [("sut.car", -8.75, 18.0), ("other", -5.25, 20.0)] {
+                let s = ActorSample::from_kinematics(
+                    litesim_core::geometry::Pose::planar(100.0 + v * k as f64 * 0.1, y, 0.0),
+                    litesim_core::geometry::Vec3::new(v, 0.0, 0.0),
+                    litesim_core::geometry::Vec3::new(0.0, 0.0, 0.0),
+                    0.0,
+                    v,
+                    1500.0,
+                );
+                rec.sample(id, "trajectory", &s);
+            }
+        }
+        rec.finish()
+    }
+
+    #[test]
+    fn the_overview_has_equal_axes_and_frames_the_paths() {
+        let log = straight_run();
+        let style = Style::default();
+        let (w, h) = overview_size(&log, &style).unwrap();
+        // A long straight run makes a wide, low picture.
+        assert!(w as f64 > 2.0 * h as f64, "{w}×{h}");
+        fonts();
+        let mut buf = vec![0u8; (w * h * 3) as usize];
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        let d = frame(&root, &log, &Background::default(), &style, None, "t").unwrap();
+        let ((x0, x1), (y0, y1)) = d.view;
+        let (pw, ph) = d.plot_px;
+        // Metres per pixel equal on both axes (to the pixel rounding).
+        let (mx, my) = ((x1 - x0) / pw as f64, (y1 - y0) / ph as f64);
+        assert!((mx / my - 1.0).abs() < 1e-9, "{mx} vs {my} m/px");
+        // Every path inside, with at least 8 m around it; and tight: the
+        // view is not more than the paths plus their margin on the long axis.
+        for t in &log.tracks {
+            for (x, y) in t.state.x.iter().zip(&t.state.y) {
+                assert!(*x >= x0 + 8.0 && *x <= x1 - 8.0 && *y >= y0 + 8.0 && *y <= y1 - 8.0);
+            }
+        }
+        assert!(x1 - x0 <= 198.0 * 1.2 + 1e-6 + 2.0 * 8.0, "{x0}..{x1}");
+        // Cars are legible: at least 4 px per metre (a car ≥ 18 px long).
+        assert!(1.0 / mx >= 4.0, "{} px/m", 1.0 / mx);
+    }
 
     #[test]
     fn dashes_keep_their_pattern_across_vertices() {
