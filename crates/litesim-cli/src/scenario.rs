@@ -299,9 +299,9 @@ pub fn run(
         log.meta.insert("seed".into(), s.seed.to_string());
         log.meta.insert("run".into(), run_hash.clone());
         let log = &log;
-        log.write_json(&p).map_err(|e| anyhow!("{e}"))?;
-        println!("wrote {}", p.display());
-        let pictures = || -> Result<()> {
+        let rest = || -> Result<()> {
+            log.write_json(&p).map_err(|e| anyhow!("{e}"))?;
+            println!("wrote {}", p.display());
             if no_pictures {
                 return Ok(());
             }
@@ -321,8 +321,8 @@ pub fn run(
             }
             Ok(())
         };
-        // The MCAP file is written while the pictures are drawn: on two
-        // cores it adds (almost) nothing to the run's wall time.
+        // The MCAP file is written while log.json and the pictures are:
+        // on two cores it adds little to the run's wall time.
         std::thread::scope(|scope| -> Result<()> {
             let net = prep.net.as_deref();
             let job = mcap.map(|m| {
@@ -330,7 +330,7 @@ pub fn run(
                     litesim_mcap::write(log, net, m).map_err(|e| anyhow!("{}: {e}", m.display()))
                 })
             });
-            let drawn = pictures();
+            let drawn = rest();
             if let (Some(job), Some(m)) = (job, mcap) {
                 job.join()
                     .map_err(|_| anyhow!("{}: the MCAP writer panicked", m.display()))??;

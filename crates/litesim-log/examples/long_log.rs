@@ -40,5 +40,7 @@ fn main() {
             rec.sample(id, "trajectory", &s);
         }
     }
-    rec.finish().write_json(std::path::Path::new(out)).expect("write");
+    rec.finish()
+        .write_json(std::path::Path::new(out))
+        .expect("write");
 }
