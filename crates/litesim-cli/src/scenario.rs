@@ -489,6 +489,7 @@ pub fn batch(
         sut_timeout: common.sut_timeout()?,
         save_failed,
         save_failed_mcap,
+        precomputed: Default::default(),
     };
     let bar = indicatif::ProgressBar::new(0);
     if quiet {

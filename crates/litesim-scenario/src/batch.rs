@@ -239,6 +239,10 @@ pub struct BatchSpec {
     /// Keep the log of every failed run as `OUT/failed/TEST-seedN.json`
     /// (failed runs are run again with a recorder; passing runs cost nothing).
     pub save_failed: bool,
+    /// Result lines computed elsewhere (a Ray cluster: `litesim.ray`), by
+    /// (test, seed): those jobs are not run again, and everything is written
+    /// exactly as if they had run here. Jobs missing from it run here.
+    pub precomputed: BTreeMap<(String, u64), RunLine>,
     /// With `save_failed`: also write each failed run as
     /// `OUT/failed/TEST-seedN.mcap` (see `litesim_mcap`).
     pub save_failed_mcap: bool,
@@ -682,7 +686,10 @@ pub fn run_batch(
         jobs.par_iter()
             .map(|(ti, seed)| {
                 let (name, prep) = &preps[*ti];
-                let line = run_line(name, prep, *seed, &base);
+                let line = match spec.precomputed.get(&(name.clone(), *seed)) {
+                    Some(l) => l.clone(),
+                    None => run_line(name, prep, *seed, &base),
+                };
                 if spec.save_failed
                     && !line.pass
                     && let Ok(p) = prep

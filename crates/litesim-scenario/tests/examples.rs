@@ -620,6 +620,7 @@ fn batch_spec(
         sut_timeout: None,
         save_failed: false,
         save_failed_mcap: false,
+        precomputed: Default::default(),
     }
 }
 

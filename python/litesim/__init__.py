@@ -1,0 +1,150 @@
+"""litesim from Python: deterministic scenario runs with your own system
+under test, in-process.
+
+    import litesim
+    r = litesim.run("examples/scenarios/cut_in.osc", seed=3, sut="acc")
+    r.passed, r.failures, r.kpis["pairs"], r.log   # log: a pandas DataFrame
+
+A SUT is any object with ``step(observation) -> Command`` (and optionally
+``reset(info)``); it is called in lock step with the simulation, in this
+process, with no gRPC in between.
+"""
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, Dict, List, Optional, Sequence, Union
+
+from . import _native
+from ._native import Command, LitesimError, Observation, ObjectState, __version__
+
+__all__ = [
+    "Command",
+    "LitesimError",
+    "Observation",
+    "ObjectState",
+    "Result",
+    "run",
+    "__version__",
+]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+class Result:
+    """The outcome of one run.
+
+    Attributes:
+        passed: every check held.
+        verdict: ``"pass"``, ``"fail"`` or ``"sut-error"`` (the SUT raised or
+            answered something invalid; its traceback is in ``failures``).
+        failures: why it failed, one sentence each (litesim's wording).
+        summary: the whole summary (what ``litesim run`` writes as summary.json).
+        kpis: the summary's measurements: ``actors``, ``pairs`` (min distance,
+            min TTC, collisions), ``ego``, ``goals``.
+    """
+
+    def __init__(self, native: "_native.NativeRun"):
+        self._native = native
+        self.passed: bool = native.passed
+        self.failures: List[str] = list(native.failures)
+        self.summary: Dict[str, Any] = json.loads(native.summary_json)
+        self.kpis: Dict[str, Any] = {
+            k: self.summary.get(k) for k in ("actors", "pairs", "ego", "goals")
+        }
+        if self.passed:
+            self.verdict = "pass"
+        elif any(f.startswith("sut error") for f in self.failures):
+            self.verdict = "sut-error"
+        else:
+            self.verdict = "fail"
+        self._log = None
+
+    @property
+    def log(self):
+        """The log, one row per actor and tick (tick, time, actor, mode, x, y,
+        yaw, vx, vy, speed, yaw_rate, throttle, brake, steering, acceleration,
+        lateral_acceleration): a pandas DataFrame, or a dict of numpy arrays
+        when pandas is not installed; None when the run did not record."""
+        if self._log is None:
+            cols = self._native.log_columns()
+            if cols is None:
+                return None
+            import numpy as np
+
+            arrays = {
+                k: np.asarray(v, dtype=object if k in ("actor", "mode") else None)
+                for k, v in cols.items()
+            }
+            try:
+                import pandas as pd
+            except ImportError:
+                self._log = arrays
+            else:
+                self._log = pd.DataFrame(arrays)
+        return self._log
+
+    def log_json(self) -> Optional[str]:
+        """The log as litesim's JSON (the bytes `litesim run` writes as log.json)."""
+        return self._native.log_json()
+
+    def __repr__(self) -> str:
+        s = self.summary
+        return (
+            f"Result({s.get('test')!r} seed {s.get('seed')}: {self.verdict}, "
+            f"{s.get('steps')} steps, sut {s.get('sut')})"
+        )
+
+
+def _path(name: str, v: Any) -> str:
+    if isinstance(v, (str, os.PathLike)):
+        return os.fspath(v)
+    raise TypeError(f"{name}: expected a path (str or os.PathLike), got {type(v).__name__}")
+
+
+def run(
+    test: PathLike,
+    seed: Optional[int] = None,
+    sut: Any = None,
+    *,
+    mode: Optional[str] = None,
+    record: bool = True,
+    map: Optional[PathLike] = None,
+    include: Sequence[PathLike] = (),
+    sut_timeout: Optional[float] = None,
+) -> Result:
+    """Runs an OpenSCENARIO DSL test once.
+
+    Args:
+        test: the .osc file.
+        seed: the seed (default: the test's, else 1).
+        sut: what drives sut.car: None (its plan), ``"acc"``, ``"fmt-mpc"``,
+            ``"grpc://HOST:PORT"``, or an object with ``step(observation)``
+            returning a :class:`Command` (or a dict of throttle/brake/steering
+            or acceleration/curvature) and optionally ``reset(info)``.
+        mode: ``"kinematic"`` or ``"dynamic"`` (default: the test's).
+        record: keep the log (``Result.log``).
+        map: an OpenDRIVE map overriding the test's.
+        include: import search paths.
+        sut_timeout: seconds a gRPC SUT may take per call.
+
+    Raises:
+        TypeError / ValueError: a parameter of the wrong type or value (named).
+        LitesimError: the test could not be read or run (litesim's message).
+    """
+    test = _path("test", test)
+    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
+        raise TypeError(f"seed: expected an int, got {type(seed).__name__}")
+    if seed is not None and seed < 0:
+        raise ValueError(f"seed: {seed} is negative; seeds are 0..2**64-1")
+    if not isinstance(record, bool):
+        raise TypeError(f"record: expected a bool, got {type(record).__name__}")
+    if mode is not None and not isinstance(mode, str):
+        raise TypeError(f"mode: expected 'kinematic', 'dynamic' or None, got {type(mode).__name__}")
+    if isinstance(include, (str, os.PathLike)):
+        include = [include]
+    inc = [_path("include", p) for p in include]
+    m = None if map is None else _path("map", map)
+    return Result(
+        _native.run(test, seed, sut, mode, record, m, inc, sut_timeout)
+    )

@@ -1,0 +1,69 @@
+"""Type stubs of litesim's native module (see litesim/__init__.py for the API users call)."""
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+__version__: str
+
+class LitesimError(Exception):
+    """Something litesim could not do; the message is litesim's."""
+
+class ObjectState:
+    """One object of the object list (map frame, SI units)."""
+    id: str
+    kind: str
+    x: float
+    y: float
+    yaw: float
+    speed: float
+    vx: float
+    vy: float
+    acceleration: float
+    length: float
+    width: float
+
+class Observation:
+    """What the SUT sees at one step."""
+    @property
+    def tick(self) -> int: ...
+    @property
+    def time(self) -> float: ...
+    @property
+    def ego(self) -> ObjectState: ...
+    @property
+    def objects(self) -> List[ObjectState]: ...
+    @property
+    def lights(self) -> List[Dict[str, Any]]: ...
+    @property
+    def road(self) -> Optional[Dict[str, Any]]: ...
+    @property
+    def requested_speed(self) -> float: ...
+    @property
+    def distance_to_goal(self) -> float: ...
+    def to_json(self) -> str: ...
+
+class Command:
+    """A command for sut.car."""
+    @staticmethod
+    def pedals(throttle: float = 0.0, brake: float = 0.0, steering: float = 0.0) -> "Command": ...
+    @staticmethod
+    def accel(acceleration: float = 0.0, curvature: float = 0.0) -> "Command": ...
+    @staticmethod
+    def physical(drive_force_n: float = 0.0, brake_force_n: float = 0.0, steering_wheel_angle_rad: float = 0.0) -> "Command": ...
+
+class NativeRun:
+    passed: bool
+    failures: List[str]
+    summary_json: str
+    def log_columns(self) -> Optional[Dict[str, list]]: ...
+    def log_json(self) -> Optional[str]: ...
+
+class SteppedRun:
+    def __init__(self, test: str, seed: Optional[int] = None, mode: Optional[str] = None) -> None: ...
+    def next(self) -> Union[Tuple[str, Observation], Tuple[str, bool, List[str], str]]: ...
+    def send(self, command: Union[Command, Dict[str, float]]) -> None: ...
+    def close(self) -> None: ...
+
+def run(test: str, seed: Optional[int] = None, sut: Any = None, mode: Optional[str] = None, record: bool = True,
+        map: Optional[str] = None, include: Sequence[str] = ..., sut_timeout: Optional[float] = None) -> NativeRun: ...
+def run_lines(jobs: Sequence[Tuple[str, int]], sut: Any = None, mode: Optional[str] = None) -> List[str]: ...
+def write_batch(tests: Sequence[str], seed_from: int, seed_to: int, out: str, lines: Sequence[str], sut: Any = None,
+                mode: Optional[str] = None, force_new: bool = False) -> Tuple[int, int, int]: ...
