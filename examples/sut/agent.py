@@ -15,6 +15,8 @@ args = ap.parse_args()
 out = tempfile.mkdtemp(prefix="litesim_sut_")
 assert protoc.main(["protoc", f"-I{args.proto}", f"--python_out={out}", f"--grpc_python_out={out}",
                     os.path.join(args.proto, "litesim/sut/v1/sut.proto")]) == 0
+for d in ("litesim", "litesim/sut", "litesim/sut/v1"):  # regular packages: the stubs win over
+    open(os.path.join(out, d, "__init__.py"), "a").close()  # an installed `litesim` Python package
 sys.path.insert(0, out)
 from litesim.sut.v1 import sut_pb2 as pb, sut_pb2_grpc as rpc  # noqa: E402
 

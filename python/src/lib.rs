@@ -733,6 +733,7 @@ impl Drop for SteppedRun {
 
 /// Runs `(test, seed)` jobs and returns each run's result line (the JSON
 /// `litesim batch` writes), in job order. Used by `litesim.ray` tasks.
+/// Tests are read and named as given (relative to the working folder).
 #[pyfunction]
 #[pyo3(signature = (jobs, sut=None, mode=None))]
 fn run_lines(
@@ -757,7 +758,7 @@ fn run_lines(
         for (test, seed) in &jobs {
             let prep = preps.entry(test.clone()).or_insert_with(|| {
                 litesim_scenario::prepare(std::path::Path::new(test), &LoadOptions::default())
-                    .map_err(|e| e.to_string())
+                    .map_err(|e| e.chain())
             });
             let line = litesim_scenario::batch::run_line(test, prep, *seed, &base);
             out.push(serde_json::to_string(&line).map_err(lerr)?);

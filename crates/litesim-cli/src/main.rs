@@ -256,6 +256,11 @@ enum Command {
         /// Fail (exit 2) when a `cover` item has buckets no run hit.
         #[arg(long)]
         fail_on_holes: bool,
+        /// Run on a Ray cluster (auto, HOST:PORT, ray://HOST:PORT, or local
+        /// to start one here) through the Python package (`pip install
+        /// ./python[ray]`); the folder written is the same as without.
+        #[arg(long, value_name = "ADDRESS", conflicts_with_all = ["resume", "save_failed", "junit", "threads", "fail_on_holes"])]
+        ray: Option<String>,
     },
     /// Watch a run in the browser: map, actors, time slider, play, zoom,
     /// follow, actor state on click, speed/gap/TTC plots, failures on the
@@ -579,6 +584,7 @@ fn run(cli: Cli) -> Result<()> {
             mcap,
             junit,
             fail_on_holes,
+            ray,
         } => match scenario::batch(
             tests,
             &common,
@@ -593,6 +599,7 @@ fn run(cli: Cli) -> Result<()> {
             mcap,
             junit,
             fail_on_holes,
+            ray.as_deref(),
         )? {
             scenario::Outcome::Pass => Ok(()),
             // Some run failed its checks: the batch's verdict is a failure.

@@ -132,6 +132,64 @@ fn lanes(net: Option<&litesim_map::RoadNetwork>) -> litesim_viz::replay::Backgro
         .unwrap_or_default()
 }
 
+/// `litesim batch --ray ADDRESS`: the batch on a Ray cluster through the
+/// Python package (`python3 -m litesim.ray`), which writes the same folder.
+#[allow(clippy::too_many_arguments)]
+fn ray_batch(
+    address: &str,
+    tests: &[PathBuf],
+    common: &Common,
+    (a, b): (u64, u64),
+    shard_text: &str,
+    out: &Path,
+    force_new: bool,
+    quiet: bool,
+) -> Result<Outcome> {
+    if shard(shard_text)? != (0, 1) {
+        bail!(
+            "--ray runs the whole job list: --shard does not apply (the cluster spreads the runs)"
+        );
+    }
+    if !common.include.is_empty() || common.map.is_some() || common.sut_timeout.is_some() {
+        bail!(
+            "--ray: -I, --map and --sut-timeout are not passed to Ray workers yet; run without --ray"
+        );
+    }
+    common.sut()?;
+    let mut cmd = std::process::Command::new("python3");
+    cmd.args(["-m", "litesim.ray", "--ray", address, "--seeds"])
+        .arg(format!("{a}..{b}"))
+        .arg("-o")
+        .arg(out);
+    if common.sut != "planned" {
+        cmd.args(["--sut", &common.sut]);
+    }
+    match common.mode() {
+        Some(litesim_scenario::DriveMode::Kinematic) => {
+            cmd.args(["--mode", "kinematic"]);
+        }
+        Some(litesim_scenario::DriveMode::Dynamic) => {
+            cmd.args(["--mode", "dynamic"]);
+        }
+        None => {}
+    }
+    if force_new {
+        cmd.arg("--force-new");
+    }
+    if quiet {
+        cmd.arg("-q");
+    }
+    cmd.args(tests);
+    let status = cmd.status().map_err(|e| {
+        anyhow!("--ray needs python3 with the litesim package (pip install ./python[ray]): {e}")
+    })?;
+    match status.code() {
+        Some(0) => Ok(Outcome::Pass),
+        Some(2) => Ok(Outcome::Fail),
+        _ => Ok(Outcome::CouldNotRun),
+    }
+}
+
 /// `litesim run`.
 #[allow(clippy::too_many_arguments)]
 pub fn run(
@@ -471,8 +529,21 @@ pub fn batch(
     save_failed_mcap: bool,
     junit: Option<PathBuf>,
     fail_on_holes: bool,
+    ray: Option<&str>,
 ) -> Result<Outcome> {
     let (a, b) = seeds(seed_range)?;
+    if let Some(address) = ray {
+        return ray_batch(
+            address,
+            &tests,
+            common,
+            (a, b),
+            shard_text,
+            &out,
+            force_new,
+            quiet,
+        );
+    }
     let spec = batch::BatchSpec {
         tests,
         seed_from: a,

@@ -210,6 +210,25 @@ fn main() {
             black_box(serde_json::to_string(&r.log.unwrap()).unwrap().len())
         })
     });
+    // What `litesim.run(cut_in, record=False)` does natively (issue 21's
+    // Python overhead is measured against it): load and run, no log.
+    g.bench_function("cut_in_prepare_and_run", |b| {
+        b.iter(|| {
+            let p = prepare(
+                &root().join("examples/scenarios/cut_in.osc"),
+                &LoadOptions::default(),
+            )
+            .unwrap();
+            black_box(
+                run(
+                    &p,
+                    &mut litesim_scenario::in_process(),
+                    &RunOptions::default(),
+                )
+                .unwrap(),
+            )
+        })
+    });
     let log = run(&cut_in, &mut litesim_scenario::in_process(), &rec)
         .unwrap()
         .log

@@ -1,0 +1,296 @@
+"""litesim from Python, as a user drives it (run by `cargo test` through
+crates/litesim-cli/tests/python_package.rs, after `pip install ./python`)."""
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import litesim
+
+ROOT = Path(__file__).resolve().parents[2]
+CUT_IN = str(ROOT / "examples/scenarios/cut_in.osc")
+COVERAGE = "examples/scenarios/cut_in_coverage.osc"  # relative: names in results are as given
+LITESIM = os.environ.get("LITESIM_BIN", str(ROOT / "target/debug/litesim"))
+
+
+def test_run_gives_verdict_failures_kpis_and_a_log():
+    r = litesim.run(CUT_IN, seed=3)
+    assert r.passed and r.verdict == "pass" and r.failures == []
+    assert r.summary["seed"] == 3 and r.summary["steps"] == 500
+    pair = r.kpis["pairs"][0]
+    assert {pair["a"], pair["b"]} == {"sut.car", "other"} and pair["min_distance"] > 0
+    log = r.log
+    import pandas as pd
+
+    assert isinstance(log, pd.DataFrame)
+    assert set(log["actor"]) == {"sut.car", "other"} and len(log) == 1000
+    ego = log[log["actor"] == "sut.car"]
+    assert ego["x"].is_monotonic_increasing
+    # The same run twice: the same log, bit for bit.
+    assert litesim.run(CUT_IN, seed=3).log_json() == r.log_json()
+
+
+def test_a_failing_run_says_why():
+    r = litesim.run(str(ROOT / COVERAGE), seed=6)
+    assert not r.passed and r.verdict == "fail"
+    assert any("collision" in f for f in r.failures), r.failures
+
+
+def test_without_pandas_the_log_is_numpy_arrays(monkeypatch):
+    monkeypatch.setitem(sys.modules, "pandas", None)
+    r = litesim.run(CUT_IN, seed=1)
+    assert isinstance(r.log, dict) and isinstance(r.log["x"], np.ndarray)
+    assert r.log["x"].dtype == np.float64 and len(r.log["x"]) == 1000
+
+
+class Cruise:
+    """Hold the requested speed, keep the lane: five lines of a user's SUT."""
+
+    def reset(self, info):
+        self.info = info
+
+    def step(self, o):
+        return litesim.Command.accel(max(-6.0, min(1.5, 1.5 * (o.requested_speed - o.ego.speed))), 0.0)
+
+
+def test_a_python_object_drives_sut_car():
+    r = litesim.run(CUT_IN, seed=1, sut=Cruise(), mode="dynamic")
+    assert r.summary["sut"] == "python:Cruise"
+    ego = r.log[r.log["actor"] == "sut.car"]
+    assert ego["speed"].iloc[-1] > 5.0
+
+
+def test_a_sut_that_raises_ends_the_run_with_its_traceback():
+    class Broken:
+        def step(self, o):
+            if o.time > 1.0:
+                raise RuntimeError("lost the lane")
+            return {"throttle": 0.2}
+
+    r = litesim.run(CUT_IN, seed=1, sut=Broken())
+    assert r.verdict == "sut-error"
+    text = "\n".join(r.failures)
+    assert "lost the lane" in text and "Traceback" in text and "RuntimeError" in text
+    # A wrong answer is a sut error too, naming what was wrong.
+    r = litesim.run(CUT_IN, seed=1, sut=type("Odd", (), {"step": lambda self, o: 42})())
+    assert r.verdict == "sut-error" and "returned a int" in r.failures[0]
+    r = litesim.run(CUT_IN, seed=1, sut=type("Far", (), {"step": lambda self, o: {"throttle": 3.0}})())
+    assert r.verdict == "sut-error" and "throttle is 3" in r.failures[0]
+
+
+def test_bad_parameters_are_python_exceptions_naming_them():
+    with pytest.raises(TypeError, match="seed"):
+        litesim.run(CUT_IN, seed="three")
+    with pytest.raises(ValueError, match="seed"):
+        litesim.run(CUT_IN, seed=-1)
+    with pytest.raises(TypeError, match="test"):
+        litesim.run(42)
+    with pytest.raises(ValueError, match="mode"):
+        litesim.run(CUT_IN, mode="warp")
+    with pytest.raises(ValueError, match="sut"):
+        litesim.run(CUT_IN, sut="autopilot")
+    with pytest.raises(TypeError, match="step"):
+        litesim.run(CUT_IN, sut=object())
+    with pytest.raises(litesim.LitesimError, match="nope.osc"):
+        litesim.run("nope.osc")
+    with pytest.raises(ValueError, match="throttle"):
+        litesim.Command.pedals(throttle=float("nan"))
+    with pytest.raises(ValueError, match="sut_timeout"):
+        litesim.run(CUT_IN, sut="acc", sut_timeout=-1.0)
+
+
+class Agent:
+    """examples/sut/agent.py's controller, line for line, as an in-process SUT."""
+
+    def reset(self, info):
+        self.info = info
+
+    def step(self, obs):
+        info, e = self.info, obs.ego
+        c, s = math.cos(e.yaw), math.sin(e.yaw)
+        gap = math.inf
+        for o in obs.objects:
+            ahead, side = (o.x - e.x) * c + (o.y - e.y) * s, -(o.x - e.x) * s + (o.y - e.y) * c
+            if ahead > 0 and abs(side) < (e.width + o.width) / 2 + 0.3:
+                gap = min(gap, ahead - (e.length + o.length) / 2)
+        want = min(obs.requested_speed, max(0.0, (gap - 2.0) / 2.0))
+        accel = max(-min(info["max_decel"], 6.0), min(info["max_accel"], 1.5 * (want - e.speed)))
+        pts = info["route"]
+        tx, ty = next(((p[0], p[1]) for p in pts if (p[0] - e.x) * c + (p[1] - e.y) * s > 8.0), (pts[-1][0], pts[-1][1]))
+        lx, ly = (tx - e.x) * c + (ty - e.y) * s, -(tx - e.x) * s + (ty - e.y) * c
+        curv = 2.0 * ly / max(lx * lx + ly * ly, 1e-6)
+        return litesim.Command.accel(accel, curv)
+
+
+def test_the_same_sut_in_process_and_over_grpc_gives_identical_logs():
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    agent = subprocess.Popen(
+        [sys.executable, str(ROOT / "examples/sut/agent.py"), "--port", str(port)],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        assert "listening" in agent.stdout.readline()
+        remote = litesim.run(CUT_IN, seed=2, sut=f"grpc://127.0.0.1:{port}")
+        local = litesim.run(CUT_IN, seed=2, sut=Agent())
+    finally:
+        agent.kill()
+    assert remote.summary["steps"] == local.summary["steps"] == 500
+    assert local.log_json() == remote.log_json()
+    assert local.failures == remote.failures
+
+
+def test_the_gym_env_passes_gymnasiums_checker_and_drives():
+    from gymnasium.utils.env_checker import check_env
+
+    from litesim.gym import ScenarioEnv
+
+    env = ScenarioEnv(CUT_IN)
+    check_env(env, skip_render_check=True)
+    obs, info = env.reset(seed=4)
+    assert obs.shape == env.observation_space.shape and env.observation_space.contains(obs)
+    total, steps = 0.0, 0
+    while True:
+        obs, reward, terminated, truncated, info = env.step(np.array([0.3, 0.0, 0.0], dtype=np.float32))
+        total += reward
+        steps += 1
+        if terminated or truncated:
+            break
+    assert steps == 500 and "passed" in info
+    # Reset twice with one seed: the same first observation.
+    a, _ = env.reset(seed=9)
+    b, _ = env.reset(seed=9)
+    assert np.array_equal(a, b)
+    env.close()
+
+
+def _ray_init(tmp_path):
+    import ray
+
+    if not ray.is_initialized():
+        ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    # SUT classes defined here travel to the workers by value (the workers
+    # cannot import this test module), as a user's notebook classes do.
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    return ray
+
+
+def test_ray_batch_of_2000_runs_equals_litesim_batch_byte_for_byte(tmp_path):
+    import litesim.ray
+
+    _ray_init(tmp_path)
+    local = tmp_path / "local"
+    t = time.perf_counter()
+    subprocess.run([LITESIM, "batch", COVERAGE, "--seeds", "1..2000", "-q", "--threads", "2", "-o", str(local)], cwd=ROOT, check=False)
+    local_s = time.perf_counter() - t
+    out = tmp_path / "ray"
+    cwd = os.getcwd()
+    os.chdir(ROOT)
+    try:
+        t = time.perf_counter()
+        runs, passed, failed = litesim.ray.batch([COVERAGE], range(1, 2001), out=str(out), address=None, runs_per_task=100, progress=False)
+        ray_s = time.perf_counter() - t
+    finally:
+        os.chdir(cwd)
+    assert runs == 2000 and passed + failed == 2000
+    for f in ["results.jsonl", "results.csv", "coverage.json", "manifest.json"]:
+        assert (out / f).read_bytes() == (local / f).read_bytes(), f
+    print(f"\nbatch of 2000: local {2000 / local_s:.0f} runs/s, ray {2000 / ray_s:.0f} runs/s")
+
+
+class CrashOnce:
+    """A SUT whose worker process dies once, mid-batch (the marker file says
+    whether it already did)."""
+
+    def __init__(self, marker, seed):
+        self.marker, self.seed = marker, seed
+
+    def reset(self, info):
+        if info["seed"] == self.seed and not os.path.exists(self.marker):
+            open(self.marker, "w").close()
+            os._exit(9)
+
+    def step(self, o):
+        return litesim.Command.accel(max(-6.0, min(1.5, 1.5 * (o.requested_speed - o.ego.speed))), 0.0)
+
+
+def test_a_worker_killed_mid_batch_loses_and_duplicates_nothing(tmp_path):
+    import litesim.ray
+    from litesim import _native
+
+    _ray_init(tmp_path)
+    marker = str(tmp_path / "crashed")
+    sut = CrashOnce(marker, seed=57)
+    cwd = os.getcwd()
+    os.chdir(ROOT)
+    try:
+        out = tmp_path / "ray"
+        runs, _, _ = litesim.ray.batch([COVERAGE], range(1, 201), sut, out=str(out), address=None, runs_per_task=20, progress=False)
+        assert os.path.exists(marker), "the worker did not crash"
+        # The same jobs in this process (no crash now: the marker exists).
+        jobs = [(COVERAGE, s) for s in range(1, 201)]
+        ref = tmp_path / "ref"
+        _native.write_batch([COVERAGE], 1, 200, str(ref), _native.run_lines(jobs, sut), sut)
+    finally:
+        os.chdir(cwd)
+    assert runs == 200
+    lines = (out / "results.jsonl").read_text().splitlines()
+    assert len(lines) == 200 and len({(json.loads(l)["test"], json.loads(l)["seed"]) for l in lines}) == 200
+    for f in ["results.jsonl", "results.csv", "coverage.json"]:
+        assert (out / f).read_bytes() == (ref / f).read_bytes(), f
+
+
+def test_litesim_batch_with_ray_writes_the_same_folder(tmp_path):
+    local, ray_out = tmp_path / "local", tmp_path / "ray"
+    subprocess.run([LITESIM, "batch", COVERAGE, "--seeds", "1..60", "-q", "-o", str(local)], cwd=ROOT, check=False)
+    p = subprocess.run(
+        [LITESIM, "batch", COVERAGE, "--seeds", "1..60", "-q", "--ray", "local", "-o", str(ray_out)],
+        cwd=ROOT, capture_output=True, text=True,
+    )
+    assert p.returncode == 2, p.stdout + p.stderr  # some runs of this example fail
+    for f in ["results.jsonl", "results.csv", "coverage.json", "manifest.json"]:
+        assert (ray_out / f).read_bytes() == (local / f).read_bytes(), f
+
+
+def test_a_ray_address_that_does_not_answer_is_an_error_within_ten_seconds(tmp_path):
+    import litesim.ray
+
+    t = time.perf_counter()
+    with pytest.raises(litesim.LitesimError, match="does not answer"):
+        litesim.ray.batch([COVERAGE], range(1, 3), address="127.0.0.1:9", out=str(tmp_path / "b"), progress=False)
+    assert time.perf_counter() - t <= 10.0
+
+
+def test_overheads():
+    """Prints the figures BENCHMARKS.md quotes (medians of 30)."""
+
+    def median(f, n=30):
+        ts = []
+        for _ in range(n):
+            t = time.perf_counter()
+            f()
+            ts.append(time.perf_counter() - t)
+        return sorted(ts)[n // 2]
+
+    run = median(lambda: litesim.run(CUT_IN, seed=1, record=False))
+
+    class Const:
+        cmd = litesim.Command.pedals(0.3, 0.0, 0.0)
+
+        def step(self, o):
+            return self.cmd
+
+    planned_dyn = median(lambda: litesim.run(CUT_IN, seed=1, record=False, mode="dynamic"))
+    py = median(lambda: litesim.run(CUT_IN, seed=1, record=False, sut=Const(), mode="dynamic"))
+    per_step_us = (py - planned_dyn) / 500 * 1e6
+    print(f"\nlitesim.run(cut_in, record=False) median {run * 1e3:.2f} ms; python SUT run {py * 1e3:.2f} ms vs planned dynamic {planned_dyn * 1e3:.2f} ms: ≤ {per_step_us:.2f} µs per step")
