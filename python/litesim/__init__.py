@@ -16,7 +16,7 @@ import os
 from typing import Any, Dict, List, Optional, Sequence, Union
 
 from . import _native
-from ._native import Command, LitesimError, Observation, ObjectState, __version__
+from ._native import Command, LitesimError, Observation, ObjectState, Simulator, __version__
 
 __all__ = [
     "Command",
@@ -24,6 +24,7 @@ __all__ = [
     "Observation",
     "ObjectState",
     "Result",
+    "Simulator",
     "run",
     "__version__",
 ]

@@ -271,6 +271,31 @@ def test_a_ray_address_that_does_not_answer_is_an_error_within_ten_seconds(tmp_p
     assert time.perf_counter() - t <= 10.0
 
 
+def test_the_simulator_api_in_process():
+    sim = litesim.Simulator(profile="dummy", step_ms=20, seed=1)
+    assert sim.step_ms == 20
+    d = sim.create_actor("car", 0.0, 0.0, yaw=0.0, speed=10.0)
+    assert d["length"] > 0
+    sim.create_actor("walker", 20.0, 5.0, kind="Pedestrian")
+    sim.create_actor("b", 0.0, 3.5, speed=5.0)
+    sim.set_pedals_many(["car", "b"], np.array([0.3, 0.0]), np.array([0.0, 0.2]), np.array([0.0, 0.0]))
+    t = sim.step(50)
+    assert abs(t - 1.0) < 1e-9
+    st = sim.states()
+    assert st["id"] == ["car", "walker", "b"] and isinstance(st["x"], np.ndarray)
+    assert st["x"][0] > 9.0 and st["speed"][2] < 5.0
+    sim.set_trajectory("walker", np.array([1.0, 2.0, 3.0]), np.array([20.0, 20.0, 20.0]), np.array([5.0, 6.0, 7.0]))
+    sim.step(100)
+    assert abs(sim.states()["y"][1] - 7.0) < 0.5
+    with pytest.raises(litesim.LitesimError):
+        sim.set_pedals("nobody", 0.1, 0.0, 0.0)
+    with pytest.raises(ValueError, match="x"):
+        sim.create_actor("bad", float("nan"), 0.0)
+    with pytest.raises(ValueError, match="actor_ids"):
+        sim.set_pedals_many(["car"], np.array([0.1, 0.2]), np.array([0.0]), np.array([0.0]))
+    assert sim.close() == 150
+
+
 def test_overheads():
     """Prints the figures BENCHMARKS.md quotes (medians of 30)."""
 
