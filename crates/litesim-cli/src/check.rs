@@ -1,17 +1,25 @@
-//! `litesim check FILE.osc [-I DIR] [--json] [--dump-ast]`.
+//! `litesim check FILE.osc [-I DIR] [--json | --format json] [--dump-ast]`.
 
 use anyhow::{Result, anyhow};
 use std::path::{Path, PathBuf};
 
 /// Loads and checks a program; prints every diagnostic; errors exit 1.
-pub fn run(file: &Path, include: &[PathBuf], json: bool, dump_ast: bool) -> Result<()> {
+pub fn run(
+    file: &Path,
+    include: &[PathBuf],
+    json: bool,
+    rustc_json: bool,
+    dump_ast: bool,
+) -> Result<()> {
     let env = |name: &str| std::env::var(name).ok();
     let prog = litesim_osc::load(file, include, &env).map_err(|e| anyhow!(e))?;
     if dump_ast && let Some((_, ast)) = prog.files.iter().find(|(id, _)| *id == 0) {
         println!("{}", serde_json::to_string_pretty(ast)?);
     }
     for d in &prog.diagnostics {
-        if json {
+        if rustc_json {
+            println!("{}", d.to_rustc_json(&prog.sources));
+        } else if json {
             println!("{}", d.to_json(&prog.sources));
         } else {
             eprint!("{}", d.render(&prog.sources));
@@ -23,7 +31,7 @@ pub fn run(file: &Path, include: &[PathBuf], json: bool, dump_ast: bool) -> Resu
         .filter(|d| d.severity == litesim_osc::Severity::Error)
         .count();
     let warnings = prog.diagnostics.len() - errors;
-    if !json {
+    if !json && !rustc_json {
         eprintln!(
             "{}: {} file(s), {errors} error(s), {warnings} warning(s)",
             file.display(),

@@ -157,9 +157,14 @@ enum Command {
         /// Import search paths (after the importing file's folder).
         #[arg(short = 'I', value_name = "DIR")]
         include: Vec<PathBuf>,
-        /// Diagnostics as JSON lines.
-        #[arg(long)]
+        /// Diagnostics as JSON lines in litesim's flat form (file, line, column, code, message, hint, related).
+        #[arg(long, conflicts_with = "format")]
         json: bool,
+        /// Output format: human (default), or json — rustc's JSON
+        /// diagnostics (message, code, level, spans with text and
+        /// highlights, children, rendered), one per line, for editors and CI.
+        #[arg(long, value_parser = ["human", "json"], default_value = "human")]
+        format: String,
         /// Print the syntax tree of the entry file (JSON).
         #[arg(long)]
         dump_ast: bool,
@@ -481,8 +486,9 @@ fn run(cli: Cli) -> Result<()> {
             file,
             include,
             json,
+            format,
             dump_ast,
-        } => check::run(&file, &include, json, dump_ast),
+        } => check::run(&file, &include, json, format == "json", dump_ast),
         Command::Plan {
             config,
             out,

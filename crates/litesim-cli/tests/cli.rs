@@ -488,6 +488,52 @@ fn check_osc_files() {
         (lines[0]["line"].as_u64(), lines[0]["code"].as_str()),
         (Some(2), Some("E0112"))
     );
+    // rustc's JSON diagnostics: what editors and CI annotators read.
+    let twice = w(
+        "twice.osc",
+        "enum color: [red, green]\nenum color: [blue]\n",
+    );
+    let out = litesim()
+        .arg("check")
+        .arg(&twice)
+        .args(["--format", "json"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let d: serde_json::Value =
+        serde_json::from_str(String::from_utf8_lossy(&out.stdout).lines().next().unwrap()).unwrap();
+    assert_eq!(d["$message_type"], "diagnostic");
+    assert_eq!(d["level"], "error");
+    assert_eq!(d["code"]["code"], "E0330");
+    assert_eq!(d["message"], "enum 'color' is defined twice");
+    let sp = &d["spans"][0];
+    assert!(sp["file_name"].as_str().unwrap().ends_with("twice.osc"));
+    assert_eq!(
+        (&sp["line_start"], &sp["column_start"], &sp["is_primary"]),
+        (
+            &serde_json::json!(2),
+            &serde_json::json!(6),
+            &serde_json::json!(true)
+        )
+    );
+    assert_eq!(sp["text"][0]["text"], "enum color: [blue]");
+    assert_eq!(
+        (
+            &sp["text"][0]["highlight_start"],
+            &sp["text"][0]["highlight_end"]
+        ),
+        (&serde_json::json!(6), &serde_json::json!(11))
+    );
+    assert_eq!(d["children"][0]["level"], "note");
+    assert_eq!(d["children"][0]["message"], "first defined here");
+    assert_eq!(d["children"][0]["spans"][0]["line_start"], 1);
+    assert_eq!(d["children"][1]["level"], "help");
+    assert!(d["rendered"].as_str().unwrap().contains("error[E0330]"));
     // Import cycles, missing files and search paths.
     w("a.osc", "import \"b.osc\"\nstruct a\n");
     w("b.osc", "import \"a.osc\"\nstruct b\n");

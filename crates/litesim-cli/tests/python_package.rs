@@ -72,14 +72,23 @@ fn the_wheel_installs_and_runs_in_a_fresh_venv() {
     }
     let wheel = wheel().expect("a wheel in python/dist");
     let name = wheel.file_name().unwrap().to_string_lossy().to_string();
-    assert!(name.contains("cp39-abi3"), "{name}: expected one abi3 wheel for CPython >= 3.9");
+    assert!(
+        name.contains("cp39-abi3"),
+        "{name}: expected one abi3 wheel for CPython >= 3.9"
+    );
     let dir = tempfile::tempdir().unwrap();
     let venv = dir.path().join("venv");
     assert!(ok(Command::new("python3").args(["-m", "venv"]).arg(&venv)));
     let py = venv.join("bin/python");
     assert!(
         ok(Command::new(&py)
-            .args(["-m", "pip", "install", "--quiet", "--disable-pip-version-check"])
+            .args([
+                "-m",
+                "pip",
+                "install",
+                "--quiet",
+                "--disable-pip-version-check"
+            ])
             .arg(&wheel)),
         "pip install {name} into a fresh venv failed"
     );

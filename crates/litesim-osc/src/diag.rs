@@ -121,6 +121,65 @@ impl Diagnostic {
     }
 
     /// A JSON object for tools: file, line, column, end, severity, code, message, hint.
+    /// The diagnostic as rustc writes its JSON diagnostics
+    /// (`--error-format=json`): `message`, `code` {code, explanation},
+    /// `level`, `spans` (file_name, byte and line/column ranges, 1-based
+    /// columns in characters, `is_primary`, the source `text` with its
+    /// highlight, `label`), `children` (the hint as `help`, the other
+    /// location as `note` with its own span) and `rendered` (the text
+    /// `litesim check` prints), so editors and CI annotators that read
+    /// rustc's format read these.
+    pub fn to_rustc_json(&self, sources: &SourceMap) -> serde_json::Value {
+        let span = |sp: &Span, primary: bool, label: Option<&str>| {
+            let f = sources.file(sp.file);
+            let (l0, c0) = f.line_col(sp.start as usize);
+            let (l1, c1) = f.line_col(sp.end.max(sp.start) as usize);
+            let text: Vec<serde_json::Value> = (l0..=l1)
+                .map(|l| {
+                    let t = f.line(l);
+                    let n = t.chars().count() + 1;
+                    let hs = if l == l0 { c0 } else { 1 };
+                    let he = if l == l1 { c1.max(hs) } else { n };
+                    serde_json::json!({"text": t, "highlight_start": hs, "highlight_end": he})
+                })
+                .collect();
+            serde_json::json!({
+                "file_name": f.path, "byte_start": sp.start, "byte_end": sp.end,
+                "line_start": l0, "line_end": l1, "column_start": c0, "column_end": c1,
+                "is_primary": primary, "text": text, "label": label,
+                "suggested_replacement": null, "suggestion_applicability": null, "expansion": null,
+            })
+        };
+        let level = match self.severity {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+        };
+        let mut children = Vec::new();
+        if let Some((sp, what)) = &self.related {
+            children.push(serde_json::json!({
+                "message": what, "code": null, "level": "note",
+                "spans": [span(sp, true, None)], "children": [], "rendered": null,
+            }));
+        }
+        if let Some(h) = &self.hint {
+            children.push(serde_json::json!({
+                "message": h, "code": null, "level": "help",
+                "spans": [], "children": [], "rendered": null,
+            }));
+        }
+        serde_json::json!({
+            "$message_type": "diagnostic",
+            "message": self.message,
+            "code": {"code": self.code, "explanation": null},
+            "level": level,
+            "spans": [span(&self.span, true, None)],
+            "children": children,
+            "rendered": self.render(sources),
+        })
+    }
+
+    /// litesim's flat JSON form (file, line, column, … one object per
+    /// diagnostic): `litesim check --json`.
     pub fn to_json(&self, sources: &SourceMap) -> serde_json::Value {
         let f = sources.file(self.span.file);
         let (line, col) = f.line_col(self.span.start as usize);
