@@ -81,6 +81,9 @@ struct Model {
     /// Every compound's parameters in declaration order (for positional
     /// arguments), with their types.
     param_types: BTreeMap<String, Vec<(String, Ty)>>,
+    /// The actor each actor-qualified action, scenario or modifier is
+    /// declared on (`action vehicle.drive` → vehicle).
+    owners: BTreeMap<String, String>,
 }
 
 fn close_names<'a>(name: &str, all: impl Iterator<Item = &'a String>) -> String {
@@ -141,6 +144,11 @@ impl Model {
                 })
                 .collect(),
             globals: ix.globals.clone(),
+            owners: ix
+                .compounds
+                .iter()
+                .filter_map(|(k, c)| c.owner.clone().map(|o| (k.clone(), o)))
+                .collect(),
             ..Model::default()
         };
         let names: Vec<String> = m.compounds.keys().cloned().collect();
@@ -1121,7 +1129,8 @@ impl Checker<'_> {
                     if let Expr::Call { callee, .. } = call
                         && let Expr::Field { base, .. } = &**callee
                     {
-                        self.expr(base, None);
+                        let receiver = self.expr(base, None);
+                        self.receiver_has(&receiver, &name);
                     }
                     match self.m.compounds.get(&name.text) {
                         Some((DeclKind::Scenario | DeclKind::Action, ..)) => {
@@ -1154,6 +1163,45 @@ impl Checker<'_> {
             DoKind::Wait(spec) => self.event_spec(spec),
             DoKind::Emit { .. } | DoKind::Call { .. } => {}
         }
+    }
+
+    /// `x.drive()`: the behaviour must be declared on x's actor type or one
+    /// it inherits from (`action vehicle.drive` is not a person's).
+    fn receiver_has(&mut self, receiver: &Ty, name: &Name) {
+        let (Ty::Compound(t), Some(owner)) = (receiver, self.m.owners.get(&name.text)) else {
+            return;
+        };
+        if !self.m.compounds.contains_key(t) || self.m.is_a(t, owner) {
+            return;
+        }
+        let owner = owner.clone();
+        // The behaviours this actor type does have, for the hint.
+        let own: Vec<String> = self
+            .m
+            .owners
+            .iter()
+            .filter(|(k, o)| {
+                self.m.is_a(t, o)
+                    && matches!(
+                        self.m.compounds.get(*k).map(|c| c.0),
+                        Some(DeclKind::Action | DeclKind::Scenario)
+                    )
+            })
+            .map(|(k, _)| k.clone())
+            .collect();
+        self.err(
+            "E0337",
+            name.span,
+            format!(
+                "a {t} has no action '{}': it is declared on {owner}, which {t} does not inherit from",
+                name.text
+            ),
+            Some(if own.is_empty() {
+                format!("call it on a {owner}")
+            } else {
+                format!("a {t} has: {}", own.join(", "))
+            }),
+        );
     }
 
     /// Checks a compound or extend body with the right names in scope.

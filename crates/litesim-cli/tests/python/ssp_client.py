@@ -23,6 +23,10 @@ rc = protoc.main([
     os.path.join(proto_root, "litesim/ssp/v1/ssp.proto"),
 ])
 assert rc == 0, "protoc failed"
+# Regular packages (with __init__.py): the generated `litesim.ssp.v1` wins
+# over an installed `litesim` Python package of the same top-level name.
+for d in ("litesim", "litesim/ssp", "litesim/ssp/v1"):
+    open(os.path.join(out, d, "__init__.py"), "a").close()
 sys.path.insert(0, out)
 from litesim.ssp.v1 import ssp_pb2 as pb  # noqa: E402
 from litesim.ssp.v1 import ssp_pb2_grpc as rpc  # noqa: E402
