@@ -6,19 +6,11 @@
 //! installs chromium, playwright and xmlschema.
 
 mod common;
-use common::{litesim, workspace};
+use common::{litesim, text, workspace};
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 const TEST: &str = "examples/scenarios/cut_in_coverage.osc";
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
 
 fn batch(args: &[&str], out: &Path) -> Output {
     litesim()
@@ -38,15 +30,7 @@ fn read(p: &Path) -> String {
 }
 
 fn python(script: &str, args: &[&str]) {
-    let s = workspace()
-        .join("crates/litesim-cli/tests/python")
-        .join(script);
-    let o = Command::new("python3").arg(s).args(args).output().unwrap();
-    assert!(
-        o.status.success(),
-        "{script} failed (needs python3 with playwright/xmlschema and Debian's chromium, as .ci/run installs):\n{}",
-        text(&o)
-    );
+    common::python_script(script, args);
 }
 
 #[test]

@@ -4,29 +4,12 @@
 //! Python). `.ci/run` installs all of them.
 
 mod common;
-use common::{litesim, workspace};
+use common::{litesim, text, workspace};
 use std::path::Path;
-use std::process::{Command, Output};
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
+use std::process::Output;
 
 fn python(script: &str, args: &[&std::ffi::OsStr]) -> String {
-    let s = workspace()
-        .join("crates/litesim-cli/tests/python")
-        .join(script);
-    let o = Command::new("python3").arg(s).args(args).output().unwrap();
-    assert!(
-        o.status.success(),
-        "{script} failed (needs python3 with mcap, mcap-protobuf-support, osi-python, playwright and Debian's chromium, as .ci/run installs):\n{}",
-        text(&o)
-    );
-    text(&o)
+    common::python_script(script, args)
 }
 
 fn run(args: &[&str], out: &Path) -> Output {

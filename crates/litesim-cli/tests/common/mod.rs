@@ -55,3 +55,29 @@ pub fn example_file(text: &str) -> tempfile::NamedTempFile {
     std::fs::write(f.path(), text).unwrap();
     f
 }
+
+/// A command's stdout and stderr, for assertion messages.
+pub fn text(o: &std::process::Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// Runs `tests/python/SCRIPT ARGS…` with python3 and returns what it
+/// printed; a failure shows its output and what `.ci/run` installs for
+/// these scripts (playwright with Debian's chromium, xmlschema, mcap,
+/// mcap-protobuf-support, osi-python).
+pub fn python_script<S: AsRef<std::ffi::OsStr>>(script: &str, args: &[S]) -> String {
+    let s = workspace()
+        .join("crates/litesim-cli/tests/python")
+        .join(script);
+    let o = Command::new("python3").arg(s).args(args).output().unwrap();
+    assert!(
+        o.status.success(),
+        "{script} failed (needs python3 with what .ci/run installs: playwright and Debian's chromium, xmlschema, mcap, mcap-protobuf-support, osi-python):\n{}",
+        text(&o)
+    );
+    text(&o)
+}
