@@ -49,10 +49,9 @@ class Result:
         self._native = native
         self.passed: bool = native.passed
         self.failures: List[str] = list(native.failures)
-        self.summary: Dict[str, Any] = json.loads(native.summary_json)
-        self.kpis: Dict[str, Any] = {
-            k: self.summary.get(k) for k in ("actors", "pairs", "ego", "goals")
-        }
+        # The summary is parsed when first read: a batch that looks at the
+        # verdict only does not pay for it (half of the Python layer's cost).
+        self._summary: Optional[Dict[str, Any]] = None
         if self.passed:
             self.verdict = "pass"
         elif any(f.startswith("sut error") for f in self.failures):
@@ -60,6 +59,18 @@ class Result:
         else:
             self.verdict = "fail"
         self._log = None
+
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """The whole summary (what ``litesim run`` writes as summary.json)."""
+        if self._summary is None:
+            self._summary = json.loads(self._native.summary_json)
+        return self._summary
+
+    @property
+    def kpis(self) -> Dict[str, Any]:
+        """The summary's measurements: actors, pairs, ego, goals."""
+        return {k: self.summary.get(k) for k in ("actors", "pairs", "ego", "goals")}
 
     @property
     def log(self):
