@@ -1228,6 +1228,62 @@ impl Checker<'_> {
 /// Modifiers live in their own namespace (`lane` is both a struct and a
 /// modifier in the domain model).
 /// The name and arguments of `name(args)` or `x.name(args)`.
+/// What is wrong with `name` (of `kind`) inheriting from the known `base`:
+/// another kind of declaration (E0338), or a cycle back to `name` (E0339,
+/// reported at the cycle's alphabetically first member only).
+fn inheritance_problem(
+    m: &Model,
+    kind: DeclKind,
+    name: &str,
+    base: &str,
+) -> Option<(&'static str, String, String)> {
+    let kind_of = |k: DeclKind| format!("{k:?}").to_lowercase();
+    if kind != DeclKind::Modifier
+        && let Some(b) = m.compounds.get(base)
+        && b.0 != kind
+    {
+        return Some((
+            "E0338",
+            format!(
+                "{} '{name}' cannot inherit from {} '{base}'",
+                kind_of(kind),
+                kind_of(b.0)
+            ),
+            {
+                let k = kind_of(kind);
+                let a = if k.starts_with(['a', 'e', 'i', 'o', 'u']) {
+                    "an"
+                } else {
+                    "a"
+                };
+                format!("{a} {k} inherits from another {k}")
+            },
+        ));
+    }
+    let mut path = vec![name.to_string()];
+    let mut cur = Some(base.to_string());
+    while let Some(n) = cur {
+        if n == name {
+            if path.iter().any(|p| p.as_str() < name) {
+                return None;
+            }
+            path.push(n);
+            return Some((
+                "E0339",
+                format!("inheritance cycle: {}", path.join(" → ")),
+                "a type cannot inherit from itself, directly or not".into(),
+            ));
+        }
+        if path.contains(&n) || path.len() > 64 {
+            // A cycle that does not pass through `name`: its own members report it.
+            return None;
+        }
+        cur = m.compounds.get(&n).and_then(|c| c.2.clone());
+        path.push(n);
+    }
+    None
+}
+
 fn call_target(e: &Expr) -> Option<(Name, &[Arg])> {
     match e {
         Expr::Call { callee, args, .. } => match &**callee {
@@ -1487,6 +1543,10 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
                                 ),
                                 None,
                             );
+                        } else if let Some(msg) =
+                            inheritance_problem(&m, *kind, &name.name.text, &base.name.text)
+                        {
+                            c.err(msg.0, base.name.span, msg.1, Some(msg.2));
                         } else if let Some(cond) = cond {
                             // Conditional inheritance: the condition reads the base's fields.
                             c.scope = Scope {
