@@ -360,13 +360,10 @@ fn sut_choice(sut: Option<&Bound<'_, PyAny>>) -> PyResult<SutChoice> {
         return Ok(SutChoice::Planned);
     }
     if let Ok(name) = s.extract::<String>() {
-        if let Some(c) = SutChoice::builtin(&name) {
+        if let Some(c) = litesim_grpc::sut::choice_by_name(&name)
+            .map_err(|e| PyValueError::new_err(format!("sut: {}", e.0)))?
+        {
             return Ok(c);
-        }
-        if name.starts_with("grpc://") {
-            let f = litesim_grpc::sut::GrpcSutFactory::new(&name)
-                .map_err(|e| PyValueError::new_err(format!("sut: {}", e.0)))?;
-            return Ok(SutChoice::External(Arc::new(f)));
         }
         return Err(PyValueError::new_err(format!(
             "sut: unknown system under test '{name}'; valid: {}, grpc://HOST:PORT, or an object with step(observation)",

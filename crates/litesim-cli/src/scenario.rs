@@ -73,12 +73,8 @@ impl Common {
 
 /// Parses a `--sut` value.
 pub fn sut_choice(name: &str) -> Result<SutChoice> {
-    if let Some(c) = SutChoice::builtin(name) {
+    if let Some(c) = litesim_grpc::sut::choice_by_name(name).map_err(|e| anyhow!("--sut {e}"))? {
         return Ok(c);
-    }
-    if name.starts_with("grpc://") {
-        let f = litesim_grpc::sut::GrpcSutFactory::new(name).map_err(|e| anyhow!("--sut {e}"))?;
-        return Ok(SutChoice::External(std::sync::Arc::new(f)));
     }
     bail!(
         "--sut {name}: unknown system under test; valid: {}, grpc://HOST:PORT",

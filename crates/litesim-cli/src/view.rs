@@ -14,7 +14,7 @@
 //! (base64) inside: one file that works from `file://`.
 
 use anyhow::{Context, Result, anyhow, bail};
-use litesim_log::{ActorTrack, SimulationLog};
+use litesim_log::SimulationLog;
 use serde::Serialize;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -146,19 +146,6 @@ impl Run {
     }
 }
 
-/// Index of each log tick in one track (`None` where the track has no sample).
-fn sample_index(log: &SimulationLog, t: &ActorTrack) -> Vec<Option<u32>> {
-    let mut out = Vec::with_capacity(log.tick.len());
-    let mut c = 0usize;
-    for &tick in &log.tick {
-        while c < t.tick.len() && t.tick[c] < tick {
-            c += 1;
-        }
-        out.push((c < t.tick.len() && t.tick[c] == tick).then_some(c as u32));
-    }
-    out
-}
-
 /// The data behind the page: the meta document and the chunk encoder.
 pub struct ViewData {
     run: Run,
@@ -275,24 +262,10 @@ impl ViewData {
         let n = log.tick.len();
         let chunk = chunk_ticks(log.tracks.len());
         let index: Vec<Vec<Option<u32>>> =
-            log.tracks.iter().map(|t| sample_index(log, t)).collect();
+            log.tracks.iter().map(|t| log.sample_indices(t)).collect();
         // Bounds of every actor's positions; the origin is their centre.
-        let mut b = [
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        ];
-        for t in &log.tracks {
-            for (x, y) in t.state.x.iter().zip(&t.state.y) {
-                if x.is_finite() && y.is_finite() {
-                    b = [b[0].min(*x), b[1].min(*y), b[2].max(*x), b[3].max(*y)];
-                }
-            }
-        }
-        if !b[0].is_finite() {
-            b = [0.0, 0.0, 0.0, 0.0];
-        }
+        let b =
+            litesim_viz::path_bounds(log).map_or([0.0; 4], |((x0, x1), (y0, y1))| [x0, y0, x1, y1]);
         let origin = (((b[0] + b[2]) / 2.0).round(), ((b[1] + b[3]) / 2.0).round());
         let rel = |x: f64, y: f64| ((x - origin.0) as f32, (y - origin.1) as f32);
         let bounds = [
@@ -722,6 +695,7 @@ fn respond(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use litesim_log::ActorTrack;
 
     /// A log of `ticks` at 20 ms of `actors` cars, columns filled directly.
     fn synthetic(ticks: usize, actors: usize) -> SimulationLog {

@@ -11,8 +11,8 @@ use crate::sut_pb as pb;
 use crate::sut_pb::system_under_test_client::SystemUnderTestClient;
 use crate::sut_pb::system_under_test_server::{SystemUnderTest, SystemUnderTestServer};
 use litesim_scenario::sut::{
-    LightState, ObjectState, Observation, RoadPos, Route, Sut, SutCommand, SutError, SutFactory,
-    SutInfo,
+    LightState, ObjectState, Observation, RoadPos, Route, Sut, SutChoice, SutCommand, SutError,
+    SutFactory, SutInfo,
 };
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -45,6 +45,22 @@ impl GrpcSutFactory {
             addr: a.to_string(),
         })
     }
+}
+
+/// A SUT by name, as front ends take it (`--sut NAME`, Python's `sut=`):
+/// a built-in ([`SutChoice::builtin`]) or `grpc://HOST:PORT`. `Ok(None)`
+/// for any other name (the caller says what it accepts besides);
+/// an error for a malformed `grpc://` address.
+pub fn choice_by_name(name: &str) -> Result<Option<SutChoice>, SutError> {
+    if let Some(c) = SutChoice::builtin(name) {
+        return Ok(Some(c));
+    }
+    if name.starts_with("grpc://") {
+        return Ok(Some(SutChoice::External(std::sync::Arc::new(
+            GrpcSutFactory::new(name)?,
+        ))));
+    }
+    Ok(None)
 }
 
 impl SutFactory for GrpcSutFactory {

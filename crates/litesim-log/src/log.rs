@@ -275,6 +275,21 @@ impl SimulationLog {
     pub fn track(&self, id: &str) -> Option<&ActorTrack> {
         self.tracks.iter().find(|t| t.id == id)
     }
+
+    /// For each of the log's ticks, the index of `track`'s sample at that
+    /// tick, `None` where the track has none (a track's ticks increase).
+    /// For readers that walk the log tick by tick over every actor.
+    pub fn sample_indices(&self, track: &ActorTrack) -> Vec<Option<u32>> {
+        let mut out = Vec::with_capacity(self.tick.len());
+        let mut c = 0usize;
+        for &tick in &self.tick {
+            while c < track.tick.len() && track.tick[c] < tick {
+                c += 1;
+            }
+            out.push((c < track.tick.len() && track.tick[c] == tick).then_some(c as u32));
+        }
+        out
+    }
 }
 
 /// Control applied in a step.

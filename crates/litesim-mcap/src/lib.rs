@@ -84,11 +84,12 @@ pub struct McapStats {
 /// Height of an actor's box (the log has length and width only): cars 1.5 m,
 /// people 1.8 m, anything else 1.5 m.
 fn height_of(kind: &str) -> f64 {
-    if kind.starts_with("person") || kind.starts_with("pedestrian") {
-        1.8
-    } else {
-        1.5
-    }
+    if is_pedestrian(kind) { 1.8 } else { 1.5 }
+}
+
+/// A person by litesim's actor kinds (`person`, `pedestrian…`).
+fn is_pedestrian(kind: &str) -> bool {
+    kind.starts_with("person") || kind.starts_with("pedestrian")
 }
 
 /// Nanoseconds of simulated time `t` (s): rounded, never negative.
@@ -464,12 +465,14 @@ pub fn write_to<W: Write + Seek>(
             log.time.len()
         )));
     }
-    if let Some(t) = log.tracks.iter().find(|t| !t.bad_columns().is_empty()) {
-        return Err(McapError::Log(format!(
-            "actor {}: columns of the wrong length: {:?}",
-            t.id,
-            t.bad_columns()
-        )));
+    for t in &log.tracks {
+        let bad = t.bad_columns();
+        if !bad.is_empty() {
+            return Err(McapError::Log(format!(
+                "actor {}: columns of the wrong length: {bad:?}",
+                t.id
+            )));
+        }
     }
     let opts = mcap::WriteOptions::new()
         .profile("")
@@ -578,14 +581,13 @@ pub fn write_to<W: Write + Seek>(
         put(&mut out, map_ch, t0, &buf)?;
     }
 
-    // Each track's next sample index (tracks' ticks are increasing).
-    let mut cursor = vec![0usize; log.tracks.len()];
+    let index: Vec<Vec<Option<u32>>> = log.tracks.iter().map(|t| log.sample_indices(t)).collect();
     let heights: Vec<f64> = log.tracks.iter().map(|t| height_of(&t.kind)).collect();
     let mut present = vec![false; log.tracks.len()];
     let mut gt_buf = Vec::with_capacity(static_bytes.len() + 1024);
     let mut first = true;
     let mut json = Vec::with_capacity(512);
-    for (&tick, &time) in log.tick.iter().zip(&log.time) {
+    for (k, (&tick, &time)) in log.tick.iter().zip(&log.time).enumerate() {
         let ns = nanos(time);
         let ts = stamp(ns);
         let mut scene = fg::SceneUpdate::default();
@@ -604,14 +606,8 @@ pub fn write_to<W: Write + Seek>(
             ..Default::default()
         };
         for (a, t) in log.tracks.iter().enumerate() {
-            let c = &mut cursor[a];
-            while *c < t.tick.len() && t.tick[*c] < tick {
-                *c += 1;
-            }
-            let sample = (*c < t.tick.len() && t.tick[*c] == tick)
-                .then(|| Sample::of(t, *c))
-                .flatten();
-            let Some(s) = sample else {
+            let at = index[a][k].map(|i| i as usize);
+            let Some((i, s)) = at.and_then(|i| Some((i, Sample::of(t, i)?))) else {
                 if present[a] {
                     scene.deletions.push(fg::SceneEntityDeletion {
                         timestamp: Some(ts),
@@ -679,7 +675,6 @@ pub fn write_to<W: Write + Seek>(
                 }),
                 rotation: Some(quat_yaw(s.yaw)),
             });
-            let i = *c;
             let state = ActorState {
                 timestamp: Stamp {
                     sec: ns / 1_000_000_000,
@@ -705,7 +700,7 @@ pub fn write_to<W: Write + Seek>(
             serde_json::to_writer(&mut json, &state)
                 .map_err(|e| McapError::Encode("ActorState", e.to_string()))?;
             put(&mut out, state_ch[a], ns, &json)?;
-            let pedestrian = t.kind.starts_with("person") || t.kind.starts_with("pedestrian");
+            let pedestrian = is_pedestrian(&t.kind);
             gt.moving_object.push(osi3::MovingObject {
                 id: Some(id(a as u64 + 1)),
                 base: Some(osi3::BaseMoving {

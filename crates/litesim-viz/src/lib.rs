@@ -24,6 +24,7 @@ pub mod planner;
 pub mod replay;
 pub mod style;
 
+pub use draw::path_bounds;
 pub use style::Style;
 
 use std::path::Path;
