@@ -107,6 +107,24 @@ enum Command {
         #[arg(long)]
         no_pictures: bool,
     },
+    /// Run every planning example with every vehicle preset and print the
+    /// tracking table (goal, final distance, cross-track error, clearance,
+    /// plan and MPC time) as Markdown.
+    PlanMatrix {
+        /// Folder of closed-loop configurations.
+        #[arg(default_value = "examples/plan")]
+        dir: PathBuf,
+        /// Presets to run (default: all).
+        #[arg(long, value_delimiter = ',')]
+        presets: Vec<String>,
+        /// Goal tolerance (m) for every run.
+        #[arg(long, default_value_t = 0.5)]
+        tolerance: f64,
+        /// Exit with an error when a run misses the goal, collides or
+        /// breaks the tracking bounds.
+        #[arg(long)]
+        check: bool,
+    },
     /// Draw a log: the nine-panel dashboard (PNG or SVG by extension), or the planner view.
     Plot {
         /// A log.json written by litesim.
@@ -489,6 +507,12 @@ fn run(cli: Cli) -> Result<()> {
             format,
             dump_ast,
         } => check::run(&file, &include, json, format == "json", dump_ast),
+        Command::PlanMatrix {
+            dir,
+            presets,
+            tolerance,
+            check,
+        } => plan::matrix(&dir, &presets, tolerance, check),
         Command::Plan {
             config,
             out,

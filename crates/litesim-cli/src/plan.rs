@@ -1,38 +1,62 @@
 //! `litesim plan CONFIG [-o DIR]`.
 
 use anyhow::{Context, Result, anyhow};
-use litesim_core::Vec2;
-use litesim_map::{OccupancyGrid, RoadNetwork};
+use litesim_map::OccupancyGrid;
 use litesim_plan::closed_loop::{ClosedLoopConfig, parse_config};
 use std::path::{Path, PathBuf};
 
 /// Builds the occupancy grid a configuration names (files relative to it).
 pub fn load_grid(cfg: &ClosedLoopConfig, base: &Path) -> Result<OccupancyGrid> {
-    let m = &cfg.map;
-    let origin = Vec2::new(m.origin[0], m.origin[1]);
-    match (&m.png, &m.opendrive) {
-        (Some(_), Some(_)) => Err(anyhow!("map: give either png or opendrive, not both")),
-        (Some(png), None) => {
-            let p = base.join(png);
-            let bytes =
-                std::fs::read(&p).with_context(|| format!("cannot read {}", p.display()))?;
-            OccupancyGrid::from_png(&bytes, m.resolution, origin)
-                .map_err(|e| anyhow!("{}: {e}", p.display()))
-        }
-        (None, Some(xodr)) => {
-            let p = base.join(xodr);
-            let net = RoadNetwork::load(&p).map_err(|e| anyhow!("{e}"))?;
-            net.rasterise(m.resolution, 2.0)
-                .map_err(|e| anyhow!("{}: {e}", p.display()))
-        }
-        (None, None) => OccupancyGrid::from_obstacles(
-            origin,
-            (m.size[0], m.size[1]),
-            m.resolution,
-            &m.obstacles,
-        )
-        .map_err(|e| anyhow!("map: {e}")),
+    litesim_plan::closed_loop::load_grid(cfg, base).map_err(|e| anyhow!("{e}"))
+}
+
+/// `litesim plan-matrix`: every example of `dir` with every preset (or the
+/// given ones); prints the Markdown table, and fails when a run misses the
+/// goal, collides or breaks the tracking bounds (when `check` is set).
+pub fn matrix(dir: &Path, presets: &[String], tolerance: f64, check: bool) -> Result<()> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("cannot read {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(anyhow!("no .toml configurations in {}", dir.display()));
     }
+    let mut examples = Vec::new();
+    for f in &files {
+        let text =
+            std::fs::read_to_string(f).with_context(|| format!("cannot read {}", f.display()))?;
+        let cfg = parse_config(&text).map_err(|e| anyhow!("{}: {e}", f.display()))?;
+        let grid = load_grid(&cfg, f.parent().unwrap_or(Path::new(".")))?;
+        let name = f
+            .file_stem()
+            .map_or(String::new(), |s| s.to_string_lossy().to_string());
+        examples.push((name, cfg, grid));
+    }
+    let presets: Vec<&str> = presets.iter().map(String::as_str).collect();
+    let origin = std::time::Instant::now();
+    let clock = move || origin.elapsed().as_secs_f64();
+    let rows = litesim_plan::matrix::run_matrix(&examples, &presets, tolerance, &clock);
+    print!("{}", litesim_plan::matrix::markdown(&rows));
+    if check {
+        let bad: Vec<String> = rows
+            .iter()
+            .filter(|r| !litesim_plan::matrix::within_bounds(r))
+            .map(|r| format!("{} × {}", r.example, r.preset))
+            .collect();
+        if !bad.is_empty() {
+            return Err(anyhow!(
+                "{} of {} runs outside the bounds (goal within {tolerance} m, max xte ≤ {} m, mean ≤ {} m, clearance ≥ inflation): {}",
+                bad.len(),
+                rows.len(),
+                litesim_plan::matrix::MAX_XTE,
+                litesim_plan::matrix::MEAN_XTE,
+                bad.join(", ")
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Runs a closed loop from a configuration file.

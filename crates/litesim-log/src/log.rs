@@ -261,6 +261,10 @@ pub struct TrackingColumns {
     /// its curvature implies).
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub command_source: String,
+    /// Cycles whose QP had no answer (tick, reason): the command there is
+    /// the best admissible one, not an optimum.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fallback: Vec<(u64, String)>,
 }
 
 impl TrackingColumns {

@@ -14,7 +14,7 @@ use crate::grid::{Layer, PlanningGrid};
 use crate::mpc::{Mpc, MpcConfig, MpcError};
 use litesim_core::{
     Actor, ActorDescription, ActorKind, ActorState, ControlMode, KinematicBicycle, Pose, Vec2,
-    VehicleCategory, VehicleInput, VehicleModelKind, World, run_loop, wrap_angle,
+    VehicleCategory, VehicleInput, VehicleModelKind, World, wrap_angle,
 };
 use litesim_log::{GridRecord, LogRecorder, PlanRecord, SimulationLog, TrackingColumns};
 use litesim_map::{Obstacle, OccupancyGrid};
@@ -377,6 +377,9 @@ pub enum PlanError {
     /// Tracking failed.
     #[error("tracker: {0}")]
     Mpc(#[from] MpcError),
+    /// The planned path cannot be driven by this vehicle.
+    #[error("no feasible path for this vehicle: {0}")]
+    Infeasible(String),
 }
 
 /// What a run produced.
@@ -406,6 +409,9 @@ pub struct ClosedLoopResult {
     pub min_clearance: f64,
     /// Whether the footprint ever touched a hard obstacle.
     pub collided: bool,
+    /// Where the run ended by a collision: time (s) and the rear axle's
+    /// position.
+    pub collision: Option<(f64, [f64; 2])>,
     /// FMT* output.
     pub fmt: FmtResult,
     /// The corridor.
@@ -431,11 +437,31 @@ fn footprint(v: &Vehicle, x: f64, y: f64, yaw: f64) -> Vec<Vec2> {
     pts
 }
 
+/// Wall time spent in a run's parts (seconds), from the caller's clock.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Timings {
+    /// Distance field, FMT* and corridor.
+    pub plan_s: f64,
+    /// Each MPC solve.
+    pub mpc_s: Vec<f64>,
+}
+
 /// Plans, tracks and logs one run. `grid` is the occupancy (already loaded).
 pub fn run_closed_loop(
     cfg: &ClosedLoopConfig,
     grid: OccupancyGrid,
 ) -> Result<ClosedLoopResult, PlanError> {
+    run_closed_loop_timed(cfg, grid, &|| 0.0).map(|(r, _)| r)
+}
+
+/// [`run_closed_loop`], also timing planning and each MPC solve with
+/// `clock` (seconds from any origin). The clock never influences results.
+pub fn run_closed_loop_timed(
+    cfg: &ClosedLoopConfig,
+    grid: OccupancyGrid,
+    clock: &dyn Fn() -> f64,
+) -> Result<(ClosedLoopResult, Timings), PlanError> {
+    let mut timings = Timings::default();
     let veh = cfg.vehicle.resolve()?;
     let sim = cfg.simulation;
     if !(sim.dt.is_finite() && sim.dt > 0.0 && sim.horizon.is_finite() && sim.horizon > 0.0) {
@@ -464,6 +490,8 @@ pub fn run_closed_loop(
         max_steer_rate: veh.max_steer_rate,
         min_accel: -veh.max_decel,
         max_accel: veh.max_accel,
+        // Predict with the world's own integration step.
+        substeps: every as usize,
     })?;
     let pl = &cfg.planner;
     if !(pl.margin.is_finite() && pl.margin >= 0.0) {
@@ -472,7 +500,14 @@ pub fn run_closed_loop(
             pl.margin
         )));
     }
-    let pgrid = PlanningGrid::new(grid, veh.width / 2.0, pl.margin);
+    let t_plan = clock();
+    let pgrid = PlanningGrid::with_footprint(
+        grid,
+        veh.length,
+        veh.width,
+        (veh.length - veh.wheelbase) / 2.0,
+        pl.margin,
+    );
     let start = Vec2::new(cfg.start.x, cfg.start.y);
     let goal = Vec2::new(cfg.goal.x, cfg.goal.y);
     let radius = match (pl.radius, pl.k_nearest) {
@@ -500,8 +535,40 @@ pub fn run_closed_loop(
             a_max: veh.max_accel * 0.8,
             d_max: veh.max_decel * 0.5,
             v_start: cfg.start.speed.max(0.5),
+            // Half the steering rate: the other half is the controller's
+            // to correct errors with.
+            kappa_rate_max: 0.5 * veh.max_steer_rate / veh.wheelbase,
+            kappa_max: veh.max_steer.tan() / veh.wheelbase,
+            start_heading: Some(cfg.start.yaw),
         },
     );
+    timings.plan_s = clock() - t_plan;
+    // A path the vehicle cannot drive is refused before it is driven: too
+    // tight a turn, or a body that does not fit where the path goes.
+    let kappa_max = veh.max_steer.tan() / veh.wheelbase;
+    let turn = corridor.turn_curvature(1.0);
+    if let Some(i) = (0..turn.len())
+        .filter(|&i| turn[i].abs() > kappa_max * 1.02)
+        .max_by(|&a, &b| turn[a].abs().total_cmp(&turn[b].abs()))
+    {
+        let p = corridor.points[i];
+        return Err(PlanError::Infeasible(format!(
+            "the smoothed path turns with a {:.2} m radius at ({:.1}, {:.1}); the {} turns no tighter than {:.2} m (wheelbase {} m, steering {:.0}°)",
+            1.0 / turn[i].abs(),
+            p.x,
+            p.y,
+            cfg.vehicle.preset,
+            1.0 / kappa_max,
+            veh.wheelbase,
+            veh.max_steer.to_degrees()
+        )));
+    }
+    if let Some(p) = corridor.first_blocked(&pgrid) {
+        return Err(PlanError::Infeasible(format!(
+            "the {} m × {} m body does not fit along the path at ({:.1}, {:.1}) with a {} m margin",
+            veh.length, veh.width, p.x, p.y, pl.margin
+        )));
+    }
 
     // The world: one vehicle on direct (acceleration, steering) control.
     let mut world = World::new(sim.dt).map_err(|e| PlanError::Config(e.to_string()))?;
@@ -568,55 +635,78 @@ pub fn run_closed_loop(
             }
         }
     };
-    let steps = run_loop(
-        &mut world,
-        sim.horizon,
-        Some(&stop),
-        |w| {
-            if w.tick() % every != 0 || mpc_error.is_some() {
-                return;
-            }
-            let Some(a) = w.actor("ego") else { return };
-            let st = a.state();
-            let p = st.pose;
-            let z0 = [p.position.x, p.position.y, p.yaw, st.speed];
-            let (s, lat, i) = corridor.project(p.position.xy(), hint);
-            hint = i;
-            let t0 = corridor.time_at_s(s);
-            let refs: Vec<RefState> = (0..=n_h)
-                .map(|k| corridor.at_time(t0 + k as f64 * tdt))
-                .collect();
-            match mpc.solve(z0, &refs, prev_cmd) {
-                Ok(sol) => {
-                    prev_cmd = [sol.acceleration, sol.steering];
-                    tracking.tick.push(w.tick());
-                    tracking.lateral_error.push(lat);
-                    tracking
-                        .heading_error
-                        .push(wrap_angle(p.yaw - corridor.heading_at_s(s)));
-                    tracking.progress.push(s);
-                    tracking.cmd_acceleration.push(sol.acceleration);
-                    tracking.cmd_steering.push(sol.steering);
-                    tracking.predictions.push(sol.predicted.clone());
-                    let _ = w.set_mode(
-                        "ego",
-                        ControlMode::Dynamic {
-                            input: VehicleInput::Direct {
-                                acceleration: sol.acceleration,
-                                steering_angle: sol.steering,
-                            },
-                            valid_until_tick: None,
-                        },
-                    );
+    let mut control = |w: &mut World| {
+        if !w.tick().is_multiple_of(every) || mpc_error.is_some() {
+            return;
+        }
+        let Some(a) = w.actor("ego") else { return };
+        let st = a.state();
+        let p = st.pose;
+        let z0 = [p.position.x, p.position.y, p.yaw, st.speed];
+        let (s, lat, i) = corridor.project(p.position.xy(), hint);
+        hint = i;
+        let t0 = corridor.time_at_s(s);
+        let refs: Vec<RefState> = (0..=n_h)
+            .map(|k| corridor.at_time(t0 + k as f64 * tdt))
+            .collect();
+        let t_mpc = clock();
+        let solved = mpc.solve(z0, &refs, prev_cmd);
+        timings.mpc_s.push(clock() - t_mpc);
+        match solved {
+            Ok(sol) => {
+                prev_cmd = [sol.acceleration, sol.steering];
+                if let Some(why) = &sol.fallback {
+                    tracking.fallback.push((w.tick(), why.clone()));
                 }
-                Err(e) => mpc_error = Some(e),
+                tracking.tick.push(w.tick());
+                tracking.lateral_error.push(lat);
+                tracking
+                    .heading_error
+                    .push(wrap_angle(p.yaw - corridor.heading_at_s(s)));
+                tracking.progress.push(s);
+                tracking.cmd_acceleration.push(sol.acceleration);
+                tracking.cmd_steering.push(sol.steering);
+                tracking.predictions.push(sol.predicted.clone());
+                let _ = w.set_mode(
+                    "ego",
+                    ControlMode::Dynamic {
+                        input: VehicleInput::Direct {
+                            acceleration: sol.acceleration,
+                            steering_angle: sol.steering,
+                        },
+                        valid_until_tick: None,
+                    },
+                );
             }
-        },
-        |w| {
-            rec.record_world(w);
-            check(w, &mut min_clear, &mut collided);
-        },
-    );
+            Err(e) => mpc_error = Some(e),
+        }
+    };
+    // The loop of `run_loop`, plus the verdict: the run ends at the first
+    // contact of the footprint with an obstacle (driving on through a wall
+    // says nothing more about the controller).
+    let mut steps = 0u64;
+    let mut collision = None;
+    for _ in 0..litesim_core::steps_for_horizon(sim.horizon, sim.dt) {
+        control(&mut world);
+        world.step();
+        steps += 1;
+        rec.record_world(&world);
+        check(&world, &mut min_clear, &mut collided);
+        if collided {
+            let p = world.actor("ego").map(|a| a.state().pose.position.xy());
+            collision = Some((world.time(), p.map_or([f64::NAN; 2], |p| [p.x, p.y])));
+            break;
+        }
+        if stop.reached(&world) {
+            break;
+        }
+    }
+    if let Some((t, [x, y])) = collision {
+        rec.meta(
+            "verdict",
+            format!("collision at t = {t:.2} s, rear axle at ({x:.2}, {y:.2})"),
+        );
+    }
     if let Some(e) = mpc_error {
         return Err(PlanError::Mpc(e));
     }
@@ -663,7 +753,7 @@ pub fn run_closed_loop(
         reference_name: String::new(),
     });
     log.tracking = Some(tracking);
-    Ok(ClosedLoopResult {
+    let result = ClosedLoopResult {
         time: world.time(),
         steps,
         reached_goal: reached,
@@ -675,11 +765,49 @@ pub fn run_closed_loop(
         mean_cross_track: mean_cte,
         min_clearance: min_clear,
         collided,
+        collision,
         log,
         fmt,
         corridor,
         grid: pgrid,
-    })
+    };
+    Ok((result, timings))
+}
+
+/// Builds the occupancy grid a configuration names; `png` and `opendrive`
+/// paths are relative to `base` (the configuration's folder). The one
+/// place this crate reads files.
+pub fn load_grid(
+    cfg: &ClosedLoopConfig,
+    base: &std::path::Path,
+) -> Result<OccupancyGrid, PlanError> {
+    let m = &cfg.map;
+    let origin = Vec2::new(m.origin[0], m.origin[1]);
+    match (&m.png, &m.opendrive) {
+        (Some(_), Some(_)) => Err(PlanError::Config(
+            "map: give either png or opendrive, not both".into(),
+        )),
+        (Some(png), None) => {
+            let p = base.join(png);
+            let bytes = std::fs::read(&p)
+                .map_err(|e| PlanError::Config(format!("cannot read {}: {e}", p.display())))?;
+            OccupancyGrid::from_png(&bytes, m.resolution, origin)
+                .map_err(|e| PlanError::Config(format!("{}: {e}", p.display())))
+        }
+        (None, Some(xodr)) => {
+            let p = base.join(xodr);
+            let net =
+                litesim_map::RoadNetwork::load(&p).map_err(|e| PlanError::Config(e.to_string()))?;
+            net.rasterise(m.resolution, 2.0)
+                .map_err(|e| PlanError::Config(format!("{}: {e}", p.display())))
+        }
+        (None, None) => Ok(OccupancyGrid::from_obstacles(
+            origin,
+            (m.size[0], m.size[1]),
+            m.resolution,
+            &m.obstacles,
+        )?),
+    }
 }
 
 /// Parses a configuration (TOML), naming the offending key on error.

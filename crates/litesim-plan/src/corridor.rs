@@ -28,6 +28,17 @@ pub struct SpeedLimits {
     pub d_max: f64,
     /// Speed at the start (m/s).
     pub v_start: f64,
+    /// Largest rate of change of curvature the steering can produce
+    /// (1/(m·s)): v·|dκ/ds| must stay below it, or the vehicle cannot turn
+    /// its wheels fast enough to follow the path. `f64::INFINITY` = none.
+    pub kappa_rate_max: f64,
+    /// Largest curvature the vehicle can drive (1/m, tan δ_max / L): the
+    /// corridor is shaped towards 80 % of it. `f64::INFINITY` = none.
+    pub kappa_max: f64,
+    /// Heading the vehicle starts with (rad): the corridor leaves the start
+    /// along it, so tracking has no start-up transient. `None` = the
+    /// path's own direction.
+    pub start_heading: Option<f64>,
 }
 
 /// A reference corridor.
@@ -53,7 +64,8 @@ pub struct Corridor {
     pub left_bound: Vec<f64>,
     /// Free distance to the right (m).
     pub right_bound: Vec<f64>,
-    /// False when smoothing was rejected and the raw polyline is used.
+    /// False when neither Catmull–Rom candidate was free and the relaxed
+    /// (corner-rounded) polyline is used instead.
     pub smoothed: bool,
 }
 
@@ -89,12 +101,17 @@ fn shortcut(path: &[Vec2], grid: &PlanningGrid) -> Vec<Vec2> {
     out
 }
 
-fn catmull_rom(pts: &[Vec2], per_segment: usize) -> Vec<Vec2> {
-    if pts.len() < 3 {
+fn catmull_rom(pts: &[Vec2], per_segment: usize, start_heading: Option<f64>) -> Vec<Vec2> {
+    if pts.len() < 2 || (pts.len() < 3 && start_heading.is_none()) {
         return pts.to_vec();
     }
-    // Mirror the ends so the curve passes through the first and last points.
-    let first = pts[0] + (pts[0] - pts[1]);
+    // Mirror the ends so the curve passes through the first and last
+    // points; at the start, a phantom point behind the vehicle makes the
+    // curve leave along its heading.
+    let first = match start_heading {
+        Some(h) => pts[0] - Vec2::from_heading(h) * pts[0].distance(pts[1]),
+        None => pts[0] + (pts[0] - pts[1]),
+    };
     let last = pts[pts.len() - 1] + (pts[pts.len() - 1] - pts[pts.len() - 2]);
     let mut ext = vec![first];
     ext.extend_from_slice(pts);
@@ -149,6 +166,146 @@ fn resample(dense: &[Vec2], ds: f64) -> Vec<Vec2> {
     out
 }
 
+/// Relaxes the resampled curve towards continuous curvature with sweeps
+/// of the bi-Laplacian flow p ← p − (1/16)·Δ²p — the gradient flow of the
+/// bending energy ∫κ² — each move kept only where the whole footprint
+/// stays free. Catmull–Rom is only C¹: its curvature jumps at every vertex,
+/// and a jump in curvature is a jump in steering that no rate-limited
+/// actuator follows, the main source of cross-track error. The first two
+/// points are clamped along the start heading, so the start is a smooth
+/// turn out of the vehicle's own direction. (A second-order flow — the heat
+/// equation on positions — would leave a kink at the clamped second point
+/// and shrink every turn; the fourth-order flow does neither.)
+fn relax(pts: &mut [Vec2], grid: &PlanningGrid, start_heading: Option<f64>, ds: f64) {
+    let n = pts.len();
+    if n < 6 {
+        return;
+    }
+    if let Some(h) = start_heading {
+        let q = pts[0] + Vec2::from_heading(h) * pts[0].distance(pts[1]);
+        if grid.pose_free(q, h) {
+            pts[1] = q;
+        }
+    }
+    let mut next = pts.to_vec();
+    let ok = |prev: Vec2, q: Vec2, nxt: Vec2| grid.pose_free(q, (nxt - prev).heading());
+    // Length scale ≈ ds·sweeps^¼: about 2.5 m at ds = 0.5 m.
+    let sweeps = (2.5 / ds).powi(4).round().clamp(16.0, 2000.0) as usize;
+    biharmonic(pts, &mut next, sweeps, &ok);
+}
+
+/// Sweeps of the bi-Laplacian flow over `pts[2..n−1]`: the first two
+/// points are clamped (start position and heading), the last is fixed and
+/// its tangent free (a ghost point continues the curve straight), so the
+/// end has no kink either.
+fn biharmonic(
+    pts: &mut [Vec2],
+    next: &mut [Vec2],
+    sweeps: usize,
+    ok: &dyn Fn(Vec2, Vec2, Vec2) -> bool,
+) {
+    let n = pts.len();
+    if n < 5 {
+        return;
+    }
+    for _ in 0..sweeps {
+        for i in 2..n - 1 {
+            let after = if i + 2 < n {
+                pts[i + 2]
+            } else {
+                pts[n - 1] * 2.0 - pts[n - 2]
+            };
+            let b = pts[i - 2] + after - (pts[i - 1] + pts[i + 1]) * 4.0 + pts[i] * 6.0;
+            let q = pts[i] - b * (1.0 / 16.0);
+            next[i] = if ok(pts[i - 1], q, pts[i + 1]) {
+                q
+            } else {
+                pts[i]
+            };
+        }
+        pts[2..n - 1].copy_from_slice(&next[2..n - 1]);
+    }
+}
+
+/// Largest |curvature| of a polyline (three-point formula).
+fn max_curvature(pts: &[Vec2]) -> f64 {
+    pts.windows(3)
+        .map(|w| {
+            let (a, b) = (w[1] - w[0], w[2] - w[1]);
+            let den = a.norm() * b.norm() * (w[2] - w[0]).norm();
+            if den > 1e-12 {
+                (2.0 * a.cross(b) / den).abs()
+            } else {
+                0.0
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+/// Shapes the path at a coarse spacing (2 m) until its curvature is below
+/// `kappa_target` or the free space stops it: at 2 m a sweep of the
+/// bending flow reaches 4⁴ = 256 times further than at 0.5 m, so turns of
+/// a vehicle's size (4–8 m radii) form in a few hundred sweeps. The fine
+/// relaxation then only removes what resampling leaves.
+fn shape_coarse(
+    fine: &[Vec2],
+    grid: &PlanningGrid,
+    start_heading: Option<f64>,
+    kappa_target: f64,
+) -> Vec<Vec2> {
+    let total: f64 = fine.windows(2).map(|w| w[0].distance(w[1])).sum();
+    let n = (total / 2.0).ceil() as usize;
+    if n < 5 {
+        return fine.to_vec();
+    }
+    let mut pts = resample(fine, total / n as f64);
+    let ds = total / n as f64;
+    if let Some(h) = start_heading {
+        let q = pts[0] + Vec2::from_heading(h) * ds;
+        if grid.pose_free(q, h) {
+            pts[1] = q;
+        }
+    }
+    let mut next = pts.clone();
+    // At 2 m spacing the chords to the neighbours must be free too (the
+    // fine curve runs within centimetres of them): checked every 0.5 m,
+    // and the vertex with either chord's heading.
+    // A quarter of a cell of extra room absorbs what the fine curve and
+    // its headings differ from the chords.
+    let extra = 0.25 * grid.grid.resolution;
+    let ok = |prev: Vec2, q: Vec2, nxt: Vec2| {
+        grid.pose_free_with(q, (nxt - prev).heading(), extra)
+            && grid.pose_free_with(q, (q - prev).heading(), extra)
+            && grid.pose_free_with(q, (nxt - q).heading(), extra)
+            && [0.25, 0.5, 0.75].iter().all(|&u| {
+                grid.pose_free_with(q.lerp(prev, u), (q - prev).heading(), extra)
+                    && grid.pose_free_with(q.lerp(nxt, u), (nxt - q).heading(), extra)
+            })
+    };
+    // At least a 6 m length scale (81 sweeps), more while too tight.
+    biharmonic(&mut pts, &mut next, 81, &ok);
+    for _round in 0..20 {
+        if max_curvature(&pts) <= kappa_target {
+            break;
+        }
+        biharmonic(&mut pts, &mut next, 100, &ok);
+    }
+    pts
+}
+
+/// Every point's footprint is free, heading along the curve.
+fn footprint_free(pts: &[Vec2], grid: &PlanningGrid) -> bool {
+    let n = pts.len();
+    (0..n).all(|i| {
+        let (a, b) = (pts[i.saturating_sub(1)], pts[(i + 1).min(n - 1)]);
+        if a == b {
+            grid.is_free(pts[i])
+        } else {
+            grid.pose_free(pts[i], (b - a).heading())
+        }
+    })
+}
+
 fn free_distance(grid: &PlanningGrid, p: Vec2, dir: Vec2) -> f64 {
     let step = 0.5 * grid.grid.resolution;
     let mut d = 0.0;
@@ -162,20 +319,84 @@ impl Corridor {
     /// Builds a corridor from a planner path (at least 2 points).
     pub fn build(raw: &[Vec2], grid: &PlanningGrid, ds: f64, limits: &SpeedLimits) -> Self {
         let ds = if ds.is_finite() && ds > 0.0 { ds } else { 0.5 };
-        let short = shortcut(raw, grid);
-        let smooth = resample(&catmull_rom(&short, 20), ds);
-        let (points, smoothed) = if smooth.iter().all(|p| grid.is_free(*p)) {
-            (smooth, true)
-        } else {
-            // Smoothing cut a corner: densify the checked polyline instead.
+        let mut short = shortcut(raw, grid);
+        let start_heading = limits.start_heading.filter(|h| h.is_finite());
+        // Lead-in: when the path leaves at an angle to the vehicle's
+        // heading, first drive straight on for about a turning radius (if
+        // that is free), so the turn onto the path has room instead of
+        // being squeezed into the first metre.
+        if let (Some(h), true) = (start_heading, short.len() >= 2) {
+            let dir = Vec2::from_heading(h);
+            let leave = (short[1] - short[0]).heading();
+            let off = wrap_angle(leave - h).abs();
+            let r = if limits.kappa_max.is_finite() && limits.kappa_max > 0.0 {
+                1.0 / limits.kappa_max
+            } else {
+                3.0
+            };
+            if off > 0.05 {
+                let first = short[0];
+                let seg = first.distance(short[1]);
+                for d in [1.5 * r, r, 0.5 * r] {
+                    let q = first + dir * d;
+                    if d < seg && grid.segment_free(first, q) && grid.segment_free(q, short[1]) {
+                        short.insert(1, q);
+                        break;
+                    }
+                }
+            }
+        }
+        // Candidates, best first; the first that is free and within the
+        // turning limit wins, else the first free one, else the relaxed
+        // polyline (which the caller's own check then refuses):
+        // 1. the Catmull–Rom curve shaped at 2 m towards the turning limit,
+        // 2. the Catmull–Rom curve,
+        // 3. the checked polyline (free, and relaxation only makes moves
+        //    that stay free, so its corners round off as far as the free
+        //    space allows).
+        let cr = resample(&catmull_rom(&short, 20, start_heading), ds);
+        let kappa_target = 0.8 * limits.kappa_max;
+        let finish = |mut pts: Vec<Vec2>| {
+            relax(&mut pts, grid, start_heading, ds);
+            resample(&pts, ds)
+        };
+        let polyline = || {
             let mut dense = Vec::new();
             for w in short.windows(2) {
                 let n = (w[0].distance(w[1]) / (ds / 4.0)).ceil().max(1.0) as usize;
                 dense.extend((0..n).map(|k| w[0].lerp(w[1], k as f64 / n as f64)));
             }
             dense.extend(short.last().copied());
-            (resample(&dense, ds), false)
+            resample(&dense, ds)
         };
+        let within =
+            |pts: &[Vec2]| !limits.kappa_max.is_finite() || max_curvature(pts) <= limits.kappa_max;
+        let mut first_free: Option<(Vec<Vec2>, bool)> = None;
+        let mut chosen: Option<(Vec<Vec2>, bool)> = None;
+        for k in 0..3 {
+            let pts = match k {
+                0 if limits.kappa_max.is_finite() => finish(resample(
+                    &shape_coarse(&cr, grid, start_heading, kappa_target),
+                    ds,
+                )),
+                0 => continue,
+                1 => finish(cr.clone()),
+                _ => finish(polyline()),
+            };
+            if !footprint_free(&pts, grid) {
+                continue;
+            }
+            if within(&pts) {
+                chosen = Some((pts, k < 2));
+                break;
+            }
+            if first_free.is_none() {
+                first_free = Some((pts, k < 2));
+            }
+        }
+        let (points, smoothed) = chosen
+            .or(first_free)
+            .unwrap_or_else(|| (finish(polyline()), false));
         let n = points.len();
         let mut s = vec![0.0; n];
         for i in 1..n {
@@ -187,7 +408,7 @@ impl Corridor {
                 (b - a).heading()
             })
             .collect();
-        let curvature: Vec<f64> = (0..n)
+        let mut curvature: Vec<f64> = (0..n)
             .map(|i| {
                 if i == 0 || i + 1 >= n {
                     return 0.0;
@@ -202,15 +423,34 @@ impl Corridor {
                 }
             })
             .collect();
-        let mut speed: Vec<f64> = curvature
-            .iter()
-            .map(|k| {
+        // The ends take their neighbours' curvature (a three-point formula
+        // has none there), so the reference steering does not jump at the
+        // first and last points.
+        if n >= 3 {
+            curvature[0] = curvature[1];
+            curvature[n - 1] = curvature[n - 2];
+        }
+        let mut speed: Vec<f64> = (0..n)
+            .map(|i| {
+                let k = curvature[i];
                 let lat = if k.abs() > 1e-9 {
                     (limits.a_lat_max / k.abs()).sqrt()
                 } else {
                     f64::INFINITY
                 };
-                lat.min(limits.v_max)
+                // Steering rate: v·|dκ/ds| ≤ κ̇_max.
+                let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                let dk = if b > a && s[b] > s[a] {
+                    (curvature[b] - curvature[a]).abs() / (s[b] - s[a])
+                } else {
+                    0.0
+                };
+                let steer = if dk > 1e-12 {
+                    limits.kappa_rate_max / dk
+                } else {
+                    f64::INFINITY
+                };
+                lat.min(steer).min(limits.v_max)
             })
             .collect();
         if n > 0 {
@@ -353,6 +593,39 @@ impl Corridor {
     pub fn heading_at_s(&self, s: f64) -> f64 {
         let (i, j, u) = self.locate_s(s);
         self.heading[i] + wrap_angle(self.heading[j] - self.heading[i]) * u
+    }
+
+    /// Curvature as a vehicle experiences it: the heading change over
+    /// ±`half` m of arc divided by that arc. A kink shorter than that (a
+    /// point the smoothing could not move) changes the heading by little,
+    /// and a body metres long drives over it; a real turn keeps its
+    /// curvature.
+    pub fn turn_curvature(&self, half: f64) -> Vec<f64> {
+        let n = self.points.len();
+        (0..n)
+            .map(|i| {
+                let lo = self.s.partition_point(|x| *x < self.s[i] - half).min(i);
+                let hi = (self.s.partition_point(|x| *x <= self.s[i] + half)).clamp(i + 1, n) - 1;
+                let ds = self.s[hi] - self.s[lo];
+                if hi > lo && ds > 1e-9 {
+                    let mut turn = 0.0;
+                    for k in lo..hi {
+                        turn += wrap_angle(self.heading[k + 1] - self.heading[k]);
+                    }
+                    turn / ds
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
+    /// The first point whose footprint (heading along the corridor) is not
+    /// free, if any.
+    pub fn first_blocked(&self, grid: &PlanningGrid) -> Option<Vec2> {
+        (0..self.points.len())
+            .find(|&i| !grid.pose_free(self.points[i], self.heading[i]))
+            .map(|i| self.points[i])
     }
 
     /// Smallest clearance along the corridor (m), from the grid.

@@ -121,12 +121,28 @@ pub struct PlanningGrid {
     pub margin: f64,
     /// Per cell: free for planning (the hot query of sampling and edge checks).
     free: Vec<bool>,
+    /// The vehicle's footprint as circles of `radius` along its axis: the
+    /// centres' offsets ahead of the reference point (m). Empty = a disc
+    /// of `radius` at the reference point.
+    #[serde(default)]
+    pub footprint: Vec<f64>,
 }
 
 impl PlanningGrid {
     /// Computes the distance field and layers for a vehicle of `radius` m with `margin` m to spare.
     pub fn new(grid: OccupancyGrid, radius: f64, margin: f64) -> Self {
-        let distance = distance_transform(&grid);
+        // Beyond the map's edge is not drivable (the simulation counts a
+        // body outside the map as a collision): the edge bounds every
+        // distance like an obstacle one cell outside it.
+        let mut distance = distance_transform(&grid);
+        let (w, h, res) = (grid.width, grid.height, grid.resolution);
+        for j in 0..h {
+            for i in 0..w {
+                let edge = (i + 1).min(j + 1).min(w - i).min(h - j) as f64 * res;
+                let d = &mut distance[j * w + i];
+                *d = d.min(edge);
+            }
+        }
         let (radius, margin) = (radius.max(0.0), margin.max(0.0));
         let need = radius + margin + 0.5 * grid.resolution;
         let free = grid
@@ -141,7 +157,67 @@ impl PlanningGrid {
             radius,
             margin,
             free,
+            footprint: Vec::new(),
         }
+    }
+
+    /// A grid for a rectangular vehicle `length × width` whose reference
+    /// point (the rear axle) is `rear` m ahead of its rear bumper: the body
+    /// is covered by k circles along its axis, k = ⌈2·length / width⌉, each
+    /// of radius √((w/2)² + (length/2k)²), so that every point of the
+    /// rectangle is inside one. Collision checks then cover the whole body
+    /// from bumper to bumper — a long vehicle's front swings wide of its
+    /// rear axle in a turn.
+    pub fn with_footprint(
+        grid: OccupancyGrid,
+        length: f64,
+        width: f64,
+        rear: f64,
+        margin: f64,
+    ) -> Self {
+        let (length, width) = (length.max(1e-3), width.max(1e-3));
+        let k = (2.0 * length / width).ceil().clamp(1.0, 64.0) as usize;
+        let seg = length / k as f64;
+        let radius = ((0.5 * width).powi(2) + (0.5 * seg).powi(2)).sqrt();
+        let mut g = Self::new(grid, radius, margin);
+        g.footprint = (0..k).map(|j| -rear + seg * (j as f64 + 0.5)).collect();
+        g
+    }
+
+    /// The covering circles' offsets ahead of the reference point (a
+    /// single 0 for a disc vehicle).
+    fn offsets(&self) -> &[f64] {
+        if self.footprint.is_empty() {
+            &[0.0]
+        } else {
+            &self.footprint
+        }
+    }
+
+    /// True when the vehicle at `p` heading `yaw` keeps radius + margin
+    /// from every obstacle with its whole footprint.
+    pub fn pose_free(&self, p: Vec2, yaw: f64) -> bool {
+        let f = Vec2::from_heading(yaw);
+        self.offsets().iter().all(|o| self.is_free(p + f * *o))
+    }
+
+    /// [`Self::pose_free`] with `extra` m more room than the margin.
+    pub fn pose_free_with(&self, p: Vec2, yaw: f64, extra: f64) -> bool {
+        let f = Vec2::from_heading(yaw);
+        let need = self.radius + self.margin + extra;
+        self.offsets()
+            .iter()
+            .all(|o| self.clearance(p + f * *o) >= need)
+    }
+
+    /// Smallest clearance of the footprint at a pose (m) beyond the
+    /// covering circles' radius: ≥ margin where the pose is free.
+    pub fn pose_clearance(&self, p: Vec2, yaw: f64) -> f64 {
+        let f = Vec2::from_heading(yaw);
+        self.offsets()
+            .iter()
+            .map(|o| self.clearance(p + f * *o) - self.radius)
+            .fold(f64::INFINITY, f64::min)
     }
     /// Clearance at a point (m); 0 outside the grid.
     pub fn clearance(&self, p: Vec2) -> f64 {
@@ -183,8 +259,29 @@ impl PlanningGrid {
         let need = self.radius + self.margin + 0.5 * self.grid.resolution;
         self.distance.iter().filter(|d| **d >= need).count() as f64 * r2
     }
-    /// True when the straight segment a→b stays free, checked every half cell.
+    /// True when the vehicle driving straight from a to b stays free,
+    /// checked every half cell. Along a straight line every covering
+    /// circle's centre stays on the line, so the swept footprint is the
+    /// segment from the rearmost centre at `a` to the foremost at `b`.
     pub fn segment_free(&self, a: Vec2, b: Vec2) -> bool {
+        let (lo, hi) = self
+            .offsets()
+            .iter()
+            .fold((0.0f64, 0.0f64), |(lo, hi), o| (lo.min(*o), hi.max(*o)));
+        if lo == 0.0 && hi == 0.0 {
+            return self.point_segment_free(a, b);
+        }
+        let d = b - a;
+        let len = d.norm();
+        if len <= 1e-12 {
+            // No direction to place the body along: the centre only.
+            return self.is_free(a);
+        }
+        let f = d * (1.0 / len);
+        self.point_segment_free(a + f * lo, b + f * hi)
+    }
+
+    fn point_segment_free(&self, a: Vec2, b: Vec2) -> bool {
         let len = a.distance(b);
         let n = (len / (0.5 * self.grid.resolution)).ceil().max(1.0) as usize;
         (0..=n).all(|k| self.is_free(a.lerp(b, k as f64 / n as f64)))

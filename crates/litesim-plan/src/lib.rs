@@ -1,23 +1,30 @@
 //! # litesim-plan
 //!
 //! Planning and control on occupancy grids (seed 001): [`PlanningGrid`]
-//! (exact distance transform; free / inflated / hard layers), [`fmt_star`]
-//! (FMT*, Janson et al. 2015), [`Corridor`] (centripetal Catmull–Rom
-//! smoothing, arc-length resampling, curvature-limited speed profile,
-//! lateral bounds), [`Mpc`] (linear time-varying tracking MPC for the
-//! kinematic bicycle, solved by Clarabel), and the closed-loop runner
-//! ([`closed_loop`]) that ties them to `litesim-core`'s world and writes a
-//! `SimulationLog`.
+//! (exact distance transform bounded by the map's edge; free / inflated /
+//! hard layers; the vehicle's footprint as covering circles), [`fmt_star`]
+//! (FMT*, Janson et al. 2015), [`Corridor`] (lead-in along the start
+//! heading, centripetal Catmull–Rom, bending-energy relaxation with
+//! footprint checks, arc-length resampling, a speed profile limited by
+//! lateral acceleration and steering rate, lateral bounds), [`Mpc`] (linear
+//! time-varying tracking MPC for the kinematic bicycle, condensed and
+//! solved by the dual active-set method of [`qp`]; Clarabel solves the same
+//! QP as the reference), the closed-loop runner ([`closed_loop`]) that ties
+//! them to `litesim-core`'s world and writes a `SimulationLog`, and the
+//! example × preset table ([`matrix`]).
 //!
-//! Pure: no I/O, no clock. Sampling uses an explicit seeded generator, so a
-//! plan is a function of its inputs and its seed.
+//! No clock: timings come from a clock the caller passes. The only I/O is
+//! [`closed_loop::load_grid`]. Sampling uses an explicit seeded generator,
+//! so a plan is a function of its inputs and its seed.
 #![warn(missing_docs)]
 
 pub mod closed_loop;
 pub mod corridor;
 pub mod fmt;
 pub mod grid;
+pub mod matrix;
 pub mod mpc;
+pub mod qp;
 /// The seeded generator lives in `litesim-core` (shared with the scenario engine).
 pub use litesim_core::rng;
 

@@ -149,6 +149,11 @@ impl FmtMpc {
                 a_max: 0.8 * self.info.max_accel,
                 d_max: 0.5 * self.info.max_decel,
                 v_start: obs.ego.speed.max(0.5),
+                // The SUT re-plans from wherever it is: its own heading
+                // and steering limits shape the corridor as in `plan`.
+                kappa_rate_max: 0.5 * 0.8 / self.info.wheelbase.max(0.5),
+                kappa_max: self.info.max_steer.tan() / self.info.wheelbase.max(0.5),
+                start_heading: Some(obs.ego.yaw),
             },
         );
         let pts: Vec<[f64; 2]> = corridor.points.iter().map(|p| [p.x, p.y]).collect();
@@ -191,6 +196,8 @@ impl Sut for FmtMpc {
             max_steer_rate: 0.8,
             min_accel: -info.max_decel.max(0.1),
             max_accel: info.max_accel.max(0.1),
+            // The MPC runs every 0.1 s; predict with the world's step.
+            substeps: (100 / info.step_ms.max(1)).clamp(1, 100) as usize,
             ..MpcConfig::default()
         })
         .map_err(|e| SutError(format!("fmt-mpc: {e}")))?;
