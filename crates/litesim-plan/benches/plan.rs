@@ -1,7 +1,8 @@
 //! Planner and controller benchmarks (`cargo bench -p litesim-plan --bench plan`):
 //! FMT* on an 80 × 40 m map at 0.2 m with one large rectangle (n = 2,000 and
 //! 50,000), the distance transform of a 400 × 200 grid, one MPC solve at
-//! N = 20, and a 150-step closed loop with MPC.
+//! N = 20 (structured solver, and Clarabel on the same QP), and a 150-step
+//! closed loop with MPC.
 
 use criterion::Criterion;
 use litesim_core::Vec2;
@@ -74,6 +75,14 @@ fn main() {
             .unwrap()
             .iterations
     );
+    // The same QP in sparse form by Clarabel (a fresh solver each call, as
+    // the reference of the property test builds it), for scale.
+    c.bench_function("mpc_solve_n20_clarabel", |b| {
+        b.iter(|| {
+            mpc.solve_reference(black_box([0.3, -0.4, 0.05, 7.5]), &refs, [0.0, 0.1], 1e-7)
+                .unwrap()
+        })
+    });
     c.bench_function("mpc_solve_n20", |b| {
         b.iter(|| {
             mpc.solve(black_box([0.3, -0.4, 0.05, 7.5]), &refs, [0.0, 0.1])
