@@ -127,7 +127,13 @@ pub fn run(
     println!(
         "  min clearance    {:8.3} m{}",
         r.min_clearance,
-        if r.collided { " — COLLISION" } else { "" }
+        match r.collision {
+            Some((t, [x, y])) => format!(
+                " — COLLISION at t = {t:.2} s, rear axle at ({x:.2}, {y:.2}); the run ended there"
+            ),
+            None if r.collided => " — COLLISION".to_string(),
+            None => String::new(),
+        }
     );
     println!(
         "wrote {} and {}",

@@ -508,26 +508,14 @@ impl Mpc {
                 h[cd + 2 * i + 1] += dot4(kd, &gd);
             }
         }
-        // Inputs: deviation weights and the rate coupling (as in the sparse
-        // form: (u_k − u_{k−1}) with u_{−1} the applied command).
-        for k in 0..n {
-            for m in 0..2 {
-                let i = 2 * k + m;
-                let wr = c.r_rate[m];
-                let d0 = lin.ur[k][m]
-                    - if k == 0 {
-                        lin.prev[m]
-                    } else {
-                        lin.ur[k - 1][m]
-                    };
-                h[i * nu + i] += 2.0 * (c.r[m] + wr);
-                g[i] += 2.0 * wr * d0;
-                if k > 0 {
-                    h[(i - 2) * nu + i - 2] += 2.0 * wr;
-                    h[(i - 2) * nu + i] -= 2.0 * wr;
-                    h[i * nu + i - 2] -= 2.0 * wr;
-                    g[i - 2] -= 2.0 * wr * d0;
-                }
+        // Inputs: deviation weights and the rate coupling.
+        let (diag, off, q) = input_cost(c, lin);
+        for i in 0..nu {
+            h[i * nu + i] += diag[i];
+            g[i] += q[i];
+            if i >= 2 {
+                h[(i - 2) * nu + i] += off[i];
+                h[i * nu + i - 2] += off[i];
             }
         }
         // Mirror the lower triangle (the recursion filled rows i ≥ j).
@@ -715,6 +703,35 @@ fn mul4(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
     [a[0] * b[0], a[1] * b[1], a[2] * b[2], a[3] * b[3]]
 }
 
+/// The input part of the cost in Δu (½ΔuᵀPΔu + qᵀΔu): P's diagonal, its
+/// rate coupling P[i−2][i] (stored at i), and q — deviation weights r and
+/// rate weights r_rate on (u_k − u_{k−1}), u_{−1} being the applied
+/// command. Shared by the condensed and the sparse form.
+fn input_cost(c: &MpcConfig, lin: &Linearised) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let nu = 2 * c.horizon;
+    let (mut diag, mut off, mut q) = (vec![0.0; nu], vec![0.0; nu], vec![0.0; nu]);
+    for k in 0..c.horizon {
+        for m in 0..2 {
+            let i = 2 * k + m;
+            let w = c.r_rate[m];
+            let before = if k == 0 {
+                lin.prev[m]
+            } else {
+                lin.ur[k - 1][m]
+            };
+            let d0 = lin.ur[k][m] - before;
+            diag[i] += 2.0 * (c.r[m] + w);
+            q[i] += 2.0 * w * d0;
+            if k > 0 {
+                diag[i - 2] += 2.0 * w;
+                off[i] -= 2.0 * w;
+                q[i - 2] -= 2.0 * w * d0;
+            }
+        }
+    }
+    (diag, off, q)
+}
+
 /// Input bounds and steering-rate rows in Δu (the same set for both
 /// solvers): |δ| ≤ δ_max, a_min ≤ a ≤ a_max, |δ_k − δ_{k−1}| ≤ δ̇_max·dt.
 fn constraint_rows(c: &MpcConfig, lin: &Linearised) -> Vec<SparseRow> {
@@ -773,27 +790,12 @@ fn clarabel_solve(c: &MpcConfig, lin: &Linearised, tol: f64) -> Result<(Vec<f64>
         }
     }
     let n_eq = rows.len();
+    let (diag_u, p_off, q_u) = input_cost(c, lin);
     let mut p_diag = vec![0.0; nw];
-    let mut p_off = vec![0.0; nu];
     let mut q = vec![0.0; nw];
+    p_diag[..nu].copy_from_slice(&diag_u);
+    q[..nu].copy_from_slice(&q_u);
     for k in 0..n {
-        for m in 0..2 {
-            let i = 2 * k + m;
-            let w = c.r_rate[m];
-            let d0 = lin.ur[k][m]
-                - if k == 0 {
-                    lin.prev[m]
-                } else {
-                    lin.ur[k - 1][m]
-                };
-            p_diag[i] += 2.0 * (c.r[m] + w);
-            q[i] += 2.0 * w * d0;
-            if k > 0 {
-                p_diag[i - 2] += 2.0 * w;
-                p_off[i] -= 2.0 * w;
-                q[i - 2] -= 2.0 * w * d0;
-            }
-        }
         let wt = if k + 1 == n { c.q_terminal } else { 1.0 };
         for r in 0..4 {
             p_diag[col_e(k + 1, r)] = 2.0 * c.q[r] * wt;
