@@ -14,6 +14,16 @@ pub fn load_grid(cfg: &ClosedLoopConfig, base: &Path) -> Result<OccupancyGrid> {
 /// given ones); prints the Markdown table, and fails when a run misses the
 /// goal, collides or breaks the tracking bounds (when `check` is set).
 pub fn matrix(dir: &Path, presets: &[String], tolerance: f64, check: bool) -> Result<()> {
+    let known: Vec<&str> = litesim_plan::closed_loop::PRESETS
+        .iter()
+        .map(|(n, _)| *n)
+        .collect();
+    if let Some(bad) = presets.iter().find(|p| !known.contains(&p.as_str())) {
+        return Err(anyhow!(
+            "unknown vehicle preset '{bad}' in --presets; available: {}",
+            known.join(", ")
+        ));
+    }
     let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| format!("cannot read {}", dir.display()))?
         .filter_map(|e| e.ok().map(|e| e.path()))

@@ -231,6 +231,67 @@ fn map_info_and_export() {
 }
 
 #[test]
+fn plan_matrix_prints_the_table_and_refuses_bad_input() {
+    // One preset over every example: a Markdown row per example.
+    let out = litesim()
+        .args(["plan-matrix", "--presets", "compact"])
+        .arg(workspace().join("examples/plan"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(text.starts_with("| example | preset | goal |"), "{text}");
+    assert_eq!(
+        text.lines().filter(|l| l.contains("| compact |")).count(),
+        7,
+        "{text}"
+    );
+    assert!(
+        text.contains("| single_rect | compact | reached |"),
+        "{text}"
+    );
+    // --check fails while a run is refused (the warehouse is).
+    let out = litesim()
+        .args(["plan-matrix", "--check", "--presets", "compact"])
+        .arg(workspace().join("examples/plan"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(err.contains("warehouse × compact"), "{err}");
+    // Bad input: an unknown preset, a missing folder, a folder without
+    // configurations.
+    let out = litesim()
+        .args(["plan-matrix", "--presets", "hovercraft"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        err.contains("unknown vehicle preset 'hovercraft'") && err.contains("passenger"),
+        "{err}"
+    );
+    let out = litesim()
+        .args(["plan-matrix", "/nonexistent/plans"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("cannot read /nonexistent/plans"));
+    let empty = tempfile::tempdir().unwrap();
+    let out = litesim()
+        .arg("plan-matrix")
+        .arg(empty.path())
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no .toml configurations"));
+}
+
+#[test]
 fn plan_runs_configs_from_obstacles_png_and_opendrive() {
     let dir = tempfile::tempdir().unwrap();
     // The warehouse (the PNG map) loads and plans, but its U-turns round
