@@ -1,15 +1,21 @@
 //! Path → smoothed, time-parametrised reference corridor.
 //!
 //! 1. Greedy line-of-sight shortcutting of the planner's path (every kept
-//!    segment is checked against the grid).
+//!    segment is checked against the grid, with the vehicle's body swept
+//!    along it), and a lead-in along the start heading when the path
+//!    leaves at an angle to it.
 //! 2. Centripetal Catmull–Rom (α = ½: no cusps or self-intersections,
-//!    Yuksel et al. 2011) through the remaining vertices.
-//! 3. Resampling by arc length at `ds`.
-//! 4. Validation against the grid; when smoothing cuts into the inflated
-//!    margin, the unsmoothed polyline is used instead (`smoothed = false`).
-//! 5. Speed profile: v ≤ v_max, v ≤ √(a_lat,max / |κ|), forward pass with
-//!    a_max, backward pass with d_max to stop at the goal.
-//! 6. Lateral bounds: free distance to the left and right of each point.
+//!    Yuksel et al. 2011) through the remaining vertices, leaving the
+//!    start along the vehicle's heading; resampling by arc length at `ds`.
+//! 3. Bending-energy relaxation (a fourth-order flow), moves kept only
+//!    where the footprint stays free: three candidates — shaped at 2 m
+//!    towards 80 % of the turning limit then refined, the Catmull–Rom
+//!    curve refined, the polyline refined — the first free one within the
+//!    turning limit wins (`smoothed = false` for the polyline).
+//! 4. Speed profile: v ≤ v_max, v ≤ √(a_lat,max / |κ|), v ≤ κ̇_max / |dκ/ds|
+//!    (steering rate), forward pass with a_max, backward pass with d_max to
+//!    stop at the goal.
+//! 5. Lateral bounds: free distance to the left and right of each point.
 
 use crate::grid::PlanningGrid;
 use litesim_core::{Vec2, wrap_angle};
