@@ -437,6 +437,10 @@ fn footprint(v: &Vehicle, x: f64, y: f64, yaw: f64) -> Vec<Vec2> {
     pts
 }
 
+/// The speed profile's jerk limit (m/s³): comfortable driving stays within
+/// about 2 m/s³.
+pub const JERK_MAX: f64 = 2.0;
+
 /// Wall time spent in a run's parts (seconds), from the caller's clock.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Timings {
@@ -539,6 +543,7 @@ pub fn run_closed_loop_timed(
             // to correct errors with.
             kappa_rate_max: 0.5 * veh.max_steer_rate / veh.wheelbase,
             kappa_max: veh.max_steer.tan() / veh.wheelbase,
+            jerk_max: JERK_MAX,
             start_heading: Some(cfg.start.yaw),
         },
     );

@@ -14,7 +14,8 @@
 //!    turning limit wins (`smoothed = false` for the polyline).
 //! 4. Speed profile: v ≤ v_max, v ≤ √(a_lat,max / |κ|), v ≤ κ̇_max / |dκ/ds|
 //!    (steering rate), forward pass with a_max, backward pass with d_max to
-//!    stop at the goal.
+//!    stop at the goal; then, with a jerk limit, the fastest profile under
+//!    all of that and the jerk limit (a linear program in v², Clarabel).
 //! 5. Lateral bounds: free distance to the left and right of each point.
 
 use crate::grid::PlanningGrid;
@@ -41,6 +42,8 @@ pub struct SpeedLimits {
     /// Largest curvature the vehicle can drive (1/m, tan δ_max / L): the
     /// corridor is shaped towards 80 % of it. `f64::INFINITY` = none.
     pub kappa_max: f64,
+    /// Largest jerk of the profile (m/s³); `f64::INFINITY` = none.
+    pub jerk_max: f64,
     /// Heading the vehicle starts with (rad): the corridor leaves the start
     /// along it, so tracking has no start-up transient. `None` = the
     /// path's own direction.
@@ -73,6 +76,11 @@ pub struct Corridor {
     /// False when neither Catmull–Rom candidate was free and the relaxed
     /// (corner-rounded) polyline is used instead.
     pub smoothed: bool,
+    /// True when the speed profile is jerk-limited (false: the limit was
+    /// not asked for, or the linear program had no answer and the
+    /// acceleration-limited profile is used).
+    #[serde(default)]
+    pub jerk_limited: bool,
 }
 
 /// A reference point at some time or arc length.
@@ -299,6 +307,98 @@ fn shape_coarse(
     pts
 }
 
+/// The fastest speed profile under the caps, the acceleration limits and a
+/// jerk limit, as a linear program in b = v² (Clarabel): acceleration
+/// a = ½·db/ds is linear in b, and jerk j = v·da/ds is kept within J by
+/// |aᵢ₊₁ − aᵢ| ≤ J·Δs / v̄ — linear once v̄ is the acceleration-limited
+/// profile, which bounds the answer from above, so the limit is
+/// conservative, never loose. The objective, Σ bᵢ·Δsᵢ, pushes speed up
+/// everywhere (a proxy for the shortest time). The start speed and the
+/// stop are equalities. `None` when no limit is asked for, or the program
+/// has no answer (the caller keeps the acceleration-limited profile).
+fn jerk_limited_profile(
+    caps: &[f64],
+    vbar: &[f64],
+    s: &[f64],
+    limits: &SpeedLimits,
+) -> Option<Vec<f64>> {
+    use clarabel::algebra::CscMatrix;
+    use clarabel::solver::{
+        DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus, ZeroConeT,
+    };
+    let n = caps.len();
+    let jerk = limits.jerk_max;
+    if !(jerk.is_finite() && jerk > 0.0) || n < 4 {
+        return None;
+    }
+    let ds: Vec<f64> = (0..n - 1).map(|i| (s[i + 1] - s[i]).max(1e-9)).collect();
+    let mut rows: Vec<(Vec<(usize, f64)>, f64)> = Vec::with_capacity(6 * n);
+    // Equalities: b₀ = v₀², b_{n−1} = 0.
+    rows.push((vec![(0, 1.0)], caps[0] * caps[0]));
+    rows.push((vec![(n - 1, 1.0)], 0.0));
+    let n_eq = rows.len();
+    for (i, c) in caps.iter().enumerate().take(n - 1).skip(1) {
+        rows.push((vec![(i, 1.0)], c * c));
+        rows.push((vec![(i, -1.0)], 0.0));
+    }
+    for (i, d) in ds.iter().enumerate() {
+        rows.push((vec![(i, -1.0), (i + 1, 1.0)], 2.0 * limits.a_max * d));
+        rows.push((vec![(i, 1.0), (i + 1, -1.0)], 2.0 * limits.d_max * d));
+    }
+    for i in 0..n.saturating_sub(3) {
+        // a_{i+1} − a_i with a_k = (b_{k+1} − b_k) / (2 Δs_k).
+        let (h0, h1) = (0.5 / ds[i], 0.5 / ds[i + 1]);
+        let coef = [(i, h0), (i + 1, -h0 - h1), (i + 2, h1)];
+        let lim = jerk * 0.5 * (ds[i] + ds[i + 1]) / vbar[i + 1].max(0.3);
+        rows.push((coef.to_vec(), lim));
+        rows.push((coef.iter().map(|&(j, c)| (j, -c)).collect(), lim));
+    }
+    let m = rows.len();
+    let b: Vec<f64> = rows.iter().map(|r| r.1).collect();
+    if b.iter().any(|v| !v.is_finite()) {
+        return None;
+    }
+    let a = crate::mpc::csc_from_rows(m, n, &rows);
+    let p = CscMatrix::new(n, n, vec![0; n + 1], Vec::new(), Vec::new());
+    let q: Vec<f64> = (0..n)
+        .map(|i| {
+            let w =
+                0.5 * (if i > 0 { ds[i - 1] } else { 0.0 } + if i + 1 < n { ds[i] } else { 0.0 });
+            -w
+        })
+        .collect();
+    // Speeds to about 1e-4 m/s are plenty (b to 1e-6 m²/s² in relative
+    // terms): looser than the solver's default 1e-8, and fewer iterations.
+    let settings = DefaultSettings::<f64> {
+        verbose: false,
+        max_iter: 200,
+        tol_gap_abs: 1e-6,
+        tol_gap_rel: 1e-6,
+        tol_feas: 1e-6,
+        ..DefaultSettings::default()
+    };
+    let cones = [ZeroConeT(n_eq), NonnegativeConeT(m - n_eq)];
+    let mut solver = DefaultSolver::new(&p, &q, &a, &b, &cones, settings).ok()?;
+    solver.solve();
+    if !matches!(
+        solver.solution.status,
+        SolverStatus::Solved | SolverStatus::AlmostSolved
+    ) {
+        return None;
+    }
+    // Never above the caps (interior-point answers sit a hair inside or
+    // outside their bounds).
+    Some(
+        solver
+            .solution
+            .x
+            .iter()
+            .zip(caps)
+            .map(|(b, c)| b.max(0.0).sqrt().min(*c))
+            .collect(),
+    )
+}
+
 /// Every point's footprint is free, heading along the curve.
 fn footprint_free(pts: &[Vec2], grid: &PlanningGrid) -> bool {
     let n = pts.len();
@@ -463,6 +563,7 @@ impl Corridor {
             speed[0] = speed[0].min(limits.v_start.max(0.0));
             speed[n - 1] = 0.0;
         }
+        let caps = speed.clone();
         for i in 1..n {
             let d = s[i] - s[i - 1];
             speed[i] = speed[i].min((speed[i - 1].powi(2) + 2.0 * limits.a_max * d).sqrt());
@@ -471,6 +572,13 @@ impl Corridor {
             let d = s[i + 1] - s[i];
             speed[i] = speed[i].min((speed[i + 1].powi(2) + 2.0 * limits.d_max * d).sqrt());
         }
+        let jerk_limited = match jerk_limited_profile(&caps, &speed, &s, limits) {
+            Some(v) => {
+                speed = v;
+                true
+            }
+            None => false,
+        };
         let mut time = vec![0.0; n];
         for i in 1..n {
             let v = 0.5 * (speed[i] + speed[i - 1]);
@@ -497,6 +605,7 @@ impl Corridor {
             left_bound,
             right_bound,
             smoothed,
+            jerk_limited,
         }
     }
 

@@ -976,7 +976,11 @@ fn p_upper(n: usize, diag: &[f64], off: &[f64]) -> CscMatrix<f64> {
     CscMatrix::new(n, n, colptr, rowval, nzval)
 }
 
-fn csc_from_rows(m: usize, n: usize, rows: &[(Vec<(usize, f64)>, f64)]) -> CscMatrix<f64> {
+pub(crate) fn csc_from_rows(
+    m: usize,
+    n: usize,
+    rows: &[(Vec<(usize, f64)>, f64)],
+) -> CscMatrix<f64> {
     let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); n];
     for (i, (entries, _)) in rows.iter().enumerate() {
         for &(j, v) in entries {

@@ -55,6 +55,24 @@ fn closed_loop_reaches_the_goal_on_five_maps_without_touching_obstacles() {
             r.mean_cross_track
         );
         assert!(r.collision.is_none());
+        // The reference's speed profile changes acceleration no faster than
+        // the jerk limit (interior points; the start and the stop excluded).
+        let c = &r.corridor;
+        assert!(c.jerk_limited, "{name}: jerk program had no answer");
+        let (v, s) = (&c.speed, &c.s);
+        let dt = |i: usize| 2.0 * (s[i + 1] - s[i]) / (v[i] + v[i + 1]).max(1e-9);
+        let worst = (1..v.len() - 2)
+            .map(|i| {
+                let (d0, d1) = (dt(i - 1), dt(i));
+                let (a0, a1) = ((v[i] - v[i - 1]) / d0, (v[i + 1] - v[i]) / d1);
+                ((a1 - a0) / (0.5 * (d0 + d1))).abs()
+            })
+            .fold(0.0, f64::max);
+        println!("{name}: largest jerk of the reference {worst:.3} m/s³");
+        assert!(
+            worst <= litesim_plan::closed_loop::JERK_MAX * 1.01,
+            "{name}: jerk {worst}"
+        );
     }
 }
 
@@ -319,8 +337,8 @@ fn closed_loop_log_is_deterministic() {
     );
 }
 
-const GOLDEN_LEN: usize = 567_373;
-const GOLDEN_DIGEST: u64 = 0x225d_22e1_4229_0bc2;
+const GOLDEN_LEN: usize = 574_950;
+const GOLDEN_DIGEST: u64 = 0xb4ba_4c73_066e_829f;
 
 fn litesim_ssp_free_fnv(bytes: &[u8]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;

@@ -153,6 +153,9 @@ impl FmtMpc {
                 // and steering limits shape the corridor as in `plan`.
                 kappa_rate_max: 0.5 * 0.8 / self.info.wheelbase.max(0.5),
                 kappa_max: self.info.max_steer.tan() / self.info.wheelbase.max(0.5),
+                // Re-planned often and from speed: no jerk program here
+                // (its start-speed equality can be infeasible mid-run).
+                jerk_max: f64::INFINITY,
                 start_heading: Some(obs.ego.yaw),
             },
         );
