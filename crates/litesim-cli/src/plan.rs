@@ -24,26 +24,7 @@ pub fn matrix(dir: &Path, presets: &[String], tolerance: f64, check: bool) -> Re
             known.join(", ")
         ));
     }
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("cannot read {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    files.sort();
-    if files.is_empty() {
-        return Err(anyhow!("no .toml configurations in {}", dir.display()));
-    }
-    let mut examples = Vec::new();
-    for f in &files {
-        let text =
-            std::fs::read_to_string(f).with_context(|| format!("cannot read {}", f.display()))?;
-        let cfg = parse_config(&text).map_err(|e| anyhow!("{}: {e}", f.display()))?;
-        let grid = load_grid(&cfg, f.parent().unwrap_or(Path::new(".")))?;
-        let name = f
-            .file_stem()
-            .map_or(String::new(), |s| s.to_string_lossy().to_string());
-        examples.push((name, cfg, grid));
-    }
+    let examples = litesim_plan::matrix::load_examples(dir).map_err(|e| anyhow!("{e}"))?;
     let presets: Vec<&str> = presets.iter().map(String::as_str).collect();
     let origin = std::time::Instant::now();
     let clock = move || origin.elapsed().as_secs_f64();
@@ -57,7 +38,7 @@ pub fn matrix(dir: &Path, presets: &[String], tolerance: f64, check: bool) -> Re
             .collect();
         if !bad.is_empty() {
             return Err(anyhow!(
-                "{} of {} runs outside the bounds (goal within {tolerance} m, max xte ≤ {} m, mean ≤ {} m, clearance ≥ inflation): {}",
+                "{} of {} runs outside the bounds (goal within {tolerance} m, max xte ≤ {} m, mean ≤ {} m, no collision, not refused): {}",
                 bad.len(),
                 rows.len(),
                 litesim_plan::matrix::MAX_XTE,
@@ -141,7 +122,6 @@ pub fn run(
             Some((t, [x, y])) => format!(
                 " — COLLISION at t = {t:.2} s, rear axle at ({x:.2}, {y:.2}); the run ended there"
             ),
-            None if r.collided => " — COLLISION".to_string(),
             None => String::new(),
         }
     );

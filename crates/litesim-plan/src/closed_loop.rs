@@ -504,6 +504,9 @@ pub fn run_closed_loop_timed(
             pl.margin
         )));
     }
+    // The tightest turn the vehicle can drive (1/m): the corridor is
+    // shaped towards it, and a path beyond it is refused below.
+    let kappa_max = veh.max_steer.tan() / veh.wheelbase;
     let t_plan = clock();
     let pgrid = PlanningGrid::with_footprint(
         grid,
@@ -542,7 +545,7 @@ pub fn run_closed_loop_timed(
             // Half the steering rate: the other half is the controller's
             // to correct errors with.
             kappa_rate_max: 0.5 * veh.max_steer_rate / veh.wheelbase,
-            kappa_max: veh.max_steer.tan() / veh.wheelbase,
+            kappa_max,
             jerk_max: JERK_MAX,
             start_heading: Some(cfg.start.yaw),
         },
@@ -550,7 +553,6 @@ pub fn run_closed_loop_timed(
     timings.plan_s = clock() - t_plan;
     // A path the vehicle cannot drive is refused before it is driven: too
     // tight a turn, or a body that does not fit where the path goes.
-    let kappa_max = veh.max_steer.tan() / veh.wheelbase;
     let turn = corridor.turn_curvature(1.0);
     if let Some(i) = (0..turn.len())
         .filter(|&i| turn[i].abs() > kappa_max * 1.02)

@@ -195,12 +195,8 @@ fn relax(pts: &mut [Vec2], grid: &PlanningGrid, start_heading: Option<f64>, ds: 
     if n < 6 {
         return;
     }
-    if let Some(h) = start_heading {
-        let q = pts[0] + Vec2::from_heading(h) * pts[0].distance(pts[1]);
-        if grid.pose_free(q, h) {
-            pts[1] = q;
-        }
-    }
+    let d = pts[0].distance(pts[1]);
+    clamp_start(pts, grid, start_heading, d);
     let mut next = pts.to_vec();
     let ok = |prev: Vec2, q: Vec2, nxt: Vec2| grid.pose_free(q, (nxt - prev).heading());
     // Length scale ≈ ds·sweeps^¼: about 2.5 m at ds = 0.5 m.
@@ -241,19 +237,34 @@ fn biharmonic(
     }
 }
 
+/// Signed curvature of the circle through three points (Menger); 0 for
+/// coincident or collinear points.
+fn curvature3(p0: Vec2, p1: Vec2, p2: Vec2) -> f64 {
+    let (a, b) = (p1 - p0, p2 - p1);
+    let den = a.norm() * b.norm() * (p2 - p0).norm();
+    if den > 1e-12 {
+        2.0 * a.cross(b) / den
+    } else {
+        0.0
+    }
+}
+
 /// Largest |curvature| of a polyline (three-point formula).
 fn max_curvature(pts: &[Vec2]) -> f64 {
     pts.windows(3)
-        .map(|w| {
-            let (a, b) = (w[1] - w[0], w[2] - w[1]);
-            let den = a.norm() * b.norm() * (w[2] - w[0]).norm();
-            if den > 1e-12 {
-                (2.0 * a.cross(b) / den).abs()
-            } else {
-                0.0
-            }
-        })
+        .map(|w| curvature3(w[0], w[1], w[2]).abs())
         .fold(0.0, f64::max)
+}
+
+/// Puts the second point `d` m ahead of the first along the start heading
+/// (if the body fits there), which fixes the curve's initial tangent.
+fn clamp_start(pts: &mut [Vec2], grid: &PlanningGrid, start_heading: Option<f64>, d: f64) {
+    if let (Some(h), true) = (start_heading, pts.len() >= 2) {
+        let q = pts[0] + Vec2::from_heading(h) * d;
+        if grid.pose_free(q, h) {
+            pts[1] = q;
+        }
+    }
 }
 
 /// Shapes the path at a coarse spacing (2 m) until its curvature is below
@@ -274,12 +285,7 @@ fn shape_coarse(
     }
     let mut pts = resample(fine, total / n as f64);
     let ds = total / n as f64;
-    if let Some(h) = start_heading {
-        let q = pts[0] + Vec2::from_heading(h) * ds;
-        if grid.pose_free(q, h) {
-            pts[1] = q;
-        }
-    }
+    clamp_start(&mut pts, grid, start_heading, ds);
     let mut next = pts.clone();
     // At 2 m spacing the chords to the neighbours must be free too (the
     // fine curve runs within centimetres of them): checked every 0.5 m,
@@ -519,14 +525,7 @@ impl Corridor {
                 if i == 0 || i + 1 >= n {
                     return 0.0;
                 }
-                let (a, b) = (points[i] - points[i - 1], points[i + 1] - points[i]);
-                let c = (points[i + 1] - points[i - 1]).norm();
-                let den = a.norm() * b.norm() * c;
-                if den > 1e-12 {
-                    2.0 * a.cross(b) / den
-                } else {
-                    0.0
-                }
+                curvature3(points[i - 1], points[i], points[i + 1])
             })
             .collect();
         // The ends take their neighbours' curvature (a three-point formula

@@ -210,15 +210,6 @@ impl PlanningGrid {
             .all(|o| self.clearance(p + f * *o) >= need)
     }
 
-    /// Smallest clearance of the footprint at a pose (m) beyond the
-    /// covering circles' radius: ≥ margin where the pose is free.
-    pub fn pose_clearance(&self, p: Vec2, yaw: f64) -> f64 {
-        let f = Vec2::from_heading(yaw);
-        self.offsets()
-            .iter()
-            .map(|o| self.clearance(p + f * *o) - self.radius)
-            .fold(f64::INFINITY, f64::min)
-    }
     /// Clearance at a point (m); 0 outside the grid.
     pub fn clearance(&self, p: Vec2) -> f64 {
         match self.grid.cell(p) {

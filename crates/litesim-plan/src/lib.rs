@@ -14,7 +14,7 @@
 //! example × preset table ([`matrix`]).
 //!
 //! No clock: timings come from a clock the caller passes. The only I/O is
-//! [`closed_loop::load_grid`]. Sampling uses an explicit seeded generator,
+//! [`closed_loop::load_grid`] and [`matrix::load_examples`]. Sampling uses an explicit seeded generator,
 //! so a plan is a function of its inputs and its seed.
 #![warn(missing_docs)]
 

@@ -8,7 +8,9 @@
 //! passes in, so the crate itself stays clock-free and a run's results do
 //! not depend on it.
 
-use crate::closed_loop::{ClosedLoopConfig, PRESETS, run_closed_loop_timed};
+use crate::closed_loop::{
+    ClosedLoopConfig, PRESETS, PlanError, load_grid, parse_config, run_closed_loop_timed,
+};
 use litesim_map::OccupancyGrid;
 use serde::Serialize;
 
@@ -39,6 +41,40 @@ pub struct MatrixRow {
     pub mpc_us: f64,
     /// Why the run could not be made (no feasible path, …).
     pub error: Option<String>,
+}
+
+/// Every `*.toml` configuration in `dir` (sorted by name) with its
+/// occupancy grid: (file stem, configuration, grid). Errors name the file.
+pub fn load_examples(
+    dir: &std::path::Path,
+) -> Result<Vec<(String, ClosedLoopConfig, OccupancyGrid)>, PlanError> {
+    let entries = std::fs::read_dir(dir)
+        .map_err(|e| PlanError::Config(format!("cannot read {}: {e}", dir.display())))?;
+    let mut files: Vec<std::path::PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(PlanError::Config(format!(
+            "no .toml configurations in {}",
+            dir.display()
+        )));
+    }
+    files
+        .iter()
+        .map(|f| {
+            let text = std::fs::read_to_string(f)
+                .map_err(|e| PlanError::Config(format!("cannot read {}: {e}", f.display())))?;
+            let cfg = parse_config(&text)
+                .map_err(|e| PlanError::Config(format!("{}: {e}", f.display())))?;
+            let grid = load_grid(&cfg, f.parent().unwrap_or(std::path::Path::new(".")))?;
+            let name = f
+                .file_stem()
+                .map_or(String::new(), |s| s.to_string_lossy().to_string());
+            Ok((name, cfg, grid))
+        })
+        .collect()
 }
 
 /// Runs `examples` (name, configuration, occupancy) with each of

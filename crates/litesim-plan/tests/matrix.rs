@@ -5,8 +5,7 @@
 //! this vehicle: …", or the planner's own "no path found"). A run that
 //! starts and then collides, misses or wanders is a failure.
 
-use litesim_plan::closed_loop::{load_grid, parse_config};
-use litesim_plan::matrix::{MatrixRow, markdown, run_matrix, within_bounds};
+use litesim_plan::matrix::{MatrixRow, load_examples, markdown, run_matrix, within_bounds};
 use std::path::PathBuf;
 
 fn examples() -> Vec<(
@@ -15,24 +14,7 @@ fn examples() -> Vec<(
     litesim_map::OccupancyGrid,
 )> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../examples/plan");
-    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    files.sort();
-    files
-        .iter()
-        .map(|f| {
-            let cfg = parse_config(&std::fs::read_to_string(f).unwrap()).unwrap();
-            let grid = load_grid(&cfg, &dir).unwrap();
-            (
-                f.file_stem().unwrap().to_string_lossy().to_string(),
-                cfg,
-                grid,
-            )
-        })
-        .collect()
+    load_examples(&dir).unwrap()
 }
 
 #[test]
