@@ -269,6 +269,15 @@ pub fn run(
         _ => {}
     }
     batch::atomic(&out.join("run.json"), &stamp)?;
+    // The MCAP file's map content (lane polylines) does not depend on the
+    // run: sampled on the other core while the run goes on.
+    let mcap_map = match (mcap, &prep.net) {
+        (Some(_), Some(net)) => {
+            let net = std::sync::Arc::clone(net);
+            Some(std::thread::spawn(move || litesim_mcap::McapMap::new(&net)))
+        }
+        _ => None,
+    };
     // Every SSP call through a tracer when asked (in-process or remote).
     let traced = |ssp: &mut dyn litesim_ssp::Ssp| -> Result<litesim_scenario::RunResult> {
         match trace_rpc {
@@ -378,12 +387,23 @@ pub fn run(
         // The MCAP file is written while log.json and the pictures are:
         // on two cores it adds little to the run's wall time.
         std::thread::scope(|scope| -> Result<()> {
-            let net = prep.net.as_deref();
             let job = mcap.map(|m| {
-                scope.spawn(move || {
-                    litesim_mcap::write(log, net, m).map_err(|e| anyhow!("{}: {e}", m.display()))
-                })
+                std::thread::Builder::new()
+                    .name("mcap".into())
+                    .spawn_scoped(scope, move || {
+                        let map = match mcap_map {
+                            Some(j) => Some(j.join().map_err(|_| {
+                                anyhow!("{}: sampling the map's lanes panicked", m.display())
+                            })?),
+                            None => None,
+                        };
+                        litesim_mcap::write_with(log, map.as_ref(), m)
+                            .map_err(|e| anyhow!("{}: {e}", m.display()))
+                    })
             });
+            let job = job
+                .transpose()
+                .map_err(|e| anyhow!("starting the MCAP writer: {e}"))?;
             let drawn = rest();
             if let (Some(job), Some(m)) = (job, mcap) {
                 job.join()

@@ -196,10 +196,27 @@ fn id(v: u64) -> osi3::Identifier {
 /// Lane polylines are exported to this tolerance (m).
 const MAP_TOLERANCE: f64 = 0.05;
 
-fn map_content(net: &RoadNetwork, first_id: u64) -> MapContent {
+/// The map's lane and mark polylines, sampled once per map: the costly part
+/// of a file's map content and independent of the run, so a caller can
+/// build it while the run is still going (see [`write_with`]).
+#[derive(Clone, Debug)]
+pub struct McapMap {
+    polys: Vec<litesim_map::network::LanePolyline>,
+}
+
+impl McapMap {
+    /// Samples `net`'s lanes and marks (to 5 cm).
+    pub fn new(net: &RoadNetwork) -> McapMap {
+        McapMap {
+            polys: net.all_lane_polylines(MAP_TOLERANCE),
+        }
+    }
+}
+
+fn map_content(map: &McapMap, first_id: u64) -> MapContent {
     use osi3::lane::classification::Type as LaneType;
     use osi3::lane_boundary::classification::{Color, Type as LineType};
-    let polys = net.all_lane_polylines(MAP_TOLERANCE);
+    let polys = &map.polys;
     let mut next = first_id;
     let mut take = || {
         next += 1;
@@ -390,36 +407,112 @@ fn actor_state_schema() -> String {
     .to_string()
 }
 
-/// A number for JSON: `None` (null) for NaN and infinities.
-fn finite(v: f64) -> Option<f64> {
-    v.is_finite().then_some(v)
+/// The parts of actor `a`'s scene entity that never change: id, kind,
+/// box size and colour, label (poses are filled in per tick).
+fn entity_template(a: usize, t: &ActorTrack, h: f64) -> fg::SceneEntity {
+    fg::SceneEntity {
+        frame_id: WORLD_FRAME.into(),
+        id: t.id.clone(),
+        metadata: vec![fg::KeyValuePair {
+            key: "kind".into(),
+            value: t.kind.clone(),
+        }],
+        cubes: vec![fg::CubePrimitive {
+            pose: None,
+            size: Some(fg::Vector3 {
+                x: t.length,
+                y: t.width,
+                z: h,
+            }),
+            color: Some(colour(a, 0.85)),
+        }],
+        texts: vec![fg::TextPrimitive {
+            pose: None,
+            billboard: true,
+            font_size: 14.0,
+            scale_invariant: true,
+            color: Some(colour(a, 1.0)),
+            text: t.id.clone(),
+        }],
+        ..Default::default()
+    }
 }
 
-/// A `litesim.ActorState` message (see [`actor_state_schema`]).
-#[derive(serde::Serialize)]
-struct ActorState<'a> {
-    timestamp: Stamp,
+/// The parts of actor `a`'s OSI moving object that never change: id,
+/// dimension, type and classification, model (motion is filled in per tick).
+fn object_template(a: usize, t: &ActorTrack, h: f64) -> osi3::MovingObject {
+    let pedestrian = is_pedestrian(&t.kind);
+    osi3::MovingObject {
+        id: Some(id(a as u64 + 1)),
+        base: Some(osi3::BaseMoving {
+            dimension: Some(osi3::Dimension3d {
+                length: Some(t.length),
+                width: Some(t.width),
+                height: Some(h),
+            }),
+            ..Default::default()
+        }),
+        r#type: Some(if pedestrian {
+            osi3::moving_object::Type::Pedestrian
+        } else {
+            osi3::moving_object::Type::Vehicle
+        } as i32),
+        vehicle_classification: (!pedestrian).then(|| osi3::moving_object::VehicleClassification {
+            r#type: Some(vehicle_type(&t.kind, &t.model) as i32),
+            ..Default::default()
+        }),
+        model_reference: (!t.model.is_empty()).then(|| t.model.clone()),
+        ..Default::default()
+    }
+}
+
+/// Appends actor `t`'s state at its sample `i` as a `litesim.ActorState`
+/// JSON object (see [`actor_state_schema`]; NaN and infinities as null).
+/// Written by hand: serde's derived path escapes every key on every call,
+/// and these are the file's most numerous messages.
+fn actor_state_json(
+    out: &mut Vec<u8>,
+    ns: u64,
     tick: u64,
-    id: &'a str,
-    mode: &'a str,
-    x: Option<f64>,
-    y: Option<f64>,
-    yaw: Option<f64>,
-    speed: Option<f64>,
-    vx: Option<f64>,
-    vy: Option<f64>,
-    yaw_rate: Option<f64>,
-    acceleration: Option<f64>,
-    lateral_acceleration: Option<f64>,
-    throttle: Option<f64>,
-    brake: Option<f64>,
-    steering: Option<f64>,
-}
-
-#[derive(serde::Serialize)]
-struct Stamp {
-    sec: u64,
-    nsec: u64,
+    quoted_id: &str,
+    t: &ActorTrack,
+    i: usize,
+) {
+    use serde_json::ser::{CompactFormatter, Formatter};
+    let mut f = CompactFormatter;
+    // Writing into a Vec cannot fail.
+    let mut num = |out: &mut Vec<u8>, key: &str, v: f64| {
+        out.extend_from_slice(key.as_bytes());
+        if v.is_finite() {
+            let _ = f.write_f64(out, v);
+        } else {
+            out.extend_from_slice(b"null");
+        }
+    };
+    out.extend_from_slice(b"{\"timestamp\":{\"sec\":");
+    let _ = CompactFormatter.write_u64(out, ns / 1_000_000_000);
+    out.extend_from_slice(b",\"nsec\":");
+    let _ = CompactFormatter.write_u64(out, ns % 1_000_000_000);
+    out.extend_from_slice(b"},\"tick\":");
+    let _ = CompactFormatter.write_u64(out, tick);
+    out.extend_from_slice(b",\"id\":");
+    out.extend_from_slice(quoted_id.as_bytes());
+    out.extend_from_slice(b",\"mode\":");
+    let _ = serde_json::to_writer(&mut *out, &t.mode[i]);
+    let (st, d, c) = (&t.state, &t.derived, &t.control);
+    num(out, ",\"x\":", st.x[i]);
+    num(out, ",\"y\":", st.y[i]);
+    num(out, ",\"yaw\":", st.yaw[i]);
+    num(out, ",\"speed\":", st.speed[i]);
+    num(out, ",\"vx\":", st.vx[i]);
+    num(out, ",\"vy\":", st.vy[i]);
+    num(out, ",\"yaw_rate\":", st.yaw_rate[i]);
+    num(out, ",\"acceleration\":", d.longitudinal_acceleration[i]);
+    num(out, ",\"lateral_acceleration\":", d.lateral_acceleration[i]);
+    num(out, ",\"throttle\":", c.throttle[i]);
+    num(out, ",\"brake\":", c.brake[i]);
+    num(out, ",\"steering\":", c.steering[i]);
+    out.push(b'}');
 }
 
 fn encode<T: Encode>(what: &'static str, m: &T, buf: &mut Vec<u8>) -> Result<(), McapError> {
@@ -440,10 +533,19 @@ pub fn write(
     map: Option<&RoadNetwork>,
     path: &Path,
 ) -> Result<McapStats, McapError> {
+    write_with(log, map.map(McapMap::new).as_ref(), path)
+}
+
+/// [`write`] with the map's polylines sampled beforehand ([`McapMap::new`]).
+pub fn write_with(
+    log: &SimulationLog,
+    map: Option<&McapMap>,
+    path: &Path,
+) -> Result<McapStats, McapError> {
     // Built in memory (MCAP's summary needs seeking; the files are
     // compressed and small next to the log), then written atomically.
     let mut bytes = std::io::Cursor::new(Vec::new());
-    let stats = write_to(log, map, &mut bytes)?;
+    let stats = write_to_with(log, map, &mut bytes)?;
     let bytes = bytes.into_inner();
     litesim_log::write_atomic(path, |w| w.write_all(&bytes))?;
     Ok(McapStats {
@@ -456,6 +558,15 @@ pub fn write(
 pub fn write_to<W: Write + Seek>(
     log: &SimulationLog,
     map: Option<&RoadNetwork>,
+    w: W,
+) -> Result<McapStats, McapError> {
+    write_to_with(log, map.map(McapMap::new).as_ref(), w)
+}
+
+/// [`write_to`] with the map's polylines sampled beforehand.
+pub fn write_to_with<W: Write + Seek>(
+    log: &SimulationLog,
+    map: Option<&McapMap>,
     w: W,
 ) -> Result<McapStats, McapError> {
     if log.tick.len() != log.time.len() {
@@ -583,28 +694,62 @@ pub fn write_to<W: Write + Seek>(
 
     let index: Vec<Vec<Option<u32>>> = log.tracks.iter().map(|t| log.sample_indices(t)).collect();
     let heights: Vec<f64> = log.tracks.iter().map(|t| height_of(&t.kind)).collect();
+    // What never changes in an actor's messages (ids, sizes, colours,
+    // classification) is built once; a tick fills in pose and motion. The
+    // actor's messages are moved into the tick's containers for encoding
+    // and back, so a tick allocates nothing.
+    let mut entities: Vec<fg::SceneEntity> = log
+        .tracks
+        .iter()
+        .enumerate()
+        .map(|(a, t)| entity_template(a, t, heights[a]))
+        .collect();
+    let mut transforms: Vec<fg::FrameTransform> = log
+        .tracks
+        .iter()
+        .map(|t| fg::FrameTransform {
+            parent_frame_id: WORLD_FRAME.into(),
+            child_frame_id: t.id.clone(),
+            ..Default::default()
+        })
+        .collect();
+    let mut objects: Vec<osi3::MovingObject> = log
+        .tracks
+        .iter()
+        .enumerate()
+        .map(|(a, t)| object_template(a, t, heights[a]))
+        .collect();
+    // Actor ids as JSON strings, escaped once.
+    let quoted: Vec<String> = log
+        .tracks
+        .iter()
+        .map(|t| serde_json::to_string(&t.id).unwrap_or_else(|_| "\"\"".into()))
+        .collect();
     let mut present = vec![false; log.tracks.len()];
+    let mut live: Vec<usize> = Vec::with_capacity(log.tracks.len());
+    let mut scene = fg::SceneUpdate::default();
+    let mut tfs = fg::FrameTransforms::default();
+    let mut gt = osi3::GroundTruth {
+        version: Some(osi3::InterfaceVersion {
+            version_major: Some(OSI_VERSION.0),
+            version_minor: Some(OSI_VERSION.1),
+            version_patch: Some(OSI_VERSION.2),
+        }),
+        host_vehicle_id: Some(id(host)),
+        ..Default::default()
+    };
     let mut gt_buf = Vec::with_capacity(static_bytes.len() + 1024);
     let mut first = true;
     let mut json = Vec::with_capacity(512);
     for (k, (&tick, &time)) in log.tick.iter().zip(&log.time).enumerate() {
         let ns = nanos(time);
         let ts = stamp(ns);
-        let mut scene = fg::SceneUpdate::default();
-        let mut tfs = fg::FrameTransforms::default();
-        let mut gt = osi3::GroundTruth {
-            version: Some(osi3::InterfaceVersion {
-                version_major: Some(OSI_VERSION.0),
-                version_minor: Some(OSI_VERSION.1),
-                version_patch: Some(OSI_VERSION.2),
-            }),
-            host_vehicle_id: Some(id(host)),
-            timestamp: Some(osi3::Timestamp {
-                seconds: Some((ns / 1_000_000_000) as i64),
-                nanos: Some((ns % 1_000_000_000) as u32),
-            }),
-            ..Default::default()
-        };
+        scene.deletions.clear();
+        live.clear();
+        gt.timestamp = Some(osi3::Timestamp {
+            seconds: Some((ns / 1_000_000_000) as i64),
+            nanos: Some((ns % 1_000_000_000) as u32),
+        });
         for (a, t) in log.tracks.iter().enumerate() {
             let at = index[a][k].map(|i| i as usize);
             let Some((i, s)) = at.and_then(|i| Some((i, Sample::of(t, i)?))) else {
@@ -619,138 +764,88 @@ pub fn write_to<W: Write + Seek>(
                 continue;
             };
             present[a] = true;
+            live.push(a);
             let h = heights[a];
-            let pose = fg::Pose {
-                position: Some(fg::Vector3 {
-                    x: s.x,
-                    y: s.y,
-                    z: s.z + h / 2.0,
-                }),
-                orientation: Some(quat_yaw(s.yaw)),
-            };
-            scene.entities.push(fg::SceneEntity {
-                timestamp: Some(ts),
-                frame_id: WORLD_FRAME.into(),
-                id: t.id.clone(),
-                lifetime: None,
-                frame_locked: false,
-                metadata: vec![fg::KeyValuePair {
-                    key: "kind".into(),
-                    value: t.kind.clone(),
-                }],
-                cubes: vec![fg::CubePrimitive {
-                    pose: Some(pose),
-                    size: Some(fg::Vector3 {
-                        x: t.length,
-                        y: t.width,
-                        z: h,
+            let e = &mut entities[a];
+            e.timestamp = Some(ts);
+            if let Some(c) = e.cubes.first_mut() {
+                c.pose = Some(fg::Pose {
+                    position: Some(fg::Vector3 {
+                        x: s.x,
+                        y: s.y,
+                        z: s.z + h / 2.0,
                     }),
-                    color: Some(colour(a, 0.85)),
-                }],
-                texts: vec![fg::TextPrimitive {
-                    pose: Some(fg::Pose {
-                        position: Some(fg::Vector3 {
-                            x: s.x,
-                            y: s.y,
-                            z: s.z + h + 0.5,
-                        }),
-                        orientation: Some(quat_yaw(0.0)),
+                    orientation: Some(quat_yaw(s.yaw)),
+                });
+            }
+            if let Some(label) = e.texts.first_mut() {
+                label.pose = Some(fg::Pose {
+                    position: Some(fg::Vector3 {
+                        x: s.x,
+                        y: s.y,
+                        z: s.z + h + 0.5,
                     }),
-                    billboard: true,
-                    font_size: 14.0,
-                    scale_invariant: true,
-                    color: Some(colour(a, 1.0)),
-                    text: t.id.clone(),
-                }],
-                ..Default::default()
+                    orientation: Some(quat_yaw(0.0)),
+                });
+            }
+            let tf = &mut transforms[a];
+            tf.timestamp = Some(ts);
+            tf.translation = Some(fg::Vector3 {
+                x: s.x,
+                y: s.y,
+                z: s.z,
             });
-            tfs.transforms.push(fg::FrameTransform {
-                timestamp: Some(ts),
-                parent_frame_id: WORLD_FRAME.into(),
-                child_frame_id: t.id.clone(),
-                translation: Some(fg::Vector3 {
-                    x: s.x,
-                    y: s.y,
-                    z: s.z,
-                }),
-                rotation: Some(quat_yaw(s.yaw)),
-            });
-            let state = ActorState {
-                timestamp: Stamp {
-                    sec: ns / 1_000_000_000,
-                    nsec: ns % 1_000_000_000,
-                },
-                tick,
-                id: &t.id,
-                mode: &t.mode[i],
-                x: finite(t.state.x[i]),
-                y: finite(t.state.y[i]),
-                yaw: finite(t.state.yaw[i]),
-                speed: finite(t.state.speed[i]),
-                vx: finite(t.state.vx[i]),
-                vy: finite(t.state.vy[i]),
-                yaw_rate: finite(t.state.yaw_rate[i]),
-                acceleration: finite(t.derived.longitudinal_acceleration[i]),
-                lateral_acceleration: finite(t.derived.lateral_acceleration[i]),
-                throttle: finite(t.control.throttle[i]),
-                brake: finite(t.control.brake[i]),
-                steering: finite(t.control.steering[i]),
-            };
+            tf.rotation = Some(quat_yaw(s.yaw));
             json.clear();
-            serde_json::to_writer(&mut json, &state)
-                .map_err(|e| McapError::Encode("ActorState", e.to_string()))?;
+            actor_state_json(&mut json, ns, tick, &quoted[a], t, i);
             put(&mut out, state_ch[a], ns, &json)?;
-            let pedestrian = is_pedestrian(&t.kind);
-            gt.moving_object.push(osi3::MovingObject {
-                id: Some(id(a as u64 + 1)),
-                base: Some(osi3::BaseMoving {
-                    dimension: Some(osi3::Dimension3d {
-                        length: Some(t.length),
-                        width: Some(t.width),
-                        height: Some(h),
-                    }),
-                    position: Some(v3(s.x, s.y, s.z + h / 2.0)),
-                    orientation: Some(osi3::Orientation3d {
-                        roll: Some(0.0),
-                        pitch: Some(0.0),
-                        yaw: Some(s.yaw),
-                    }),
-                    velocity: Some(v3(s.vx, s.vy, 0.0)),
-                    acceleration: Some(v3(s.ax, s.ay, 0.0)),
-                    orientation_rate: Some(osi3::Orientation3d {
-                        roll: Some(0.0),
-                        pitch: Some(0.0),
-                        yaw: Some(s.yaw_rate),
-                    }),
-                    ..Default::default()
-                }),
-                r#type: Some(if pedestrian {
-                    osi3::moving_object::Type::Pedestrian
-                } else {
-                    osi3::moving_object::Type::Vehicle
-                } as i32),
-                vehicle_classification: (!pedestrian).then(|| {
-                    osi3::moving_object::VehicleClassification {
-                        r#type: Some(vehicle_type(&t.kind, &t.model) as i32),
-                        ..Default::default()
-                    }
-                }),
-                model_reference: (!t.model.is_empty()).then(|| t.model.clone()),
-                ..Default::default()
-            });
+            if let Some(b) = objects[a].base.as_mut() {
+                b.position = Some(v3(s.x, s.y, s.z + h / 2.0));
+                b.orientation = Some(osi3::Orientation3d {
+                    roll: Some(0.0),
+                    pitch: Some(0.0),
+                    yaw: Some(s.yaw),
+                });
+                b.velocity = Some(v3(s.vx, s.vy, 0.0));
+                b.acceleration = Some(v3(s.ax, s.ay, 0.0));
+                b.orientation_rate = Some(osi3::Orientation3d {
+                    roll: Some(0.0),
+                    pitch: Some(0.0),
+                    yaw: Some(s.yaw_rate),
+                });
+            }
         }
-        encode("SceneUpdate", &scene, &mut buf)?;
-        put(&mut out, scene_ch, ns, &buf)?;
-        encode("FrameTransforms", &tfs, &mut buf)?;
-        put(&mut out, tf_ch, ns, &buf)?;
-        gt_buf.clear();
-        if first {
-            gt_buf.extend_from_slice(&static_bytes);
-            first = false;
+        scene
+            .entities
+            .extend(live.iter().map(|&a| std::mem::take(&mut entities[a])));
+        tfs.transforms
+            .extend(live.iter().map(|&a| std::mem::take(&mut transforms[a])));
+        gt.moving_object
+            .extend(live.iter().map(|&a| std::mem::take(&mut objects[a])));
+        let encoded = encode("SceneUpdate", &scene, &mut buf)
+            .and_then(|()| put(&mut out, scene_ch, ns, &buf))
+            .and_then(|()| encode("FrameTransforms", &tfs, &mut buf))
+            .and_then(|()| put(&mut out, tf_ch, ns, &buf))
+            .and_then(|()| {
+                gt_buf.clear();
+                if first {
+                    gt_buf.extend_from_slice(&static_bytes);
+                    first = false;
+                }
+                prost::Message::encode(&gt, &mut gt_buf)
+                    .map_err(|e| McapError::Encode("GroundTruth", e.to_string()))
+            })
+            .and_then(|()| put(&mut out, osi_ch, ns, &gt_buf));
+        for (&a, e) in live.iter().zip(scene.entities.drain(..)) {
+            entities[a] = e;
         }
-        prost::Message::encode(&gt, &mut gt_buf)
-            .map_err(|e| McapError::Encode("GroundTruth", e.to_string()))?;
-        put(&mut out, osi_ch, ns, &gt_buf)?;
+        for (&a, tf) in live.iter().zip(tfs.transforms.drain(..)) {
+            transforms[a] = tf;
+        }
+        for (&a, o) in live.iter().zip(gt.moving_object.drain(..)) {
+            objects[a] = o;
+        }
+        encoded?;
     }
     out.finish()?;
     let mut messages = BTreeMap::new();
@@ -812,6 +907,37 @@ mod tests {
         let mut b = std::io::Cursor::new(Vec::new());
         write_to(&l, None, &mut b).unwrap();
         assert_eq!(a.into_inner(), b.into_inner());
+    }
+
+    #[test]
+    fn state_messages_are_json_with_escaped_ids_and_null_for_non_finite_numbers() {
+        let mut l = log(3);
+        l.tracks[0].id = "car \"7\"\\ü".into();
+        l.tracks[0].state.speed[1] = f64::NAN;
+        l.tracks[0].derived.longitudinal_acceleration[1] = f64::INFINITY;
+        let mut json = Vec::new();
+        actor_state_json(
+            &mut json,
+            1_500_000_000,
+            1,
+            &serde_json::to_string(&l.tracks[0].id).unwrap(),
+            &l.tracks[0],
+            1,
+        );
+        let v: serde_json::Value = serde_json::from_slice(&json).unwrap();
+        assert_eq!(v["id"], "car \"7\"\\ü");
+        assert_eq!(v["timestamp"]["sec"], 1);
+        assert_eq!(v["timestamp"]["nsec"], 500_000_000);
+        assert_eq!(v["tick"], 1);
+        assert_eq!(v["mode"], "trajectory");
+        assert!(v["speed"].is_null() && v["acceleration"].is_null());
+        assert_eq!(v["x"], 1.0);
+        assert_eq!(v["vx"], 20.0);
+        // Every property the schema names, and no other.
+        let schema: serde_json::Value = serde_json::from_str(&actor_state_schema()).unwrap();
+        let want: Vec<&String> = schema["properties"].as_object().unwrap().keys().collect();
+        let got: Vec<&String> = v.as_object().unwrap().keys().collect();
+        assert_eq!(got, want);
     }
 
     #[test]

@@ -240,6 +240,16 @@ fn main() {
             black_box(out.into_inner().len())
         })
     });
+    // What `litesim run --mcap` waits for once the log exists: the map's
+    // lanes are sampled while the run goes on.
+    let map = cut_in.net.as_deref().map(litesim_mcap::McapMap::new);
+    g.bench_function("cut_in_write_mcap_map_sampled", |b| {
+        b.iter(|| {
+            let mut out = std::io::Cursor::new(Vec::new());
+            black_box(litesim_mcap::write_to_with(&log, map.as_ref(), &mut out).unwrap());
+            black_box(out.into_inner().len())
+        })
+    });
     g.finish();
     // Over gRPC: a server on loopback in this process.
     let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();
