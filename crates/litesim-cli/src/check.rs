@@ -1,4 +1,4 @@
-//! `litesim check FILE.osc [-I DIR] [--json | --format json] [--dump-ast]`.
+//! `litesim check FILE.osc [-I DIR] [--json | --format json] [--dump-ast] [--dialect D]`.
 
 use anyhow::{Result, anyhow};
 use std::path::{Path, PathBuf};
@@ -10,9 +10,10 @@ pub fn run(
     json: bool,
     rustc_json: bool,
     dump_ast: bool,
+    dialect: Option<litesim_osc::Dialect>,
 ) -> Result<()> {
     let env = |name: &str| std::env::var(name).ok();
-    let prog = litesim_osc::load(file, include, &env).map_err(|e| anyhow!(e))?;
+    let prog = litesim_osc::load_with(file, include, &env, dialect).map_err(|e| anyhow!(e))?;
     if dump_ast && let Some((_, ast)) = prog.files.iter().find(|(id, _)| *id == 0) {
         println!("{}", serde_json::to_string_pretty(ast)?);
     }
@@ -32,8 +33,12 @@ pub fn run(
         .count();
     let warnings = prog.diagnostics.len() - errors;
     if !json && !rustc_json {
+        let dialect = match prog.dialect {
+            litesim_osc::Dialect::Litesim => "",
+            litesim_osc::Dialect::Carla => " (CARLA dialect)",
+        };
         eprintln!(
-            "{}: {} file(s), {errors} error(s), {warnings} warning(s)",
+            "{}: {} file(s), {errors} error(s), {warnings} warning(s){dialect}",
             file.display(),
             prog.sources.files.len()
         );

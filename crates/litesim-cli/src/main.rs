@@ -186,6 +186,10 @@ enum Command {
         /// Print the syntax tree of the entry file (JSON).
         #[arg(long)]
         dump_ast: bool,
+        /// OSC dialect: auto (default: CARLA's when the file imports its
+        /// `basic.osc` or declares `actor Path`), litesim or carla.
+        #[arg(long, default_value = "auto", value_parser = ["auto", "litesim", "carla"])]
+        dialect: String,
     },
     /// Run an OpenSCENARIO DSL test: solve, plan, drive the SSP, check; write log, summary, pictures.
     Run {
@@ -506,7 +510,15 @@ fn run(cli: Cli) -> Result<()> {
             json,
             format,
             dump_ast,
-        } => check::run(&file, &include, json, format == "json", dump_ast),
+            dialect,
+        } => check::run(
+            &file,
+            &include,
+            json,
+            format == "json",
+            dump_ast,
+            scenario::dialect_choice(&dialect),
+        ),
         Command::PlanMatrix {
             dir,
             presets,

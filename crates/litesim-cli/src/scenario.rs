@@ -15,6 +15,15 @@ pub struct Common {
     /// Map file overriding the test's `test_config.map`.
     #[arg(long)]
     pub map: Option<PathBuf>,
+    /// OSC dialect: auto (default: CARLA's when the test imports its
+    /// `basic.osc` or declares `actor Path`), litesim or carla.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "litesim", "carla"])]
+    pub dialect: String,
+    /// Folder of OpenDRIVE maps for a CARLA scenario's
+    /// `path.set_map("Town04")` (Town04.xodr). Default: the test's folder,
+    /// its maps/ and ../maps/.
+    #[arg(long, value_name = "DIR")]
+    pub map_dir: Option<PathBuf>,
     /// Drive actors dynamically (pedals and steering) instead of
     /// kinematically. Default: the test's configuration (the seed's dummy
     /// configuration is dynamic), else kinematic.
@@ -46,6 +55,8 @@ impl Common {
             include: self.include.clone(),
             map: self.map.clone(),
             env: None,
+            dialect: dialect_choice(&self.dialect),
+            map_dir: self.map_dir.clone(),
         }
     }
     /// The `--sut` choice; an unknown name lists the valid ones.
@@ -69,6 +80,11 @@ impl Common {
             None
         }
     }
+}
+
+/// A `--dialect` value (`auto`: detect).
+pub fn dialect_choice(name: &str) -> Option<litesim_osc::Dialect> {
+    name.parse().ok()
 }
 
 /// Parses a `--sut` value.

@@ -973,3 +973,73 @@ fn run_traces_every_ssp_call_in_process_and_over_grpc() {
     // The engine makes the same calls wherever its simulator lives.
     assert_eq!(traces[0], traces[1]);
 }
+
+#[test]
+fn a_carla_scenario_checks_and_runs_as_written() {
+    let test = workspace().join("examples/carla/cut_in.osc");
+    // Detected: the summary line names the dialect.
+    let out = litesim().arg("check").arg(&test).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("0 error(s)") && err.contains("CARLA dialect"),
+        "{err}"
+    );
+    // Forced off: litesim's dialect has no basic.osc — a precise error as
+    // a rustc-style JSON line.
+    let out = litesim()
+        .arg("check")
+        .arg(&test)
+        .args(["--dialect", "litesim", "--format", "json"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let line = String::from_utf8_lossy(&out.stdout);
+    let v: serde_json::Value = serde_json::from_str(line.lines().next().unwrap()).unwrap();
+    assert_eq!(v["code"]["code"], "E0202", "{v}");
+    assert_eq!(v["spans"][0]["line_start"], 7, "{v}");
+    // Runs on the map in the repo (examples/maps, found as ../maps).
+    let dir = tempfile::tempdir().unwrap();
+    let out = litesim()
+        .arg("run")
+        .arg(&test)
+        .args(["--sut", "acc", "--no-pictures", "-o"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        text.contains("PASS") && text.contains("profile carla-0.9.15"),
+        "{text}"
+    );
+    // A map folder without the map: the line that asked and where it looked.
+    let empty = tempfile::tempdir().unwrap();
+    let out = litesim()
+        .arg("run")
+        .arg(&test)
+        .arg("--map-dir")
+        .arg(empty.path())
+        .args(["-o"])
+        .arg(dir.path().join("x"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1), "{out:?}");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("cut_in.osc:11:5") && err.contains("no straight.xodr in"),
+        "{err}"
+    );
+    // An unknown dialect is refused by the argument parser.
+    let out = litesim()
+        .arg("check")
+        .arg(&test)
+        .args(["--dialect", "scenic"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(64));
+}

@@ -66,6 +66,9 @@ pub struct RoadSummary {
     pub max_driving_lanes: usize,
     /// All drivable lanes run the same way (and there is at least one).
     pub one_way: bool,
+    /// One of its ends touches a junction (a path along it leads into or
+    /// out of the junction).
+    pub into_junction: bool,
 }
 
 /// A sampled lane: centre and both borders, for export, drawing and rasterising.
@@ -673,6 +676,9 @@ impl RoadNetwork {
                     min_forward_lanes: min_f,
                     min_backward_lanes: min_b,
                     max_driving_lanes: max_all,
+                    into_junction: [&r.predecessor, &r.successor]
+                        .iter()
+                        .any(|l| matches!(l, Some(crate::model::LinkTarget::Junction(_)))),
                     one_way: max_all > 0
                         && (min_f == 0 || min_b == 0)
                         && r.sections.iter().all(|sec| {

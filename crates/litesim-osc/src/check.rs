@@ -257,6 +257,9 @@ struct Checker<'a> {
     m: &'a Model,
     diags: Vec<Diagnostic>,
     scope: Scope,
+    /// CARLA dialect: behaviours and modifiers declared without parameters
+    /// are native and take any arguments (scenario_runner's convention).
+    carla: bool,
 }
 
 fn labels(d: &DoMember, m: &Model, out: &mut Vec<(String, Ty)>) {
@@ -669,6 +672,13 @@ impl Checker<'_> {
     fn call_args(&mut self, what: &str, key: &str, name: &Name, args: &[Arg]) {
         let empty = Vec::new();
         let params = self.m.param_types.get(key).unwrap_or(&empty);
+        if self.carla && params.is_empty() {
+            // Native in the CARLA dialect: the lowering checks what it uses.
+            for a in args {
+                self.expr(&a.value, None);
+            }
+            return;
+        }
         let positional = args.iter().filter(|a| a.name.is_none()).count();
         if positional > params.len() {
             self.err(
@@ -1473,10 +1483,12 @@ fn si_twice(args: &[Arg], out: &mut Vec<Diagnostic>) {
 /// Semantic diagnostics of a loaded program.
 pub fn check(prog: &Program) -> Vec<Diagnostic> {
     let m = Model::collect(prog);
+    let carla = prog.dialect == crate::Dialect::Carla;
     let mut c = Checker {
         m: &m,
         diags: Vec::new(),
         scope: Scope::default(),
+        carla,
     };
     redefinitions(prog, &mut c.diags);
     let mut seen: BTreeMap<String, Span> = BTreeMap::new();
@@ -1497,7 +1509,10 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
                             .map_or(String::new(), |a| format!("{}.", a.text)),
                         name.name.text
                     );
+                    // CARLA's entry point `scenario top` beside the domain's `actor top`.
+                    let carla_top = carla && key == "top" && *kind == DeclKind::Scenario;
                     match seen.get(&key) {
+                        Some(_) if carla_top => {}
                         Some(first) if *kind != DeclKind::Modifier => c.diags.push(
                             Diagnostic::error(
                                 "E0307",

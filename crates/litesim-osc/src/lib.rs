@@ -11,6 +11,8 @@
 #![warn(missing_docs)]
 
 pub mod ast;
+pub mod builtin;
+pub mod carla;
 pub mod check;
 pub mod diag;
 pub mod index;
@@ -20,7 +22,7 @@ pub mod parser;
 pub mod source;
 
 pub use diag::{Diagnostic, Severity};
-pub use loader::{Program, load};
+pub use loader::{Dialect, Program, load, load_with};
 pub use source::{SourceMap, Span};
 
 /// Lexes and parses one text (file index 0 of a fresh source map).

@@ -20,6 +20,45 @@ pub struct Program {
     pub files: Vec<(u32, FileAst)>,
     /// Every diagnostic.
     pub diagnostics: Vec<Diagnostic>,
+    /// The conventions the program follows (asked for or detected).
+    pub dialect: Dialect,
+    /// What lowering a CARLA-dialect program found (its map).
+    pub carla: Option<crate::carla::CarlaInfo>,
+}
+
+/// Which OpenSCENARIO DSL conventions a program follows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Dialect {
+    /// litesim's (and the seed's Foretify-style) conventions: `sut.car`,
+    /// `extend top.main`, `test_config`.
+    #[default]
+    Litesim,
+    /// CARLA scenario_runner's: `import basic.osc`, `scenario top`,
+    /// `ego_vehicle`, `Path.set_map`, `drive(path)`; lowered to litesim's
+    /// before elaboration (see [`crate::carla`]).
+    Carla,
+}
+
+impl std::str::FromStr for Dialect {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "litesim" => Ok(Dialect::Litesim),
+            "carla" => Ok(Dialect::Carla),
+            _ => Err(format!("unknown dialect '{s}': expected litesim or carla")),
+        }
+    }
+}
+
+/// The text declares `actor Path` (the mark of a CARLA scenario_runner
+/// library): a line that is exactly that declaration.
+fn declares_carla_path(text: &str) -> bool {
+    text.lines().any(|l| {
+        let l = l.trim();
+        l.strip_prefix("actor Path")
+            .is_some_and(|rest| rest.is_empty() || rest.starts_with([' ', ':', '#']))
+    })
 }
 
 impl Program {
@@ -67,6 +106,8 @@ struct Loader<'a> {
     loaded: BTreeMap<PathBuf, u32>,
     stack: Vec<PathBuf>,
     env: &'a dyn Fn(&str) -> Option<String>,
+    /// The dialect asked for (`None`: detect).
+    dialect: Option<Dialect>,
 }
 
 impl Loader<'_> {
@@ -88,7 +129,37 @@ impl Loader<'_> {
         self.prog.files.push((id, ast));
     }
 
+    /// Loads built-in file `rel` (relative to [`crate::builtin::ROOT`])
+    /// unless it is loaded already.
+    fn load_builtin(&mut self, path: &Path, span: Span) {
+        let path = crate::builtin::normalise(path);
+        if self.stack.contains(&path) {
+            self.prog.diagnostics.push(Diagnostic::error(
+                "E0203",
+                span,
+                format!("import cycle through '{}'", path.display()),
+            ));
+            return;
+        }
+        if self.loaded.contains_key(&path) {
+            return;
+        }
+        match crate::builtin::text_of(&path) {
+            Some(text) => self.load_file(&path, text.to_string()),
+            None => self.prog.diagnostics.push(Diagnostic::error(
+                "E0202",
+                span,
+                format!("cannot find imported file '{}'", path.display()),
+            )),
+        }
+    }
+
     fn import(&mut self, dir: &Path, raw: &str, span: Span) {
+        // Inside litesim's built-in library, imports stay inside it.
+        if crate::builtin::is_builtin(dir) {
+            self.load_builtin(&dir.join(raw), span);
+            return;
+        }
         let expanded = match expand_env(raw, self.env) {
             Ok(p) => p,
             Err(var) => {
@@ -122,7 +193,37 @@ impl Loader<'_> {
             candidates.push(dir.join(&rel));
             candidates.extend(self.search.iter().map(|s| s.join(&rel)));
         }
-        let Some(found) = candidates.into_iter().find(|c| c.is_file()) else {
+        let found = candidates.into_iter().find(|c| c.is_file());
+        // CARLA's `import basic.osc`: litesim's CARLA library when there is
+        // no such file, and in place of scenario_runner's own (whose
+        // declarations are for its Python runtime).
+        let carla_basic = self.dialect != Some(Dialect::Litesim)
+            && rel.file_name().is_some_and(|f| f == "basic.osc")
+            && rel.components().count() == 1;
+        if carla_basic {
+            let theirs = found
+                .as_ref()
+                .and_then(|f| std::fs::read_to_string(f).ok())
+                .is_some_and(|t| declares_carla_path(&t));
+            if found.is_none() || theirs {
+                if let Some(f) = found.filter(|_| theirs) {
+                    self.prog.diagnostics.push(
+                        Diagnostic::warning(
+                            "W0211",
+                            span,
+                            format!(
+                                "'{}' is a CARLA scenario_runner library: litesim's own CARLA library is used in its place",
+                                f.display()
+                            ),
+                        )
+                        .with_hint("see docs/carla.md for the names it declares"),
+                    );
+                }
+                self.load_builtin(&crate::builtin::path_of(crate::builtin::CARLA_BASIC), span);
+                return;
+            }
+        }
+        let Some(found) = found else {
             self.prog.diagnostics.push(
                 Diagnostic::error(
                     "E0202",
@@ -172,10 +273,24 @@ impl Loader<'_> {
 }
 
 /// Loads `entry` and its imports. `env` looks up environment variables.
+/// The dialect is detected (see [`load_with`]).
 pub fn load(
     entry: &Path,
     search: &[PathBuf],
     env: &dyn Fn(&str) -> Option<String>,
+) -> Result<Program, String> {
+    load_with(entry, search, env, None)
+}
+
+/// [`load`] in a given dialect, or detecting it (`None`): a program is
+/// CARLA's when it loads litesim's CARLA library (`import basic.osc`) or
+/// declares `actor Path`. A CARLA program is checked with the dialect's
+/// rules and then lowered to litesim's conventions ([`crate::carla`]).
+pub fn load_with(
+    entry: &Path,
+    search: &[PathBuf],
+    env: &dyn Fn(&str) -> Option<String>,
+    dialect: Option<Dialect>,
 ) -> Result<Program, String> {
     let bytes = std::fs::read(entry).map_err(|e| format!("{}: {e}", entry.display()))?;
     let text =
@@ -186,13 +301,41 @@ pub fn load(
         loaded: BTreeMap::new(),
         stack: Vec::new(),
         env,
+        dialect,
     };
+    if dialect == Some(Dialect::Carla) {
+        // Asked for: the dialect's names are there even without an import.
+        let at = Span {
+            file: 0,
+            start: 0,
+            end: 0,
+        };
+        l.load_builtin(&crate::builtin::path_of(crate::builtin::CARLA_BASIC), at);
+    }
     l.load_file(entry, text);
+    l.prog.dialect = dialect.unwrap_or_else(|| {
+        let carla = crate::builtin::path_of(crate::builtin::CARLA_BASIC);
+        let declared = l
+            .prog
+            .sources
+            .files
+            .iter()
+            .any(|f| declares_carla_path(&f.text));
+        if l.loaded.contains_key(&carla) || declared {
+            Dialect::Carla
+        } else {
+            Dialect::Litesim
+        }
+    });
     // Semantic checks need every file: only run them when all parsed cleanly,
     // so that a syntax error is not followed by a cascade of unknown names.
     if !l.prog.has_errors() {
         let sem = crate::check::check(&l.prog);
         l.prog.diagnostics.extend(sem);
+    }
+    if l.prog.dialect == Dialect::Carla && !l.prog.has_errors() {
+        let d = crate::carla::lower(&mut l.prog);
+        l.prog.diagnostics.extend(d);
     }
     // Report in reading order: by file, then position (stable for equal places).
     l.prog

@@ -208,7 +208,9 @@ pub enum Intent {
     },
     /// `lane(n)` or `lane(same_as|left_of|right_of: X)`.
     Lane {
-        /// Lane number counted from the road's edge in the direction of travel (1 = first).
+        /// Lane number counted from the road's edge in the direction of
+        /// travel (1 = first); negative counts from the left (−1 = the
+        /// leftmost lane that way: `lane(1, from: left)`).
         lane: Option<f64>,
         /// Relative to whom.
         reference: Option<(LaneRelation, String)>,
@@ -296,7 +298,14 @@ impl Intent {
                 strict,
             },
             "lane" => Intent::Lane {
-                lane: num("lane"),
+                // `from: left` (CARLA's numbering) as a negative number.
+                lane: num("lane").map(|n| {
+                    if text("from").as_deref() == Some("left") {
+                        -n
+                    } else {
+                        n
+                    }
+                }),
                 // The first in parameter-name order, as written in the
                 // domain (left_of, right_of, same_as).
                 reference: [

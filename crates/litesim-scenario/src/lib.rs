@@ -51,6 +51,39 @@ pub struct LoadOptions {
     pub map: Option<PathBuf>,
     /// Environment lookups (`$FTX`); `None` reads the process environment.
     pub env: Option<BTreeMap<String, String>>,
+    /// The OSC dialect (`--dialect`); `None` detects it.
+    pub dialect: Option<litesim_osc::Dialect>,
+    /// Where a CARLA scenario's `set_map("Town04")` finds `Town04.xodr`
+    /// (`--map-dir`); `None`: the test's folder, its `maps/` and `../maps/`.
+    pub map_dir: Option<PathBuf>,
+}
+
+/// The OpenDRIVE file of a CARLA map name: `NAME.xodr` in `map_dir`, or
+/// (without one) in the test's folder, its `maps/` or `../maps/`. The error
+/// says where it looked.
+pub fn carla_map_file(test: &Path, name: &str, map_dir: Option<&Path>) -> Result<PathBuf, String> {
+    let file = format!("{name}.xodr");
+    let plain = !name.is_empty() && !name.contains(['/', '\\']) && name != "." && name != "..";
+    if !plain {
+        return Err(format!(
+            "map name '{name}' is not a plain name (CARLA names maps like \"Town04\")"
+        ));
+    }
+    let here = test.parent().unwrap_or(Path::new(".")).to_path_buf();
+    let dirs: Vec<PathBuf> = match map_dir {
+        Some(d) => vec![d.to_path_buf()],
+        None => vec![here.clone(), here.join("maps"), here.join("../maps")],
+    };
+    dirs.iter()
+        .map(|d| d.join(&file))
+        .find(|p| p.is_file())
+        .ok_or_else(|| {
+            let looked: Vec<String> = dirs.iter().map(|d| d.display().to_string()).collect();
+            format!(
+                "map '{name}': no {file} in {} — CARLA's maps are OpenDRIVE files: pass --map-dir with a folder that has {file} (CARLA ships them as CarlaUE4/Content/Carla/Maps/OpenDrive/*.xodr), or --map FILE",
+                looked.join(", ")
+            )
+        })
 }
 
 /// A loaded, elaborated test with its map, ready to run under many seeds.
@@ -79,7 +112,8 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
         Some(m) => m.get(k).cloned(),
         None => std::env::var(k).ok(),
     };
-    let prog = litesim_osc::load(path, &opts.include, &env).map_err(ScenarioError::Load)?;
+    let prog = litesim_osc::load_with(path, &opts.include, &env, opts.dialect)
+        .map_err(ScenarioError::Load)?;
     let source_hash = {
         let mut all = Vec::new();
         for f in &prog.sources.files {
@@ -98,8 +132,17 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
         return Err(ScenarioError::Load(text.join("\n")));
     }
     let test = elab::elaborate(&prog)?;
+    let carla_map = prog.carla.as_ref().and_then(|c| c.map.as_ref());
     let map_path = match (&opts.map, &test.config.map) {
         (Some(p), _) => Some(p.clone()),
+        (None, _) if let Some((name, span)) = carla_map => Some(
+            carla_map_file(path, name, opts.map_dir.as_deref()).map_err(|e| {
+                let f = prog.sources.file(span.file);
+                let (line, col) = f.line_col(span.start as usize);
+                let file = &f.path;
+                ScenarioError::Map(format!("{file}:{line}:{col}: {e}"))
+            })?,
+        ),
         (None, Some(m)) if !m.is_empty() => {
             let expanded = litesim_osc::loader::expand_env(m, &env).map_err(|v| {
                 ScenarioError::Map(format!("test_config.map '{m}' uses ${v}, which is not set"))

@@ -1313,13 +1313,12 @@ fn plan_once(
                                     }
                                 }),
                                 None => lane.and_then(|n| {
-                                    net.lanes_same_way(
+                                    let lanes = net.lanes_same_way(
                                         mo.pos.road,
                                         mo.pos.s,
                                         net.travels_forward(mo.pos),
-                                    )
-                                    .get((n as usize).saturating_sub(1))
-                                    .copied()
+                                    );
+                                    lanes.get(lane_index(lanes.len(), n)).copied()
                                 }),
                             };
                             if let Some(to) = to
@@ -1573,9 +1572,14 @@ fn place(
             )));
         }
         let lane = match lane_mod.as_ref().and_then(|m| m.0) {
-            Some(n) => *lanes.get((n as usize).saturating_sub(1)).ok_or_else(|| {
+            Some(n) => *lanes.get(lane_index(lanes.len(), n)).ok_or_else(|| {
                 ScenarioError::Plan(format!(
-                    "{at}: lane {n} asked for {} but road {} has {} lane(s) that way",
+                    "{at}: lane {} asked for {} but road {} has {} lane(s) that way",
+                    if n < 0.0 {
+                        format!("{} from the left", -n)
+                    } else {
+                        n.to_string()
+                    },
                     me.id,
                     r.id,
                     lanes.len()
@@ -1698,6 +1702,22 @@ fn place(
         },
     };
     Ok(mo)
+}
+
+/// The index in a right-to-left list of `len` lanes of lane number `n`
+/// (1 = rightmost; negative counts from the left, −1 = leftmost; 0 reads
+/// as 1, as it always has); out of range gives `len` (no such lane).
+fn lane_index(len: usize, n: f64) -> usize {
+    let k = n.abs() as usize;
+    if k == 0 {
+        0
+    } else if k > len {
+        len
+    } else if n < 0.0 {
+        len - k
+    } else {
+        k - 1
+    }
 }
 
 #[cfg(test)]

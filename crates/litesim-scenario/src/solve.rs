@@ -327,6 +327,8 @@ pub fn solve(
             d
         };
         let length = attr("length");
+        // CARLA's `path_over_junction`: a road with an end at a junction.
+        let into_junction = attr("into_junction").eq == Some(Value::Bool(true));
         let min_lanes = attr("min_lanes");
         let max_lanes = attr("max_lanes");
         let kinds: Vec<RoadKind> = members.iter().filter_map(|m| s.test.vars[m].road).collect();
@@ -352,6 +354,7 @@ pub fn solve(
                 })
                 && r.length >= length.lo
                 && r.length <= length.hi
+                && (!into_junction || r.into_junction)
         };
         let cands: Vec<&litesim_map::network::RoadSummary> =
             summaries.iter().filter(fits).collect();
@@ -364,6 +367,9 @@ pub fn solve(
             let mut asked = vec![format!("≥ {need_min} lanes")];
             if need_max.is_finite() {
                 asked.push(format!("≤ {need_max} lanes"));
+            }
+            if into_junction {
+                asked.push("an end at a junction".into());
             }
             if length.lo.is_finite() || length.hi.is_finite() {
                 asked.push(format!(

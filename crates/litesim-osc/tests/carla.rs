@@ -1,0 +1,288 @@
+//! CARLA scenario_runner's OSC2 dialect: detection, litesim's built-in
+//! `basic.osc`, the checker's native modifiers, and the lowering's
+//! translations and errors (each E06xx at its place, snapshotted).
+
+use litesim_osc::ast::{Decl, DoKind, Expr, Member};
+use litesim_osc::{Dialect, Program, Severity};
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// Loads `text` as `t.osc` in a fresh folder (plus `extra` files there).
+fn load(text: &str, extra: &[(&str, &str)], dialect: Option<Dialect>) -> Program {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, t) in extra {
+        std::fs::write(dir.path().join(name), t).unwrap();
+    }
+    let p = dir.path().join("t.osc");
+    std::fs::write(&p, text).unwrap();
+    let mut prog = litesim_osc::load_with(&p, &[], &|_| None, dialect).unwrap();
+    // Machine-independent names in rendered diagnostics.
+    for f in prog.sources.files.iter_mut() {
+        if let Some(n) = Path::new(&f.path).file_name()
+            && f.path.starts_with(&*dir.path().to_string_lossy())
+        {
+            f.path = n.to_string_lossy().into_owned();
+        }
+    }
+    prog
+}
+
+fn errors(p: &Program) -> Vec<String> {
+    p.diagnostics
+        .iter()
+        .filter(|d| d.severity == Severity::Error)
+        .map(|d| d.render(&p.sources))
+        .collect()
+}
+
+fn codes(p: &Program) -> Vec<&'static str> {
+    p.diagnostics.iter().map(|d| d.code).collect()
+}
+
+const CUT_IN: &str = "import basic.osc
+
+scenario top:
+    path: Path
+    path.set_map(\"Town04\")
+    path.path_min_driving_lanes(2)
+    ego_vehicle: Model3
+    npc: Rubicon
+    do serial:
+        a: parallel(duration: 15s):
+            ego_vehicle.drive(path) with:
+                speed(30kph)
+                lane(1, at: start)
+            npc.drive(path) with:
+                lane(right_of: ego_vehicle, at: start)
+                position(15m, behind: ego_vehicle, at: start)
+";
+
+/// The lowered `extend top.main` members.
+fn top_main(p: &Program) -> &[Member] {
+    p.files
+        .iter()
+        .flat_map(|(_, f)| &f.decls)
+        .find_map(|d| match d {
+            Decl::Extend { target, members }
+                if target.actor.as_ref().is_some_and(|a| a.text == "top")
+                    && target.name.text == "main" =>
+            {
+                Some(&members[..])
+            }
+            _ => None,
+        })
+        .expect("an extend top.main")
+}
+
+/// Every call in the lowered tree, as `name(arg names)` text.
+fn calls(members: &[Member]) -> Vec<String> {
+    fn expr(e: &Expr, out: &mut Vec<String>) {
+        if let Expr::Call { callee, args, .. } = e {
+            let name = match &**callee {
+                Expr::Ident { name, .. } => name.clone(),
+                Expr::Field { base, name, .. } => format!("{}.{}", dotted(base), name.text),
+                _ => "?".into(),
+            };
+            let a: Vec<String> = args
+                .iter()
+                .map(|a| match (&a.name, &a.value) {
+                    (Some(n), v) => format!("{}: {}", n.text, dotted(v)),
+                    (None, v) => dotted(v),
+                })
+                .collect();
+            out.push(format!("{name}({})", a.join(", ")));
+        }
+    }
+    fn dotted(e: &Expr) -> String {
+        match e {
+            Expr::Ident { name, .. } => name.clone(),
+            Expr::Field { base, name, .. } => format!("{}.{}", dotted(base), name.text),
+            Expr::Int { value, .. } => value.to_string(),
+            Expr::Physical { value, unit, .. } => format!("{value}{unit}"),
+            _ => "…".into(),
+        }
+    }
+    fn member(m: &Member, out: &mut Vec<String>) {
+        match m {
+            Member::Modifier { call, .. } => expr(call, out),
+            Member::Do(d) => do_member(d, out),
+            _ => {}
+        }
+    }
+    fn do_member(d: &litesim_osc::ast::DoMember, out: &mut Vec<String>) {
+        match &d.kind {
+            DoKind::Composition { children, with, .. } => {
+                children.iter().for_each(|c| do_member(c, out));
+                with.iter().for_each(|m| member(m, out));
+            }
+            DoKind::Invoke { call, with } => {
+                expr(call, out);
+                with.iter().for_each(|m| member(m, out));
+            }
+            _ => {}
+        }
+    }
+    let mut out = Vec::new();
+    members.iter().for_each(|m| member(m, &mut out));
+    out
+}
+
+#[test]
+fn a_carla_scenario_is_detected_checked_and_lowered() {
+    let p = load(CUT_IN, &[], None);
+    assert_eq!(errors(&p), Vec::<String>::new());
+    assert_eq!(p.dialect, Dialect::Carla);
+    let map = p.carla.as_ref().unwrap().map.as_ref().unwrap();
+    assert_eq!(map.0, "Town04");
+    let m = top_main(&p);
+    assert_eq!(
+        calls(m),
+        [
+            "sut.car.drive()",
+            "speed(30kph)",
+            "lane(1, at: start, from: left)",
+            "along(path, at: start)",
+            "npc.drive()",
+            "lane(right_of: sut.car, at: start)",
+            "position(15m, behind: sut.car, at: start)",
+            "duration(15s)",
+        ]
+    );
+    // path: Path → road, with its lane count as a constraint; the
+    // blueprints' model and size per instance; no `ego_vehicle` field.
+    let text = format!("{m:?}");
+    assert!(text.contains("\"road\""), "{text}");
+    assert!(text.contains("min_lanes"), "{text}");
+    assert!(text.contains("vehicle.jeep.wrangler_rubicon"), "{text}");
+    assert!(text.contains("vehicle.tesla.model3"), "{text}");
+    assert!(!text.contains("ego_vehicle"), "{text}");
+}
+
+#[test]
+fn a_litesim_program_stays_litesim() {
+    let p = litesim_osc::load(&root().join("examples/scenarios/cut_in.osc"), &[], &|_| {
+        None
+    })
+    .unwrap();
+    assert_eq!(p.dialect, Dialect::Litesim);
+    assert!(p.carla.is_none());
+    assert_eq!(errors(&p), Vec::<String>::new());
+}
+
+#[test]
+fn every_carla_example_checks_clean() {
+    let dir = root().join("examples/carla");
+    let mut n = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let f = e.unwrap().path();
+        if f.extension().is_some_and(|x| x == "osc") {
+            let p = litesim_osc::load(&f, &[], &|_| None).unwrap();
+            assert_eq!(p.dialect, Dialect::Carla, "{}", f.display());
+            assert_eq!(errors(&p), Vec::<String>::new(), "{}", f.display());
+            n += 1;
+        }
+    }
+    assert!(n >= 3, "examples/carla has {n} scenarios");
+}
+
+#[test]
+fn native_modifiers_take_arguments_in_carla_only() {
+    // The same program in litesim's dialect: `basic.osc` is not there,
+    // and nothing else is CARLA's.
+    let p = load(CUT_IN, &[], Some(Dialect::Litesim));
+    assert_eq!(p.dialect, Dialect::Litesim);
+    assert_eq!(codes(&p), ["E0202"], "{:?}", errors(&p));
+    // Asked for explicitly, the dialect's library is there without the import.
+    let p = load(
+        &CUT_IN.replace("import basic.osc\n", ""),
+        &[],
+        Some(Dialect::Carla),
+    );
+    assert_eq!(errors(&p), Vec::<String>::new());
+    // A litesim modifier with parameters is still checked in CARLA's dialect.
+    let p = load(
+        &CUT_IN.replace("speed(30kph)", "speed(30kph, bogus: 2)"),
+        &[],
+        None,
+    );
+    assert_eq!(codes(&p), ["E0308"], "{:?}", errors(&p));
+}
+
+#[test]
+fn scenario_runners_own_basic_osc_is_replaced_with_a_warning() {
+    let theirs = "actor Path\nmodifier Path.set_map\n";
+    let p = load(CUT_IN, &[("basic.osc", theirs)], None);
+    assert_eq!(errors(&p), Vec::<String>::new());
+    assert_eq!(codes(&p), ["W0211"]);
+    // A basic.osc of the user's own (no `actor Path`) is theirs to keep.
+    let mine = "import \"/nonexistent/config.osc\"\n";
+    let p = load("import basic.osc\n", &[("basic.osc", mine)], None);
+    assert_eq!(p.dialect, Dialect::Litesim);
+    assert_eq!(codes(&p), ["E0202"]);
+}
+
+#[test]
+fn what_cannot_be_lowered_is_an_error_at_its_place() {
+    let cases: &[(&str, &str, &str)] = &[
+        (
+            "no_top",
+            "import basic.osc\nscenario other:\n    x: int\n",
+            "E0601",
+        ),
+        (
+            "map_twice",
+            "import basic.osc\nscenario top:\n    path: Path\n    path.set_map(\"A\")\n    path.set_map(\"B\")\n",
+            "E0604",
+        ),
+        (
+            "map_not_a_string",
+            "import basic.osc\nscenario top:\n    path: Path\n    path.set_map(4)\n",
+            "E0603",
+        ),
+        (
+            "lanes_without_a_count",
+            "import basic.osc\nscenario top:\n    path: Path\n    path.path_min_driving_lanes()\n",
+            "E0605",
+        ),
+        (
+            "set_position_two_arguments",
+            "import basic.osc\nscenario top:\n    path: Path\n    ego_vehicle: Model3\n    do serial:\n        ego_vehicle.drive(path) with:\n            set_position(1m, 2m)\n",
+            "E0607",
+        ),
+        (
+            "set_position_without_a_path",
+            "import basic.osc\nscenario top:\n    ego_vehicle: Model3\n    do serial:\n        ego_vehicle.drive() with:\n            set_position(10m)\n",
+            "E0606",
+        ),
+        (
+            "top_twice",
+            "import basic.osc\nscenario top:\n    x: int\nscenario top:\n    y: int\n",
+            "E0602",
+        ),
+    ];
+    let mut all = String::new();
+    for (name, text, code) in cases {
+        let p = load(text, &[], None);
+        assert_eq!(p.dialect, Dialect::Carla, "{name}");
+        assert_eq!(codes(&p), [*code], "{name}: {:?}", errors(&p));
+        all += &format!("== {name}\n{}\n", errors(&p).join("\n"));
+    }
+    insta::assert_snapshot!(all);
+}
+
+#[test]
+fn lowering_never_panics_on_mangled_carla_programs() {
+    // Every prefix of a CARLA program (most are syntax errors; those
+    // that check are lowered): no panic, a diagnostic or a clean load.
+    let text = std::fs::read_to_string(root().join("examples/carla/slow_lead.osc")).unwrap();
+    let mut cut = 0;
+    while cut < text.len() {
+        if text.is_char_boundary(cut) {
+            let _ = load(&text[..cut], &[], None);
+        }
+        cut += 7;
+    }
+}
