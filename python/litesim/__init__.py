@@ -124,6 +124,8 @@ def run(
     map: Optional[PathLike] = None,
     include: Sequence[PathLike] = (),
     sut_timeout: Optional[float] = None,
+    dialect: Optional[str] = None,
+    map_dir: Optional[PathLike] = None,
 ) -> Result:
     """Runs an OpenSCENARIO DSL test once.
 
@@ -139,6 +141,10 @@ def run(
         map: an OpenDRIVE map overriding the test's.
         include: import search paths.
         sut_timeout: seconds a gRPC SUT may take per call.
+        dialect: ``"litesim"`` or ``"carla"`` (CARLA scenario_runner's OSC2,
+            docs/carla.md); default: detected.
+        map_dir: folder of OpenDRIVE maps for a CARLA scenario's
+            ``path.set_map("Town04")`` (``Town04.xodr``).
 
     Raises:
         TypeError / ValueError: a parameter of the wrong type or value (named).
@@ -157,6 +163,9 @@ def run(
         include = [include]
     inc = [_path("include", p) for p in include]
     m = None if map is None else _path("map", map)
+    if dialect not in (None, "litesim", "carla"):
+        raise ValueError(f"dialect: expected 'litesim', 'carla' or None, got {dialect!r}")
+    md = None if map_dir is None else _path("map_dir", map_dir)
     return Result(
-        _native.run(test, seed, sut, mode, record, m, inc, sut_timeout)
+        _native.run(test, seed, sut, mode, record, m, inc, sut_timeout, dialect, md)
     )

@@ -490,7 +490,7 @@ impl NativeRun {
 
 /// Runs one test (see `litesim.run` for the parameters).
 #[pyfunction]
-#[pyo3(signature = (test, seed=None, sut=None, mode=None, record=true, map=None, include=Vec::new(), sut_timeout=None))]
+#[pyo3(signature = (test, seed=None, sut=None, mode=None, record=true, map=None, include=Vec::new(), sut_timeout=None, dialect=None, map_dir=None))]
 #[allow(clippy::too_many_arguments)]
 fn run(
     py: Python<'_>,
@@ -502,7 +502,13 @@ fn run(
     map: Option<PathBuf>,
     include: Vec<PathBuf>,
     sut_timeout: Option<f64>,
+    dialect: Option<&str>,
+    map_dir: Option<PathBuf>,
 ) -> PyResult<NativeRun> {
+    let dialect = dialect
+        .map(|d| d.parse::<litesim_osc::Dialect>())
+        .transpose()
+        .map_err(|e| PyValueError::new_err(format!("dialect: {e}")))?;
     let sut = sut_choice(sut)?;
     let mode = mode_of(mode)?;
     if let Some(t) = sut_timeout
@@ -515,6 +521,8 @@ fn run(
     let load = LoadOptions {
         include,
         map,
+        dialect,
+        map_dir,
         ..LoadOptions::default()
     };
     let opts = RunOptions {

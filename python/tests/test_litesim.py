@@ -36,6 +36,22 @@ def test_run_gives_verdict_failures_kpis_and_a_log():
     assert litesim.run(CUT_IN, seed=3).log_json() == r.log_json()
 
 
+def test_a_carla_scenario_runs_as_written(tmp_path):
+    carla = str(ROOT / "examples/carla/slow_lead.osc")
+    r = litesim.run(carla, sut="acc")
+    assert r.passed, r.failures
+    assert r.summary["profile"] == "carla-0.9.15"
+    assert set(r.log["actor"]) == {"sut.car", "lead", "truck"}
+    # A map folder without the map: litesim's message names the line and the folder.
+    with pytest.raises(litesim.LitesimError, match=r"slow_lead.osc:9:5: map 'straight': no straight.xodr"):
+        litesim.run(carla, map_dir=tmp_path)
+    with pytest.raises(ValueError, match="dialect"):
+        litesim.run(carla, dialect="scenic")
+    # Read as a litesim program it has no basic.osc to import.
+    with pytest.raises(litesim.LitesimError, match="E0202"):
+        litesim.run(carla, dialect="litesim")
+
+
 def test_a_failing_run_says_why():
     r = litesim.run(str(ROOT / COVERAGE), seed=6)
     assert not r.passed and r.verdict == "fail"

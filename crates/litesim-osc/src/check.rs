@@ -776,6 +776,39 @@ impl Checker<'_> {
     }
 
     fn members(&mut self, members: &[Member]) {
+        // Variables of this body: set by sampling or assignment, never by
+        // the constraint solver, so no `keep` may name them (§3.6).
+        let vars: BTreeMap<&str, Span> = members
+            .iter()
+            .filter_map(|m| match m {
+                Member::Field(f) if f.var => Some(&f.names),
+                _ => None,
+            })
+            .flatten()
+            .map(|n| (n.text.as_str(), n.span))
+            .collect();
+        for m in members {
+            if let Member::Keep { expr, .. } = m
+                && !vars.is_empty()
+            {
+                let mut roots = Vec::new();
+                path_roots(expr, &mut roots);
+                if let Some((name, at, decl)) = roots
+                    .into_iter()
+                    .find_map(|(n, at)| vars.get(n.as_str()).map(|d| (n, at, *d)))
+                {
+                    self.diags.push(
+                        Diagnostic::error(
+                            "E0341",
+                            at,
+                            format!("a `keep` constrains '{name}', which is a `var`"),
+                        )
+                        .with_hint("variables get values by sampling or assignment, not from constraints: make it a parameter (drop `var`) to constrain it")
+                        .with_related(decl, "declared as a variable here"),
+                    );
+                }
+            }
+        }
         for m in members {
             match m {
                 Member::Field(f) => {
@@ -1294,6 +1327,43 @@ fn inheritance_problem(
     None
 }
 
+/// The names an expression reads at the root of its paths (`x` in `x`,
+/// `x.y`, `x.y(…)`), with their places.
+fn path_roots(e: &Expr, out: &mut Vec<(String, Span)>) {
+    match e {
+        Expr::Ident { name, span } => out.push((name.clone(), *span)),
+        Expr::Field { base, .. } | Expr::Cast { base, .. } => path_roots(base, out),
+        Expr::Index { base, index, .. } => {
+            path_roots(base, out);
+            path_roots(index, out);
+        }
+        Expr::Unary { expr, .. } => path_roots(expr, out),
+        Expr::Binary { lhs, rhs, .. } => {
+            path_roots(lhs, out);
+            path_roots(rhs, out);
+        }
+        Expr::Ternary {
+            cond,
+            then,
+            otherwise,
+            ..
+        } => {
+            path_roots(cond, out);
+            path_roots(then, out);
+            path_roots(otherwise, out);
+        }
+        Expr::Call { callee, args, .. } => {
+            path_roots(callee, out);
+            args.iter().for_each(|a| path_roots(&a.value, out));
+        }
+        Expr::List { items, .. } => items.iter().for_each(|x| path_roots(x, out)),
+        Expr::Range { lo, hi, .. } => {
+            lo.iter().chain(hi.iter()).for_each(|x| path_roots(x, out));
+        }
+        _ => {}
+    }
+}
+
 fn call_target(e: &Expr) -> Option<(Name, &[Arg])> {
     match e {
         Expr::Call { callee, args, .. } => match &**callee {
@@ -1442,6 +1512,46 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     members: ms,
                 } => member_names(qual(target), ms, out),
                 _ => {}
+            }
+        }
+    }
+    // A member may not redefine one its type inherits (§3.5): the first
+    // ancestor that defines the name is the other place.
+    let mut bases: BTreeMap<String, String> = BTreeMap::new();
+    for (_, f) in &prog.files {
+        for d in &f.decls {
+            if let Decl::Compound {
+                name,
+                inherits: Some((base, _)),
+                ..
+            } = d
+            {
+                bases.entry(qual(name)).or_insert_with(|| qual(base));
+            }
+        }
+    }
+    for (key, own) in &members {
+        for (name, span) in own {
+            let mut cur = bases.get(key);
+            let mut guard = 0;
+            while let Some(b) = cur {
+                guard += 1;
+                if guard > 64 || b == key {
+                    break; // an inheritance cycle: E0339 reports it
+                }
+                if let Some(first) = members.get(b).and_then(|m| m.get(name)) {
+                    out.push(
+                        Diagnostic::error(
+                            "E0340",
+                            *span,
+                            format!("'{name}' in '{key}' redefines the member it inherits from '{b}'"),
+                        )
+                        .with_hint("an inherited member cannot be redefined: rename it, or constrain the inherited one with `keep`")
+                        .with_related(*first, "inherited from here"),
+                    );
+                    break;
+                }
+                cur = bases.get(b);
             }
         }
     }
