@@ -303,18 +303,23 @@ pub fn load_with(
         env,
         dialect,
     };
-    if dialect == Some(Dialect::Carla) {
+    l.load_file(entry, text);
+    let carla = crate::builtin::path_of(crate::builtin::CARLA_BASIC);
+    if dialect == Some(Dialect::Carla) && !l.loaded.contains_key(&carla) {
         // Asked for: the dialect's names are there even without an import.
+        // The entry stays file 0; the library goes first in reading order,
+        // as an import would.
+        let before = l.prog.files.len();
         let at = Span {
             file: 0,
             start: 0,
             end: 0,
         };
-        l.load_builtin(&crate::builtin::path_of(crate::builtin::CARLA_BASIC), at);
+        l.load_builtin(&carla, at);
+        let added = l.prog.files.len() - before;
+        l.prog.files.rotate_right(added);
     }
-    l.load_file(entry, text);
     l.prog.dialect = dialect.unwrap_or_else(|| {
-        let carla = crate::builtin::path_of(crate::builtin::CARLA_BASIC);
         let declared = l
             .prog
             .sources

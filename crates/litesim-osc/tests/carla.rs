@@ -202,6 +202,10 @@ fn native_modifiers_take_arguments_in_carla_only() {
         Some(Dialect::Carla),
     );
     assert_eq!(errors(&p), Vec::<String>::new());
+    // The entry is still file 0 (what --dump-ast prints); the library is
+    // read before it.
+    assert_eq!(p.sources.file(0).path, "t.osc");
+    assert_eq!(p.files.last().unwrap().0, 0);
     // A litesim modifier with parameters is still checked in CARLA's dialect.
     let p = load(
         &CUT_IN.replace("speed(30kph)", "speed(30kph, bogus: 2)"),
