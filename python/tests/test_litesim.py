@@ -43,7 +43,7 @@ def test_a_carla_scenario_runs_as_written(tmp_path):
     assert r.summary["profile"] == "carla-0.9.15"
     assert set(r.log["actor"]) == {"sut.car", "lead", "truck"}
     # A map folder without the map: litesim's message names the line and the folder.
-    with pytest.raises(litesim.LitesimError, match=r"slow_lead.osc:9:5: map 'straight': no straight.xodr"):
+    with pytest.raises(litesim.LitesimError, match=r"slow_lead.osc:10:5: map 'straight': no straight.xodr"):
         litesim.run(carla, map_dir=tmp_path)
     with pytest.raises(ValueError, match="dialect"):
         litesim.run(carla, dialect="scenic")
