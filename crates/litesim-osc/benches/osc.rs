@@ -3,6 +3,11 @@
 //! against the domain library; load the seed's smoke test with all its imports.
 
 use criterion::Criterion;
+
+// The allocator the `litesim` binary uses (crates/litesim-cli/src/main.rs):
+// what `litesim check` costs a user.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 use std::hint::black_box;
 
 fn ten_thousand_lines() -> String {

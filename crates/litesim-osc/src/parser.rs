@@ -46,12 +46,15 @@ impl<'a> P<'a> {
     fn prev_span(&self) -> Span {
         self.toks[self.pos.saturating_sub(1).min(self.toks.len() - 1)].span
     }
-    fn bump(&mut self) -> Token {
-        let t = self.toks[self.pos.min(self.toks.len() - 1)].clone();
+    /// Moves past the current token; returns its span. (No clone of the
+    /// token: most callers only step over keywords and punctuation, and a
+    /// clone is a string allocation for every word.)
+    fn bump(&mut self) -> Span {
+        let span = self.span();
         if self.pos < self.toks.len() - 1 {
             self.pos += 1;
         }
-        t
+        span
     }
     fn is_kw(&self, k: &str) -> bool {
         matches!(self.tok(), Tok::Ident(s) if s == k)
@@ -103,7 +106,7 @@ impl<'a> P<'a> {
     fn ident(&mut self, what: &str) -> Option<Name> {
         match self.tok().clone() {
             Tok::Ident(s) | Tok::Quoted(s) => {
-                let span = self.bump().span;
+                let span = self.bump();
                 Some(Name { text: s, span })
             }
             _ => {
@@ -302,7 +305,7 @@ impl<'a> P<'a> {
     }
     fn inversion(&mut self) -> Expr {
         if self.is_kw("not") {
-            let s = self.bump().span;
+            let s = self.bump();
             let e = self.inversion();
             let span = join(s, e.span());
             return Expr::Unary {
@@ -325,7 +328,7 @@ impl<'a> P<'a> {
     }
     fn factor(&mut self) -> Expr {
         if self.is_p("-") {
-            let s = self.bump().span;
+            let s = self.bump();
             let e = self.factor();
             let span = join(s, e.span());
             // Fold into numeric literals: `-2mpsps` is a literal, `a - 1` is not.
@@ -729,10 +732,12 @@ impl<'a> P<'a> {
                 self.bump();
                 self.bump();
                 let strength = if self.is_kw("default") || self.is_kw("hard") {
-                    Some(self.bump()).and_then(|t| match t.tok {
-                        Tok::Ident(s) => Some(s),
+                    let word = match self.tok() {
+                        Tok::Ident(s) => Some(s.clone()),
                         _ => None,
-                    })
+                    };
+                    self.bump();
+                    word
                 } else {
                     None
                 };
@@ -1186,7 +1191,7 @@ pub fn parse(toks: &[Token]) -> (FileAst, Vec<Diagnostic>) {
         p.bump();
     }
     while p.is_kw("import") {
-        let start = p.bump().span;
+        let start = p.bump();
         let path = match p.tok().clone() {
             Tok::Str(s) => {
                 p.bump();
