@@ -166,6 +166,39 @@ impl Buckets {
         let cy = (((p.y - self.origin.y) / self.cell).floor().max(0.0) as usize).min(self.ny - 1);
         (cx, cy)
     }
+    /// The points within `r` of `p` (appended to `ids`), with their
+    /// distances to `p` (appended to `dist`): the root of the square the
+    /// range test formed, which is `q.distance(p)` bit for bit.
+    fn near_with_distances(&self, p: Vec2, r: f64, ids: &mut Vec<u32>, dist: &mut Vec<f64>) {
+        let reach = (r / self.cell).ceil() as isize;
+        let (cx, cy) = self.cell_of(p);
+        let r2 = r * r;
+        let x0 = (cx as isize - reach).max(0) as usize;
+        let x1 = ((cx as isize + reach) as usize).min(self.nx - 1);
+        for dy in -reach..=reach {
+            let y = cy as isize + dy;
+            if y < 0 || y >= self.ny as isize {
+                continue;
+            }
+            let row = y as usize * self.nx;
+            let (a, b) = (
+                self.start[row + x0] as usize,
+                self.start[row + x1 + 1] as usize,
+            );
+            for ((&x, &y), &id) in self.xs[a..b]
+                .iter()
+                .zip(&self.ys[a..b])
+                .zip(&self.ids[a..b])
+            {
+                let (dx, dy) = (x - p.x, y - p.y);
+                let d2 = dx * dx + dy * dy;
+                if d2 <= r2 {
+                    ids.push(id);
+                    dist.push(d2.sqrt());
+                }
+            }
+        }
+    }
     fn near(&self, p: Vec2, r: f64, out: &mut Vec<u32>) {
         out.clear();
         let reach = (r / self.cell).ceil() as isize;
@@ -304,8 +337,14 @@ pub fn fmt_star(
     // indices and distances (no per-node allocation, no repeated square
     // roots; d(y, x) = d(x, y) bit for bit).
     let mut span: Vec<(u32, u32)> = vec![(u32::MAX, 0); n];
-    let mut arena_idx: Vec<u32> = Vec::new();
-    let mut arena_dist: Vec<f64> = Vec::new();
+    // About n · (n π r² / area) entries once every node is loaded: sized
+    // once (growing it copied megabytes and faulted fresh pages in).
+    let expect = ((n as f64) * (n as f64) * std::f64::consts::PI * r * r / area)
+        .min(64.0 * n as f64 * n as f64)
+        .max(n as f64) as usize;
+    let expect = expect.min(1 << 22);
+    let mut arena_idx: Vec<u32> = Vec::with_capacity(expect);
+    let mut arena_dist: Vec<f64> = Vec::with_capacity(expect);
     let mut scratch = Vec::new();
     let knn = |p: Vec2, out: &mut Vec<u32>, k: usize| {
         // Nearest k within the search radius (ties by index).
@@ -324,18 +363,20 @@ pub fn fmt_star(
                     arena_dist: &mut Vec<f64>|
      -> (usize, usize) {
         if span[i].0 == u32::MAX {
-            buckets.near(samples[i], r, &mut scratch);
-            if let Radius::KNearest(k) = cfg.radius {
-                knn(samples[i], &mut scratch, k);
-            }
             let start = arena_idx.len();
-            arena_idx.extend_from_slice(&scratch);
-            arena_dist.extend(
-                scratch
-                    .iter()
-                    .map(|&y| samples[y as usize].distance(samples[i])),
-            );
-            span[i] = (start as u32, scratch.len() as u32);
+            if let Radius::KNearest(k) = cfg.radius {
+                buckets.near(samples[i], r, &mut scratch);
+                knn(samples[i], &mut scratch, k);
+                arena_idx.extend_from_slice(&scratch);
+                arena_dist.extend(
+                    scratch
+                        .iter()
+                        .map(|&y| samples[y as usize].distance(samples[i])),
+                );
+            } else {
+                buckets.near_with_distances(samples[i], r, arena_idx, arena_dist);
+            }
+            span[i] = (start as u32, (arena_idx.len() - start) as u32);
         }
         let (a, l) = span[i];
         (a as usize, a as usize + l as usize)
