@@ -1724,6 +1724,18 @@ fn lane_index(len: usize, n: f64) -> usize {
 mod tests {
     use super::*;
 
+    #[test]
+    fn lane_numbers_count_from_the_right_or_from_the_left() {
+        // Three lanes, listed right to left.
+        assert_eq!(lane_index(3, 1.0), 0);
+        assert_eq!(lane_index(3, 3.0), 2);
+        assert_eq!(lane_index(3, -1.0), 2, "1 from the left is the leftmost");
+        assert_eq!(lane_index(3, -3.0), 0);
+        assert_eq!(lane_index(3, 4.0), 3, "no such lane");
+        assert_eq!(lane_index(3, -4.0), 3, "no such lane");
+        assert_eq!(lane_index(3, 0.0), 0, "0 reads as 1, as it always has");
+    }
+
     /// A plan with these samples and a fresh (empty) heading cache.
     fn with_samples(samples: Vec<PlanSample>) -> ActorPlan {
         ActorPlan {
