@@ -260,6 +260,9 @@ struct Checker<'a> {
     /// CARLA dialect: behaviours and modifiers declared without parameters
     /// are native and take any arguments (scenario_runner's convention).
     carla: bool,
+    /// The actor type of the behaviour whose `with:` block is being checked
+    /// (what an unqualified modifier there applies to).
+    invoking: Option<Ty>,
 }
 
 fn labels(d: &DoMember, m: &Model, out: &mut Vec<(String, Ty)>) {
@@ -745,13 +748,31 @@ impl Checker<'_> {
             self.expr(call, None);
             return;
         };
-        if let Expr::Call { callee, .. } = call
-            && let Expr::Field { base, .. } = &**callee
+        let receiver = match call {
+            Expr::Call { callee, .. } if let Expr::Field { base, .. } = &**callee => {
+                Some(self.expr(base, None))
+            }
+            _ => self.invoking.clone(),
+        };
+        let key = modifier_key(&name.text);
+        // `modifier car.m` applies to cars (and what inherits from car).
+        if let (Some(Ty::Compound(t)), Some(owner)) = (&receiver, self.m.owners.get(&key))
+            && self.m.compounds.contains_key(t)
+            && !self.m.is_a(t, owner)
         {
-            self.expr(base, None);
+            let (t, owner) = (t.clone(), owner.clone());
+            self.err(
+                "E0342",
+                name.span,
+                format!(
+                    "modifier '{}' is declared on {owner}; it does not apply to a {t}, which does not inherit from {owner}",
+                    name.text
+                ),
+                Some(format!("use it with a behaviour of a {owner}")),
+            );
         }
-        match self.m.compounds.get(&modifier_key(&name.text)) {
-            Some(_) => self.call_args("modifier", &modifier_key(&name.text), &name, args),
+        match self.m.compounds.get(&key) {
+            Some(_) => self.call_args("modifier", &key, &name, args),
             None => {
                 let mods: Vec<String> = self
                     .m
@@ -1169,11 +1190,13 @@ impl Checker<'_> {
             }
             DoKind::Invoke { call, with } => {
                 if let Some((name, args)) = call_target(call) {
+                    let mut receiver = None;
                     if let Expr::Call { callee, .. } = call
                         && let Expr::Field { base, .. } = &**callee
                     {
-                        let receiver = self.expr(base, None);
-                        self.receiver_has(&receiver, &name);
+                        let r = self.expr(base, None);
+                        self.receiver_has(&r, &name);
+                        receiver = Some(r);
                     }
                     match self.m.compounds.get(&name.text) {
                         Some((DeclKind::Scenario | DeclKind::Action, ..)) => {
@@ -1198,6 +1221,12 @@ impl Checker<'_> {
                             );
                         }
                     }
+                    // Unqualified modifiers in its `with:` apply to the
+                    // receiver of the behaviour (`a.drive() with: m()`).
+                    let outer = std::mem::replace(&mut self.invoking, receiver);
+                    self.members(with);
+                    self.invoking = outer;
+                    return;
                 } else {
                     self.expr(call, None);
                 }
@@ -1599,6 +1628,7 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
         diags: Vec::new(),
         scope: Scope::default(),
         carla,
+        invoking: None,
     };
     redefinitions(prog, &mut c.diags);
     let mut seen: BTreeMap<String, Span> = BTreeMap::new();
