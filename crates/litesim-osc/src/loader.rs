@@ -129,8 +129,8 @@ impl Loader<'_> {
         self.prog.files.push((id, ast));
     }
 
-    /// Loads built-in file `rel` (relative to [`crate::builtin::ROOT`])
-    /// unless it is loaded already.
+    /// Loads the built-in file at virtual path `path` (under
+    /// [`crate::builtin::ROOT`]; `..` resolved) unless it is loaded already.
     fn load_builtin(&mut self, path: &Path, span: Span) {
         let path = crate::builtin::normalise(path);
         if self.stack.contains(&path) {
