@@ -288,7 +288,7 @@ pub fn run(
     // The MCAP file's map content (lane polylines) does not depend on the
     // run: sampled on the other core while the run goes on.
     let mcap_map = match (mcap, &prep.net) {
-        (Some(_), Some(net)) => {
+        (Some(_), Some(net)) if !plan_only => {
             let net = std::sync::Arc::clone(net);
             Some(std::thread::spawn(move || litesim_mcap::McapMap::new(&net)))
         }

@@ -166,10 +166,12 @@ impl Buckets {
         let cy = (((p.y - self.origin.y) / self.cell).floor().max(0.0) as usize).min(self.ny - 1);
         (cx, cy)
     }
-    /// The points within `r` of `p` (appended to `ids`), with their
-    /// distances to `p` (appended to `dist`): the root of the square the
-    /// range test formed, which is `q.distance(p)` bit for bit.
-    fn near_with_distances(&self, p: Vec2, r: f64, ids: &mut Vec<u32>, dist: &mut Vec<f64>) {
+    /// Calls `hit(id, d²)` for every point within `r` of `p`, in the
+    /// buckets' order (row by row, cell by cell, index within a cell);
+    /// d² is formed as `q.distance(p)` forms it, so its root is that
+    /// distance bit for bit.
+    #[inline]
+    fn scan(&self, p: Vec2, r: f64, mut hit: impl FnMut(u32, f64)) {
         let reach = (r / self.cell).ceil() as isize;
         let (cx, cy) = self.cell_of(p);
         let r2 = r * r;
@@ -193,40 +195,23 @@ impl Buckets {
                 let (dx, dy) = (x - p.x, y - p.y);
                 let d2 = dx * dx + dy * dy;
                 if d2 <= r2 {
-                    ids.push(id);
-                    dist.push(d2.sqrt());
+                    hit(id, d2);
                 }
             }
         }
     }
+    /// The points within `r` of `p` (appended to `ids`), with their
+    /// distances to `p` (appended to `dist`).
+    fn near_with_distances(&self, p: Vec2, r: f64, ids: &mut Vec<u32>, dist: &mut Vec<f64>) {
+        self.scan(p, r, |id, d2| {
+            ids.push(id);
+            dist.push(d2.sqrt());
+        });
+    }
+    /// The points within `r` of `p` (replacing `out`'s contents).
     fn near(&self, p: Vec2, r: f64, out: &mut Vec<u32>) {
         out.clear();
-        let reach = (r / self.cell).ceil() as isize;
-        let (cx, cy) = self.cell_of(p);
-        let r2 = r * r;
-        let x0 = (cx as isize - reach).max(0) as usize;
-        let x1 = ((cx as isize + reach) as usize).min(self.nx - 1);
-        for dy in -reach..=reach {
-            let y = cy as isize + dy;
-            if y < 0 || y >= self.ny as isize {
-                continue;
-            }
-            let row = y as usize * self.nx;
-            let (a, b) = (
-                self.start[row + x0] as usize,
-                self.start[row + x1 + 1] as usize,
-            );
-            for ((&x, &y), &id) in self.xs[a..b]
-                .iter()
-                .zip(&self.ys[a..b])
-                .zip(&self.ids[a..b])
-            {
-                let (dx, dy) = (x - p.x, y - p.y);
-                if dx * dx + dy * dy <= r2 {
-                    out.push(id);
-                }
-            }
-        }
+        self.scan(p, r, |id, _| out.push(id));
     }
 }
 
