@@ -6,6 +6,11 @@
 //! lane geometry, spatial index, lane graph) and point → (road, lane, s, t).
 
 use criterion::{Criterion, Throughput};
+
+// The allocator the `litesim` binary (CLI and gRPC server) uses
+// (crates/litesim-cli/src/main.rs): what loading a map costs a user.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 use litesim_core::Vec2;
 use litesim_map::RoadNetwork;
 use std::fmt::Write;
@@ -50,6 +55,25 @@ fn main() {
     g.sample_size(20);
     g.bench_function("load_100km", |b| {
         b.iter(|| RoadNetwork::from_xodr(black_box(&text), "bench.xodr").unwrap())
+    });
+    // A town map as published ones are written (1.8 MB, 234 roads, 16
+    // junctions with 192 connecting roads, lane offsets, four lane sections
+    // per street): issue 18's city map.
+    let town = litesim_map::synth::town(&litesim_map::synth::TownSpec::city());
+    g.bench_function("load_town_234_roads", |b| {
+        b.iter(|| RoadNetwork::from_xodr(black_box(&town), "town.xodr").unwrap())
+    });
+    g.bench_function("parse_town_234_roads", |b| {
+        b.iter(|| litesim_map::parse(black_box(&town), "town.xodr").unwrap())
+    });
+    // The XML tree alone: the floor any DOM-based loader pays.
+    g.bench_function("xml_tree_town_234_roads", |b| {
+        b.iter(|| {
+            roxmltree::Document::parse(black_box(&town))
+                .unwrap()
+                .root()
+                .range()
+        })
     });
     let net = RoadNetwork::from_xodr(&text, "bench.xodr").unwrap();
     assert!((net.total_length() - 100_000.0).abs() < 1e-6);

@@ -22,6 +22,8 @@ pub mod model;
 pub mod network;
 pub mod parse;
 pub mod road;
+pub mod synth;
+mod xml;
 
 pub use grid::{GridError, Obstacle, OccupancyGrid};
 pub use lanes::LanePos;

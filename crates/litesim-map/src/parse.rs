@@ -8,7 +8,7 @@
 
 use crate::geometry::{Geometry, Shape};
 use crate::model::*;
-use roxmltree::{Document, Node};
+use crate::xml::{Node, Stream, Tree, XmlError};
 use std::collections::BTreeMap;
 
 /// A load error: where (element path, line, column) and what.
@@ -39,7 +39,13 @@ pub struct Warning {
 }
 
 struct Ctx<'a> {
-    doc: &'a Document<'a>,
+    text: &'a str,
+    /// Byte offsets where each line starts: a node's line is a binary
+    /// search, not a scan from the file's start (roxmltree's
+    /// `text_pos_at` scans, which made loading quadratic in the file's size
+    /// where warnings and ignored elements need lines: 90 % of a town map's
+    /// load time).
+    line_starts: Vec<usize>,
     file: String,
     warnings: Vec<Warning>,
     skipped: BTreeMap<String, (u32, String, usize)>,
@@ -49,8 +55,27 @@ type R<T> = Result<T, MapError>;
 
 impl<'a> Ctx<'a> {
     fn pos(&self, n: Node) -> (u32, u32) {
-        let p = self.doc.text_pos_at(n.range().start);
-        (p.row, p.col)
+        self.pos_at(n.start())
+    }
+    fn pos_at(&self, at: usize) -> (u32, u32) {
+        let text = self.text;
+        let at = at.min(text.len());
+        // Lines are 1-based, columns count characters from 1 (as roxmltree
+        // counts them).
+        let line = self.line_starts.partition_point(|&l| l <= at);
+        let start = self.line_starts[line - 1];
+        let col = text.get(start..at).map_or(1, |t| t.chars().count() + 1);
+        (line as u32, col as u32)
+    }
+    fn xml_err(&self, e: XmlError) -> MapError {
+        let (line, column) = self.pos_at(e.pos);
+        MapError {
+            file: self.file.clone(),
+            line,
+            column,
+            path: String::new(),
+            message: e.message,
+        }
     }
     fn err(&self, n: Node, path: &str, message: impl Into<String>) -> MapError {
         let (line, column) = self.pos(n);
@@ -72,14 +97,17 @@ impl<'a> Ctx<'a> {
     }
     /// Records an ignored element; warnings are aggregated per element name.
     fn skip(&mut self, n: Node, path: &str) {
-        let name = n.tag_name().name().to_string();
+        // Maps repeat the same ignored element thousands of times
+        // (userData per lane): only its first sighting allocates.
+        if let Some(e) = self.skipped.get_mut(n.name()) {
+            e.2 += 1;
+            return;
+        }
         let (line, _) = self.pos(n);
-        let e = self.skipped.entry(name).or_insert((
-            line,
-            format!("{path}/{}", n.tag_name().name()),
-            0,
-        ));
-        e.2 += 1;
+        self.skipped.insert(
+            n.name().to_string(),
+            (line, format!("{path}/{}", n.name()), 1),
+        );
     }
     fn req_f64(&self, n: Node, path: &str, name: &str) -> R<f64> {
         match n.attribute(name) {
@@ -182,8 +210,14 @@ impl<'a> Ctx<'a> {
     }
 }
 
-fn elements<'a, 'i>(n: Node<'a, 'i>) -> impl Iterator<Item = Node<'a, 'i>> {
-    n.children().filter(|c| c.is_element())
+/// The offsets just after each `\n`.
+fn after_newlines(text: &str) -> impl Iterator<Item = usize> + '_ {
+    // match_indices on a char searches with memchr.
+    text.match_indices('\n').map(|(i, _)| i + 1)
+}
+
+fn elements<'t, 'a>(n: Node<'t, 'a>) -> impl Iterator<Item = Node<'t, 'a>> + use<'t, 'a> {
+    n.elements()
 }
 
 fn boolean(v: Option<&str>) -> bool {
@@ -211,86 +245,35 @@ pub const MAX_LENGTH_M: f64 = 100_000.0;
 /// Largest |curvature| of an arc or spiral (1/m).
 pub const MAX_CURVATURE: f64 = 100.0;
 
-/// Published maps put a licence comment or blank lines before the XML
-/// declaration, or start with a byte-order mark; XML itself wants the
-/// declaration first. The mark is dropped and a declaration that is not
-/// first is blanked out (spaces of the same length, so that line and
-/// column numbers of later errors stay true). `None`: nothing to change.
-fn xml_prologue(text: &str) -> Option<String> {
-    let body = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let decl = body.find("<?xml");
-    // Only a declaration before the first element counts.
-    let first_elem = body
-        .match_indices('<')
-        .map(|(i, _)| i)
-        .find(|&i| !body[i..].starts_with("<?") && !body[i..].starts_with("<!"));
-    let misplaced = match (decl, first_elem) {
-        (Some(d), Some(e)) if d > 0 && d < e => Some(d),
-        (Some(d), None) if d > 0 => Some(d),
-        _ => None,
-    };
-    if misplaced.is_none() && body.len() == text.len() {
-        return None;
-    }
-    let mut out = body.to_string();
-    if let Some(d) = misplaced
-        && let Some(end) = body[d..].find("?>")
-    {
-        let blank: String = body[d..d + end + 2]
-            .chars()
-            .map(|c| if c == '\n' { '\n' } else { ' ' })
-            .collect();
-        out.replace_range(d..d + end + 2, &blank);
-    }
-    Some(out)
-}
-
 /// Parses OpenDRIVE text. `file` names the source in messages.
 pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapError> {
-    let cleaned = xml_prologue(text);
-    let text = cleaned.as_deref().unwrap_or(text);
-    let doc = Document::parse(text).map_err(|e| {
-        let p = e.pos();
-        // The input ended early: the place is where it ended (the parser
-        // reports the document's start).
-        let (line, column) = if matches!(e, roxmltree::Error::UnexpectedEndOfStream) {
-            let line = text.matches('\n').count() as u32 + 1;
-            let col = text.rsplit('\n').next().map_or(0, |l| l.chars().count()) as u32 + 1;
-            (line, col)
-        } else {
-            (p.row, p.col)
-        };
-        MapError {
-            file: file.into(),
-            line,
-            column,
-            path: String::new(),
-            message: format!("malformed XML: {e}"),
-        }
-    })?;
+    let line_starts = std::iter::once(0).chain(after_newlines(text)).collect();
     let mut cx = Ctx {
-        doc: &doc,
+        text,
+        line_starts,
         file: file.into(),
         warnings: Vec::new(),
         skipped: BTreeMap::new(),
     };
-    let root = doc.root_element();
-    if root.tag_name().name() != "OpenDRIVE" {
+    // The document is read one top-level element at a time (see `xml`):
+    // memory stays the text plus the model, whatever the map's size.
+    let (mut stream, root_tree) = Stream::open(text).map_err(|e| cx.xml_err(e))?;
+    let root = root_tree.root();
+    if root.name() != "OpenDRIVE" {
         return Err(cx.err(
             root,
             "",
-            format!(
-                "root element is <{}>, expected <OpenDRIVE>",
-                root.tag_name().name()
-            ),
+            format!("root element is <{}>, expected <OpenDRIVE>", root.name()),
         ));
     }
     let mut od = OpenDrive::default();
     // Road id → the line of its element (duplicates point at both).
     let mut road_lines: BTreeMap<String, u32> = BTreeMap::new();
     let mut saw_header = false;
-    for n in elements(root) {
-        match n.tag_name().name() {
+    let mut tree = Tree::new(text);
+    while stream.next(&mut tree).map_err(|e| cx.xml_err(e))? {
+        let n = tree.root();
+        match n.name() {
             "header" => {
                 saw_header = true;
                 od.header = header(&mut cx, n)?;
@@ -320,7 +303,7 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
                     id: cx.req_str(n, &path, "id")?,
                     name: n.attribute("name").unwrap_or("").into(),
                     signals: elements(n)
-                        .filter(|c| c.tag_name().name() == "control")
+                        .filter(|c| c.name() == "control")
                         .map(|c| cx.req_str(c, &format!("{path}/control"), "signalId"))
                         .collect::<R<_>>()?,
                 });
@@ -395,7 +378,7 @@ fn header(cx: &mut Ctx, n: Node) -> R<Header> {
         ..Header::default()
     };
     for c in elements(n) {
-        match c.tag_name().name() {
+        match c.name() {
             "geoReference" => h.geo_reference = Some(c.text().unwrap_or("").trim().to_string()),
             "offset" => {
                 let p = format!("{path}/offset");
@@ -481,11 +464,11 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
     let mut saw_plan = false;
     let mut saw_lanes = false;
     for c in elements(n) {
-        match c.tag_name().name() {
+        match c.name() {
             "link" => {
                 for l in elements(c) {
-                    let p = format!("{path}/link/{}", l.tag_name().name());
-                    match l.tag_name().name() {
+                    let p = format!("{path}/link/{}", l.name());
+                    match l.name() {
                         "predecessor" => r.predecessor = Some(link(cx, l, &p)?),
                         "successor" => r.successor = Some(link(cx, l, &p)?),
                         _ => cx.skip(l, &format!("{path}/link")),
@@ -494,7 +477,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             }
             "type" => {
                 let p = format!("{path}/type");
-                let sp = elements(c).find(|s| s.tag_name().name() == "speed");
+                let sp = elements(c).find(|s| s.name() == "speed");
                 r.types.push(RoadType {
                     s: cx.req_f64(c, &p, "s")?,
                     kind: c.attribute("type").unwrap_or("unknown").trim().into(),
@@ -505,7 +488,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
                 saw_plan = true;
                 for (i, g) in elements(c).enumerate() {
                     let p = format!("{path}/planView/geometry[{i}]");
-                    if g.tag_name().name() != "geometry" {
+                    if g.name() != "geometry" {
                         cx.skip(g, &format!("{path}/planView"));
                         continue;
                     }
@@ -513,7 +496,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
                 }
             }
             "elevationProfile" => {
-                for e in elements(c).filter(|e| e.tag_name().name() == "elevation") {
+                for e in elements(c).filter(|e| e.name() == "elevation") {
                     r.elevation.push(cx.cubic(
                         e,
                         &format!("{path}/elevationProfile/elevation"),
@@ -523,7 +506,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             }
             "lateralProfile" => {
                 for e in elements(c) {
-                    match e.tag_name().name() {
+                    match e.name() {
                         "superelevation" => r.superelevation.push(cx.cubic(
                             e,
                             &format!("{path}/lateralProfile/superelevation"),
@@ -536,7 +519,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             "lanes" => {
                 saw_lanes = true;
                 for (i, e) in elements(c).enumerate() {
-                    match e.tag_name().name() {
+                    match e.name() {
                         "laneOffset" => r.lane_offsets.push(cx.cubic(
                             e,
                             &format!("{path}/lanes/laneOffset"),
@@ -554,7 +537,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             "signals" => {
                 for (i, s) in elements(c).enumerate() {
                     let p = format!("{path}/signals/signal[{i}]");
-                    match s.tag_name().name() {
+                    match s.name() {
                         "signal" => r.signals.push(signal(cx, s, &p)?),
                         _ => cx.skip(s, &format!("{path}/signals")),
                     }
@@ -563,7 +546,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             "objects" => {
                 for (i, o) in elements(c).enumerate() {
                     let p = format!("{path}/objects/object[{i}]");
-                    match o.tag_name().name() {
+                    match o.name() {
                         "object" => r.objects.push(RoadObject {
                             id: o.attribute("id").unwrap_or("").into(),
                             kind: o.attribute("type").unwrap_or("none").into(),
@@ -662,22 +645,18 @@ fn geometry(cx: &mut Ctx, g: Node, path: &str) -> R<Geometry> {
     if length < 0.0 {
         return Err(cx.err(g, path, format!("length = {length} must not be negative")));
     }
-    let shape_node = elements(g).find(|c| {
-        matches!(
-            c.tag_name().name(),
-            "line" | "arc" | "spiral" | "poly3" | "paramPoly3"
-        )
-    });
+    let shape_node = elements(g)
+        .find(|c| matches!(c.name(), "line" | "arc" | "spiral" | "poly3" | "paramPoly3"));
     let Some(c) = shape_node else {
-        let found: Vec<&str> = elements(g).map(|c| c.tag_name().name()).collect();
+        let found: Vec<&str> = elements(g).map(|c| c.name()).collect();
         return Err(cx.err(
             g,
             path,
             format!("unknown geometry: expected one of line, arc, spiral, poly3, paramPoly3; found [{}]", found.join(", ")),
         ));
     };
-    let p = format!("{path}/{}", c.tag_name().name());
-    let shape = match c.tag_name().name() {
+    let p = format!("{path}/{}", c.name());
+    let shape = match c.name() {
         "line" => Shape::Line,
         "arc" => Shape::Arc {
             curvature: cx.curvature(c, &p, "curvature")?,
@@ -730,12 +709,12 @@ fn section(cx: &mut Ctx, n: Node, path: &str) -> R<LaneSection> {
         right: Vec::new(),
     };
     for side in elements(n) {
-        let side_name = side.tag_name().name();
+        let side_name = side.name();
         if !matches!(side_name, "left" | "center" | "right") {
             cx.skip(side, path);
             continue;
         }
-        for l in elements(side).filter(|l| l.tag_name().name() == "lane") {
+        for l in elements(side).filter(|l| l.name() == "lane") {
             let lp = format!(
                 "{path}/{side_name}/lane[id={}]",
                 l.attribute("id").unwrap_or("?")
@@ -787,9 +766,15 @@ fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
         direction: l.attribute("direction").unwrap_or("standard").into(),
         max_speed: None,
     };
+    // The children's paths (for messages) share one buffer: a lane has
+    // several children and a town map tens of thousands of lanes.
+    let mut p = String::with_capacity(path.len() + 16);
     for c in elements(l) {
-        let p = format!("{path}/{}", c.tag_name().name());
-        match c.tag_name().name() {
+        p.clear();
+        p.push_str(path);
+        p.push('/');
+        p.push_str(c.name());
+        match c.name() {
             "width" => {
                 let w = cx.cubic(c, &p, "sOffset")?;
                 if w.a < 0.0 {
@@ -815,11 +800,20 @@ fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
                 width: cx.f64_or(c, &p, "width", 0.12)?,
             }),
             "link" => {
+                let base = p.len();
                 for e in elements(c) {
-                    let lp = format!("{p}/{}", e.tag_name().name());
-                    match e.tag_name().name() {
-                        "predecessor" => lane.predecessor = Some(cx.req_i32(e, &lp, "id")?),
-                        "successor" => lane.successor = Some(cx.req_i32(e, &lp, "id")?),
+                    p.truncate(base);
+                    match e.name() {
+                        which @ ("predecessor" | "successor") => {
+                            p.push('/');
+                            p.push_str(which);
+                            let id = Some(cx.req_i32(e, &p, "id")?);
+                            if which == "predecessor" {
+                                lane.predecessor = id;
+                            } else {
+                                lane.successor = id;
+                            }
+                        }
                         _ => cx.skip(e, &p),
                     }
                 }
@@ -843,12 +837,10 @@ fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
 }
 
 fn signal(cx: &mut Ctx, s: Node, path: &str) -> R<Signal> {
-    let validity = elements(s)
-        .find(|c| c.tag_name().name() == "validity")
-        .map(|v| {
-            let p = format!("{path}/validity");
-            Ok::<_, MapError>((cx.req_i32(v, &p, "fromLane")?, cx.req_i32(v, &p, "toLane")?))
-        });
+    let validity = elements(s).find(|c| c.name() == "validity").map(|v| {
+        let p = format!("{path}/validity");
+        Ok::<_, MapError>((cx.req_i32(v, &p, "fromLane")?, cx.req_i32(v, &p, "toLane")?))
+    });
     Ok(Signal {
         id: cx.req_str(s, path, "id")?,
         name: s.attribute("name").unwrap_or("").into(),
@@ -876,7 +868,7 @@ fn junction(cx: &mut Ctx, n: Node) -> R<Junction> {
         controllers: Vec::new(),
     };
     for c in elements(n) {
-        match c.tag_name().name() {
+        match c.name() {
             "connection" => {
                 let p = format!("{path}/connection[id={}]", c.attribute("id").unwrap_or("?"));
                 let connecting = c
@@ -901,7 +893,7 @@ fn junction(cx: &mut Ctx, n: Node) -> R<Junction> {
                     }
                 };
                 let mut links = Vec::new();
-                for l in elements(c).filter(|l| l.tag_name().name() == "laneLink") {
+                for l in elements(c).filter(|l| l.name() == "laneLink") {
                     let lp = format!("{p}/laneLink");
                     links.push((cx.req_i32(l, &lp, "from")?, cx.req_i32(l, &lp, "to")?));
                 }
@@ -921,4 +913,36 @@ fn junction(cx: &mut Ctx, n: Node) -> R<Junction> {
         }
     }
     Ok(j)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The line index gives the place roxmltree's own (scanning) lookup
+    /// gives, for every element, with multi-byte characters and CRLF.
+    #[test]
+    fn positions_from_the_line_index_match_roxmltree() {
+        let text = "<?xml version=\"1.0\"?>\r\n<!-- Straße ö -->\r\n<OpenDRIVE><header/>\n  <road id=\"ä\"><planView/></road>\r\n\n<x>  <ü a=\"1\"/><y/></x></OpenDRIVE>\n";
+        let doc = roxmltree::Document::parse(text).unwrap();
+        let cx = Ctx {
+            text,
+            line_starts: std::iter::once(0).chain(after_newlines(text)).collect(),
+            file: String::new(),
+            warnings: Vec::new(),
+            skipped: BTreeMap::new(),
+        };
+        let mut n = 0;
+        for node in doc.descendants().filter(|d| d.is_element()) {
+            let want = doc.text_pos_at(node.range().start);
+            assert_eq!(
+                cx.pos_at(node.range().start),
+                (want.row, want.col),
+                "{:?}",
+                node.tag_name()
+            );
+            n += 1;
+        }
+        assert_eq!(n, 7);
+    }
 }
