@@ -37,6 +37,10 @@ const BEHAVIOUR_MEMBERS: &[&str] = &[
 /// A compound's kind, own parameters and base.
 type Compound = (DeclKind, Vec<(String, TypeRef)>, Option<String>);
 
+/// A type's name inside [`Ty`]: shared, because types are copied at every
+/// field lookup and literal (a copy is a count, not an allocation).
+type Sym = std::rc::Rc<str>;
+
 /// The type of an expression, as far as the checker can tell.
 #[derive(Clone, Debug, PartialEq)]
 enum Ty {
@@ -46,9 +50,9 @@ enum Ty {
     /// `int`, `uint` and `float` mix freely.
     Number,
     Str,
-    Physical(String),
-    Enum(String),
-    Compound(String),
+    Physical(Sym),
+    Enum(Sym),
+    Compound(Sym),
     List(Box<Ty>),
 }
 
@@ -70,7 +74,7 @@ impl Ty {
 #[derive(Default)]
 struct Model {
     physical: BTreeSet<String>,
-    units: BTreeMap<String, String>,
+    units: BTreeMap<String, Sym>,
     enums: BTreeMap<String, BTreeSet<String>>,
     /// compound name (behaviours by their own name) → what it is
     compounds: BTreeMap<String, Compound>,
@@ -128,7 +132,7 @@ impl Model {
             units: ix
                 .units
                 .iter()
-                .map(|(k, u)| (k.clone(), u.of.clone()))
+                .map(|(k, u)| (k.clone(), Sym::from(u.of.as_str())))
                 .collect(),
             enums: ix.enums.clone(),
             compounds: ix
@@ -199,11 +203,11 @@ impl Model {
     }
     /// `sub` is `sup` or inherits from it (directly or not).
     fn is_a(&self, sub: &str, sup: &str) -> bool {
-        let mut cur = Some(sub.to_string());
+        let mut cur = Some(sub);
         for _ in 0..64 {
             match cur {
                 Some(n) if n == sup => return true,
-                Some(n) => cur = self.compounds.get(&n).and_then(|c| c.2.clone()),
+                Some(n) => cur = self.compounds.get(n).and_then(|c| c.2.as_deref()),
                 None => return false,
             }
         }
@@ -277,7 +281,7 @@ fn labels(d: &DoMember, m: &Model, out: &mut Vec<(String, Ty)>) {
             if let Some(l) = &d.label {
                 let ty = call_target(call)
                     .filter(|(n, _)| m.compounds.contains_key(&n.text))
-                    .map_or(Ty::Unknown, |(n, _)| Ty::Compound(n.text));
+                    .map_or(Ty::Unknown, |(n, _)| Ty::Compound(n.text.into()));
                 out.push((l.text.clone(), ty));
             }
         }
@@ -321,7 +325,7 @@ impl Checker<'_> {
     /// Resolves a bare name; `want` lets an enum member be written unqualified.
     fn ident(&mut self, name: &str, span: Span, want: Option<&Ty>) -> Ty {
         if let Some(Ty::Enum(e)) = want
-            && self.m.enums.get(e).is_some_and(|s| s.contains(name))
+            && self.m.enums.get(&**e).is_some_and(|s| s.contains(name))
         {
             return Ty::Enum(e.clone());
         }
@@ -336,7 +340,7 @@ impl Checker<'_> {
         if name == "actor"
             && let Some(a) = &self.scope.actor
         {
-            return Ty::Compound(a.clone());
+            return Ty::Compound(a.as_str().into());
         }
         if let Some(t) = self.m.globals.get(name) {
             return self.m.ty_of(t);
@@ -355,7 +359,7 @@ impl Checker<'_> {
             let members: Vec<&str> = self
                 .m
                 .enums
-                .get(e)
+                .get(&**e)
                 .map(|s| s.iter().map(String::as_str).collect())
                 .unwrap_or_default();
             self.err(
@@ -367,7 +371,7 @@ impl Checker<'_> {
             return Ty::Unknown;
         }
         if owners.len() == 1 {
-            return Ty::Enum(owners[0].clone());
+            return Ty::Enum(owners[0].as_str().into());
         }
         if !owners.is_empty() {
             return Ty::Unknown;
@@ -449,7 +453,7 @@ impl Checker<'_> {
                 member,
                 span,
             } => match self.m.enums.get(enum_name) {
-                Some(ms) if ms.contains(member) => Ty::Enum(enum_name.clone()),
+                Some(ms) if ms.contains(member) => Ty::Enum(enum_name.as_str().into()),
                 Some(ms) => {
                     let list: Vec<&str> = ms.iter().map(String::as_str).collect();
                     self.err(
@@ -498,7 +502,7 @@ impl Checker<'_> {
                         // Behaviours have builtin members (events, their actor, timing).
                         None if BEHAVIOUR_MEMBERS.contains(&name.text.as_str())
                             && matches!(
-                                self.m.compounds.get(&c),
+                                self.m.compounds.get(&*c),
                                 Some((DeclKind::Scenario | DeclKind::Action, ..))
                             ) =>
                         {
@@ -673,8 +677,10 @@ impl Checker<'_> {
 
     /// `name(args)` against a modifier's or behaviour's parameters.
     fn call_args(&mut self, what: &str, key: &str, name: &Name, args: &[Arg]) {
-        let empty = Vec::new();
-        let params = self.m.param_types.get(key).unwrap_or(&empty);
+        // The model outlives the checker's borrow of itself: parameters and
+        // their types are read from it without copies.
+        let m = self.m;
+        let params: &[(String, Ty)] = m.param_types.get(key).map_or(&[], |p| p.as_slice());
         if self.carla && params.is_empty() {
             // Native in the CARLA dialect: the lowering checks what it uses.
             for a in args {
@@ -703,7 +709,7 @@ impl Checker<'_> {
                 )),
             );
         }
-        let mut given: BTreeSet<String> = BTreeSet::new();
+        let mut given: Vec<&str> = Vec::new();
         for (i, a) in args.iter().enumerate() {
             let param = match &a.name {
                 Some(n) => match params.iter().find(|(p, _)| *p == n.text) {
@@ -723,7 +729,7 @@ impl Checker<'_> {
             };
             match param {
                 Some((pname, ty)) => {
-                    if !given.insert(pname.clone()) {
+                    if given.contains(&pname.as_str()) {
                         self.err(
                             "E0316",
                             a.value.span(),
@@ -731,8 +737,8 @@ impl Checker<'_> {
                             None,
                         );
                     }
-                    let want = ty.clone();
-                    self.value_for(&a.value, &want, || {
+                    given.push(pname);
+                    self.value_for(&a.value, ty, || {
                         format!("'{pname}' of {what} '{}'", name.text)
                     });
                 }
@@ -757,7 +763,7 @@ impl Checker<'_> {
         let key = modifier_key(&name.text);
         // `modifier car.m` applies to cars (and what inherits from car).
         if let (Some(Ty::Compound(t)), Some(owner)) = (&receiver, self.m.owners.get(&key))
-            && self.m.compounds.contains_key(t)
+            && self.m.compounds.contains_key(&**t)
             && !self.m.is_a(t, owner)
         {
             let (t, owner) = (t.clone(), owner.clone());
@@ -1162,7 +1168,7 @@ impl Checker<'_> {
         self.m
             .units
             .iter()
-            .filter(|(_, q)| *q == p)
+            .filter(|(_, q)| ***q == *p)
             .min_by_key(|(u, _)| u.len())
             .map_or_else(|| "?".into(), |(u, _)| u.clone())
     }
@@ -1243,7 +1249,7 @@ impl Checker<'_> {
         let (Ty::Compound(t), Some(owner)) = (receiver, self.m.owners.get(&name.text)) else {
             return;
         };
-        if !self.m.compounds.contains_key(t) || self.m.is_a(t, owner) {
+        if !self.m.compounds.contains_key(&**t) || self.m.is_a(t, owner) {
             return;
         }
         let owner = owner.clone();
