@@ -1550,6 +1550,7 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
             }
         }
     }
+    behaviour_dos(prog, out);
     // A member may not redefine one its type inherits (§3.5): the first
     // ancestor that defines the name is the other place.
     let mut bases: BTreeMap<String, String> = BTreeMap::new();
@@ -1588,6 +1589,119 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                 }
                 cur = bases.get(b);
             }
+        }
+    }
+}
+
+/// `do` (§3.5, §3.13): only scenarios and actions have one (E0344), and
+/// at most one effective `do` each, across the declaration, its
+/// `extend`s and what it inherits (E0343; the engine would run one and
+/// drop the others).
+fn behaviour_dos(prog: &Program, out: &mut Vec<Diagnostic>) {
+    let qual = |q: &QualName| {
+        q.actor.as_ref().map_or(q.name.text.clone(), |a| {
+            format!("{}.{}", a.text, q.name.text)
+        })
+    };
+    let dos_of = |ms: &[Member]| -> Vec<Span> {
+        ms.iter()
+            .filter_map(|m| match m {
+                Member::Do(d) => Some(d.span),
+                _ => None,
+            })
+            .collect()
+    };
+    // Compound key → kind, base and its `do`s in file order (declaration
+    // and extensions).
+    let mut kinds: BTreeMap<String, (DeclKind, Option<String>)> = BTreeMap::new();
+    let mut dos: BTreeMap<String, Vec<Span>> = BTreeMap::new();
+    for (_, f) in &prog.files {
+        for d in &f.decls {
+            match d {
+                Decl::Compound {
+                    name,
+                    kind,
+                    inherits,
+                    members,
+                    ..
+                } => {
+                    let key = qual(name);
+                    // A name declared twice (E0336/E0337 report it) counts as
+                    // a behaviour if one declaration is one: CARLA's
+                    // `scenario top` beside the domain's `actor top`.
+                    let entry = (*kind, inherits.as_ref().map(|(b, _)| qual(b)));
+                    match kinds.get(&key) {
+                        Some((DeclKind::Scenario | DeclKind::Action, _)) => {}
+                        Some(_) if !matches!(kind, DeclKind::Scenario | DeclKind::Action) => {}
+                        _ => {
+                            kinds.insert(key.clone(), entry);
+                        }
+                    }
+                    dos.entry(key).or_default().extend(dos_of(members));
+                }
+                Decl::Extend { target, members } => {
+                    dos.entry(qual(target)).or_default().extend(dos_of(members));
+                }
+                _ => {}
+            }
+        }
+    }
+    for (key, spans) in &dos {
+        let Some((kind, base)) = kinds.get(key) else {
+            continue; // an extend of an unknown type: reported elsewhere
+        };
+        if !matches!(kind, DeclKind::Scenario | DeclKind::Action) {
+            let what = match kind {
+                DeclKind::Struct => "a struct",
+                DeclKind::Actor => "an actor",
+                _ => "a modifier",
+            };
+            for &at in spans {
+                out.push(
+                    Diagnostic::error(
+                        "E0344",
+                        at,
+                        format!("'{key}' is {what}: only scenarios and actions have a `do`"),
+                    )
+                    .with_hint("declare the behaviour as a scenario (on the actor: `scenario A.name:`) and give it the `do`"),
+                );
+            }
+            continue;
+        }
+        if let [first, second, ..] = spans[..] {
+            out.push(
+                Diagnostic::error(
+                    "E0343",
+                    second,
+                    format!("'{key}' has a second `do`; a scenario or action has at most one"),
+                )
+                .with_hint("put both in one `do` (e.g. `do serial:` with the two as its members), or remove one; with several `extend`s of one scenario, only one may add the `do`")
+                .with_related(first, "its first `do` is here"),
+            );
+            continue;
+        }
+        // One of its own, and one it inherits: the nearest ancestor with one.
+        let Some(&own) = spans.first() else { continue };
+        let mut cur = base.clone();
+        let mut guard = 0;
+        while let Some(b) = cur {
+            guard += 1;
+            if guard > 64 || &b == key {
+                break; // an inheritance cycle: E0339 reports it
+            }
+            if let Some(&inherited) = dos.get(&b).and_then(|v| v.first()) {
+                out.push(
+                    Diagnostic::error(
+                        "E0343",
+                        own,
+                        format!("'{key}' has a `do` and inherits one from '{b}'; a scenario or action has at most one effective `do`"),
+                    )
+                    .with_hint("inherit from a scenario without a `do`, or invoke the base scenario from this one's `do` instead of inheriting it")
+                    .with_related(inherited, "the inherited `do` is here"),
+                );
+                break;
+            }
+            cur = kinds.get(&b).and_then(|(_, bb)| bb.clone());
         }
     }
 }
