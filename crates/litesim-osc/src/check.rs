@@ -88,6 +88,9 @@ struct Model {
     /// The actor each actor-qualified action, scenario or modifier is
     /// declared on (`action vehicle.drive` → vehicle).
     owners: BTreeMap<String, String>,
+    /// Each compound's own events (declaration and extensions): name →
+    /// parameters in order, each with whether it has a default.
+    events: BTreeMap<String, BTreeMap<String, Vec<(String, bool)>>>,
 }
 
 fn close_names<'a>(name: &str, all: impl Iterator<Item = &'a String>) -> String {
@@ -152,6 +155,31 @@ impl Model {
                 .compounds
                 .iter()
                 .filter_map(|(k, c)| c.owner.clone().map(|o| (k.clone(), o)))
+                .collect(),
+            events: ix
+                .compounds
+                .iter()
+                .map(|(k, c)| {
+                    let evs = c
+                        .body
+                        .iter()
+                        .filter_map(|m| match m {
+                            Member::Event { name, params, .. } => Some((
+                                name.text.clone(),
+                                params
+                                    .iter()
+                                    .flat_map(|f| {
+                                        f.names
+                                            .iter()
+                                            .map(|n| (n.text.clone(), f.default.is_some()))
+                                    })
+                                    .collect(),
+                            )),
+                            _ => None,
+                        })
+                        .collect();
+                    (k.clone(), evs)
+                })
                 .collect(),
             ..Model::default()
         };
@@ -859,8 +887,19 @@ impl Checker<'_> {
                     body.iter().for_each(|d| self.do_member(d))
                 }
                 Member::Until(spec) => self.event_spec(spec),
-                Member::Event { params, is, .. } => {
+                Member::Event { name, params, is } => {
                     params.iter().for_each(|p| self.type_ref(&p.ty));
+                    if !params.is_empty() && is.is_some() {
+                        self.err(
+                            "E0345",
+                            name.span,
+                            format!(
+                                "event '{}' has parameters and an `is` specification; only an event without parameters may have one (§3.8)",
+                                name.text
+                            ),
+                            Some("drop the parameters (its occurrences carry no values then), or the `is` part and `emit` it with its arguments".into()),
+                        );
+                    }
                     if let Some(s) = is {
                         self.event_spec(s);
                     }
@@ -1239,7 +1278,107 @@ impl Checker<'_> {
                 self.members(with);
             }
             DoKind::Wait(spec) => self.event_spec(spec),
-            DoKind::Emit { .. } | DoKind::Call { .. } => {}
+            DoKind::Emit { event } => self.emit(event),
+            DoKind::Call { .. } => {}
+        }
+    }
+
+    /// `emit e(args)` of an event of this body's compound (or one it
+    /// inherits): every parameter without a default gets a value, and no
+    /// more arguments than parameters are given (E0346). Events of other
+    /// objects and unknown names are left to the engine.
+    fn emit(&mut self, event: &Expr) {
+        let (callee, args): (&Expr, &[Arg]) = match event {
+            Expr::Call { callee, args, .. } => (callee, args),
+            e => (e, &[]),
+        };
+        if let Expr::Ident { name, span } = callee {
+            let n = Name {
+                text: name.clone(),
+                span: *span,
+            };
+            self.emit_checked(&n, args, event.span());
+        }
+    }
+
+    fn emit_checked(&mut self, name: &Name, args: &[Arg], at: Span) {
+        let m = self.m;
+        let Some(this) = self.scope.this.as_deref() else {
+            return;
+        };
+        // The nearest compound in the inheritance chain that declares it.
+        let mut cur = Some(this);
+        let mut params = None;
+        for _ in 0..64 {
+            let Some(c) = cur else { break };
+            if let Some(p) = m.events.get(c).and_then(|e| e.get(&name.text)) {
+                params = Some(p);
+                break;
+            }
+            cur = m.compounds.get(c).and_then(|c| c.2.as_deref());
+        }
+        let Some(params) = params else { return };
+        for a in args {
+            self.expr(&a.value, None);
+        }
+        let positional = args.iter().filter(|a| a.name.is_none()).count();
+        let names = || {
+            params
+                .iter()
+                .map(|(p, _)| p.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if args.len() > params.len() {
+            let list = names();
+            self.err(
+                "E0346",
+                at,
+                format!(
+                    "event '{}' has {} parameter(s), {} argument(s) given",
+                    name.text,
+                    params.len(),
+                    args.len()
+                ),
+                Some(if list.is_empty() {
+                    "emit it without arguments".into()
+                } else {
+                    format!("its parameters: {list}")
+                }),
+            );
+            return;
+        }
+        let missing: Vec<&str> = params
+            .iter()
+            .enumerate()
+            .filter(|(i, (p, has_default))| {
+                !has_default
+                    && *i >= positional
+                    && !args
+                        .iter()
+                        .any(|a| a.name.as_ref().is_some_and(|n| &n.text == p))
+            })
+            .map(|(_, (p, _))| p.as_str())
+            .collect();
+        if !missing.is_empty() {
+            self.err(
+                "E0346",
+                at,
+                format!(
+                    "`emit {}` gives no value for {}",
+                    name.text,
+                    missing
+                        .iter()
+                        .map(|p| format!("'{p}'"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+                Some(format!(
+                    "an occurrence carries a value for every parameter without a default: emit {}({})",
+                    name.text,
+                    names()
+                )),
+            );
         }
     }
 
