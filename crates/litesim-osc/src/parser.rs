@@ -235,6 +235,17 @@ impl<'a> P<'a> {
         } else {
             false
         };
+        // `list of list of T`: the grammar's element type is not a list
+        // (§3.3). Said precisely here rather than as an unexpected `of`.
+        if list && self.is_kw("list") && matches!(self.nth(1), Tok::Ident(s) if s == "of") {
+            let at = self.span();
+            self.diags.push(
+                Diagnostic::error("E0125", at, "a list of lists is not allowed: the element type of `list of` is a scalar, struct or actor type")
+                    .with_hint("wrap the inner list in a struct (`struct row: items: list of T`) and make a list of that"),
+            );
+            self.bump();
+            self.bump();
+        }
         let base = self.qual_name("a type")?;
         Some(TypeRef { list, base })
     }
