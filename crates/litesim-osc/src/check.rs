@@ -350,6 +350,24 @@ impl Checker<'_> {
         }
     }
 
+    /// A bare name that is no local, field, global or actor but a member
+    /// of several enums: its type must come from the other operand.
+    fn bare_literal(&self, e: &Expr) -> bool {
+        let Expr::Ident { name, .. } = e else {
+            return false;
+        };
+        let name = name.as_str();
+        !self.scope.locals.iter().any(|(n, _)| n == name)
+            && self
+                .scope
+                .this
+                .as_deref()
+                .is_none_or(|t| self.m.field(t, name).is_none())
+            && !self.m.globals.contains_key(name)
+            && !self.m.compounds.contains_key(name)
+            && self.m.enums.values().filter(|ms| ms.contains(name)).count() > 1
+    }
+
     /// Resolves a bare name; `want` lets an enum member be written unqualified.
     fn ident(&mut self, name: &str, span: Span, want: Option<&Ty>) -> Ty {
         if let Some(Ty::Enum(e)) = want
@@ -402,6 +420,26 @@ impl Checker<'_> {
             return Ty::Enum(owners[0].as_str().into());
         }
         if !owners.is_empty() {
+            // A member of several enums and nothing here says which (§3.3).
+            let list = owners
+                .iter()
+                .map(|e| format!("{e}!{name}"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            self.err(
+                "E0347",
+                span,
+                format!(
+                    "'{name}' is ambiguous: it is a member of {} and {}",
+                    owners[..owners.len() - 1]
+                        .iter()
+                        .map(|e| e.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    owners[owners.len() - 1]
+                ),
+                Some(format!("write the enum's name before it: {list}")),
+            );
             return Ty::Unknown;
         }
         let mut visible: Vec<String> = self.scope.locals.iter().map(|(n, _)| n.clone()).collect();
@@ -631,8 +669,16 @@ impl Checker<'_> {
                 Ty::Bool
             }
             _ => {
-                let a = self.expr(lhs, None);
-                let b = self.expr(rhs, Some(&a));
+                // `red == c`: a bare enum literal on the left takes its
+                // enum from the right operand, as it would on the right.
+                let (a, b) = if self.bare_literal(lhs) && !self.bare_literal(rhs) {
+                    let b = self.expr(rhs, None);
+                    (self.expr(lhs, Some(&b)), b)
+                } else {
+                    let a = self.expr(lhs, None);
+                    let b = self.expr(rhs, Some(&a));
+                    (a, b)
+                };
                 let comparable = self.m.fits(&a, &b) || self.m.fits(&b, &a);
                 match op {
                     "==" | "!=" | "<" | "<=" | ">" | ">=" => {
