@@ -109,61 +109,38 @@ pub fn town(spec: &TownSpec) -> String {
     // Signals per junction, for its controller.
     let mut junction_signals: Vec<Vec<usize>> = vec![Vec::new(); nx * ny];
 
-    // Roads between neighbouring junctions: east-west, then south-north.
-    for j in 0..ny {
-        for i in 0..nx.saturating_sub(1) {
-            let (a, b) = (junction_id(i, j), junction_id(i + 1, j));
-            let (cx, cy) = center(i, j);
-            let id = next_road;
-            next_road += 1;
-            arms[a][0] = Some(Attach {
-                road: id,
-                at_end: false,
-            });
-            arms[b][2] = Some(Attach {
-                road: id,
-                at_end: true,
-            });
-            let sig = street(
-                &mut out,
-                id,
-                (cx + R, cy),
-                0.0,
-                d - 2.0 * R,
-                (Some(a), Some(b)),
-                None,
-                &mut next_signal,
-            );
-            junction_signals[a].push(sig.0.expect("both ends at junctions"));
-            junction_signals[b].push(sig.1.expect("both ends at junctions"));
-        }
-    }
-    for j in 0..ny.saturating_sub(1) {
-        for i in 0..nx {
-            let (a, b) = (junction_id(i, j), junction_id(i, j + 1));
-            let (cx, cy) = center(i, j);
-            let id = next_road;
-            next_road += 1;
-            arms[a][1] = Some(Attach {
-                road: id,
-                at_end: false,
-            });
-            arms[b][3] = Some(Attach {
-                road: id,
-                at_end: true,
-            });
-            let sig = street(
-                &mut out,
-                id,
-                (cx, cy + R),
-                FRAC_PI_2,
-                d - 2.0 * R,
-                (Some(a), Some(b)),
-                None,
-                &mut next_signal,
-            );
-            junction_signals[a].push(sig.0.expect("both ends at junctions"));
-            junction_signals[b].push(sig.1.expect("both ends at junctions"));
+    // Roads between neighbouring junctions: east-west (from a junction's
+    // east arm to the next one's west arm), then south-north.
+    for (dx, dy, h) in [(1, 0, 0.0), (0, 1, FRAC_PI_2)] {
+        // The arm the road leaves from; the opposite arm is two further.
+        let arm = dy;
+        for j in 0..ny - dy {
+            for i in 0..nx - dx {
+                let (a, b) = (junction_id(i, j), junction_id(i + dx, j + dy));
+                let (cx, cy) = center(i, j);
+                let id = next_road;
+                next_road += 1;
+                arms[a][arm] = Some(Attach {
+                    road: id,
+                    at_end: false,
+                });
+                arms[b][arm + 2] = Some(Attach {
+                    road: id,
+                    at_end: true,
+                });
+                let sig = street(
+                    &mut out,
+                    id,
+                    (cx + R * dx as f64, cy + R * dy as f64),
+                    h,
+                    d - 2.0 * R,
+                    (Some(a), Some(b)),
+                    None,
+                    &mut next_signal,
+                );
+                junction_signals[a].push(sig.0.expect("both ends at junctions"));
+                junction_signals[b].push(sig.1.expect("both ends at junctions"));
+            }
         }
     }
     // Stubs on every free arm, leaving the grid; the first `extensions` of
