@@ -297,6 +297,16 @@ struct Checker<'a> {
     invoking: Option<Ty>,
 }
 
+/// Enums and numbers do not mix without a conversion (§3.3): say which.
+fn enum_number_hint(a: &Ty, b: &Ty) -> Option<String> {
+    match (a, b) {
+        (Ty::Enum(e), Ty::Number) | (Ty::Number, Ty::Enum(e)) => Some(format!(
+            "convert explicitly: `x.as(int)` gives an enum value's number, `n.as({e})` the {e} member numbered n"
+        )),
+        _ => None,
+    }
+}
+
 fn labels(d: &DoMember, m: &Model, out: &mut Vec<(String, Ty)>) {
     match &d.kind {
         DoKind::Composition { children, .. } => {
@@ -716,7 +726,8 @@ impl Checker<'_> {
             (Ty::Physical(x), Ty::Physical(y)) => format!("a {x} and a {y}"),
             _ => format!("{} and {}", a.describe(), b.describe()),
         };
-        self.err(code, span, format!("'{op}' mixes {what}"), None);
+        let hint = enum_number_hint(a, b);
+        self.err(code, span, format!("'{op}' mixes {what}"), hint);
     }
 
     /// Checks one value against a parameter's declared type.
@@ -734,7 +745,7 @@ impl Checker<'_> {
                 "E0314",
                 Some(format!("a {w} needs a unit, e.g. 20kph, 3s or 1.5m")),
             ),
-            _ => ("E0313", None),
+            _ => ("E0313", enum_number_hint(&got, want)),
         };
         self.err(
             code,
