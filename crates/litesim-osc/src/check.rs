@@ -1747,6 +1747,7 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
         }
     }
     behaviour_dos(prog, out);
+    conditional_bases(prog, out);
     // A member may not redefine one its type inherits (§3.5): the first
     // ancestor that defines the name is the other place.
     let mut bases: BTreeMap<String, String> = BTreeMap::new();
@@ -1784,6 +1785,55 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     break;
                 }
                 cur = bases.get(b);
+            }
+        }
+    }
+}
+
+/// A conditional type (`actor truck inherits vehicle (vehicle_category ==
+/// truck)`) may be inherited only conditionally (§3.5): an unconditional
+/// subtype would be a truck without the condition that makes one (E0348).
+fn conditional_bases(prog: &Program, out: &mut Vec<Diagnostic>) {
+    let qual = |q: &QualName| {
+        q.actor.as_ref().map_or(q.name.text.clone(), |a| {
+            format!("{}.{}", a.text, q.name.text)
+        })
+    };
+    let mut conditional: BTreeMap<String, Span> = BTreeMap::new();
+    for (_, f) in &prog.files {
+        for d in &f.decls {
+            if let Decl::Compound {
+                name,
+                inherits: Some((_, Some(_))),
+                ..
+            } = d
+            {
+                conditional.entry(qual(name)).or_insert(name.name.span);
+            }
+        }
+    }
+    for (_, f) in &prog.files {
+        for d in &f.decls {
+            if let Decl::Compound {
+                name,
+                inherits: Some((base, None)),
+                ..
+            } = d
+                && let Some(&decl) = conditional.get(&qual(base))
+            {
+                let b = qual(base);
+                out.push(
+                    Diagnostic::error(
+                        "E0348",
+                        base.name.span,
+                        format!(
+                            "'{}' inherits '{b}' unconditionally, but '{b}' is a conditional type; it can only be inherited with a condition",
+                            qual(name)
+                        ),
+                    )
+                    .with_hint(format!("inherit what '{b}' inherits, with a condition of its own, or give this inheritance a condition: `inherits {b} (field == value)`"))
+                    .with_related(decl, "declared conditional here"),
+                );
             }
         }
     }
