@@ -88,6 +88,9 @@ struct Model {
     /// The actor each actor-qualified action, scenario or modifier is
     /// declared on (`action vehicle.drive` → vehicle).
     owners: BTreeMap<String, String>,
+    /// Each compound's own variables (declaration and extensions): name →
+    /// where it is declared.
+    vars: BTreeMap<String, BTreeMap<String, Span>>,
     /// Each compound's own events (declaration and extensions): name →
     /// parameters in order, each with whether it has a default.
     events: BTreeMap<String, BTreeMap<String, Vec<(String, bool)>>>,
@@ -155,6 +158,23 @@ impl Model {
                 .compounds
                 .iter()
                 .filter_map(|(k, c)| c.owner.clone().map(|o| (k.clone(), o)))
+                .collect(),
+            vars: ix
+                .compounds
+                .iter()
+                .map(|(k, c)| {
+                    let vs = c
+                        .body
+                        .iter()
+                        .filter_map(|m| match m {
+                            Member::Field(f) if f.var => Some(&f.names),
+                            _ => None,
+                        })
+                        .flatten()
+                        .map(|n| (n.text.clone(), n.span))
+                        .collect();
+                    (k.clone(), vs)
+                })
                 .collect(),
             events: ix
                 .compounds
@@ -295,6 +315,8 @@ struct Checker<'a> {
     /// The actor type of the behaviour whose `with:` block is being checked
     /// (what an unqualified modifier there applies to).
     invoking: Option<Ty>,
+    /// Checking the expression of a `keep` (a path to a `var` is an error).
+    in_keep: bool,
 }
 
 /// Enums and numbers do not mix without a conversion (§3.3): say which.
@@ -574,7 +596,12 @@ impl Checker<'_> {
                 let bt = self.expr(base, None);
                 match bt {
                     Ty::Compound(c) => match self.m.field(&c, &name.text) {
-                        Some(t) => t,
+                        Some(t) => {
+                            if self.in_keep {
+                                self.var_in_keep(&c, name);
+                            }
+                            t
+                        }
                         // Behaviours have builtin members (events, their actor, timing).
                         None if BEHAVIOUR_MEMBERS.contains(&name.text.as_str())
                             && matches!(
@@ -883,7 +910,9 @@ impl Checker<'_> {
     }
 
     fn keep(&mut self, expr: &Expr) {
+        let outer = std::mem::replace(&mut self.in_keep, true);
         let t = self.expr(expr, None);
+        self.in_keep = outer;
         self.want_bool(&t, expr.span(), "a constraint");
     }
 
@@ -1337,6 +1366,33 @@ impl Checker<'_> {
             DoKind::Wait(spec) => self.event_spec(spec),
             DoKind::Emit { event } => self.emit(event),
             DoKind::Call { .. } => {}
+        }
+    }
+
+    /// `keep(x.v == …)` where `v` is a `var` of x's type or one it
+    /// inherits (§3.6): variables get values by sampling or assignment,
+    /// never from the constraint solver (E0341, as for the body's own).
+    fn var_in_keep(&mut self, compound: &str, name: &Name) {
+        let m = self.m;
+        let mut cur = Some(compound);
+        for _ in 0..64 {
+            let Some(c) = cur else { return };
+            if let Some(&decl) = m.vars.get(c).and_then(|v| v.get(&name.text)) {
+                self.diags.push(
+                    Diagnostic::error(
+                        "E0341",
+                        name.span,
+                        format!(
+                            "a `keep` constrains '{}', which is a `var` of {c}",
+                            name.text
+                        ),
+                    )
+                    .with_hint("variables get values by sampling or assignment, not from constraints: make it a parameter (drop `var`) to constrain it")
+                    .with_related(decl, "declared as a variable here"),
+                );
+                return;
+            }
+            cur = m.compounds.get(c).and_then(|c| c.2.as_deref());
         }
     }
 
@@ -1995,6 +2051,7 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
         scope: Scope::default(),
         carla,
         invoking: None,
+        in_keep: false,
     };
     redefinitions(prog, &mut c.diags);
     let mut seen: BTreeMap<String, Span> = BTreeMap::new();
