@@ -88,6 +88,8 @@ struct Model {
     /// The actor each actor-qualified action, scenario or modifier is
     /// declared on (`action vehicle.drive` → vehicle).
     owners: BTreeMap<String, String>,
+    /// Each compound's own methods (declaration and extensions).
+    methods: BTreeMap<String, Vec<String>>,
     /// Each compound's own variables (declaration and extensions): name →
     /// where it is declared.
     vars: BTreeMap<String, BTreeMap<String, Span>>,
@@ -158,6 +160,21 @@ impl Model {
                 .compounds
                 .iter()
                 .filter_map(|(k, c)| c.owner.clone().map(|o| (k.clone(), o)))
+                .collect(),
+            methods: ix
+                .compounds
+                .iter()
+                .map(|(k, c)| {
+                    let ms = c
+                        .body
+                        .iter()
+                        .filter_map(|m| match m {
+                            Member::Method { name, .. } => Some(name.text.clone()),
+                            _ => None,
+                        })
+                        .collect();
+                    (k.clone(), ms)
+                })
                 .collect(),
             vars: ix
                 .compounds
@@ -277,6 +294,19 @@ impl Model {
         } else {
             base
         }
+    }
+    /// The methods (`def`) a compound has, its own and inherited.
+    fn method_names(&self, compound: &str) -> Vec<&str> {
+        let mut out = Vec::new();
+        let mut cur = Some(compound);
+        for _ in 0..64 {
+            let Some(c) = cur else { break };
+            if let Some(ms) = self.methods.get(c) {
+                out.extend(ms.iter().map(String::as_str));
+            }
+            cur = self.compounds.get(c).and_then(|c| c.2.as_deref());
+        }
+        out
     }
     fn field(&self, compound: &str, name: &str) -> Option<Ty> {
         self.field_types.get(compound)?.get(name).cloned()
@@ -646,9 +676,13 @@ impl Checker<'_> {
             }
             Expr::Call { callee, args, .. } => {
                 // Functions and methods are not typed; their receivers and
-                // arguments are still checked.
-                if let Expr::Field { base, .. } = &**callee {
-                    self.expr(base, None);
+                // arguments are still checked, and a method must be one the
+                // receiver's type has (§3.10).
+                if let Expr::Field { base, name, .. } = &**callee {
+                    let bt = self.expr(base, None);
+                    if let Ty::Compound(c) = &bt {
+                        self.method_exists(c, name);
+                    }
                 }
                 for a in args {
                     self.expr(&a.value, None);
@@ -1367,6 +1401,38 @@ impl Checker<'_> {
             DoKind::Emit { event } => self.emit(event),
             DoKind::Call { .. } => {}
         }
+    }
+
+    /// `x.m(…)` in an expression: `m` is a method (`def`) of x's type or one
+    /// it inherits, or one every object has (`as`, `is`); E0349 otherwise.
+    /// Fields and events are not callable either.
+    fn method_exists(&mut self, compound: &str, name: &Name) {
+        let m = self.m;
+        if matches!(name.text.as_str(), "as" | "is") || !m.compounds.contains_key(compound) {
+            return;
+        }
+        if m.field(compound, &name.text) == Some(Ty::Unknown) {
+            return; // a method (or an event: the engine reports those)
+        }
+        let is_field = m.field(compound, &name.text).is_some();
+        let methods: Vec<String> = m
+            .method_names(compound)
+            .into_iter()
+            .map(String::from)
+            .collect();
+        let hint = if is_field {
+            format!("'{}' is a field: read it without parentheses", name.text)
+        } else if methods.is_empty() {
+            format!("a {compound} has no methods besides as() and is()")
+        } else {
+            format!("its methods: {}", methods.join(", "))
+        };
+        self.err(
+            "E0349",
+            name.span,
+            format!("a {compound} has no method '{}'", name.text),
+            Some(hint),
+        );
     }
 
     /// `keep(x.v == …)` where `v` is a `var` of x's type or one it
