@@ -205,6 +205,9 @@ pub enum Member {
         ret: Option<TypeRef>,
         body: String,
         expr: Option<Expr>,
+        /// `is only …`: overrides an inherited method of the same signature.
+        #[serde(skip_serializing_if = "std::ops::Not::not", default)]
+        only: bool,
     },
     /// `cover(...)` / `record(...)`.
     Coverage {

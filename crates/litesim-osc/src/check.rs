@@ -88,8 +88,9 @@ struct Model {
     /// The actor each actor-qualified action, scenario or modifier is
     /// declared on (`action vehicle.drive` → vehicle).
     owners: BTreeMap<String, String>,
-    /// Each compound's own methods (declaration and extensions).
-    methods: BTreeMap<String, Vec<String>>,
+    /// Each compound's own methods (declaration and extensions), with
+    /// whether they return a value.
+    methods: BTreeMap<String, Vec<(String, bool)>>,
     /// Each compound's own variables (declaration and extensions): name →
     /// where it is declared.
     vars: BTreeMap<String, BTreeMap<String, Span>>,
@@ -169,7 +170,9 @@ impl Model {
                         .body
                         .iter()
                         .filter_map(|m| match m {
-                            Member::Method { name, .. } => Some(name.text.clone()),
+                            Member::Method { name, ret, .. } => {
+                                Some((name.text.clone(), ret.is_some()))
+                            }
                             _ => None,
                         })
                         .collect();
@@ -302,11 +305,28 @@ impl Model {
         for _ in 0..64 {
             let Some(c) = cur else { break };
             if let Some(ms) = self.methods.get(c) {
-                out.extend(ms.iter().map(String::as_str));
+                out.extend(ms.iter().map(|(n, _)| n.as_str()));
             }
             cur = self.compounds.get(c).and_then(|c| c.2.as_deref());
         }
         out
+    }
+    /// Whether the nearest method `name` of a compound (own or inherited)
+    /// returns a value; `None` when it has no such method.
+    fn method_returns(&self, compound: &str, name: &str) -> Option<bool> {
+        let mut cur = Some(compound);
+        for _ in 0..64 {
+            let c = cur?;
+            if let Some((_, r)) = self
+                .methods
+                .get(c)
+                .and_then(|ms| ms.iter().find(|(n, _)| n == name))
+            {
+                return Some(*r);
+            }
+            cur = self.compounds.get(c).and_then(|c| c.2.as_deref());
+        }
+        None
     }
     fn field(&self, compound: &str, name: &str) -> Option<Ty> {
         self.field_types.get(compound)?.get(name).cloned()
@@ -1411,8 +1431,24 @@ impl Checker<'_> {
         if matches!(name.text.as_str(), "as" | "is") || !m.compounds.contains_key(compound) {
             return;
         }
+        match m.method_returns(compound, &name.text) {
+            Some(true) => return,
+            Some(false) => {
+                self.err(
+                    "E0351",
+                    name.span,
+                    format!(
+                        "method '{}' of {compound} returns no value, but it is used in an expression",
+                        name.text
+                    ),
+                    Some("declare what it returns (`def m(…) -> type is …`), or call it as a directive (`call x.m()`)".into()),
+                );
+                return;
+            }
+            None => {}
+        }
         if m.field(compound, &name.text) == Some(Ty::Unknown) {
-            return; // a method (or an event: the engine reports those)
+            return; // an event, or a field of an unknown type
         }
         let is_field = m.field(compound, &name.text).is_some();
         let methods: Vec<String> = m
@@ -1885,6 +1921,39 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
             }
         }
     }
+    // Methods' signatures and `only`, for overrides (§3.10).
+    let mut methods: BTreeMap<(String, String), (String, bool)> = BTreeMap::new();
+    for (_, f) in &prog.files {
+        for d in &f.decls {
+            let (key, ms) = match d {
+                Decl::Compound {
+                    name,
+                    members: ms,
+                    kind,
+                    ..
+                } if *kind != DeclKind::Modifier => (qual(name), ms),
+                Decl::Extend {
+                    target,
+                    members: ms,
+                } => (qual(target), ms),
+                _ => continue,
+            };
+            for m in ms {
+                if let Member::Method {
+                    name,
+                    params,
+                    ret,
+                    only,
+                    ..
+                } = m
+                {
+                    methods
+                        .entry((key.clone(), name.text.clone()))
+                        .or_insert((signature(params, ret.as_ref()), *only));
+                }
+            }
+        }
+    }
     for (key, own) in &members {
         for (name, span) in own {
             let mut cur = bases.get(key);
@@ -1895,6 +1964,31 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     break; // an inheritance cycle: E0339 reports it
                 }
                 if let Some(first) = members.get(b).and_then(|m| m.get(name)) {
+                    let mine = methods.get(&(key.clone(), name.clone()));
+                    let theirs = methods.get(&(b.clone(), name.clone()));
+                    if let (Some((sig, only)), Some((base_sig, _))) = (mine, theirs) {
+                        // A method may be overridden: with `only` and the
+                        // same signature.
+                        let problem = if !only {
+                            Some(format!(
+                                "'{name}' in '{key}' overrides the method it inherits from '{b}' without `only`"
+                            ))
+                        } else if sig != base_sig {
+                            Some(format!(
+                                "'{name}' in '{key}' overrides '{b}.{name}' with another signature: {sig} instead of {base_sig}"
+                            ))
+                        } else {
+                            None
+                        };
+                        if let Some(msg) = problem {
+                            out.push(
+                                Diagnostic::error("E0350", *span, msg)
+                                    .with_hint(format!("an override is written `def {name}(…) is only …`, with the inherited parameter and return types {base_sig}"))
+                                    .with_related(*first, "the inherited method is here"),
+                            );
+                        }
+                        break;
+                    }
                     out.push(
                         Diagnostic::error(
                             "E0340",
@@ -2071,6 +2165,28 @@ fn behaviour_dos(prog: &Program, out: &mut Vec<Diagnostic>) {
             }
             cur = kinds.get(&b).and_then(|(_, bb)| bb.clone());
         }
+    }
+}
+
+/// A method's signature as written: `(int, list of length) -> speed`.
+fn signature(params: &[Field], ret: Option<&TypeRef>) -> String {
+    let ty = |t: &TypeRef| {
+        let base = t.base.actor.as_ref().map_or(t.base.name.text.clone(), |a| {
+            format!("{}.{}", a.text, t.base.name.text)
+        });
+        if t.list {
+            format!("list of {base}")
+        } else {
+            base
+        }
+    };
+    let ps: Vec<String> = params
+        .iter()
+        .flat_map(|f| f.names.iter().map(move |_| ty(&f.ty)))
+        .collect();
+    match ret {
+        Some(r) => format!("({}) -> {}", ps.join(", "), ty(r)),
+        None => format!("({})", ps.join(", ")),
     }
 }
 

@@ -805,7 +805,7 @@ impl<'a> P<'a> {
                     self.recover();
                     return None;
                 }
-                self.eat_kw("only");
+                let only = self.eat_kw("only");
                 let (body, expr) = match self.tok().clone() {
                     Tok::Ident(k) if k == "expression" => {
                         self.bump();
@@ -832,6 +832,7 @@ impl<'a> P<'a> {
                     ret,
                     body,
                     expr,
+                    only,
                 })
             }
             "cover" | "record" if matches!(self.nth(1), Tok::Punct("(")) => {
