@@ -520,11 +520,14 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
                 saw_lanes = true;
                 for (i, e) in elements(c).enumerate() {
                     match e.name() {
-                        "laneOffset" => r.lane_offsets.push(cx.cubic(
-                            e,
-                            &format!("{path}/lanes/laneOffset"),
-                            "s",
-                        )?),
+                        "laneOffset" => {
+                            let p = format!("{path}/lanes/laneOffset");
+                            let o = cx.cubic(e, &p, "s")?;
+                            if o.s < 0.0 {
+                                cx.warn(e, &p, format!("s = {} is negative: the offset is taken to apply from the road's start", o.s));
+                            }
+                            r.lane_offsets.push(o)
+                        }
                         "laneSection" => r.sections.push(section(
                             cx,
                             e,
@@ -792,9 +795,21 @@ fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
                 }
                 lane.widths.push(w)
             }
-            "border" => lane.borders.push(cx.cubic(c, &p, "sOffset")?),
+            "border" => {
+                let b = cx.cubic(c, &p, "sOffset")?;
+                if b.s < 0.0 {
+                    cx.warn(c, &p, format!("sOffset = {} is negative", b.s));
+                }
+                lane.borders.push(b)
+            }
             "roadMark" => lane.road_marks.push(RoadMark {
-                s_offset: cx.f64_or(c, &p, "sOffset", 0.0)?,
+                s_offset: {
+                    let o = cx.f64_or(c, &p, "sOffset", 0.0)?;
+                    if o < 0.0 {
+                        cx.warn(c, &p, format!("sOffset = {o} is negative"));
+                    }
+                    o
+                },
                 kind: c.attribute("type").unwrap_or("none").into(),
                 color: c.attribute("color").unwrap_or("standard").into(),
                 width: cx.f64_or(c, &p, "width", 0.12)?,

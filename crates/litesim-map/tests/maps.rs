@@ -496,4 +496,31 @@ fn load_errors_and_warnings_name_the_place() {
         "{:?}",
         n.warnings
     );
+    // So are negative offsets: a lane offset's s, a road mark's and a
+    // border's sOffset, each at its element's line.
+    let i = text.find("<laneSection").unwrap();
+    let line = text[..i].matches('\n').count() + 1;
+    let with_offset = format!(
+        "{}<laneOffset s=\"-2\" a=\"0\" b=\"0\" c=\"0\" d=\"0\"/>{}",
+        &text[..i],
+        &text[i..]
+    );
+    let n = RoadNetwork::from_xodr(&with_offset, "off.xodr").unwrap();
+    let w = n
+        .warnings
+        .iter()
+        .find(|w| w.path.ends_with("laneOffset"))
+        .unwrap_or_else(|| panic!("{:?}", n.warnings));
+    assert!(w.message.contains("s = -2 is negative"), "{w:?}");
+    assert_eq!(w.line as usize, line, "{w:?}");
+    let mark = text.replacen("<roadMark sOffset=\"0", "<roadMark sOffset=\"-1", 1);
+    assert_ne!(mark, text, "the map has a road mark with sOffset 0");
+    let n = RoadNetwork::from_xodr(&mark, "mark.xodr").unwrap();
+    assert!(
+        n.warnings
+            .iter()
+            .any(|w| w.message.contains("sOffset = -1") && w.path.ends_with("roadMark")),
+        "{:?}",
+        n.warnings
+    );
 }
