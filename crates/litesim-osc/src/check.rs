@@ -192,9 +192,12 @@ impl Model {
                         })
                         .flatten()
                         .map(|n| (n.text.clone(), n.span))
-                        .collect();
+                        .collect::<BTreeMap<_, _>>();
                     (k.clone(), vs)
                 })
+                // Only compounds with variables: a `keep`'s every path step
+                // looks here.
+                .filter(|(_, vs)| !vs.is_empty())
                 .collect(),
             events: ix
                 .compounds
@@ -1476,6 +1479,9 @@ impl Checker<'_> {
     /// never from the constraint solver (E0341, as for the body's own).
     fn var_in_keep(&mut self, compound: &str, name: &Name) {
         let m = self.m;
+        if m.vars.is_empty() || !m.vars.values().any(|v| v.contains_key(&name.text)) {
+            return; // not a variable anywhere: the common case
+        }
         let mut cur = Some(compound);
         for _ in 0..64 {
             let Some(c) = cur else { return };
