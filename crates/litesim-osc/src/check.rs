@@ -162,70 +162,43 @@ impl Model {
                 .iter()
                 .filter_map(|(k, c)| c.owner.clone().map(|o| (k.clone(), o)))
                 .collect(),
-            methods: ix
-                .compounds
-                .iter()
-                .map(|(k, c)| {
-                    let ms = c
-                        .body
-                        .iter()
-                        .filter_map(|m| match m {
-                            Member::Method { name, ret, .. } => {
-                                Some((name.text.clone(), ret.is_some()))
-                            }
-                            _ => None,
-                        })
-                        .collect();
-                    (k.clone(), ms)
-                })
-                .collect(),
-            vars: ix
-                .compounds
-                .iter()
-                .map(|(k, c)| {
-                    let vs = c
-                        .body
-                        .iter()
-                        .filter_map(|m| match m {
-                            Member::Field(f) if f.var => Some(&f.names),
-                            _ => None,
-                        })
-                        .flatten()
-                        .map(|n| (n.text.clone(), n.span))
-                        .collect::<BTreeMap<_, _>>();
-                    (k.clone(), vs)
-                })
-                // Only compounds with variables: a `keep`'s every path step
-                // looks here.
-                .filter(|(_, vs)| !vs.is_empty())
-                .collect(),
-            events: ix
-                .compounds
-                .iter()
-                .map(|(k, c)| {
-                    let evs = c
-                        .body
-                        .iter()
-                        .filter_map(|m| match m {
-                            Member::Event { name, params, .. } => Some((
-                                name.text.clone(),
-                                params
-                                    .iter()
-                                    .flat_map(|f| {
-                                        f.names
-                                            .iter()
-                                            .map(|n| (n.text.clone(), f.default.is_some()))
-                                    })
-                                    .collect(),
-                            )),
-                            _ => None,
-                        })
-                        .collect();
-                    (k.clone(), evs)
-                })
-                .collect(),
             ..Model::default()
         };
+        // Each compound's own methods, variables and events (declaration and
+        // extensions), in one pass over the bodies.
+        for (k, c) in &ix.compounds {
+            let (mut methods, mut vars, mut events) =
+                (Vec::new(), BTreeMap::new(), BTreeMap::new());
+            for member in &c.body {
+                match member {
+                    Member::Method { name, ret, .. } => {
+                        methods.push((name.text.clone(), ret.is_some()))
+                    }
+                    Member::Field(f) if f.var => {
+                        vars.extend(f.names.iter().map(|n| (n.text.clone(), n.span)))
+                    }
+                    Member::Event { name, params, .. } => {
+                        let ps = params
+                            .iter()
+                            .flat_map(|f| {
+                                f.names
+                                    .iter()
+                                    .map(|n| (n.text.clone(), f.default.is_some()))
+                            })
+                            .collect();
+                        events.insert(name.text.clone(), ps);
+                    }
+                    _ => {}
+                }
+            }
+            m.methods.insert(k.clone(), methods);
+            // Only compounds with variables: a `keep`'s every path step
+            // looks here.
+            if !vars.is_empty() {
+                m.vars.insert(k.clone(), vars);
+            }
+            m.events.insert(k.clone(), events);
+        }
         let names: Vec<String> = m.compounds.keys().cloned().collect();
         for n in names {
             let mut map = BTreeMap::new();
@@ -255,34 +228,24 @@ impl Model {
     /// Parameters of a compound including inherited ones (own first).
     fn params(&self, name: &str) -> Vec<(String, TypeRef)> {
         let mut out = Vec::new();
-        let mut cur = Some(name.to_string());
-        let mut guard = 0;
-        while let Some(n) = cur {
-            guard += 1;
-            if guard > 64 {
-                break; // inheritance cycle: reported elsewhere
-            }
-            match self.compounds.get(&n) {
-                Some((_, p, base)) => {
-                    out.extend(p.iter().cloned());
-                    cur = base.clone();
-                }
-                None => break,
+        for n in self.lineage(name) {
+            if let Some((_, p, _)) = self.compounds.get(n) {
+                out.extend(p.iter().cloned());
             }
         }
         out
     }
+    /// A compound and the ones it inherits from, nearest first; at most 64,
+    /// so an inheritance cycle (E0339 reports it) cannot loop.
+    fn lineage<'m>(&'m self, start: &'m str) -> impl Iterator<Item = &'m str> + 'm {
+        std::iter::successors(Some(start), |c| {
+            self.compounds.get(*c).and_then(|c| c.2.as_deref())
+        })
+        .take(64)
+    }
     /// `sub` is `sup` or inherits from it (directly or not).
     fn is_a(&self, sub: &str, sup: &str) -> bool {
-        let mut cur = Some(sub);
-        for _ in 0..64 {
-            match cur {
-                Some(n) if n == sup => return true,
-                Some(n) => cur = self.compounds.get(n).and_then(|c| c.2.as_deref()),
-                None => return false,
-            }
-        }
-        false
+        self.lineage(sub).any(|n| n == sup)
     }
     fn ty_of(&self, t: &TypeRef) -> Ty {
         let n = t.base.name.text.as_str();
@@ -303,33 +266,18 @@ impl Model {
     }
     /// The methods (`def`) a compound has, its own and inherited.
     fn method_names(&self, compound: &str) -> Vec<&str> {
-        let mut out = Vec::new();
-        let mut cur = Some(compound);
-        for _ in 0..64 {
-            let Some(c) = cur else { break };
-            if let Some(ms) = self.methods.get(c) {
-                out.extend(ms.iter().map(|(n, _)| n.as_str()));
-            }
-            cur = self.compounds.get(c).and_then(|c| c.2.as_deref());
-        }
-        out
+        self.lineage(compound)
+            .filter_map(|c| self.methods.get(c))
+            .flatten()
+            .map(|(n, _)| n.as_str())
+            .collect()
     }
     /// Whether the nearest method `name` of a compound (own or inherited)
     /// returns a value; `None` when it has no such method.
     fn method_returns(&self, compound: &str, name: &str) -> Option<bool> {
-        let mut cur = Some(compound);
-        for _ in 0..64 {
-            let c = cur?;
-            if let Some((_, r)) = self
-                .methods
-                .get(c)
-                .and_then(|ms| ms.iter().find(|(n, _)| n == name))
-            {
-                return Some(*r);
-            }
-            cur = self.compounds.get(c).and_then(|c| c.2.as_deref());
-        }
-        None
+        self.lineage(compound)
+            .find_map(|c| self.methods.get(c)?.iter().find(|(n, _)| n == name))
+            .map(|(_, r)| *r)
     }
     fn field(&self, compound: &str, name: &str) -> Option<Ty> {
         self.field_types.get(compound)?.get(name).cloned()
@@ -1450,10 +1398,11 @@ impl Checker<'_> {
             }
             None => {}
         }
-        if m.field(compound, &name.text) == Some(Ty::Unknown) {
+        let field = m.field(compound, &name.text);
+        if field == Some(Ty::Unknown) {
             return; // an event, or a field of an unknown type
         }
-        let is_field = m.field(compound, &name.text).is_some();
+        let is_field = field.is_some();
         let methods: Vec<String> = m
             .method_names(compound)
             .into_iter()
@@ -1482,26 +1431,24 @@ impl Checker<'_> {
         if m.vars.is_empty() || !m.vars.values().any(|v| v.contains_key(&name.text)) {
             return; // not a variable anywhere: the common case
         }
-        let mut cur = Some(compound);
-        for _ in 0..64 {
-            let Some(c) = cur else { return };
-            if let Some(&decl) = m.vars.get(c).and_then(|v| v.get(&name.text)) {
-                self.diags.push(
-                    Diagnostic::error(
-                        "E0341",
-                        name.span,
-                        format!(
-                            "a `keep` constrains '{}', which is a `var` of {c}",
-                            name.text
-                        ),
-                    )
-                    .with_hint("variables get values by sampling or assignment, not from constraints: make it a parameter (drop `var`) to constrain it")
-                    .with_related(decl, "declared as a variable here"),
-                );
-                return;
-            }
-            cur = m.compounds.get(c).and_then(|c| c.2.as_deref());
-        }
+        let Some((c, decl)) = m
+            .lineage(compound)
+            .find_map(|c| m.vars.get(c)?.get(&name.text).map(|d| (c, *d)))
+        else {
+            return;
+        };
+        self.diags.push(
+            Diagnostic::error(
+                "E0341",
+                name.span,
+                format!(
+                    "a `keep` constrains '{}', which is a `var` of {c}",
+                    name.text
+                ),
+            )
+            .with_hint("variables get values by sampling or assignment, not from constraints: make it a parameter (drop `var`) to constrain it")
+            .with_related(decl, "declared as a variable here"),
+        );
     }
 
     /// `emit e(args)` of an event of this body's compound (or one it
@@ -1528,17 +1475,12 @@ impl Checker<'_> {
             return;
         };
         // The nearest compound in the inheritance chain that declares it.
-        let mut cur = Some(this);
-        let mut params = None;
-        for _ in 0..64 {
-            let Some(c) = cur else { break };
-            if let Some(p) = m.events.get(c).and_then(|e| e.get(&name.text)) {
-                params = Some(p);
-                break;
-            }
-            cur = m.compounds.get(c).and_then(|c| c.2.as_deref());
-        }
-        let Some(params) = params else { return };
+        let Some(params) = m
+            .lineage(this)
+            .find_map(|c| m.events.get(c)?.get(&name.text))
+        else {
+            return;
+        };
         for a in args {
             self.expr(&a.value, None);
         }
@@ -1793,11 +1735,6 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
     let mut units: BTreeMap<String, Span> = BTreeMap::new();
     // (compound key) → member name → first span
     let mut members: BTreeMap<String, BTreeMap<String, Span>> = BTreeMap::new();
-    let qual = |q: &QualName| {
-        q.actor.as_ref().map_or(q.name.text.clone(), |a| {
-            format!("{}.{}", a.text, q.name.text)
-        })
-    };
     let mut member_names = |key: String, ms: &[Member], out: &mut Vec<Diagnostic>| {
         let seen = members.entry(key.clone()).or_default();
         for m in ms {
@@ -1901,11 +1838,11 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     members: ms,
                     kind,
                     ..
-                } if *kind != DeclKind::Modifier => member_names(qual(name), ms, out),
+                } if *kind != DeclKind::Modifier => member_names(qual_key(name), ms, out),
                 Decl::Extend {
                     target,
                     members: ms,
-                } => member_names(qual(target), ms, out),
+                } => member_names(qual_key(target), ms, out),
                 _ => {}
             }
         }
@@ -1923,7 +1860,9 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                 ..
             } = d
             {
-                bases.entry(qual(name)).or_insert_with(|| qual(base));
+                bases
+                    .entry(qual_key(name))
+                    .or_insert_with(|| qual_key(base));
             }
         }
     }
@@ -1937,11 +1876,11 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     members: ms,
                     kind,
                     ..
-                } if *kind != DeclKind::Modifier => (qual(name), ms),
+                } if *kind != DeclKind::Modifier => (qual_key(name), ms),
                 Decl::Extend {
                     target,
                     members: ms,
-                } => (qual(target), ms),
+                } => (qual_key(target), ms),
                 _ => continue,
             };
             for m in ms {
@@ -2016,11 +1955,6 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
 /// truck)`) may be inherited only conditionally (§3.5): an unconditional
 /// subtype would be a truck without the condition that makes one (E0348).
 fn conditional_bases(prog: &Program, out: &mut Vec<Diagnostic>) {
-    let qual = |q: &QualName| {
-        q.actor.as_ref().map_or(q.name.text.clone(), |a| {
-            format!("{}.{}", a.text, q.name.text)
-        })
-    };
     let mut conditional: BTreeMap<String, Span> = BTreeMap::new();
     for (_, f) in &prog.files {
         for d in &f.decls {
@@ -2030,7 +1964,7 @@ fn conditional_bases(prog: &Program, out: &mut Vec<Diagnostic>) {
                 ..
             } = d
             {
-                conditional.entry(qual(name)).or_insert(name.name.span);
+                conditional.entry(qual_key(name)).or_insert(name.name.span);
             }
         }
     }
@@ -2041,16 +1975,16 @@ fn conditional_bases(prog: &Program, out: &mut Vec<Diagnostic>) {
                 inherits: Some((base, None)),
                 ..
             } = d
-                && let Some(&decl) = conditional.get(&qual(base))
+                && let b = qual_key(base)
+                && let Some(&decl) = conditional.get(&b)
             {
-                let b = qual(base);
                 out.push(
                     Diagnostic::error(
                         "E0348",
                         base.name.span,
                         format!(
                             "'{}' inherits '{b}' unconditionally, but '{b}' is a conditional type; it can only be inherited with a condition",
-                            qual(name)
+                            qual_key(name)
                         ),
                     )
                     .with_hint(format!("inherit what '{b}' inherits, with a condition of its own, or give this inheritance a condition: `inherits {b} (field == value)`"))
@@ -2066,11 +2000,6 @@ fn conditional_bases(prog: &Program, out: &mut Vec<Diagnostic>) {
 /// `extend`s and what it inherits (E0343; the engine would run one and
 /// drop the others).
 fn behaviour_dos(prog: &Program, out: &mut Vec<Diagnostic>) {
-    let qual = |q: &QualName| {
-        q.actor.as_ref().map_or(q.name.text.clone(), |a| {
-            format!("{}.{}", a.text, q.name.text)
-        })
-    };
     let dos_of = |ms: &[Member]| -> Vec<Span> {
         ms.iter()
             .filter_map(|m| match m {
@@ -2093,11 +2022,11 @@ fn behaviour_dos(prog: &Program, out: &mut Vec<Diagnostic>) {
                     members,
                     ..
                 } => {
-                    let key = qual(name);
+                    let key = qual_key(name);
                     // A name declared twice (E0336/E0337 report it) counts as
                     // a behaviour if one declaration is one: CARLA's
                     // `scenario top` beside the domain's `actor top`.
-                    let entry = (*kind, inherits.as_ref().map(|(b, _)| qual(b)));
+                    let entry = (*kind, inherits.as_ref().map(|(b, _)| qual_key(b)));
                     match kinds.get(&key) {
                         Some((DeclKind::Scenario | DeclKind::Action, _)) => {}
                         Some(_) if !matches!(kind, DeclKind::Scenario | DeclKind::Action) => {}
@@ -2108,7 +2037,9 @@ fn behaviour_dos(prog: &Program, out: &mut Vec<Diagnostic>) {
                     dos.entry(key).or_default().extend(dos_of(members));
                 }
                 Decl::Extend { target, members } => {
-                    dos.entry(qual(target)).or_default().extend(dos_of(members));
+                    dos.entry(qual_key(target))
+                        .or_default()
+                        .extend(dos_of(members));
                 }
                 _ => {}
             }
@@ -2172,6 +2103,14 @@ fn behaviour_dos(prog: &Program, out: &mut Vec<Diagnostic>) {
             cur = kinds.get(&b).and_then(|(_, bb)| bb.clone());
         }
     }
+}
+
+/// A declaration's key in the redefinition passes: `actor.name` for a
+/// behaviour declared on an actor, the name otherwise.
+fn qual_key(q: &QualName) -> String {
+    q.actor.as_ref().map_or(q.name.text.clone(), |a| {
+        format!("{}.{}", a.text, q.name.text)
+    })
 }
 
 /// A method's signature as written: `(int, list of length) -> speed`.
