@@ -14,6 +14,7 @@
 //! incoming road ends, with its heading, and ends where the outgoing road
 //! starts, so the loader reports no gaps and the lane graph is complete.
 
+use crate::geometry::{Geometry, Shape};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::fmt::Write;
 
@@ -246,28 +247,32 @@ pub fn town(spec: &TownSpec) -> String {
     out
 }
 
-/// Where a stub (see [`stub`]) ends and its heading there.
+/// A stub's three pieces from `start` along `h` (see [`stub`]): line
+/// 30 m, spiral 0 → 0.02 over 20 m, arc 0.02 over 20 m, each starting where
+/// the previous ends, evaluated by the loader's own geometry.
+fn stub_pieces(start: (f64, f64), h: f64) -> [Geometry; 3] {
+    let line = Geometry::new(0.0, start.0, start.1, h, 30.0, Shape::Line);
+    let a = line.eval(30.0);
+    let spiral = Geometry::new(
+        30.0,
+        a.x,
+        a.y,
+        a.hdg,
+        20.0,
+        Shape::Spiral {
+            curv_start: 0.0,
+            curv_end: 0.02,
+        },
+    );
+    let b = spiral.eval(20.0);
+    let arc = Geometry::new(50.0, b.x, b.y, b.hdg, 20.0, Shape::Arc { curvature: 0.02 });
+    [line, spiral, arc]
+}
+
+/// Where a stub ends and its heading there.
 fn stub_end(start: (f64, f64), h: f64) -> (f64, f64, f64) {
-    // line 30 m, spiral 0 → 0.02 over 20 m, arc 0.02 over 20 m: integrate
-    // the heading numerically (fine steps; only the generator uses it).
-    let (mut x, mut y, mut hd) = (start.0, start.1, h);
-    let n = 7000;
-    let ds = STUB / n as f64;
-    for k in 0..n {
-        let s = (k as f64 + 0.5) * ds;
-        let kappa = if s < 30.0 {
-            0.0
-        } else if s < 50.0 {
-            0.02 * (s - 30.0) / 20.0
-        } else {
-            0.02
-        };
-        let hm = hd + 0.5 * kappa * ds;
-        x += ds * hm.cos();
-        y += ds * hm.sin();
-        hd += kappa * ds;
-    }
-    (x, y, hd)
+    let e = stub_pieces(start, h)[2].eval(20.0);
+    (e.x, e.y, e.hdg)
 }
 
 /// The point `len` metres along heading `h` from `(x, y)`.
@@ -365,41 +370,33 @@ fn street_lanes(
         out,
         "            <laneSection s=\"{s}\">\n                <left>"
     );
-    for (id, kind, w, mark) in [
-        (4, "sidewalk", 2.0, "none"),
-        (3, "shoulder", 0.5, "solid"),
-        (2, "driving", 3.5, "broken"),
-        (1, "driving", 3.25, "broken"),
-    ] {
-        lane_xml(
-            out,
-            id,
-            kind,
-            w,
-            mark,
-            pred(id),
-            succ(id),
-            kind == "driving",
-        );
-    }
+    // One side's lanes, outermost first on the left, innermost first on
+    // the right (file order of published maps).
+    let side = |out: &mut String, lanes: [(i32, &str, f64, &str); 4]| {
+        for (id, kind, w, mark) in lanes {
+            let speed = kind == "driving";
+            lane_xml(out, id, kind, w, mark, pred(id), succ(id), speed);
+        }
+    };
+    side(
+        out,
+        [
+            (4, "sidewalk", 2.0, "none"),
+            (3, "shoulder", 0.5, "solid"),
+            (2, "driving", 3.5, "broken"),
+            (1, "driving", 3.25, "broken"),
+        ],
+    );
     out.push_str("                </left>\n                <center>\n                    <lane id=\"0\" type=\"none\" level=\"false\">\n                        <link/>\n                        <roadMark sOffset=\"0.0\" type=\"solid solid\" material=\"standard\" color=\"yellow\" width=\"0.15\" laneChange=\"none\" height=\"0.02\"/>\n                    </lane>\n                </center>\n                <right>\n");
-    for (id, kind, w, mark) in [
-        (-1, "driving", 3.25, "broken"),
-        (-2, "driving", 3.5, "solid"),
-        (-3, "shoulder", 0.5, "solid"),
-        (-4, "sidewalk", 2.0, "none"),
-    ] {
-        lane_xml(
-            out,
-            id,
-            kind,
-            w,
-            mark,
-            pred(id),
-            succ(id),
-            kind == "driving",
-        );
-    }
+    side(
+        out,
+        [
+            (-1, "driving", 3.25, "broken"),
+            (-2, "driving", 3.5, "solid"),
+            (-3, "shoulder", 0.5, "solid"),
+            (-4, "sidewalk", 2.0, "none"),
+        ],
+    );
     out.push_str("                </right>\n            </laneSection>\n");
 }
 
@@ -549,19 +546,8 @@ fn stub(
     });
     link_xml(out, &junction_link("predecessor", Some(jn)), &succ);
     out.push_str("        <type s=\"0.0\" type=\"town\">\n            <speed max=\"50\" unit=\"km/h\"/>\n        </type>\n");
-    let (lx, ly) = after_line(start.0, start.1, h, 30.0);
-    // Start of the arc: integrate the spiral part of stub_end's curve.
-    let (mut x, mut y, mut hd) = (lx, ly, h);
-    let n = 2000;
-    let ds = 20.0 / n as f64;
-    for k in 0..n {
-        let s = (k as f64 + 0.5) * ds;
-        let kappa = 0.02 * s / 20.0;
-        let hm = hd + 0.5 * kappa * ds;
-        x += ds * hm.cos();
-        y += ds * hm.sin();
-        hd += kappa * ds;
-    }
+    let [_, spiral, arc] = stub_pieces(start, h);
+    let (lx, ly, x, y, hd) = (spiral.x, spiral.y, arc.x, arc.y, arc.hdg);
     let _ = writeln!(
         out,
         "        <planView>\n            <geometry s=\"0.0\" x=\"{}\" y=\"{}\" hdg=\"{h}\" length=\"30.0\">\n                <line/>\n            </geometry>\n            <geometry s=\"30.0\" x=\"{lx}\" y=\"{ly}\" hdg=\"{h}\" length=\"20.0\">\n                <spiral curvStart=\"0.0\" curvEnd=\"0.02\"/>\n            </geometry>\n            <geometry s=\"50.0\" x=\"{x}\" y=\"{y}\" hdg=\"{hd}\" length=\"20.0\">\n                <arc curvature=\"0.02\"/>\n            </geometry>\n        </planView>",
