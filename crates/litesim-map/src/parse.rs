@@ -216,10 +216,6 @@ fn after_newlines(text: &str) -> impl Iterator<Item = usize> + '_ {
     text.match_indices('\n').map(|(i, _)| i + 1)
 }
 
-fn elements<'t, 'a>(n: Node<'t, 'a>) -> impl Iterator<Item = Node<'t, 'a>> + use<'t, 'a> {
-    n.elements()
-}
-
 fn boolean(v: Option<&str>) -> bool {
     matches!(v.map(str::trim), Some("true" | "1" | "yes"))
 }
@@ -302,7 +298,8 @@ pub fn parse(text: &str, file: &str) -> Result<(OpenDrive, Vec<Warning>), MapErr
                 od.controllers.push(Controller {
                     id: cx.req_str(n, &path, "id")?,
                     name: n.attribute("name").unwrap_or("").into(),
-                    signals: elements(n)
+                    signals: n
+                        .elements()
                         .filter(|c| c.name() == "control")
                         .map(|c| cx.req_str(c, &format!("{path}/control"), "signalId"))
                         .collect::<R<_>>()?,
@@ -377,7 +374,7 @@ fn header(cx: &mut Ctx, n: Node) -> R<Header> {
         vendor: n.attribute("vendor").unwrap_or("").into(),
         ..Header::default()
     };
-    for c in elements(n) {
+    for c in n.elements() {
         match c.name() {
             "geoReference" => h.geo_reference = Some(c.text().unwrap_or("").trim().to_string()),
             "offset" => {
@@ -463,10 +460,10 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
     };
     let mut saw_plan = false;
     let mut saw_lanes = false;
-    for c in elements(n) {
+    for c in n.elements() {
         match c.name() {
             "link" => {
-                for l in elements(c) {
+                for l in c.elements() {
                     let p = format!("{path}/link/{}", l.name());
                     match l.name() {
                         "predecessor" => r.predecessor = Some(link(cx, l, &p)?),
@@ -477,7 +474,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             }
             "type" => {
                 let p = format!("{path}/type");
-                let sp = elements(c).find(|s| s.name() == "speed");
+                let sp = c.elements().find(|s| s.name() == "speed");
                 r.types.push(RoadType {
                     s: cx.req_f64(c, &p, "s")?,
                     kind: c.attribute("type").unwrap_or("unknown").trim().into(),
@@ -486,7 +483,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             }
             "planView" => {
                 saw_plan = true;
-                for (i, g) in elements(c).enumerate() {
+                for (i, g) in c.elements().enumerate() {
                     let p = format!("{path}/planView/geometry[{i}]");
                     if g.name() != "geometry" {
                         cx.skip(g, &format!("{path}/planView"));
@@ -496,7 +493,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
                 }
             }
             "elevationProfile" => {
-                for e in elements(c).filter(|e| e.name() == "elevation") {
+                for e in c.elements().filter(|e| e.name() == "elevation") {
                     r.elevation.push(cx.cubic(
                         e,
                         &format!("{path}/elevationProfile/elevation"),
@@ -505,7 +502,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
                 }
             }
             "lateralProfile" => {
-                for e in elements(c) {
+                for e in c.elements() {
                     match e.name() {
                         "superelevation" => r.superelevation.push(cx.cubic(
                             e,
@@ -518,7 +515,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             }
             "lanes" => {
                 saw_lanes = true;
-                for (i, e) in elements(c).enumerate() {
+                for (i, e) in c.elements().enumerate() {
                     match e.name() {
                         "laneOffset" => {
                             let p = format!("{path}/lanes/laneOffset");
@@ -538,7 +535,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
                 }
             }
             "signals" => {
-                for (i, s) in elements(c).enumerate() {
+                for (i, s) in c.elements().enumerate() {
                     let p = format!("{path}/signals/signal[{i}]");
                     match s.name() {
                         "signal" => r.signals.push(signal(cx, s, &p)?),
@@ -547,7 +544,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
                 }
             }
             "objects" => {
-                for (i, o) in elements(c).enumerate() {
+                for (i, o) in c.elements().enumerate() {
                     let p = format!("{path}/objects/object[{i}]");
                     match o.name() {
                         "object" => r.objects.push(RoadObject {
@@ -648,10 +645,11 @@ fn geometry(cx: &mut Ctx, g: Node, path: &str) -> R<Geometry> {
     if length < 0.0 {
         return Err(cx.err(g, path, format!("length = {length} must not be negative")));
     }
-    let shape_node = elements(g)
+    let shape_node = g
+        .elements()
         .find(|c| matches!(c.name(), "line" | "arc" | "spiral" | "poly3" | "paramPoly3"));
     let Some(c) = shape_node else {
-        let found: Vec<&str> = elements(g).map(|c| c.name()).collect();
+        let found: Vec<&str> = g.elements().map(|c| c.name()).collect();
         return Err(cx.err(
             g,
             path,
@@ -711,13 +709,13 @@ fn section(cx: &mut Ctx, n: Node, path: &str) -> R<LaneSection> {
         center: None,
         right: Vec::new(),
     };
-    for side in elements(n) {
+    for side in n.elements() {
         let side_name = side.name();
         if !matches!(side_name, "left" | "center" | "right") {
             cx.skip(side, path);
             continue;
         }
-        for l in elements(side).filter(|l| l.name() == "lane") {
+        for l in side.elements().filter(|l| l.name() == "lane") {
             let lp = format!(
                 "{path}/{side_name}/lane[id={}]",
                 l.attribute("id").unwrap_or("?")
@@ -772,7 +770,7 @@ fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
     // The children's paths (for messages) share one buffer: a lane has
     // several children and a town map tens of thousands of lanes.
     let mut p = String::with_capacity(path.len() + 16);
-    for c in elements(l) {
+    for c in l.elements() {
         p.clear();
         p.push_str(path);
         p.push('/');
@@ -816,7 +814,7 @@ fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
             }),
             "link" => {
                 let base = p.len();
-                for e in elements(c) {
+                for e in c.elements() {
                     p.truncate(base);
                     match e.name() {
                         which @ ("predecessor" | "successor") => {
@@ -852,7 +850,7 @@ fn lane(cx: &mut Ctx, l: Node, path: &str) -> R<Lane> {
 }
 
 fn signal(cx: &mut Ctx, s: Node, path: &str) -> R<Signal> {
-    let validity = elements(s).find(|c| c.name() == "validity").map(|v| {
+    let validity = s.elements().find(|c| c.name() == "validity").map(|v| {
         let p = format!("{path}/validity");
         Ok::<_, MapError>((cx.req_i32(v, &p, "fromLane")?, cx.req_i32(v, &p, "toLane")?))
     });
@@ -882,7 +880,7 @@ fn junction(cx: &mut Ctx, n: Node) -> R<Junction> {
         connections: Vec::new(),
         controllers: Vec::new(),
     };
-    for c in elements(n) {
+    for c in n.elements() {
         match c.name() {
             "connection" => {
                 let p = format!("{path}/connection[id={}]", c.attribute("id").unwrap_or("?"));
@@ -908,7 +906,7 @@ fn junction(cx: &mut Ctx, n: Node) -> R<Junction> {
                     }
                 };
                 let mut links = Vec::new();
-                for l in elements(c).filter(|l| l.name() == "laneLink") {
+                for l in c.elements().filter(|l| l.name() == "laneLink") {
                     let lp = format!("{p}/laneLink");
                     links.push((cx.req_i32(l, &lp, "from")?, cx.req_i32(l, &lp, "to")?));
                 }
