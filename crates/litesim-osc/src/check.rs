@@ -19,6 +19,7 @@ use crate::diag::Diagnostic;
 use crate::index::{DeclIndex, modifier_key};
 use crate::loader::Program;
 use crate::source::Span;
+use rustc_hash::{FxHashMap, FxHashSet};
 use std::collections::{BTreeMap, BTreeSet};
 
 const BUILTIN_TYPES: &[&str] = &["int", "uint", "float", "bool", "string"];
@@ -71,44 +72,49 @@ impl Ty {
     }
 }
 
+/// The declarations as the checker looks them up. Hash maps: name lookups
+/// are the checker's hot path, and nothing is ever emitted in these maps'
+/// order (suggestions are sorted, see `close_names`).
 #[derive(Default)]
 struct Model {
-    physical: BTreeSet<String>,
-    units: BTreeMap<String, Sym>,
-    enums: BTreeMap<String, BTreeSet<String>>,
+    physical: FxHashSet<String>,
+    units: FxHashMap<String, Sym>,
+    enums: FxHashMap<String, BTreeSet<String>>,
     /// compound name (behaviours by their own name) → what it is
-    compounds: BTreeMap<String, Compound>,
-    globals: BTreeMap<String, TypeRef>,
+    compounds: FxHashMap<String, Compound>,
+    globals: FxHashMap<String, TypeRef>,
     /// Every compound's visible fields (own, extended, inherited) and their
     /// types, built once: field lookups are the checker's hot path.
-    field_types: BTreeMap<String, BTreeMap<String, Ty>>,
+    field_types: FxHashMap<String, FxHashMap<String, Ty>>,
     /// Every compound's parameters in declaration order (for positional
     /// arguments), with their types.
-    param_types: BTreeMap<String, Vec<(String, Ty)>>,
+    param_types: FxHashMap<String, Vec<(String, Ty)>>,
     /// The actor each actor-qualified action, scenario or modifier is
     /// declared on (`action vehicle.drive` → vehicle).
-    owners: BTreeMap<String, String>,
+    owners: FxHashMap<String, String>,
     /// Each compound's own methods (declaration and extensions), with
     /// whether they return a value.
-    methods: BTreeMap<String, Vec<(String, bool)>>,
+    methods: FxHashMap<String, Vec<(String, bool)>>,
     /// Each compound's own variables (declaration and extensions): name →
     /// where it is declared.
-    vars: BTreeMap<String, BTreeMap<String, Span>>,
+    vars: FxHashMap<String, BTreeMap<String, Span>>,
     /// Each compound's own events (declaration and extensions): name →
     /// parameters in order, each with whether it has a default.
-    events: BTreeMap<String, BTreeMap<String, Vec<(String, bool)>>>,
+    events: FxHashMap<String, BTreeMap<String, Vec<(String, bool)>>>,
 }
 
 fn close_names<'a>(name: &str, all: impl Iterator<Item = &'a String>) -> String {
     // Names sharing a prefix (two characters, not bytes: names may be
     // non-ASCII) or differing by little: the usual typos.
     let prefix: String = name.chars().take(2).collect();
+    // All candidates sorted before the first five are taken: the names may
+    // come from hash maps, whose order must not reach a message.
     let mut v: Vec<&String> = all
         .filter(|n| n.starts_with(&prefix) || levenshtein(n, name) <= 2)
-        .take(5)
         .collect();
     v.sort();
     v.dedup();
+    v.truncate(5);
     v.iter().map(|s| s.as_str()).collect::<Vec<_>>().join(", ")
 }
 
@@ -137,13 +143,17 @@ impl Model {
     /// compound's field and parameter types resolved once.
     fn from_index(ix: &DeclIndex<'_>) -> Self {
         let mut m = Model {
-            physical: ix.physical.clone(),
+            physical: ix.physical.iter().cloned().collect(),
             units: ix
                 .units
                 .iter()
                 .map(|(k, u)| (k.clone(), Sym::from(u.of.as_str())))
                 .collect(),
-            enums: ix.enums.clone(),
+            enums: ix
+                .enums
+                .iter()
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect(),
             compounds: ix
                 .compounds
                 .iter()
@@ -156,7 +166,11 @@ impl Model {
                     (k.clone(), (c.kind, own, c.base.clone()))
                 })
                 .collect(),
-            globals: ix.globals.clone(),
+            globals: ix
+                .globals
+                .iter()
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect(),
             owners: ix
                 .compounds
                 .iter()
@@ -201,7 +215,7 @@ impl Model {
         }
         let names: Vec<String> = m.compounds.keys().cloned().collect();
         for n in names {
-            let mut map = BTreeMap::new();
+            let mut map = FxHashMap::default();
             let params: Vec<(String, Ty)> = m
                 .params(&n)
                 .into_iter()
@@ -427,13 +441,14 @@ impl Checker<'_> {
         if matches!(self.m.compounds.get(name), Some((DeclKind::Actor, ..))) {
             return Ty::Compound(name.into());
         }
-        let owners: Vec<&String> = self
+        let mut owners: Vec<&String> = self
             .m
             .enums
             .iter()
             .filter(|(_, ms)| ms.contains(name))
             .map(|(e, _)| e)
             .collect();
+        owners.sort();
         if let Some(Ty::Enum(e)) = want {
             let members: Vec<&str> = self
                 .m
@@ -1299,7 +1314,7 @@ impl Checker<'_> {
             .units
             .iter()
             .filter(|(_, q)| ***q == *p)
-            .min_by_key(|(u, _)| u.len())
+            .min_by_key(|(u, _)| (u.len(), u.as_str()))
             .map_or_else(|| "?".into(), |(u, _)| u.clone())
     }
 
@@ -1556,7 +1571,7 @@ impl Checker<'_> {
         }
         let owner = owner.clone();
         // The behaviours this actor type does have, for the hint.
-        let own: Vec<String> = self
+        let mut own: Vec<String> = self
             .m
             .owners
             .iter()
@@ -1569,6 +1584,7 @@ impl Checker<'_> {
             })
             .map(|(k, _)| k.clone())
             .collect();
+        own.sort();
         self.err(
             "E0337",
             name.span,

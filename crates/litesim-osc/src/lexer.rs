@@ -65,15 +65,29 @@ fn is_id_continue(c: char) -> bool {
 /// Length in bytes of the identifier at the start of `s` (identifiers,
 /// glued units `20kph`, range units `]kph`).
 fn ident_len(s: &str) -> usize {
-    s.char_indices()
-        .find(|(_, ch)| !is_id_continue(*ch))
-        .map_or(s.len(), |(k, _)| k)
+    // ASCII bytes first (nearly every name); decode characters only from
+    // the first non-ASCII byte on, which is a character boundary.
+    let b = s.as_bytes();
+    let ascii = b
+        .iter()
+        .position(|c| !(c.is_ascii_alphanumeric() || *c == b'_'))
+        .unwrap_or(b.len());
+    if ascii == b.len() || b[ascii].is_ascii() {
+        return ascii;
+    }
+    ascii
+        + s[ascii..]
+            .char_indices()
+            .find(|(_, ch)| !is_id_continue(*ch))
+            .map_or(s.len() - ascii, |(k, _)| k)
 }
 
 /// Lexes one file.
 pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
     let b = text.as_bytes();
-    let mut toks: Vec<Token> = Vec::new();
+    // About one token per six bytes of OSC text: reserving it saves the
+    // copies of a growing vector (3 % of a 10k-line check).
+    let mut toks: Vec<Token> = Vec::with_capacity(text.len() / 6 + 16);
     let mut diags = Vec::new();
     let mut indents: Vec<usize> = vec![0];
     let mut depth: i32 = 0;
@@ -489,4 +503,22 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
         span: sp(end, end),
     });
     (toks, diags)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    proptest::proptest! {
+        /// The ASCII fast path measures names exactly as the character-wise
+        /// definition does, non-ASCII letters and digits included.
+        #[test]
+        fn ident_len_matches_the_char_definition(s in "[a-z_0-9éΩ٣ -]{0,12}") {
+            let by_chars = s
+                .char_indices()
+                .find(|(_, ch)| !is_id_continue(*ch))
+                .map_or(s.len(), |(k, _)| k);
+            proptest::prop_assert_eq!(ident_len(&s), by_chars);
+        }
+    }
 }

@@ -30,7 +30,7 @@ pub fn parse_str(path: &str, text: &str) -> (SourceMap, ast::FileAst, Vec<Diagno
     let mut sources = SourceMap::default();
     let id = sources.add(path, text);
     let (toks, mut diags) = lexer::lex(text, id);
-    let (ast, d2) = parser::parse(&toks);
+    let (ast, d2) = parser::parse(toks);
     diags.extend(d2);
     diags.sort_by_key(|d| (d.span.file, d.span.start));
     (sources, ast, diags)

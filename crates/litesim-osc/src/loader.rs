@@ -118,7 +118,7 @@ impl Loader<'_> {
         self.stack.push(canon);
         let text = self.prog.sources.file(id).text.clone();
         let (toks, mut diags) = crate::lexer::lex(&text, id);
-        let (ast, d2) = crate::parser::parse(&toks);
+        let (ast, d2) = crate::parser::parse(toks);
         diags.extend(d2);
         self.prog.diagnostics.extend(diags);
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();

@@ -7,8 +7,10 @@ use crate::diag::Diagnostic;
 use crate::lexer::{Tok, Token};
 use crate::source::Span;
 
-struct P<'a> {
-    toks: &'a [Token],
+struct P {
+    /// Owned so that a consumed word can be moved into the tree rather than
+    /// copied: the parser never looks back at a token it has stepped past.
+    toks: Vec<Token>,
     pos: usize,
     diags: Vec<Diagnostic>,
     depth: usize,
@@ -33,7 +35,7 @@ fn describe(t: &Tok) -> String {
     }
 }
 
-impl<'a> P<'a> {
+impl P {
     fn tok(&self) -> &Tok {
         &self.toks[self.pos.min(self.toks.len() - 1)].tok
     }
@@ -49,12 +51,64 @@ impl<'a> P<'a> {
     /// Moves past the current token; returns its span. (No clone of the
     /// token: most callers only step over keywords and punctuation, and a
     /// clone is a string allocation for every word.)
+    /// Moves the current token's text out (an empty string for a token
+    /// without one) and steps past it.
+    fn take_text(&mut self) -> (String, Span) {
+        let i = self.pos.min(self.toks.len() - 1);
+        let text = match &mut self.toks[i].tok {
+            Tok::Ident(s) | Tok::Quoted(s) | Tok::Str(s) | Tok::CloseUnit(s) => std::mem::take(s),
+            Tok::Physical(_, u, _) => std::mem::take(u),
+            _ => String::new(),
+        };
+        (text, self.bump())
+    }
     fn bump(&mut self) -> Span {
         let span = self.span();
         if self.pos < self.toks.len() - 1 {
             self.pos += 1;
         }
         span
+    }
+    /// The current word if it is one of the keywords that start a member,
+    /// an invocation or a declaration, else "": the callers dispatch on it
+    /// without copying the word.
+    fn keyword(&self) -> &'static str {
+        // A match, not a search through a list: the compiler dispatches on
+        // the length first, so most words cost one comparison at most.
+        match self.tok() {
+            Tok::Ident(w) => match w.as_str() {
+                "var" => "var",
+                "keep" => "keep",
+                "remove_default" => "remove_default",
+                "event" => "event",
+                "def" => "def",
+                "cover" => "cover",
+                "record" => "record",
+                "do" => "do",
+                "on" => "on",
+                "until" => "until",
+                "set" => "set",
+                "serial" => "serial",
+                "parallel" => "parallel",
+                "one_of" => "one_of",
+                "wait" => "wait",
+                "emit" => "emit",
+                "call" => "call",
+                "type" => "type",
+                "unit" => "unit",
+                "enum" => "enum",
+                "struct" => "struct",
+                "actor" => "actor",
+                "scenario" => "scenario",
+                "action" => "action",
+                "modifier" => "modifier",
+                "extend" => "extend",
+                "global" => "global",
+                "import" => "import",
+                _ => "",
+            },
+            _ => "",
+        }
     }
     fn is_kw(&self, k: &str) -> bool {
         matches!(self.tok(), Tok::Ident(s) if s == k)
@@ -104,10 +158,10 @@ impl<'a> P<'a> {
         }
     }
     fn ident(&mut self, what: &str) -> Option<Name> {
-        match self.tok().clone() {
-            Tok::Ident(s) | Tok::Quoted(s) => {
-                let span = self.bump();
-                Some(Name { text: s, span })
+        match self.tok() {
+            Tok::Ident(_) | Tok::Quoted(_) => {
+                let (text, span) = self.take_text();
+                Some(Name { text, span })
             }
             _ => {
                 self.error("E0102", what);
@@ -474,38 +528,35 @@ impl<'a> P<'a> {
         }
     }
     fn primary(&mut self) -> Expr {
-        let t = self.tok().clone();
         let span = self.span();
-        match t {
-            Tok::Int(v) => {
+        match self.tok() {
+            &Tok::Int(v) => {
                 self.bump();
                 Expr::Int {
                     value: v as i128,
                     span,
                 }
             }
-            Tok::Float(v) => {
+            &Tok::Float(v) => {
                 self.bump();
                 Expr::Float { value: v, span }
             }
-            Tok::Physical(v, unit, _) => {
-                self.bump();
+            &Tok::Physical(v, _, _) => {
+                let (unit, _) = self.take_text();
                 Expr::Physical {
                     value: v,
                     unit,
                     span,
                 }
             }
-            Tok::Str(s) => {
-                self.bump();
-                Expr::Str { value: s, span }
+            Tok::Str(_) => {
+                let (value, _) = self.take_text();
+                Expr::Str { value, span }
             }
             Tok::Ident(w) if w == "true" || w == "false" => {
+                let value = w == "true";
                 self.bump();
-                Expr::Bool {
-                    value: w == "true",
-                    span,
-                }
+                Expr::Bool { value, span }
             }
             Tok::Ident(w) if w == "range" && matches!(self.nth(1), Tok::Punct("(")) => {
                 self.bump();
@@ -521,8 +572,8 @@ impl<'a> P<'a> {
                     span: join(span, self.prev_span()),
                 }
             }
-            Tok::Ident(w) | Tok::Quoted(w) => {
-                self.bump();
+            Tok::Ident(_) | Tok::Quoted(_) => {
+                let (w, _) = self.take_text();
                 if self.is_p("!") && matches!(self.nth(1), Tok::Ident(_)) {
                     self.bump();
                     let m = self
@@ -568,11 +619,8 @@ impl<'a> P<'a> {
                     } else {
                         Some(Box::new(self.expr()))
                     };
-                    let unit = match self.tok().clone() {
-                        Tok::CloseUnit(u) => {
-                            self.bump();
-                            Some(u)
-                        }
+                    let unit = match self.tok() {
+                        Tok::CloseUnit(_) => Some(self.take_text().0),
                         _ => {
                             self.expect_p("]");
                             None
@@ -723,7 +771,7 @@ impl<'a> P<'a> {
     fn member(&mut self) -> Option<Member> {
         let start = self.span();
         let kw = match self.tok() {
-            Tok::Ident(s) => s.clone(),
+            Tok::Ident(_) => self.keyword(),
             _ => {
                 self.error(
                     "E0110",
@@ -734,7 +782,7 @@ impl<'a> P<'a> {
             }
         };
         let next_colon = matches!(self.nth(1), Tok::Punct(":"));
-        match kw.as_str() {
+        match kw {
             "var" if !next_colon => {
                 self.bump();
                 self.field(true)
@@ -935,11 +983,8 @@ impl<'a> P<'a> {
         } else {
             None
         };
-        let kw = match self.tok() {
-            Tok::Ident(s) => s.clone(),
-            _ => String::new(),
-        };
-        let kind = match kw.as_str() {
+        let kw = self.keyword();
+        let kind = match kw {
             "serial" | "parallel" | "one_of" => {
                 self.bump();
                 let args = if self.eat_p("(") {
@@ -950,7 +995,7 @@ impl<'a> P<'a> {
                 let children = self.block(|p| p.do_member());
                 let with = self.with_block();
                 DoKind::Composition {
-                    op: kw,
+                    op: kw.to_string(),
                     args,
                     children,
                     with,
@@ -1038,14 +1083,14 @@ impl<'a> P<'a> {
 
     fn decl(&mut self) -> Option<Decl> {
         let kw = match self.tok() {
-            Tok::Ident(s) => s.clone(),
+            Tok::Ident(_) => self.keyword(),
             _ => {
                 self.error("E0120", "a declaration (type, unit, enum, struct, actor, scenario, action, modifier, extend, global)");
                 self.recover();
                 return None;
             }
         };
-        match kw.as_str() {
+        match kw {
             "type" => {
                 self.bump();
                 let name = self.ident("a physical type name")?;
@@ -1096,7 +1141,7 @@ impl<'a> P<'a> {
             }
             "struct" | "actor" | "scenario" | "action" | "modifier" => {
                 self.bump();
-                let kind = match kw.as_str() {
+                let kind = match kw {
                     "struct" => DeclKind::Struct,
                     "actor" => DeclKind::Actor,
                     "scenario" => DeclKind::Scenario,
@@ -1188,7 +1233,7 @@ fn join(a: Span, b: Span) -> Span {
 }
 
 /// Parses a token stream (from [`crate::lexer::lex`]) into a tree and diagnostics.
-pub fn parse(toks: &[Token]) -> (FileAst, Vec<Diagnostic>) {
+pub fn parse(toks: Vec<Token>) -> (FileAst, Vec<Diagnostic>) {
     let mut p = P {
         toks,
         pos: 0,
@@ -1196,7 +1241,7 @@ pub fn parse(toks: &[Token]) -> (FileAst, Vec<Diagnostic>) {
         depth: 0,
     };
     let mut ast = FileAst::default();
-    if toks.is_empty() {
+    if p.toks.is_empty() {
         return (ast, p.diags);
     }
     while matches!(p.tok(), Tok::Newline) {
