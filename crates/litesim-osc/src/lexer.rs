@@ -12,23 +12,24 @@ use crate::diag::Diagnostic;
 use crate::source::Span;
 use serde::Serialize;
 
-/// Token kinds.
+/// Token kinds. Words are slices of the source text: most are keywords the
+/// parser only compares, so only the names it keeps are copied.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub enum Tok {
+pub enum Tok<'a> {
     /// A word (identifier or contextual keyword).
-    Ident(String),
+    Ident(&'a str),
     /// `|quoted identifier|`, without the bars (never a keyword).
-    Quoted(String),
+    Quoted(&'a str),
     /// Unsigned integer.
     Int(u64),
     /// Float.
     Float(f64),
     /// Number with a glued unit: value, unit, whether written as an integer.
-    Physical(f64, String, bool),
+    Physical(f64, &'a str, bool),
     /// String literal (escapes resolved).
     Str(String),
     /// `]` immediately followed by a unit: `[3..6]s`.
-    CloseUnit(String),
+    CloseUnit(&'a str),
     /// Punctuation or operator.
     Punct(&'static str),
     /// End of a logical line.
@@ -43,9 +44,9 @@ pub enum Tok {
 
 /// A token and where it is.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Token {
+pub struct Token<'a> {
     /// Kind.
-    pub tok: Tok,
+    pub tok: Tok<'a>,
     /// Span.
     pub span: Span,
 }
@@ -83,7 +84,7 @@ fn ident_len(s: &str) -> usize {
 }
 
 /// Lexes one file.
-pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
+pub fn lex(text: &str, file: u32) -> (Vec<Token<'_>>, Vec<Diagnostic>) {
     let b = text.as_bytes();
     // About one token per six bytes of OSC text: reserving it saves the
     // copies of a growing vector (3 % of a 10k-line check).
@@ -296,7 +297,7 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
                 }
                 if j < b.len() && b[j] == b'|' && j > i + 1 {
                     toks.push(Token {
-                        tok: Tok::Quoted(text[i + 1..j].to_string()),
+                        tok: Tok::Quoted(&text[i + 1..j]),
                         span: sp(s, j + 1),
                     });
                     i = j + 1;
@@ -375,12 +376,12 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
                 if unit_start.is_some() {
                     let (unit, len) = if let Some(quoted) = rest.strip_prefix('|') {
                         match quoted.find('|') {
-                            Some(k) if k > 0 => (quoted[..k].to_string(), k + 2),
-                            _ => (String::new(), 1),
+                            Some(k) if k > 0 => (&quoted[..k], k + 2),
+                            _ => ("", 1),
                         }
                     } else {
                         let len = ident_len(rest);
-                        (rest[..len].to_string(), len)
+                        (&rest[..len], len)
                     };
                     i += len;
                     if unit.is_empty() {
@@ -419,7 +420,7 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
                 if is_id_start(ch) {
                     let len = ident_len(rest);
                     toks.push(Token {
-                        tok: Tok::Ident(rest[..len].to_string()),
+                        tok: Tok::Ident(&rest[..len]),
                         span: sp(i, i + len),
                     });
                     i += len;
@@ -450,7 +451,7 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token>, Vec<Diagnostic>) {
                             if r2.chars().next().is_some_and(is_id_start) {
                                 let len = ident_len(r2);
                                 toks.push(Token {
-                                    tok: Tok::CloseUnit(r2[..len].to_string()),
+                                    tok: Tok::CloseUnit(&r2[..len]),
                                     span: sp(s, i + len),
                                 });
                                 i += len;

@@ -7,10 +7,10 @@ use crate::diag::Diagnostic;
 use crate::lexer::{Tok, Token};
 use crate::source::Span;
 
-struct P {
+struct P<'a> {
     /// Owned so that a consumed word can be moved into the tree rather than
     /// copied: the parser never looks back at a token it has stepped past.
-    toks: Vec<Token>,
+    toks: Vec<Token<'a>>,
     pos: usize,
     diags: Vec<Diagnostic>,
     depth: usize,
@@ -35,11 +35,11 @@ fn describe(t: &Tok) -> String {
     }
 }
 
-impl P {
-    fn tok(&self) -> &Tok {
+impl<'a> P<'a> {
+    fn tok(&self) -> &Tok<'a> {
         &self.toks[self.pos.min(self.toks.len() - 1)].tok
     }
-    fn nth(&self, k: usize) -> &Tok {
+    fn nth(&self, k: usize) -> &Tok<'a> {
         &self.toks[(self.pos + k).min(self.toks.len() - 1)].tok
     }
     fn span(&self) -> Span {
@@ -51,13 +51,16 @@ impl P {
     /// Moves past the current token; returns its span. (No clone of the
     /// token: most callers only step over keywords and punctuation, and a
     /// clone is a string allocation for every word.)
-    /// Moves the current token's text out (an empty string for a token
-    /// without one) and steps past it.
+    /// The current token's text as an owned string (moved out of a string
+    /// literal, copied from the source for a word; empty for a token without
+    /// one), stepping past it.
     fn take_text(&mut self) -> (String, Span) {
         let i = self.pos.min(self.toks.len() - 1);
         let text = match &mut self.toks[i].tok {
-            Tok::Ident(s) | Tok::Quoted(s) | Tok::Str(s) | Tok::CloseUnit(s) => std::mem::take(s),
-            Tok::Physical(_, u, _) => std::mem::take(u),
+            Tok::Ident(s) | Tok::Quoted(s) | Tok::CloseUnit(s) | Tok::Physical(_, s, _) => {
+                s.to_string()
+            }
+            Tok::Str(s) => std::mem::take(s),
             _ => String::new(),
         };
         (text, self.bump())
@@ -76,7 +79,7 @@ impl P {
         // A match, not a search through a list: the compiler dispatches on
         // the length first, so most words cost one comparison at most.
         match self.tok() {
-            Tok::Ident(w) => match w.as_str() {
+            Tok::Ident(w) => match *w {
                 "var" => "var",
                 "keep" => "keep",
                 "remove_default" => "remove_default",
@@ -111,7 +114,7 @@ impl P {
         }
     }
     fn is_kw(&self, k: &str) -> bool {
-        matches!(self.tok(), Tok::Ident(s) if s == k)
+        matches!(self.tok(), Tok::Ident(s) if *s == k)
     }
     fn is_p(&self, p: &str) -> bool {
         matches!(self.tok(), Tok::Punct(q) if *q == p)
@@ -282,7 +285,7 @@ impl P {
     }
 
     fn type_ref(&mut self) -> Option<TypeRef> {
-        let list = if self.is_kw("list") && matches!(self.nth(1), Tok::Ident(s) if s == "of") {
+        let list = if self.is_kw("list") && matches!(self.nth(1), Tok::Ident(s) if *s == "of") {
             self.bump();
             self.bump();
             true
@@ -291,7 +294,7 @@ impl P {
         };
         // `list of list of T`: the grammar's element type is not a list
         // (§3.3). Said precisely here rather than as an unexpected `of`.
-        if list && self.is_kw("list") && matches!(self.nth(1), Tok::Ident(s) if s == "of") {
+        if list && self.is_kw("list") && matches!(self.nth(1), Tok::Ident(s) if *s == "of") {
             let at = self.span();
             self.diags.push(
                 Diagnostic::error("E0125", at, "a list of lists is not allowed: the element type of `list of` is a scalar, struct or actor type")
@@ -344,7 +347,7 @@ impl P {
         loop {
             let op = match self.tok() {
                 Tok::Punct(p) if ops.contains(p) => p.to_string(),
-                Tok::Ident(w) if ops.contains(&w.as_str()) => w.clone(),
+                Tok::Ident(w) if ops.contains(w) => w.to_string(),
                 _ => break,
             };
             self.bump();
@@ -553,12 +556,12 @@ impl P {
                 let (value, _) = self.take_text();
                 Expr::Str { value, span }
             }
-            Tok::Ident(w) if w == "true" || w == "false" => {
-                let value = w == "true";
+            Tok::Ident(w) if *w == "true" || *w == "false" => {
+                let value = *w == "true";
                 self.bump();
                 Expr::Bool { value, span }
             }
-            Tok::Ident(w) if w == "range" && matches!(self.nth(1), Tok::Punct("(")) => {
+            Tok::Ident(w) if *w == "range" && matches!(self.nth(1), Tok::Punct("(")) => {
                 self.bump();
                 self.bump();
                 let lo = self.expr();
@@ -792,7 +795,7 @@ impl P {
                 self.bump();
                 let strength = if self.is_kw("default") || self.is_kw("hard") {
                     let word = match self.tok() {
-                        Tok::Ident(s) => Some(s.clone()),
+                        Tok::Ident(s) => Some(s.to_string()),
                         _ => None,
                     };
                     self.bump();
@@ -855,15 +858,15 @@ impl P {
                 }
                 let only = self.eat_kw("only");
                 let (body, expr) = match self.tok().clone() {
-                    Tok::Ident(k) if k == "expression" => {
+                    Tok::Ident("expression") => {
                         self.bump();
                         ("expression".to_string(), Some(self.expr()))
                     }
-                    Tok::Ident(k) if k == "undefined" => {
+                    Tok::Ident("undefined") => {
                         self.bump();
                         ("undefined".to_string(), None)
                     }
-                    Tok::Ident(k) if k == "external" => {
+                    Tok::Ident("external") => {
                         self.bump();
                         ("external".to_string(), Some(self.postfix()))
                     }
@@ -973,7 +976,7 @@ impl P {
 
     fn do_member(&mut self) -> Option<DoMember> {
         let start = self.span();
-        let label = if matches!(self.tok(), Tok::Ident(w) if w != "with")
+        let label = if matches!(self.tok(), Tok::Ident(w) if *w != "with")
             && matches!(self.nth(1), Tok::Punct(":"))
             && !matches!(self.nth(2), Tok::Newline)
         {
@@ -1233,7 +1236,7 @@ fn join(a: Span, b: Span) -> Span {
 }
 
 /// Parses a token stream (from [`crate::lexer::lex`]) into a tree and diagnostics.
-pub fn parse(toks: Vec<Token>) -> (FileAst, Vec<Diagnostic>) {
+pub fn parse(toks: Vec<Token<'_>>) -> (FileAst, Vec<Diagnostic>) {
     let mut p = P {
         toks,
         pos: 0,
@@ -1257,7 +1260,7 @@ pub fn parse(toks: Vec<Token>) -> (FileAst, Vec<Diagnostic>) {
             Tok::Ident(_) => {
                 let mut s = String::new();
                 while let Tok::Ident(w) = p.tok().clone() {
-                    s.push_str(&w);
+                    s.push_str(w);
                     p.bump();
                     if p.eat_p(".") {
                         s.push('.');
