@@ -370,40 +370,43 @@ pub fn run(
         }
         return Ok(Outcome::Pass);
     }
-    write_plan()?;
-    if let Some(log) = &result.log {
-        let p = out.join("log.json");
+    // The log as written: named after its test, seed and run.
+    let log = result.log.as_ref().map(|log| {
         let mut log = log.clone();
         log.meta.insert("test".into(), test.display().to_string());
         log.meta.insert("seed".into(), s.seed.to_string());
         log.meta.insert("run".into(), run_hash.clone());
-        let log = &log;
-        let rest = || -> Result<()> {
-            log.write_json(&p).map_err(|e| anyhow!("{e}"))?;
-            println!("wrote {}", p.display());
-            if no_pictures {
-                return Ok(());
-            }
-            let l = lanes(prep.net.as_deref());
-            let pic = out.join("replay.png");
-            litesim_viz::replay::write_png(log, &l, &style, &pic).map_err(|e| anyhow!("{e}"))?;
-            println!("wrote {}", pic.display());
-            // The ego's nine-panel dashboard (speed, acceleration, controls, forces, slip).
-            let dash = out.join("dashboard.png");
-            litesim_viz::dashboard::write_png(log, &style, &dash).map_err(|e| anyhow!("{e}"))?;
-            println!("wrote {}", dash.display());
-            if gif {
-                let g = out.join("replay.gif");
-                litesim_viz::replay::write_gif(log, &l, &style, &g, 150)
-                    .map_err(|e| anyhow!("{e}"))?;
-                println!("wrote {}", g.display());
-            }
-            Ok(())
-        };
-        // The MCAP file is written while log.json and the pictures are:
-        // on two cores it adds little to the run's wall time.
-        std::thread::scope(|scope| -> Result<()> {
-            let job = mcap.map(|m| {
+        log
+    });
+    let log = log.as_ref();
+    let rest = |log: &litesim_log::SimulationLog| -> Result<()> {
+        let p = out.join("log.json");
+        log.write_json(&p).map_err(|e| anyhow!("{e}"))?;
+        println!("wrote {}", p.display());
+        if no_pictures {
+            return Ok(());
+        }
+        let l = lanes(prep.net.as_deref());
+        let pic = out.join("replay.png");
+        litesim_viz::replay::write_png(log, &l, &style, &pic).map_err(|e| anyhow!("{e}"))?;
+        println!("wrote {}", pic.display());
+        // The ego's nine-panel dashboard (speed, acceleration, controls, forces, slip).
+        let dash = out.join("dashboard.png");
+        litesim_viz::dashboard::write_png(log, &style, &dash).map_err(|e| anyhow!("{e}"))?;
+        println!("wrote {}", dash.display());
+        if gif {
+            let g = out.join("replay.gif");
+            litesim_viz::replay::write_gif(log, &l, &style, &g, 150).map_err(|e| anyhow!("{e}"))?;
+            println!("wrote {}", g.display());
+        }
+        Ok(())
+    };
+    // The MCAP file is written on a second thread from the moment the log
+    // exists, while plan.json, log.json and the pictures are written: on
+    // two cores it adds little to the run's wall time.
+    std::thread::scope(|scope| -> Result<()> {
+        let job = match (log, mcap) {
+            (Some(log), Some(m)) => Some(
                 std::thread::Builder::new()
                     .name("mcap".into())
                     .spawn_scoped(scope, move || {
@@ -416,19 +419,18 @@ pub fn run(
                         litesim_mcap::write_with(log, map.as_ref(), m)
                             .map_err(|e| anyhow!("{}: {e}", m.display()))
                     })
-            });
-            let job = job
-                .transpose()
-                .map_err(|e| anyhow!("starting the MCAP writer: {e}"))?;
-            let drawn = rest();
-            if let (Some(job), Some(m)) = (job, mcap) {
-                job.join()
-                    .map_err(|_| anyhow!("{}: the MCAP writer panicked", m.display()))??;
-                println!("wrote {}", m.display());
-            }
-            drawn
-        })?;
-    }
+                    .map_err(|e| anyhow!("starting the MCAP writer: {e}"))?,
+            ),
+            _ => None,
+        };
+        let drawn = write_plan().and_then(|()| log.map_or(Ok(()), rest));
+        if let (Some(job), Some(m)) = (job, mcap) {
+            job.join()
+                .map_err(|_| anyhow!("{}: the MCAP writer panicked", m.display()))??;
+            println!("wrote {}", m.display());
+        }
+        drawn
+    })?;
     let p = out.join("summary.json");
     batch::atomic(&p, &(serde_json::to_string_pretty(s)? + "\n"))?;
     println!("wrote {}", p.display());

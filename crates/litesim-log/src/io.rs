@@ -51,6 +51,17 @@ pub fn write_atomic(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
 ) -> Result<(), LogError> {
+    write_atomic_seekable(path, |w| fill(w))
+}
+
+/// [`write_atomic`] for formats that seek back while writing (a container
+/// whose records point at each other, such as MCAP): the writer is the
+/// temporary file itself behind a 64 KiB buffer, so nothing is built in
+/// memory first.
+pub fn write_atomic_seekable(
+    path: &Path,
+    fill: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> std::io::Result<()>,
+) -> Result<(), LogError> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -58,7 +69,7 @@ pub fn write_atomic(
     std::fs::create_dir_all(&dir).map_err(io_err(path))?;
     let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(io_err(path))?;
     {
-        let mut w = std::io::BufWriter::new(tmp.as_file_mut());
+        let mut w = std::io::BufWriter::with_capacity(1 << 16, tmp.as_file_mut());
         fill(&mut w).map_err(io_err(path))?;
         w.flush().map_err(io_err(path))?;
     }

@@ -542,16 +542,34 @@ pub fn write_with(
     map: Option<&McapMap>,
     path: &Path,
 ) -> Result<McapStats, McapError> {
-    // Built in memory (MCAP's summary needs seeking; the files are
-    // compressed and small next to the log), then written atomically.
-    let mut bytes = std::io::Cursor::new(Vec::new());
-    let stats = write_to_with(log, map, &mut bytes)?;
-    let bytes = bytes.into_inner();
-    litesim_log::write_atomic(path, |w| w.write_all(&bytes))?;
-    Ok(McapStats {
-        bytes: bytes.len() as u64,
-        ..stats
-    })
+    // Straight into the temporary file (MCAP's summary needs seeking, which
+    // a file gives): building the file in a growing buffer first cost a
+    // cold process a copy and fresh pages for every doubling.
+    let mut made: Option<Result<McapStats, McapError>> = None;
+    let written = litesim_log::write_atomic_seekable(path, |w| {
+        let r = write_to_with(log, map, &mut *w).and_then(|stats| {
+            let bytes = w
+                .stream_position()
+                .map_err(|source| litesim_log::LogError::Io {
+                    path: path.to_path_buf(),
+                    source,
+                })?;
+            Ok(McapStats { bytes, ..stats })
+        });
+        let res = match &r {
+            Ok(_) => Ok(()),
+            // Abandons the temporary file; the error itself is kept below.
+            Err(e) => Err(std::io::Error::other(e.to_string())),
+        };
+        made = Some(r);
+        res
+    });
+    match (made, written) {
+        (Some(Err(e)), _) => Err(e),
+        (_, Err(e)) => Err(e.into()),
+        (Some(Ok(stats)), Ok(())) => Ok(stats),
+        (None, Ok(())) => Err(McapError::Log("the MCAP writer did not run".into())),
+    }
 }
 
 /// Writes `log` as MCAP to any seekable writer (see [`write`]).
@@ -938,6 +956,26 @@ mod tests {
         let want: Vec<&String> = schema["properties"].as_object().unwrap().keys().collect();
         let got: Vec<&String> = v.as_object().unwrap().keys().collect();
         assert_eq!(got, want);
+    }
+
+    #[test]
+    fn a_file_is_the_same_bytes_as_in_memory_and_a_refused_log_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("run.mcap");
+        let l = log(10);
+        let stats = write(&l, None, &path).unwrap();
+        let mut mem = std::io::Cursor::new(Vec::new());
+        write_to(&l, None, &mut mem).unwrap();
+        let file = std::fs::read(&path).unwrap();
+        assert_eq!(file, mem.into_inner());
+        assert_eq!(stats.bytes, file.len() as u64);
+        // A refused log: the earlier file stays, no temporary file is left.
+        let mut bad = log(5);
+        bad.tracks[0].state.x.pop();
+        let e = write(&bad, None, &path).unwrap_err();
+        assert!(e.to_string().contains("sut.car"), "{e}");
+        assert_eq!(std::fs::read(&path).unwrap(), file);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 
     #[test]
