@@ -216,14 +216,14 @@ impl Model {
         let names: Vec<String> = m.compounds.keys().cloned().collect();
         for n in names {
             let mut map = FxHashMap::default();
+            // Typed straight from the lineage's declarations (no copies of
+            // the declared types): this runs for every compound per load.
             let params: Vec<(String, Ty)> = m
-                .params(&n)
-                .into_iter()
-                .map(|(f, t)| {
-                    let ty = m.ty_of(&t);
-                    (f, ty)
-                })
+                .lineage(&n)
+                .filter_map(|c| m.compounds.get(c))
+                .flat_map(|(_, p, _)| p.iter().map(|(f, t)| (f.clone(), m.ty_of(t))))
                 .collect();
+            map.reserve(params.len());
             // Own fields first win over a base's field of the same name.
             for (f, t) in &params {
                 map.entry(f.clone()).or_insert_with(|| t.clone());

@@ -426,7 +426,11 @@ pub fn lex(text: &str, file: u32) -> (Vec<Token<'_>>, Vec<Diagnostic>) {
                     i += len;
                     continue;
                 }
-                match PUNCT.iter().find(|p| rest.starts_with(**p)) {
+                // Only the operators starting with this byte are tried.
+                match PUNCT
+                    .iter()
+                    .find(|p| p.as_bytes()[0] == c && rest.starts_with(**p))
+                {
                     Some(p) => {
                         let s = i;
                         i += p.len();
