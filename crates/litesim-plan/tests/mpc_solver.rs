@@ -89,15 +89,6 @@ proptest! {
         let mut mpc = Mpc::new(cfg.clone()).unwrap();
         let fast = mpc.solve(z0, &refs, [prev_a, prev_d]).unwrap();
         prop_assert!(fast.fallback.is_none(), "{:?}", fast.fallback);
-        let slow = mpc.solve_reference(z0, &refs, [prev_a, prev_d], 1e-14).unwrap();
-        for (k, (a, b)) in fast.inputs.iter().zip(&slow.inputs).enumerate() {
-            prop_assert!(
-                (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6,
-                "step {}: structured {:?}, Clarabel {:?}; objective {} vs {}", k, a, b,
-                mpc.objective(z0, &refs, [prev_a, prev_d], &fast.inputs).unwrap(),
-                mpc.objective(z0, &refs, [prev_a, prev_d], &slow.inputs).unwrap()
-            );
-        }
         // The constraints hold exactly (to rounding).
         let lim = cfg.max_steer_rate * cfg.dt;
         let mut last = prev_d.clamp(-cfg.max_steer, cfg.max_steer);
@@ -106,6 +97,22 @@ proptest! {
             prop_assert!(u[1].abs() <= cfg.max_steer + 1e-12);
             prop_assert!((u[1] - last).abs() <= lim + 1e-9, "rate {} → {}", last, u[1]);
             last = u[1];
+        }
+        // The reference itself can fail: about one case in a few thousand
+        // (a degenerate vertex, many limits binding at once far off the
+        // reference) Clarabel stops short of the tolerance and polishing
+        // cannot confirm its answer. Nothing is compared against a reference
+        // that is not one; proptest fails the test if that becomes common.
+        let slow = mpc.solve_reference(z0, &refs, [prev_a, prev_d], 1e-14);
+        prop_assume!(slow.is_ok(), "no reference: {:?}", slow.as_ref().err());
+        let slow = slow.unwrap();
+        for (k, (a, b)) in fast.inputs.iter().zip(&slow.inputs).enumerate() {
+            prop_assert!(
+                (a[0] - b[0]).abs() < 1e-6 && (a[1] - b[1]).abs() < 1e-6,
+                "step {}: structured {:?}, Clarabel {:?}; objective {} vs {}", k, a, b,
+                mpc.objective(z0, &refs, [prev_a, prev_d], &fast.inputs).unwrap(),
+                mpc.objective(z0, &refs, [prev_a, prev_d], &slow.inputs).unwrap()
+            );
         }
     }
 
