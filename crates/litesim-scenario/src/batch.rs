@@ -682,6 +682,10 @@ pub fn run_batch(
             .map_err(|e| ScenarioError::Io(e.to_string()))?;
     }
     let sink = Mutex::new((file, 0u64));
+    // The map's lanes as MCAP content, sampled once per test, by the first
+    // failed run that needs them (not again for every failed seed).
+    let mcap_maps: Vec<std::sync::OnceLock<Option<litesim_mcap::McapMap>>> =
+        preps.iter().map(|_| std::sync::OnceLock::new()).collect();
     let work = || {
         jobs.par_iter()
             .map(|(ti, seed)| {
@@ -694,15 +698,12 @@ pub fn run_batch(
                     && !line.pass
                     && let Ok(p) = prep
                 {
-                    save_log(
-                        &spec.out,
-                        name,
-                        p,
-                        *seed,
-                        &base,
-                        &manifest_hash,
-                        spec.save_failed_mcap,
-                    );
+                    let mcap = spec.save_failed_mcap.then(|| {
+                        mcap_maps[*ti]
+                            .get_or_init(|| p.net.as_deref().map(litesim_mcap::McapMap::new))
+                            .as_ref()
+                    });
+                    save_log(&spec.out, name, p, *seed, &base, &manifest_hash, mcap);
                 }
                 let text = serde_json::to_string(&line).unwrap_or_default();
                 let mut g = sink.lock().unwrap_or_else(|e| e.into_inner());
@@ -743,7 +744,8 @@ fn save_log(
     seed: u64,
     base: &RunOptions,
     manifest_hash: &str,
-    mcap: bool,
+    // `Some` to write an MCAP file too, with the test's map content.
+    mcap: Option<Option<&litesim_mcap::McapMap>>,
 ) {
     let opts = RunOptions {
         seed: Some(seed),
@@ -764,9 +766,9 @@ fn save_log(
         let dir = out.join("failed");
         if std::fs::create_dir_all(&dir).is_ok() {
             let _ = log.write_json(&dir.join(format!("{stem}-seed{seed}.json")));
-            if mcap {
+            if let Some(map) = mcap {
                 let path = dir.join(format!("{stem}-seed{seed}.mcap"));
-                let _ = litesim_mcap::write(&log, prep.net.as_deref(), &path);
+                let _ = litesim_mcap::write_with(&log, map, &path);
             }
         }
     }
