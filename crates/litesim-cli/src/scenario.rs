@@ -285,14 +285,24 @@ pub fn run(
         _ => {}
     }
     batch::atomic(&out.join("run.json"), &stamp)?;
-    // The MCAP file's map content (lane polylines) does not depend on the
-    // run: sampled on the other core while the run goes on.
-    let mcap_map = match (mcap, &prep.net) {
-        (Some(_), Some(net)) if !plan_only => {
-            let net = std::sync::Arc::clone(net);
-            Some(std::thread::spawn(move || litesim_mcap::McapMap::new(&net)))
+    // The MCAP file is written on the other core while the run goes on:
+    // its map content first (the lane polylines do not depend on the run),
+    // then the ticks, handed over in pieces as they are recorded.
+    let streamer = match mcap {
+        Some(m) if !plan_only => {
+            let net = prep.net.clone();
+            let map = std::thread::spawn(move || net.map(|n| litesim_mcap::McapMap::new(&n)));
+            let extra = [
+                ("test".to_string(), test.display().to_string()),
+                ("run".to_string(), run_hash.clone()),
+            ];
+            Some(McapStreamer::start(m, map, extra.into())?)
         }
         _ => None,
+    };
+    let opts = RunOptions {
+        observer: streamer.as_ref().map(McapStreamer::observer),
+        ..opts
     };
     // Every SSP call through a tracer when asked (in-process or remote).
     let traced = |ssp: &mut dyn litesim_ssp::Ssp| -> Result<litesim_scenario::RunResult> {
@@ -401,36 +411,26 @@ pub fn run(
         }
         Ok(())
     };
-    // The MCAP file is written on a second thread from the moment the log
-    // exists, while plan.json, log.json and the pictures are written: on
-    // two cores it adds little to the run's wall time.
-    std::thread::scope(|scope| -> Result<()> {
-        let job = match (log, mcap) {
-            (Some(log), Some(m)) => Some(
-                std::thread::Builder::new()
-                    .name("mcap".into())
-                    .spawn_scoped(scope, move || {
-                        let map = match mcap_map {
-                            Some(j) => Some(j.join().map_err(|_| {
-                                anyhow!("{}: sampling the map's lanes panicked", m.display())
-                            })?),
-                            None => None,
-                        };
-                        litesim_mcap::write_with(log, map.as_ref(), m)
-                            .map_err(|e| anyhow!("{}: {e}", m.display()))
-                    })
-                    .map_err(|e| anyhow!("starting the MCAP writer: {e}"))?,
-            ),
-            _ => None,
-        };
-        let drawn = write_plan().and_then(|()| log.map_or(Ok(()), rest));
-        if let (Some(job), Some(m)) = (job, mcap) {
-            job.join()
-                .map_err(|_| anyhow!("{}: the MCAP writer panicked", m.display()))??;
-            println!("wrote {}", m.display());
+    // The rest of the ticks to the MCAP writer, which finishes the file
+    // while plan.json, log.json and the pictures are written.
+    let streaming = match (streamer, log) {
+        (Some(st), Some(log)) => Some(st.end(log)),
+        _ => None,
+    };
+    let drawn = write_plan().and_then(|()| log.map_or(Ok(()), rest));
+    if let (Some(job), Some(m), Some(log)) = (streaming, mcap, log) {
+        if let Err(e) = job.join() {
+            // Streaming refused the run (an actor that joined late): the
+            // file is written from the whole log instead.
+            if !matches!(e, litesim_mcap::McapError::Log(_)) {
+                bail!("{}: {e}", m.display());
+            }
+            litesim_mcap::write(log, prep.net.as_deref(), m)
+                .map_err(|e| anyhow!("{}: {e}", m.display()))?;
         }
-        drawn
-    })?;
+        println!("wrote {}", m.display());
+    }
+    drawn?;
     let p = out.join("summary.json");
     batch::atomic(&p, &(serde_json::to_string_pretty(s)? + "\n"))?;
     println!("wrote {}", p.display());
@@ -696,4 +696,138 @@ pub fn calibrate_cmd(profile: &str, out: Option<PathBuf>) -> Result<()> {
     );
     println!("wrote {}", path.display());
     Ok(())
+}
+
+/// The MCAP file of `litesim run`, written on its own thread while the run
+/// goes on: the run's observer hands it every 50 recorded ticks, the rest
+/// follows when the run is over ([`McapStreamer::end`]). A run that ends
+/// without a log (an error) leaves no file.
+struct McapStreamer {
+    state: std::sync::Arc<std::sync::Mutex<StreamState>>,
+    job: std::thread::JoinHandle<Result<(), litesim_mcap::McapError>>,
+}
+
+struct StreamState {
+    /// `Some(piece)`, then `None` when the log is complete.
+    tx: std::sync::mpsc::Sender<Option<litesim_log::SimulationLog>>,
+    /// Ticks handed over so far.
+    sent: usize,
+    /// Metadata the CLI adds to the run's log (test, run), in every piece.
+    extra: Vec<(String, String)>,
+}
+
+impl StreamState {
+    fn send(&mut self, log: &litesim_log::SimulationLog) {
+        let mut piece = log.ticks_from(self.sent);
+        piece.meta.extend(self.extra.iter().cloned());
+        self.sent = log.tick.len();
+        // A writer that stopped has its error waiting at `join`.
+        let _ = self.tx.send(Some(piece));
+    }
+}
+
+/// Ticks per piece handed to the writer: often enough that it keeps up
+/// with the run, seldom enough that the copies cost nothing.
+const STREAM_PIECE: usize = 50;
+
+impl McapStreamer {
+    fn start(
+        path: &Path,
+        map: std::thread::JoinHandle<Option<litesim_mcap::McapMap>>,
+        extra: Vec<(String, String)>,
+    ) -> Result<McapStreamer> {
+        let (tx, rx) = std::sync::mpsc::channel::<Option<litesim_log::SimulationLog>>();
+        let path = path.to_path_buf();
+        let job = std::thread::Builder::new()
+            .name("mcap".into())
+            .spawn(move || {
+                let map = map.join().map_err(|_| {
+                    litesim_mcap::McapError::Encode("map", "sampling the lanes panicked".into())
+                })?;
+                let Ok(Some(first)) = rx.recv() else {
+                    return Err(litesim_mcap::McapError::Encode(
+                        "log",
+                        "the run ended without one".into(),
+                    ));
+                };
+                let mut made = Ok(());
+                let written = litesim_log::write_atomic_seekable(&path, |w| {
+                    made = stream_pieces(&mut *w, map.as_ref(), &first, &rx);
+                    made.as_ref()
+                        .map(|_| ())
+                        .map_err(|e| std::io::Error::other(e.to_string()))
+                });
+                made?;
+                written?;
+                Ok(())
+            })
+            .map_err(|e| anyhow!("starting the MCAP writer: {e}"))?;
+        let state = StreamState { tx, sent: 0, extra };
+        Ok(McapStreamer {
+            state: std::sync::Arc::new(std::sync::Mutex::new(state)),
+            job,
+        })
+    }
+
+    /// The run's observer: a piece every [`STREAM_PIECE`] ticks.
+    fn observer(&self) -> litesim_scenario::TickObserver {
+        let state = std::sync::Arc::clone(&self.state);
+        litesim_scenario::TickObserver(std::sync::Arc::new(std::sync::Mutex::new(
+            move |log: &litesim_log::SimulationLog| {
+                let mut s = state.lock().unwrap_or_else(|e| e.into_inner());
+                if log.tick.len() >= s.sent + STREAM_PIECE {
+                    s.send(log);
+                }
+            },
+        )))
+    }
+
+    /// Hands over the ticks not yet sent from the finished log and says it
+    /// is complete; the returned job finishes the file.
+    fn end(self, log: &litesim_log::SimulationLog) -> StreamJob {
+        {
+            let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+            s.send(log);
+            let _ = s.tx.send(None);
+        }
+        StreamJob(self.job)
+    }
+}
+
+/// The MCAP writer finishing its file.
+struct StreamJob(std::thread::JoinHandle<Result<(), litesim_mcap::McapError>>);
+
+impl StreamJob {
+    fn join(self) -> Result<(), litesim_mcap::McapError> {
+        self.0.join().unwrap_or_else(|_| {
+            Err(litesim_mcap::McapError::Encode(
+                "file",
+                "the MCAP writer panicked".into(),
+            ))
+        })
+    }
+}
+
+/// Writes the MCAP file from its first piece and those that follow on
+/// `rx` until the log is complete (`None`).
+fn stream_pieces<W: std::io::Write + std::io::Seek>(
+    w: W,
+    map: Option<&litesim_mcap::McapMap>,
+    first: &litesim_log::SimulationLog,
+    rx: &std::sync::mpsc::Receiver<Option<litesim_log::SimulationLog>>,
+) -> Result<(), litesim_mcap::McapError> {
+    let mut stream = litesim_mcap::McapStream::new(w, map, first)?;
+    stream.push(first)?;
+    loop {
+        match rx.recv() {
+            Ok(Some(piece)) => stream.push(&piece)?,
+            Ok(None) => return stream.finish().map(|_| ()),
+            Err(_) => {
+                return Err(litesim_mcap::McapError::Encode(
+                    "log",
+                    "the run ended without one".into(),
+                ));
+            }
+        }
+    }
 }

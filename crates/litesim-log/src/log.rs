@@ -121,6 +121,53 @@ impl ActorTrack {
     pub fn is_empty(&self) -> bool {
         self.tick.is_empty()
     }
+    /// The track's samples `i..j` (clamped; metadata kept).
+    pub fn samples_between(&self, i: usize, j: usize) -> ActorTrack {
+        let j = j.min(self.tick.len());
+        let i = i.min(j);
+        let s = &self.state;
+        let c = &self.control;
+        let d = &self.derived;
+        // Columns of the wrong length (a hand-made log) are cut where they
+        // can be: a writer reports them as it would for the whole log.
+        let cut = |v: &Vec<f64>| v[i.min(v.len())..j.min(v.len())].to_vec();
+        ActorTrack {
+            id: self.id.clone(),
+            kind: self.kind.clone(),
+            model: self.model.clone(),
+            length: self.length,
+            width: self.width,
+            mass: self.mass,
+            tick: self.tick[i..j].to_vec(),
+            mode: self.mode[i.min(self.mode.len())..j.min(self.mode.len())].to_vec(),
+            state: StateColumns {
+                x: cut(&s.x),
+                y: cut(&s.y),
+                z: cut(&s.z),
+                yaw: cut(&s.yaw),
+                vx: cut(&s.vx),
+                vy: cut(&s.vy),
+                speed: cut(&s.speed),
+                yaw_rate: cut(&s.yaw_rate),
+            },
+            control: ControlColumns {
+                throttle: cut(&c.throttle),
+                brake: cut(&c.brake),
+                steering: cut(&c.steering),
+                acceleration: cut(&c.acceleration),
+                steering_angle: cut(&c.steering_angle),
+            },
+            derived: DerivedColumns {
+                curvature: cut(&d.curvature),
+                lateral_acceleration: cut(&d.lateral_acceleration),
+                longitudinal_acceleration: cut(&d.longitudinal_acceleration),
+                slip_angle: cut(&d.slip_angle),
+                force_longitudinal_n: cut(&d.force_longitudinal_n),
+                force_lateral_n: cut(&d.force_lateral_n),
+                friction_use: cut(&d.friction_use),
+            },
+        }
+    }
     /// Column lengths that disagree with `tick` (name, length).
     pub fn bad_columns(&self) -> Vec<(&'static str, usize)> {
         let n = self.tick.len();
@@ -278,6 +325,42 @@ impl SimulationLog {
     /// A track by actor id.
     pub fn track(&self, id: &str) -> Option<&ActorTrack> {
         self.tracks.iter().find(|t| t.id == id)
+    }
+
+    /// The ticks from index `from` on: [`SimulationLog::ticks_between`]
+    /// to the end.
+    pub fn ticks_from(&self, from: usize) -> SimulationLog {
+        self.ticks_between(from, self.tick.len())
+    }
+
+    /// The ticks with index in `from..to` (clamped to the log), every track
+    /// cut to its samples at those ticks; metadata and step kept, the plan
+    /// and tracking left out. For streaming writers that take the log in
+    /// pieces while it is still recorded.
+    pub fn ticks_between(&self, from: usize, to: usize) -> SimulationLog {
+        let to = to.min(self.tick.len());
+        let from = from.min(to);
+        let first = self.tick.get(from).copied().unwrap_or(u64::MAX);
+        let end = self.tick.get(to).copied().unwrap_or(u64::MAX);
+        let times = from.min(self.time.len())..to.min(self.time.len());
+        SimulationLog {
+            format_version: self.format_version,
+            dt: self.dt,
+            meta: self.meta.clone(),
+            tick: self.tick[from..to].to_vec(),
+            time: self.time[times].to_vec(),
+            tracks: self
+                .tracks
+                .iter()
+                .map(|t| {
+                    t.samples_between(
+                        t.tick.partition_point(|&k| k < first),
+                        t.tick.partition_point(|&k| k < end),
+                    )
+                })
+                .collect(),
+            ..SimulationLog::default()
+        }
     }
 
     /// For each of the log's ticks, the index of `track`'s sample at that

@@ -106,3 +106,43 @@ fn bad_files_are_precise_errors() {
     ));
     assert!(SimulationLog::from_json_str("", &p).is_err());
 }
+
+/// Pieces of a log by tick index: clamped at both ends, every track cut to
+/// its samples at those ticks (an actor present only in some ticks too).
+#[test]
+fn ticks_between_cuts_every_track_at_the_same_ticks() {
+    use litesim_log::{ActorSample, LogRecorder};
+    let mut rec = LogRecorder::new(0.1);
+    rec.actor("a", "vehicle/car", "car", 4.0, 2.0, 1000.0);
+    rec.actor("b", "person", "person", 0.5, 0.5, 80.0);
+    for k in 0..6u64 {
+        rec.begin(k, k as f64 * 0.1);
+        let s = ActorSample::from_kinematics(
+            litesim_core::Pose::planar(k as f64, 0.0, 0.0),
+            litesim_core::Vec3::new(1.0, 0.0, 0.0),
+            litesim_core::Vec3::new(0.0, 0.0, 0.0),
+            0.0,
+            1.0,
+            2.6,
+        );
+        rec.sample("a", "trajectory", &s);
+        if (2..=3).contains(&k) {
+            rec.sample("b", "trajectory", &s);
+        }
+    }
+    let log = rec.finish();
+    let p = log.ticks_between(1, 3);
+    assert_eq!(p.tick, vec![1, 2]);
+    assert_eq!(p.time.len(), 2);
+    assert_eq!(p.tracks[0].state.x, vec![1.0, 2.0]);
+    assert_eq!(p.tracks[1].tick, vec![2]);
+    assert!(p.tracks.iter().all(|t| t.bad_columns().is_empty()));
+    assert_eq!(p.meta, log.meta);
+    // Clamped: past the end, backwards, empty.
+    assert!(log.ticks_between(4, 99).tick == vec![4, 5]);
+    assert!(log.ticks_between(5, 2).tick.is_empty());
+    assert!(log.ticks_from(6).tracks.iter().all(|t| t.tick.is_empty()));
+    // The whole log again (compared as JSON: NaN is not equal to itself).
+    let json = |l: &SimulationLog| serde_json::to_string(&l.tracks).unwrap();
+    assert_eq!(json(&log.ticks_from(0)), json(&log));
+}

@@ -587,6 +587,15 @@ pub fn write_to_with<W: Write + Seek>(
     map: Option<&McapMap>,
     w: W,
 ) -> Result<McapStats, McapError> {
+    check_columns(log)?;
+    let mut stream = McapStream::new(w, map, log)?;
+    stream.push(log)?;
+    stream.finish()
+}
+
+/// A log whose columns a writer can walk: as many times as ticks, every
+/// track's columns as long as its ticks.
+fn check_columns(log: &SimulationLog) -> Result<(), McapError> {
     if log.tick.len() != log.time.len() {
         return Err(McapError::Log(format!(
             "the log has {} ticks but {} times",
@@ -603,188 +612,262 @@ pub fn write_to_with<W: Write + Seek>(
             )));
         }
     }
-    let opts = mcap::WriteOptions::new()
-        .profile("")
-        .library(format!("litesim {}", env!("CARGO_PKG_VERSION")))
-        .compression(Some(mcap::Compression::Zstd))
-        // Level 1: the repeated map content in every GroundTruth compresses
-        // to almost nothing at the fastest level.
-        .compression_level(1)
-        // In the caller's thread: a worker pool costs more than it saves on
-        // the chunks of one run (and batches already use every core).
-        .compression_threads(0);
-    let mut out = opts.create(w)?;
-    let none = BTreeMap::new();
+    Ok(())
+}
 
-    let scene_schema = schema_of::<fg::SceneUpdate>()?;
-    let scene_sid = out.add_schema(
-        &scene_schema.name,
-        &scene_schema.encoding,
-        &scene_schema.data,
-    )?;
-    let tf_schema = schema_of::<fg::FrameTransforms>()?;
-    let tf_sid = out.add_schema(&tf_schema.name, &tf_schema.encoding, &tf_schema.data)?;
-    let state_sid = out.add_schema(
-        ACTOR_STATE_SCHEMA,
-        "jsonschema",
-        actor_state_schema().as_bytes(),
-    )?;
-    let osi_sid = out.add_schema("osi3.GroundTruth", "protobuf", OSI_DESCRIPTORS)?;
+/// An MCAP file written piece by piece while a run is still being
+/// recorded: [`McapStream::new`] with the log so far (its actors and
+/// metadata), [`McapStream::push`] with each new piece of ticks
+/// ([`SimulationLog::ticks_from`]), [`McapStream::finish`]. The bytes are
+/// those [`write_to_with`] writes for the whole log, however it is cut.
+/// Every actor must be in the first piece (they are in litesim's runs:
+/// actors are created before the first step); a later one is an error.
+pub struct McapStream<W: Write + Seek> {
+    out: mcap::Writer<W>,
+    map_ch: u16,
+    scene_ch: u16,
+    tf_ch: u16,
+    osi_ch: u16,
+    state_ch: Vec<u16>,
+    /// The actors, in track order (their OSI ids are 1..=n).
+    ids: Vec<String>,
+    /// Messages so far per channel id (the sequence number of the next).
+    seq: BTreeMap<u16, u32>,
+    /// The map's line strips, sent at the first tick.
+    map_entity: Option<fg::SceneEntity>,
+    static_bytes: Vec<u8>,
+    first: bool,
+    heights: Vec<f64>,
+    entities: Vec<fg::SceneEntity>,
+    transforms: Vec<fg::FrameTransform>,
+    objects: Vec<osi3::MovingObject>,
+    quoted: Vec<String>,
+    present: Vec<bool>,
+    live: Vec<usize>,
+    scene: fg::SceneUpdate,
+    tfs: fg::FrameTransforms,
+    gt: osi3::GroundTruth,
+    gt_buf: Vec<u8>,
+    buf: Vec<u8>,
+    json: Vec<u8>,
+}
 
-    let map_ch = out.add_channel(scene_sid, TOPIC_MAP, "protobuf", &none)?;
-    let scene_ch = out.add_channel(scene_sid, TOPIC_SCENE, "protobuf", &none)?;
-    let tf_ch = out.add_channel(tf_sid, TOPIC_TF, "protobuf", &none)?;
-    let osi_ch = out.add_channel(osi_sid, TOPIC_OSI, "protobuf", &none)?;
-    let mut state_ch = Vec::with_capacity(log.tracks.len());
-    for t in &log.tracks {
-        state_ch.push(out.add_channel(
-            state_sid,
-            &format!("/actors/{}/state", t.id),
-            "json",
-            &none,
-        )?);
-    }
-    let mut meta: BTreeMap<String, String> = log.meta.clone();
-    meta.insert("dt".into(), format!("{}", log.dt));
-    meta.insert("world_frame".into(), WORLD_FRAME.into());
-    out.write_metadata(&mcap::records::Metadata {
-        name: "litesim".into(),
-        metadata: meta,
-    })?;
+impl<W: Write + Seek> McapStream<W> {
+    /// Starts the file: header, schemas, channels, metadata (`start.meta`
+    /// with `dt` and the world frame) for the actors of `start`.
+    pub fn new(w: W, map: Option<&McapMap>, start: &SimulationLog) -> Result<Self, McapError> {
+        let opts = mcap::WriteOptions::new()
+            .profile("")
+            .library(format!("litesim {}", env!("CARGO_PKG_VERSION")))
+            .compression(Some(mcap::Compression::Zstd))
+            // Level 1: the repeated map content in every GroundTruth
+            // compresses to almost nothing at the fastest level.
+            .compression_level(1)
+            // In the caller's thread: a worker pool costs more than it saves
+            // on the chunks of one run (and batches already use every core).
+            .compression_threads(0);
+        let mut out = opts.create(w)?;
+        let none = BTreeMap::new();
 
-    // Messages so far per channel id (the sequence number of the next).
-    let mut seq: BTreeMap<u16, u32> = BTreeMap::new();
-    let mut put =
-        |out: &mut mcap::Writer<W>, ch: u16, ns: u64, data: &[u8]| -> Result<(), McapError> {
-            let s = seq.entry(ch).or_insert(0);
-            *s += 1;
-            out.write_to_known_channel(
-                &mcap::records::MessageHeader {
-                    channel_id: ch,
-                    sequence: *s,
-                    log_time: ns,
-                    publish_time: ns,
-                },
-                data,
-            )?;
-            Ok(())
-        };
+        let scene_schema = schema_of::<fg::SceneUpdate>()?;
+        let scene_sid = out.add_schema(
+            &scene_schema.name,
+            &scene_schema.encoding,
+            &scene_schema.data,
+        )?;
+        let tf_schema = schema_of::<fg::FrameTransforms>()?;
+        let tf_sid = out.add_schema(&tf_schema.name, &tf_schema.encoding, &tf_schema.data)?;
+        let state_sid = out.add_schema(
+            ACTOR_STATE_SCHEMA,
+            "jsonschema",
+            actor_state_schema().as_bytes(),
+        )?;
+        let osi_sid = out.add_schema("osi3.GroundTruth", "protobuf", OSI_DESCRIPTORS)?;
 
-    // Moving objects are ids 1..=n (track order); the map's ids follow.
-    let n = log.tracks.len() as u64;
-    let host = log
-        .tracks
-        .iter()
-        .position(|t| t.id == "sut.car")
-        .unwrap_or(0) as u64
-        + 1;
-    let content = map.map(|m| map_content(m, n + 1));
-    // The static road (lanes, boundaries, map reference) goes in the first
-    // GroundTruth message only: repeated in every message it made a file
-    // of a 500 m road 100× larger and its writing 20× slower than the run
-    // (a city map is megabytes per message). It is encoded once; protobuf
-    // merges concatenated encodings, so the first message is these bytes
-    // followed by the tick's own fields.
-    let static_gt = osi3::GroundTruth {
-        lane: content
-            .as_ref()
-            .map(|c| c.lanes.clone())
-            .unwrap_or_default(),
-        lane_boundary: content
-            .as_ref()
-            .map(|c| c.boundaries.clone())
-            .unwrap_or_default(),
-        map_reference: log.meta.get("map").cloned(),
-        ..Default::default()
-    };
-    let static_bytes = prost::Message::encode_to_vec(&static_gt);
+        let map_ch = out.add_channel(scene_sid, TOPIC_MAP, "protobuf", &none)?;
+        let scene_ch = out.add_channel(scene_sid, TOPIC_SCENE, "protobuf", &none)?;
+        let tf_ch = out.add_channel(tf_sid, TOPIC_TF, "protobuf", &none)?;
+        let osi_ch = out.add_channel(osi_sid, TOPIC_OSI, "protobuf", &none)?;
+        let tracks = &start.tracks;
+        let mut state_ch = Vec::with_capacity(tracks.len());
+        for t in tracks {
+            state_ch.push(out.add_channel(
+                state_sid,
+                &format!("/actors/{}/state", t.id),
+                "json",
+                &none,
+            )?);
+        }
+        let mut meta: BTreeMap<String, String> = start.meta.clone();
+        meta.insert("dt".into(), format!("{}", start.dt));
+        meta.insert("world_frame".into(), WORLD_FRAME.into());
+        out.write_metadata(&mcap::records::Metadata {
+            name: "litesim".into(),
+            metadata: meta,
+        })?;
 
-    let mut buf = Vec::with_capacity(4096);
-    if let Some(e) = content.and_then(|c| c.entity) {
-        let up = fg::SceneUpdate {
-            deletions: vec![],
-            entities: vec![e],
-        };
-        encode("SceneUpdate", &up, &mut buf)?;
-        let t0 = log.time.first().copied().map(nanos).unwrap_or(0);
-        put(&mut out, map_ch, t0, &buf)?;
-    }
-
-    let index: Vec<Vec<Option<u32>>> = log.tracks.iter().map(|t| log.sample_indices(t)).collect();
-    let heights: Vec<f64> = log.tracks.iter().map(|t| height_of(&t.kind)).collect();
-    // What never changes in an actor's messages (ids, sizes, colours,
-    // classification) is built once; a tick fills in pose and motion. The
-    // actor's messages are moved into the tick's containers for encoding
-    // and back, so a tick allocates nothing.
-    let mut entities: Vec<fg::SceneEntity> = log
-        .tracks
-        .iter()
-        .enumerate()
-        .map(|(a, t)| entity_template(a, t, heights[a]))
-        .collect();
-    let mut transforms: Vec<fg::FrameTransform> = log
-        .tracks
-        .iter()
-        .map(|t| fg::FrameTransform {
-            parent_frame_id: WORLD_FRAME.into(),
-            child_frame_id: t.id.clone(),
+        // Moving objects are ids 1..=n (track order); the map's ids follow.
+        let n = tracks.len() as u64;
+        let host = tracks.iter().position(|t| t.id == "sut.car").unwrap_or(0) as u64 + 1;
+        let content = map.map(|m| map_content(m, n + 1));
+        // The static road (lanes, boundaries, map reference) goes in the
+        // first GroundTruth message only: repeated in every message it made
+        // a file of a 500 m road 100× larger and its writing 20× slower than
+        // the run (a city map is megabytes per message). It is encoded once;
+        // protobuf merges concatenated encodings, so the first message is
+        // these bytes followed by the tick's own fields.
+        let static_gt = osi3::GroundTruth {
+            lane: content
+                .as_ref()
+                .map(|c| c.lanes.clone())
+                .unwrap_or_default(),
+            lane_boundary: content
+                .as_ref()
+                .map(|c| c.boundaries.clone())
+                .unwrap_or_default(),
+            map_reference: start.meta.get("map").cloned(),
             ..Default::default()
+        };
+        let static_bytes = prost::Message::encode_to_vec(&static_gt);
+        let heights: Vec<f64> = tracks.iter().map(|t| height_of(&t.kind)).collect();
+        // What never changes in an actor's messages (ids, sizes, colours,
+        // classification) is built once; a tick fills in pose and motion.
+        // The actor's messages are moved into the tick's containers for
+        // encoding and back, so a tick allocates nothing.
+        let entities = tracks
+            .iter()
+            .enumerate()
+            .map(|(a, t)| entity_template(a, t, heights[a]))
+            .collect();
+        let transforms = tracks
+            .iter()
+            .map(|t| fg::FrameTransform {
+                parent_frame_id: WORLD_FRAME.into(),
+                child_frame_id: t.id.clone(),
+                ..Default::default()
+            })
+            .collect();
+        let objects = tracks
+            .iter()
+            .enumerate()
+            .map(|(a, t)| object_template(a, t, heights[a]))
+            .collect();
+        // Actor ids as JSON strings, escaped once.
+        let quoted = tracks
+            .iter()
+            .map(|t| serde_json::to_string(&t.id).unwrap_or_else(|_| "\"\"".into()))
+            .collect();
+        let gt = osi3::GroundTruth {
+            version: Some(osi3::InterfaceVersion {
+                version_major: Some(OSI_VERSION.0),
+                version_minor: Some(OSI_VERSION.1),
+                version_patch: Some(OSI_VERSION.2),
+            }),
+            host_vehicle_id: Some(id(host)),
+            ..Default::default()
+        };
+        Ok(McapStream {
+            out,
+            map_ch,
+            scene_ch,
+            tf_ch,
+            osi_ch,
+            state_ch,
+            ids: tracks.iter().map(|t| t.id.clone()).collect(),
+            seq: BTreeMap::new(),
+            map_entity: content.and_then(|c| c.entity),
+            gt_buf: Vec::with_capacity(static_bytes.len() + 1024),
+            static_bytes,
+            first: true,
+            present: vec![false; tracks.len()],
+            live: Vec::with_capacity(tracks.len()),
+            heights,
+            entities,
+            transforms,
+            objects,
+            quoted,
+            scene: fg::SceneUpdate::default(),
+            tfs: fg::FrameTransforms::default(),
+            gt,
+            buf: Vec::with_capacity(4096),
+            json: Vec::with_capacity(512),
         })
-        .collect();
-    let mut objects: Vec<osi3::MovingObject> = log
-        .tracks
-        .iter()
-        .enumerate()
-        .map(|(a, t)| object_template(a, t, heights[a]))
-        .collect();
-    // Actor ids as JSON strings, escaped once.
-    let quoted: Vec<String> = log
-        .tracks
-        .iter()
-        .map(|t| serde_json::to_string(&t.id).unwrap_or_else(|_| "\"\"".into()))
-        .collect();
-    let mut present = vec![false; log.tracks.len()];
-    let mut live: Vec<usize> = Vec::with_capacity(log.tracks.len());
-    let mut scene = fg::SceneUpdate::default();
-    let mut tfs = fg::FrameTransforms::default();
-    let mut gt = osi3::GroundTruth {
-        version: Some(osi3::InterfaceVersion {
-            version_major: Some(OSI_VERSION.0),
-            version_minor: Some(OSI_VERSION.1),
-            version_patch: Some(OSI_VERSION.2),
-        }),
-        host_vehicle_id: Some(id(host)),
-        ..Default::default()
-    };
-    let mut gt_buf = Vec::with_capacity(static_bytes.len() + 1024);
-    let mut first = true;
-    let mut json = Vec::with_capacity(512);
-    for (k, (&tick, &time)) in log.tick.iter().zip(&log.time).enumerate() {
+    }
+
+    fn put(&mut self, ch: u16, ns: u64, data: &[u8]) -> Result<(), McapError> {
+        put(&mut self.out, &mut self.seq, ch, ns, data)
+    }
+
+    /// Writes the messages of `piece`'s ticks (the ticks after those pushed
+    /// before; its tracks are the stream's actors, in order).
+    pub fn push(&mut self, piece: &SimulationLog) -> Result<(), McapError> {
+        check_columns(piece)?;
+        if let Some(t) = piece
+            .tracks
+            .iter()
+            .zip(self.ids.iter().map(Some).chain(std::iter::repeat(None)))
+            .find(|(t, id)| *id != Some(&t.id))
+        {
+            return Err(McapError::Log(format!(
+                "actor {} is not one the MCAP stream started with",
+                t.0.id
+            )));
+        }
+        if let (Some(e), Some(&t0)) = (self.map_entity.take(), piece.time.first()) {
+            let up = fg::SceneUpdate {
+                deletions: vec![],
+                entities: vec![e],
+            };
+            encode("SceneUpdate", &up, &mut self.buf)?;
+            let buf = std::mem::take(&mut self.buf);
+            let r = self.put(self.map_ch, nanos(t0), &buf);
+            self.buf = buf;
+            r?;
+        }
+        let index: Vec<Vec<Option<u32>>> = piece
+            .tracks
+            .iter()
+            .map(|t| piece.sample_indices(t))
+            .collect();
+        for (k, (&tick, &time)) in piece.tick.iter().zip(&piece.time).enumerate() {
+            self.tick(piece, &index, k, tick, time)?;
+        }
+        Ok(())
+    }
+
+    fn tick(
+        &mut self,
+        log: &SimulationLog,
+        index: &[Vec<Option<u32>>],
+        k: usize,
+        tick: u64,
+        time: f64,
+    ) -> Result<(), McapError> {
         let ns = nanos(time);
         let ts = stamp(ns);
-        scene.deletions.clear();
-        live.clear();
-        gt.timestamp = Some(osi3::Timestamp {
+        self.scene.deletions.clear();
+        self.live.clear();
+        self.gt.timestamp = Some(osi3::Timestamp {
             seconds: Some((ns / 1_000_000_000) as i64),
             nanos: Some((ns % 1_000_000_000) as u32),
         });
         for (a, t) in log.tracks.iter().enumerate() {
             let at = index[a][k].map(|i| i as usize);
             let Some((i, s)) = at.and_then(|i| Some((i, Sample::of(t, i)?))) else {
-                if present[a] {
-                    scene.deletions.push(fg::SceneEntityDeletion {
+                if self.present[a] {
+                    self.scene.deletions.push(fg::SceneEntityDeletion {
                         timestamp: Some(ts),
                         r#type: fg::scene_entity_deletion::Type::MatchingId as i32,
                         id: t.id.clone(),
                     });
-                    present[a] = false;
+                    self.present[a] = false;
                 }
                 continue;
             };
-            present[a] = true;
-            live.push(a);
-            let h = heights[a];
-            let e = &mut entities[a];
+            self.present[a] = true;
+            self.live.push(a);
+            let h = self.heights[a];
+            let e = &mut self.entities[a];
             e.timestamp = Some(ts);
             if let Some(c) = e.cubes.first_mut() {
                 c.pose = Some(fg::Pose {
@@ -806,7 +889,7 @@ pub fn write_to_with<W: Write + Seek>(
                     orientation: Some(quat_yaw(0.0)),
                 });
             }
-            let tf = &mut transforms[a];
+            let tf = &mut self.transforms[a];
             tf.timestamp = Some(ts);
             tf.translation = Some(fg::Vector3 {
                 x: s.x,
@@ -814,10 +897,16 @@ pub fn write_to_with<W: Write + Seek>(
                 z: s.z,
             });
             tf.rotation = Some(quat_yaw(s.yaw));
-            json.clear();
-            actor_state_json(&mut json, ns, tick, &quoted[a], t, i);
-            put(&mut out, state_ch[a], ns, &json)?;
-            if let Some(b) = objects[a].base.as_mut() {
+            self.json.clear();
+            actor_state_json(&mut self.json, ns, tick, &self.quoted[a], t, i);
+            put(
+                &mut self.out,
+                &mut self.seq,
+                self.state_ch[a],
+                ns,
+                &self.json,
+            )?;
+            if let Some(b) = self.objects[a].base.as_mut() {
                 b.position = Some(v3(s.x, s.y, s.z + h / 2.0));
                 b.orientation = Some(osi3::Orientation3d {
                     roll: Some(0.0),
@@ -833,54 +922,98 @@ pub fn write_to_with<W: Write + Seek>(
                 });
             }
         }
-        scene
+        let live = std::mem::take(&mut self.live);
+        self.scene
             .entities
-            .extend(live.iter().map(|&a| std::mem::take(&mut entities[a])));
-        tfs.transforms
-            .extend(live.iter().map(|&a| std::mem::take(&mut transforms[a])));
-        gt.moving_object
-            .extend(live.iter().map(|&a| std::mem::take(&mut objects[a])));
-        let encoded = encode("SceneUpdate", &scene, &mut buf)
-            .and_then(|()| put(&mut out, scene_ch, ns, &buf))
-            .and_then(|()| encode("FrameTransforms", &tfs, &mut buf))
-            .and_then(|()| put(&mut out, tf_ch, ns, &buf))
+            .extend(live.iter().map(|&a| std::mem::take(&mut self.entities[a])));
+        self.tfs.transforms.extend(
+            live.iter()
+                .map(|&a| std::mem::take(&mut self.transforms[a])),
+        );
+        self.gt
+            .moving_object
+            .extend(live.iter().map(|&a| std::mem::take(&mut self.objects[a])));
+        let (out, seq) = (&mut self.out, &mut self.seq);
+        let (buf, gt_buf) = (&mut self.buf, &mut self.gt_buf);
+        let encoded = encode("SceneUpdate", &self.scene, buf)
+            .and_then(|()| put(out, seq, self.scene_ch, ns, buf))
+            .and_then(|()| encode("FrameTransforms", &self.tfs, buf))
+            .and_then(|()| put(out, seq, self.tf_ch, ns, buf))
             .and_then(|()| {
                 gt_buf.clear();
-                if first {
-                    gt_buf.extend_from_slice(&static_bytes);
-                    first = false;
+                if self.first {
+                    gt_buf.extend_from_slice(&self.static_bytes);
+                    self.first = false;
                 }
-                prost::Message::encode(&gt, &mut gt_buf)
+                prost::Message::encode(&self.gt, gt_buf)
                     .map_err(|e| McapError::Encode("GroundTruth", e.to_string()))
             })
-            .and_then(|()| put(&mut out, osi_ch, ns, &gt_buf));
-        for (&a, e) in live.iter().zip(scene.entities.drain(..)) {
-            entities[a] = e;
+            .and_then(|()| put(out, seq, self.osi_ch, ns, gt_buf));
+        for (&a, e) in live.iter().zip(self.scene.entities.drain(..)) {
+            self.entities[a] = e;
         }
-        for (&a, tf) in live.iter().zip(tfs.transforms.drain(..)) {
-            transforms[a] = tf;
+        for (&a, tf) in live.iter().zip(self.tfs.transforms.drain(..)) {
+            self.transforms[a] = tf;
         }
-        for (&a, o) in live.iter().zip(gt.moving_object.drain(..)) {
-            objects[a] = o;
+        for (&a, o) in live.iter().zip(self.gt.moving_object.drain(..)) {
+            self.objects[a] = o;
         }
-        encoded?;
+        self.live = live;
+        encoded
     }
-    out.finish()?;
-    let mut messages = BTreeMap::new();
-    let mut count = |topic: &str, ch: u16| {
-        messages.insert(
-            topic.to_string(),
-            u64::from(seq.get(&ch).copied().unwrap_or(0)),
-        );
-    };
-    count(TOPIC_MAP, map_ch);
-    count(TOPIC_SCENE, scene_ch);
-    count(TOPIC_TF, tf_ch);
-    count(TOPIC_OSI, osi_ch);
-    for (t, &ch) in log.tracks.iter().zip(&state_ch) {
-        count(&format!("/actors/{}/state", t.id), ch);
+
+    /// Writes the summary and footer; what was written per topic.
+    pub fn finish(mut self) -> Result<McapStats, McapError> {
+        // A run without ticks still gets its map, at time 0.
+        if let Some(e) = self.map_entity.take() {
+            let up = fg::SceneUpdate {
+                deletions: vec![],
+                entities: vec![e],
+            };
+            encode("SceneUpdate", &up, &mut self.buf)?;
+            let buf = std::mem::take(&mut self.buf);
+            self.put(self.map_ch, 0, &buf)?;
+        }
+        self.out.finish()?;
+        let seq = &self.seq;
+        let mut messages = BTreeMap::new();
+        let mut count = |topic: &str, ch: u16| {
+            messages.insert(
+                topic.to_string(),
+                u64::from(seq.get(&ch).copied().unwrap_or(0)),
+            );
+        };
+        count(TOPIC_MAP, self.map_ch);
+        count(TOPIC_SCENE, self.scene_ch);
+        count(TOPIC_TF, self.tf_ch);
+        count(TOPIC_OSI, self.osi_ch);
+        for (id, &ch) in self.ids.iter().zip(&self.state_ch) {
+            count(&format!("/actors/{id}/state"), ch);
+        }
+        Ok(McapStats { messages, bytes: 0 })
     }
-    Ok(McapStats { messages, bytes: 0 })
+}
+
+/// One message on a known channel, numbered per channel.
+fn put<W: Write + Seek>(
+    out: &mut mcap::Writer<W>,
+    seq: &mut BTreeMap<u16, u32>,
+    ch: u16,
+    ns: u64,
+    data: &[u8],
+) -> Result<(), McapError> {
+    let s = seq.entry(ch).or_insert(0);
+    *s += 1;
+    out.write_to_known_channel(
+        &mcap::records::MessageHeader {
+            channel_id: ch,
+            sequence: *s,
+            log_time: ns,
+            publish_time: ns,
+        },
+        data,
+    )?;
+    Ok(())
 }
 
 #[cfg(test)]
@@ -956,6 +1089,37 @@ mod tests {
         let want: Vec<&String> = schema["properties"].as_object().unwrap().keys().collect();
         let got: Vec<&String> = v.as_object().unwrap().keys().collect();
         assert_eq!(got, want);
+    }
+
+    #[test]
+    fn a_stream_cut_anywhere_writes_the_same_bytes_as_the_whole_log() {
+        let l = log(10);
+        let mut whole = std::io::Cursor::new(Vec::new());
+        let stats = write_to(&l, None, &mut whole).unwrap();
+        let whole = whole.into_inner();
+        // Pieces of 0, 1, 2, 3 and 4 ticks: the walker appears and leaves
+        // across their edges.
+        for cuts in [
+            vec![0, 1, 3, 6, 10],
+            vec![0, 10],
+            vec![0, 0, 4, 4, 10],
+            vec![0, 7, 9, 10],
+        ] {
+            let mut out = std::io::Cursor::new(Vec::new());
+            let mut s = McapStream::new(&mut out, None, &l.ticks_from(0)).unwrap();
+            for w in cuts.windows(2) {
+                let piece = l.ticks_between(w[0], w[1]);
+                s.push(&piece).unwrap();
+            }
+            assert_eq!(s.finish().unwrap(), stats, "{cuts:?}");
+            assert_eq!(out.into_inner(), whole, "{cuts:?}");
+        }
+        // An actor the stream did not start with is refused.
+        let mut s = McapStream::new(std::io::Cursor::new(Vec::new()), None, &log(0)).unwrap();
+        let mut other = log(2);
+        other.tracks[1].id = "stranger".into();
+        let e = s.push(&other).unwrap_err();
+        assert!(e.to_string().contains("stranger"), "{e}");
     }
 
     #[test]

@@ -227,6 +227,7 @@ pub fn errors(
             mode: DriveMode::Dynamic,
             calibration: Some(*c),
             record: false,
+            observer: None,
             test_name: String::new(),
             map_path: String::new(),
             map: None,

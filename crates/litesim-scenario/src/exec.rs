@@ -59,6 +59,8 @@ pub struct ExecConfig<'a> {
     pub calibration: Option<Calibration>,
     /// Record a [`SimulationLog`].
     pub record: bool,
+    /// With `record`: told of each completed tick.
+    pub observer: Option<crate::TickObserver>,
     /// Test file name (told to the SUT).
     pub test_name: String,
     /// Map path (told to the SUT).
@@ -1004,6 +1006,13 @@ pub fn execute(
                 }
                 if let Some(r) = rec.as_mut() {
                     if i == 0 {
+                        // The ticks so far are complete: the observer may
+                        // take them before the next one starts.
+                        if let Some(o) = &cfg.observer
+                            && !r.log().tick.is_empty()
+                        {
+                            (o.0.lock().unwrap_or_else(|e| e.into_inner()))(r.log());
+                        }
                         r.begin(info.step_index, t);
                     }
                     let mut s = ActorSample::from_kinematics(

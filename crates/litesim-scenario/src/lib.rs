@@ -232,6 +232,24 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
+/// The callback of a [`TickObserver`].
+pub type TickCallback = dyn FnMut(&litesim_log::SimulationLog) + Send;
+
+/// Called while a recorded run goes on, with the log so far, after each
+/// completed tick but the last (the run's result has the whole log): for
+/// writers that stream the log, such as the MCAP file of `litesim run`.
+#[derive(Clone)]
+pub struct TickObserver(
+    /// The callback, shared so that the caller can reach its state after the run.
+    pub Arc<std::sync::Mutex<TickCallback>>,
+);
+
+impl std::fmt::Debug for TickObserver {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("TickObserver")
+    }
+}
+
 /// How to run a prepared test.
 #[derive(Clone, Debug, Default)]
 pub struct RunOptions {
@@ -254,6 +272,8 @@ pub struct RunOptions {
     pub calibration_near_test: bool,
     /// Record the log.
     pub record: bool,
+    /// With `record`: told of each tick as it is recorded.
+    pub observer: Option<TickObserver>,
     /// Stop after planning.
     pub plan_only: bool,
     /// What drives sut.car (`planned`: its plan).
@@ -528,6 +548,7 @@ pub fn run(
         mode,
         calibration,
         record: opts.record,
+        observer: opts.observer.clone(),
         test_name: test_name.clone(),
         map_path: prep.map_name.clone(),
         map: prep.net.clone(),

@@ -1073,3 +1073,62 @@ fn profiles_take_their_steps_and_checks_from_the_simulators() {
         );
     }
 }
+
+/// A run's observer sees every completed tick but the last, in order, and
+/// an MCAP file streamed from its pieces while the run goes on is the same
+/// bytes as one written from the finished log (what `litesim run --mcap`
+/// relies on); pieces of the log put together are the log.
+#[test]
+fn an_observed_run_streams_the_same_mcap_as_its_finished_log() {
+    use std::sync::{Arc, Mutex};
+    for (name, piece) in [("cut_in", 50), ("pedestrian_crossing", 7), ("overtake", 1)] {
+        let prep = example(name);
+        let pieces: Arc<Mutex<(usize, Vec<litesim_log::SimulationLog>)>> = Arc::default();
+        let seen = Arc::clone(&pieces);
+        let opts = RunOptions {
+            record: true,
+            observer: Some(litesim_scenario::TickObserver(Arc::new(Mutex::new(
+                move |log: &litesim_log::SimulationLog| {
+                    let mut s = seen.lock().unwrap();
+                    if log.tick.len() >= s.0 + piece {
+                        let p = log.ticks_from(s.0);
+                        s.0 = log.tick.len();
+                        s.1.push(p);
+                    }
+                },
+            )))),
+            ..RunOptions::default()
+        };
+        let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+        let log = r.log.unwrap();
+        let (sent, mut got) = std::mem::take(&mut *pieces.lock().unwrap());
+        assert!(
+            got.len() >= 2 && sent < log.tick.len(),
+            "{name}: {sent} of {}",
+            log.tick.len()
+        );
+        got.push(log.ticks_from(sent));
+        let ticks: Vec<u64> = got.iter().flat_map(|p| p.tick.clone()).collect();
+        assert_eq!(ticks, log.tick, "{name}");
+        for (a, t) in log.tracks.iter().enumerate() {
+            let xs: Vec<f64> = got
+                .iter()
+                .flat_map(|p| p.tracks[a].state.x.clone())
+                .collect();
+            assert_eq!(xs, t.state.x, "{name} {}", t.id);
+        }
+        let map = prep.net.as_deref().map(litesim_mcap::McapMap::new);
+        let mut whole = std::io::Cursor::new(Vec::new());
+        litesim_mcap::write_to_with(&log, map.as_ref(), &mut whole).unwrap();
+        let mut streamed = std::io::Cursor::new(Vec::new());
+        let mut s = litesim_mcap::McapStream::new(&mut streamed, map.as_ref(), &got[0]).unwrap();
+        for p in &got {
+            s.push(p).unwrap();
+        }
+        s.finish().unwrap();
+        assert!(
+            streamed.get_ref() == whole.get_ref(),
+            "{name}: the streamed file differs"
+        );
+    }
+}
