@@ -121,17 +121,69 @@ impl ActorTrack {
     pub fn is_empty(&self) -> bool {
         self.tick.is_empty()
     }
+    /// Every numeric column with its name: the one list that slicing and
+    /// validation walk, so a new column cannot be forgotten by one of them.
+    fn columns(&self) -> [(&'static str, &Vec<f64>); 20] {
+        let (s, c, d) = (&self.state, &self.control, &self.derived);
+        [
+            ("state.x", &s.x),
+            ("state.y", &s.y),
+            ("state.z", &s.z),
+            ("state.yaw", &s.yaw),
+            ("state.vx", &s.vx),
+            ("state.vy", &s.vy),
+            ("state.speed", &s.speed),
+            ("state.yaw_rate", &s.yaw_rate),
+            ("control.throttle", &c.throttle),
+            ("control.brake", &c.brake),
+            ("control.steering", &c.steering),
+            ("control.acceleration", &c.acceleration),
+            ("control.steering_angle", &c.steering_angle),
+            ("derived.curvature", &d.curvature),
+            ("derived.lateral_acceleration", &d.lateral_acceleration),
+            (
+                "derived.longitudinal_acceleration",
+                &d.longitudinal_acceleration,
+            ),
+            ("derived.slip_angle", &d.slip_angle),
+            ("derived.force_longitudinal_n", &d.force_longitudinal_n),
+            ("derived.force_lateral_n", &d.force_lateral_n),
+            ("derived.friction_use", &d.friction_use),
+        ]
+    }
+    /// [`ActorTrack::columns`], writable, in the same order.
+    fn columns_mut(&mut self) -> [&mut Vec<f64>; 20] {
+        let (s, c, d) = (&mut self.state, &mut self.control, &mut self.derived);
+        [
+            &mut s.x,
+            &mut s.y,
+            &mut s.z,
+            &mut s.yaw,
+            &mut s.vx,
+            &mut s.vy,
+            &mut s.speed,
+            &mut s.yaw_rate,
+            &mut c.throttle,
+            &mut c.brake,
+            &mut c.steering,
+            &mut c.acceleration,
+            &mut c.steering_angle,
+            &mut d.curvature,
+            &mut d.lateral_acceleration,
+            &mut d.longitudinal_acceleration,
+            &mut d.slip_angle,
+            &mut d.force_longitudinal_n,
+            &mut d.force_lateral_n,
+            &mut d.friction_use,
+        ]
+    }
     /// The track's samples `i..j` (clamped; metadata kept).
     pub fn samples_between(&self, i: usize, j: usize) -> ActorTrack {
         let j = j.min(self.tick.len());
         let i = i.min(j);
-        let s = &self.state;
-        let c = &self.control;
-        let d = &self.derived;
         // Columns of the wrong length (a hand-made log) are cut where they
         // can be: a writer reports them as it would for the whole log.
-        let cut = |v: &Vec<f64>| v[i.min(v.len())..j.min(v.len())].to_vec();
-        ActorTrack {
+        let mut out = ActorTrack {
             id: self.id.clone(),
             kind: self.kind.clone(),
             model: self.model.clone(),
@@ -140,69 +192,20 @@ impl ActorTrack {
             mass: self.mass,
             tick: self.tick[i..j].to_vec(),
             mode: self.mode[i.min(self.mode.len())..j.min(self.mode.len())].to_vec(),
-            state: StateColumns {
-                x: cut(&s.x),
-                y: cut(&s.y),
-                z: cut(&s.z),
-                yaw: cut(&s.yaw),
-                vx: cut(&s.vx),
-                vy: cut(&s.vy),
-                speed: cut(&s.speed),
-                yaw_rate: cut(&s.yaw_rate),
-            },
-            control: ControlColumns {
-                throttle: cut(&c.throttle),
-                brake: cut(&c.brake),
-                steering: cut(&c.steering),
-                acceleration: cut(&c.acceleration),
-                steering_angle: cut(&c.steering_angle),
-            },
-            derived: DerivedColumns {
-                curvature: cut(&d.curvature),
-                lateral_acceleration: cut(&d.lateral_acceleration),
-                longitudinal_acceleration: cut(&d.longitudinal_acceleration),
-                slip_angle: cut(&d.slip_angle),
-                force_longitudinal_n: cut(&d.force_longitudinal_n),
-                force_lateral_n: cut(&d.force_lateral_n),
-                friction_use: cut(&d.friction_use),
-            },
+            ..ActorTrack::default()
+        };
+        for ((_, from), to) in self.columns().into_iter().zip(out.columns_mut()) {
+            *to = from[i.min(from.len())..j.min(from.len())].to_vec();
         }
+        out
     }
     /// Column lengths that disagree with `tick` (name, length).
     pub fn bad_columns(&self) -> Vec<(&'static str, usize)> {
         let n = self.tick.len();
-        let s = &self.state;
-        let c = &self.control;
-        let d = &self.derived;
-        [
-            ("mode", self.mode.len()),
-            ("state.x", s.x.len()),
-            ("state.y", s.y.len()),
-            ("state.z", s.z.len()),
-            ("state.yaw", s.yaw.len()),
-            ("state.vx", s.vx.len()),
-            ("state.vy", s.vy.len()),
-            ("state.speed", s.speed.len()),
-            ("state.yaw_rate", s.yaw_rate.len()),
-            ("control.throttle", c.throttle.len()),
-            ("control.brake", c.brake.len()),
-            ("control.steering", c.steering.len()),
-            ("control.acceleration", c.acceleration.len()),
-            ("control.steering_angle", c.steering_angle.len()),
-            ("derived.curvature", d.curvature.len()),
-            ("derived.lateral_acceleration", d.lateral_acceleration.len()),
-            (
-                "derived.longitudinal_acceleration",
-                d.longitudinal_acceleration.len(),
-            ),
-            ("derived.slip_angle", d.slip_angle.len()),
-            ("derived.force_longitudinal_n", d.force_longitudinal_n.len()),
-            ("derived.force_lateral_n", d.force_lateral_n.len()),
-            ("derived.friction_use", d.friction_use.len()),
-        ]
-        .into_iter()
-        .filter(|(_, l)| *l != n)
-        .collect()
+        std::iter::once(("mode", self.mode.len()))
+            .chain(self.columns().into_iter().map(|(name, v)| (name, v.len())))
+            .filter(|(_, l)| *l != n)
+            .collect()
     }
 }
 
