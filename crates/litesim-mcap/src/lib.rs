@@ -794,8 +794,17 @@ impl<W: Write + Seek> McapStream<W> {
         })
     }
 
-    fn put(&mut self, ch: u16, ns: u64, data: &[u8]) -> Result<(), McapError> {
-        put(&mut self.out, &mut self.seq, ch, ns, data)
+    /// The map's line strips on `/map` at `ns`, once (nothing without a map).
+    fn map_message(&mut self, ns: u64) -> Result<(), McapError> {
+        let Some(e) = self.map_entity.take() else {
+            return Ok(());
+        };
+        let up = fg::SceneUpdate {
+            deletions: vec![],
+            entities: vec![e],
+        };
+        encode("SceneUpdate", &up, &mut self.buf)?;
+        put(&mut self.out, &mut self.seq, self.map_ch, ns, &self.buf)
     }
 
     /// Writes the messages of `piece`'s ticks (the ticks after those pushed
@@ -813,16 +822,9 @@ impl<W: Write + Seek> McapStream<W> {
                 t.0.id
             )));
         }
-        if let (Some(e), Some(&t0)) = (self.map_entity.take(), piece.time.first()) {
-            let up = fg::SceneUpdate {
-                deletions: vec![],
-                entities: vec![e],
-            };
-            encode("SceneUpdate", &up, &mut self.buf)?;
-            let buf = std::mem::take(&mut self.buf);
-            let r = self.put(self.map_ch, nanos(t0), &buf);
-            self.buf = buf;
-            r?;
+        // At the first tick (a piece without ticks leaves it for the next).
+        if let Some(&t0) = piece.time.first() {
+            self.map_message(nanos(t0))?;
         }
         let index: Vec<Vec<Option<u32>>> = piece
             .tracks
@@ -965,15 +967,7 @@ impl<W: Write + Seek> McapStream<W> {
     /// Writes the summary and footer; what was written per topic.
     pub fn finish(mut self) -> Result<McapStats, McapError> {
         // A run without ticks still gets its map, at time 0.
-        if let Some(e) = self.map_entity.take() {
-            let up = fg::SceneUpdate {
-                deletions: vec![],
-                entities: vec![e],
-            };
-            encode("SceneUpdate", &up, &mut self.buf)?;
-            let buf = std::mem::take(&mut self.buf);
-            self.put(self.map_ch, 0, &buf)?;
-        }
+        self.map_message(0)?;
         self.out.finish()?;
         let seq = &self.seq;
         let mut messages = BTreeMap::new();
@@ -1094,8 +1088,15 @@ mod tests {
     #[test]
     fn a_stream_cut_anywhere_writes_the_same_bytes_as_the_whole_log() {
         let l = log(10);
+        let net = RoadNetwork::load(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../examples/maps/straight.xodr"
+        )))
+        .unwrap();
+        let map = McapMap::new(&net);
         let mut whole = std::io::Cursor::new(Vec::new());
-        let stats = write_to(&l, None, &mut whole).unwrap();
+        let stats = write_to_with(&l, Some(&map), &mut whole).unwrap();
+        assert_eq!(stats.messages[TOPIC_MAP], 1);
         let whole = whole.into_inner();
         // Pieces of 0, 1, 2, 3 and 4 ticks: the walker appears and leaves
         // across their edges.
@@ -1106,7 +1107,7 @@ mod tests {
             vec![0, 7, 9, 10],
         ] {
             let mut out = std::io::Cursor::new(Vec::new());
-            let mut s = McapStream::new(&mut out, None, &l.ticks_from(0)).unwrap();
+            let mut s = McapStream::new(&mut out, Some(&map), &l.ticks_from(0)).unwrap();
             for w in cuts.windows(2) {
                 let piece = l.ticks_between(w[0], w[1]);
                 s.push(&piece).unwrap();
