@@ -742,12 +742,11 @@ impl McapStreamer {
             .name("mcap".into())
             .spawn(move || {
                 let map = map.join().map_err(|_| {
-                    litesim_mcap::McapError::Encode("map", "sampling the lanes panicked".into())
+                    litesim_mcap::McapError::Stopped("sampling the map's lanes panicked".into())
                 })?;
                 let Ok(Some(first)) = rx.recv() else {
-                    return Err(litesim_mcap::McapError::Encode(
-                        "log",
-                        "the run ended without one".into(),
+                    return Err(litesim_mcap::McapError::Stopped(
+                        "the run ended without a log".into(),
                     ));
                 };
                 let mut made = Ok(());
@@ -799,12 +798,9 @@ struct StreamJob(std::thread::JoinHandle<Result<(), litesim_mcap::McapError>>);
 
 impl StreamJob {
     fn join(self) -> Result<(), litesim_mcap::McapError> {
-        self.0.join().unwrap_or_else(|_| {
-            Err(litesim_mcap::McapError::Encode(
-                "file",
-                "the MCAP writer panicked".into(),
-            ))
-        })
+        self.0
+            .join()
+            .unwrap_or_else(|_| Err(litesim_mcap::McapError::Stopped("it panicked".into())))
     }
 }
 
@@ -823,9 +819,8 @@ fn stream_pieces<W: std::io::Write + std::io::Seek>(
             Ok(Some(piece)) => stream.push(&piece)?,
             Ok(None) => return stream.finish().map(|_| ()),
             Err(_) => {
-                return Err(litesim_mcap::McapError::Encode(
-                    "log",
-                    "the run ended without one".into(),
+                return Err(litesim_mcap::McapError::Stopped(
+                    "the run ended without a log".into(),
                 ));
             }
         }

@@ -70,6 +70,10 @@ pub enum McapError {
     /// The log cannot be written (no ticks, inconsistent columns, times).
     #[error("{0}")]
     Log(String),
+    /// A streaming writer stopped before its file was complete (the run
+    /// ended without a log, a thread feeding it panicked).
+    #[error("the MCAP writer stopped: {0}")]
+    Stopped(String),
 }
 
 /// What was written.
