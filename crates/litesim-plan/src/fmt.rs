@@ -200,13 +200,99 @@ impl Buckets {
             }
         }
     }
-    /// The points within `r` of `p` (appended to `ids`), with their
-    /// distances to `p` (appended to `dist`).
-    fn near_with_distances(&self, p: Vec2, r: f64, ids: &mut Vec<u32>, dist: &mut Vec<f64>) {
-        self.scan(p, r, |id, d2| {
-            ids.push(id);
-            dist.push(d2.sqrt());
-        });
+    /// The column of `x`, clamped to the grid; truncation is `floor` for
+    /// values ≥ 0 (no libm call).
+    fn column(&self, x: f64) -> usize {
+        let c = (x - self.origin.x) / self.cell;
+        if c >= 0.0 {
+            (c as usize).min(self.nx - 1)
+        } else {
+            0
+        }
+    }
+
+    /// Every point's neighbours within `r` at once, as an arena: point
+    /// `id`'s list is `ids[span[id].0..][..span[id].1]` with the distances
+    /// beside it in `dist`. Each list is what [`Self::scan`] answers for
+    /// that point (without the point itself), in the same order (ascending
+    /// bucket position), distances bit for bit.
+    ///
+    /// Each pair is found once, from its lower bucket position looking
+    /// forward (the rest of its row, then the rows above), so half the
+    /// candidates and half the square roots of one query per point; no
+    /// branch per candidate (about half of a window is in range, at
+    /// random, and a conditional push mispredicts often).
+    fn all_within(&self, r: f64) -> (Vec<(u32, u32)>, Vec<u32>, Vec<f64>) {
+        let n = self.ids.len();
+        let r2 = r * r;
+        let reach = (r / self.cell).ceil() as usize;
+        // The columns of [x − r, x + r], a hair wider for rounding (the
+        // exact test decides).
+        let wide = r * (1.0 + 1e-9);
+        let mut deg = vec![0u32; n];
+        let (mut pi, mut pj, mut pd) = (Vec::new(), Vec::new(), Vec::new());
+        let mut window: (Vec<u32>, Vec<f64>) = (Vec::new(), Vec::new());
+        for i in 0..n {
+            let (px, py) = (self.xs[i], self.ys[i]);
+            let (_, cy) = self.cell_of(Vec2::new(px, py));
+            let (x0, x1) = (self.column(px - wide), self.column(px + wide));
+            for y in cy..=(cy + reach).min(self.ny - 1) {
+                let row = y * self.nx;
+                let (mut a, b) = (
+                    self.start[row + x0] as usize,
+                    self.start[row + x1 + 1] as usize,
+                );
+                if y == cy {
+                    a = a.max(i + 1);
+                }
+                if a >= b {
+                    continue;
+                }
+                if window.0.len() < b - a {
+                    window.0.resize(b - a, 0);
+                    window.1.resize(b - a, 0.0);
+                }
+                let mut k = 0;
+                for (j, (&x, &y)) in (a..b).zip(self.xs[a..b].iter().zip(&self.ys[a..b])) {
+                    // As `Vec2::distance` forms it: (q − p), squared, summed.
+                    let (dx, dy) = (x - px, y - py);
+                    let d2 = dx * dx + dy * dy;
+                    window.0[k] = j as u32;
+                    window.1[k] = d2;
+                    k += usize::from(d2 <= r2);
+                }
+                deg[i] += k as u32;
+                for (&j, &d2) in window.0[..k].iter().zip(&window.1[..k]) {
+                    deg[j as usize] += 1;
+                    pi.push(i as u32);
+                    pj.push(j);
+                    pd.push(d2.sqrt());
+                }
+            }
+        }
+        let mut next = Vec::with_capacity(n);
+        let mut total = 0u32;
+        for &d in &deg {
+            next.push(total);
+            total += d;
+        }
+        let mut span = vec![(0u32, 0u32); n];
+        for (pos, (&o, &d)) in next.iter().zip(&deg).enumerate() {
+            span[self.ids[pos] as usize] = (o, d);
+        }
+        let mut ids = vec![0u32; total as usize];
+        let mut dist = vec![0.0f64; total as usize];
+        for ((&i, &j), &d) in pi.iter().zip(&pj).zip(&pd) {
+            let (i, j) = (i as usize, j as usize);
+            let (a, b) = (next[i] as usize, next[j] as usize);
+            ids[a] = self.ids[j];
+            dist[a] = d;
+            ids[b] = self.ids[i];
+            dist[b] = d;
+            next[i] += 1;
+            next[j] += 1;
+        }
+        (span, ids, dist)
     }
     /// The points within `r` of `p` (replacing `out`'s contents).
     fn near(&self, p: Vec2, r: f64, out: &mut Vec<u32>) {
@@ -318,18 +404,16 @@ pub fn fmt_star(
     open_cost[0] = 0.0;
     heap.push(Open(0.0, 0));
     // Neighbour lists are asked for again and again (each node both as `z`
-    // and as a candidate `x`): compute each once, into one arena of
+    // and as a candidate `x`): each is computed once, into one arena of
     // indices and distances (no per-node allocation, no repeated square
-    // roots; d(y, x) = d(x, y) bit for bit).
-    let mut span: Vec<(u32, u32)> = vec![(u32::MAX, 0); n];
-    // About n · (n π r² / area) entries once every node is loaded: sized
-    // once (growing it copied megabytes and faulted fresh pages in).
-    let expect = ((n as f64) * (n as f64) * std::f64::consts::PI * r * r / area)
-        .min(64.0 * n as f64 * n as f64)
-        .max(n as f64) as usize;
-    let expect = expect.min(1 << 22);
-    let mut arena_idx: Vec<u32> = Vec::with_capacity(expect);
-    let mut arena_dist: Vec<f64> = Vec::with_capacity(expect);
+    // roots; d(y, x) = d(x, y) bit for bit). Radius neighbourhoods are
+    // symmetric and nearly every node's is needed, so they are built at
+    // once; k-nearest ones are not symmetric and are built on demand.
+    let (mut span, mut arena_idx, mut arena_dist) = if let Radius::KNearest(_) = cfg.radius {
+        (vec![(u32::MAX, 0); n], Vec::new(), Vec::new())
+    } else {
+        buckets.all_within(r)
+    };
     let mut scratch = Vec::new();
     let knn = |p: Vec2, out: &mut Vec<u32>, k: usize| {
         // Nearest k within the search radius (ties by index).
@@ -347,20 +431,17 @@ pub fn fmt_star(
                     arena_idx: &mut Vec<u32>,
                     arena_dist: &mut Vec<f64>|
      -> (usize, usize) {
-        if span[i].0 == u32::MAX {
+        // Radius lists were all built above; only k-nearest ones are missing.
+        if let (u32::MAX, Radius::KNearest(k)) = (span[i].0, cfg.radius) {
             let start = arena_idx.len();
-            if let Radius::KNearest(k) = cfg.radius {
-                buckets.near(samples[i], r, &mut scratch);
-                knn(samples[i], &mut scratch, k);
-                arena_idx.extend_from_slice(&scratch);
-                arena_dist.extend(
-                    scratch
-                        .iter()
-                        .map(|&y| samples[y as usize].distance(samples[i])),
-                );
-            } else {
-                buckets.near_with_distances(samples[i], r, arena_idx, arena_dist);
-            }
+            buckets.near(samples[i], r, &mut scratch);
+            knn(samples[i], &mut scratch, k);
+            arena_idx.extend_from_slice(&scratch);
+            arena_dist.extend(
+                scratch
+                    .iter()
+                    .map(|&y| samples[y as usize].distance(samples[i])),
+            );
             span[i] = (start as u32, (arena_idx.len() - start) as u32);
         }
         let (a, l) = span[i];
@@ -439,4 +520,36 @@ pub fn fmt_star(
         radius: r,
         collision_checks: checks,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The neighbour lists built at once are the scan's, in its order
+    /// (less the point itself), with its distances bit for bit.
+    #[test]
+    fn neighbour_lists_match_the_scan() {
+        let mut rng = Rng::new(3);
+        for (cell, r) in [(1.1, 2.2), (0.7, 3.1), (2.0, 0.9), (25.0, 30.0)] {
+            let pts: Vec<Vec2> = (0..3000)
+                .map(|_| Vec2::new(rng.unit() * 50.0, rng.unit() * 20.0))
+                .collect();
+            let b = Buckets::new(&pts, Vec2::new(0.0, 0.0), Vec2::new(50.0, 20.0), cell);
+            let (span, ids, dist) = b.all_within(r);
+            for (k, &p) in pts.iter().enumerate() {
+                let (a, l) = (span[k].0 as usize, span[k].1 as usize);
+                let mut want = (vec![], vec![]);
+                b.scan(p, r, |id, d2| {
+                    if id as usize != k {
+                        want.0.push(id);
+                        want.1.push(d2.sqrt().to_bits());
+                    }
+                });
+                assert_eq!(&ids[a..a + l], &want.0[..], "point {k}");
+                let got: Vec<u64> = dist[a..a + l].iter().map(|d| d.to_bits()).collect();
+                assert_eq!(got, want.1, "point {k}");
+            }
+        }
+    }
 }

@@ -126,6 +126,28 @@ pub struct PlanningGrid {
     /// of `radius` at the reference point.
     #[serde(default)]
     pub footprint: Vec<f64>,
+    /// Summed-area table of the cells that are not free, (w+1)·(h+1)
+    /// entries: a rectangle of cells is known free in four lookups, so an
+    /// edge whose bounding box is clear skips its per-point walk. Rebuilt
+    /// by the constructors; empty after deserialising (then every edge
+    /// walks its points).
+    #[serde(skip)]
+    blocked_sum: Vec<u32>,
+}
+
+/// The summed-area table of `!free` over a `w × h` grid: entry
+/// `(j, i)` of the `(w+1) × (h+1)` table counts the blocked cells in
+/// rows `< j` and columns `< i`.
+fn blocked_sum(free: &[bool], w: usize, h: usize) -> Vec<u32> {
+    let mut s = vec![0u32; (w + 1) * (h + 1)];
+    for j in 0..h {
+        let mut row = 0u32;
+        for i in 0..w {
+            row += u32::from(!free[j * w + i]);
+            s[(j + 1) * (w + 1) + i + 1] = s[j * (w + 1) + i + 1] + row;
+        }
+    }
+    s
 }
 
 impl PlanningGrid {
@@ -150,7 +172,8 @@ impl PlanningGrid {
             .iter()
             .zip(&distance)
             .map(|(o, d)| !o && *d >= need)
-            .collect();
+            .collect::<Vec<bool>>();
+        let blocked_sum = blocked_sum(&free, w, h);
         Self {
             grid,
             distance,
@@ -158,6 +181,7 @@ impl PlanningGrid {
             margin,
             free,
             footprint: Vec::new(),
+            blocked_sum,
         }
     }
 
@@ -272,7 +296,49 @@ impl PlanningGrid {
         self.point_segment_free(a + f * lo, b + f * hi)
     }
 
+    /// True when every cell of the box spanned by `a` and `b`, grown by
+    /// one cell on each side, is inside the grid and free. The points of
+    /// the walk between `a` and `b` lie in that box up to rounding far
+    /// below a cell, so then the walk would find them all free: this
+    /// answers yes only where the walk would, and the walk decides the
+    /// rest (results are the same with or without it).
+    fn box_free(&self, a: Vec2, b: Vec2) -> bool {
+        let g = &self.grid;
+        let (w, h) = (g.width, g.height);
+        // `min`/`max` would drop a NaN coordinate: refuse those first.
+        if self.blocked_sum.len() != (w + 1) * (h + 1) || !(a.is_finite() && b.is_finite()) {
+            return false;
+        }
+        let inv = 1.0 / g.resolution;
+        let (u0, v0) = (
+            (a.x.min(b.x) - g.origin.x) * inv,
+            (a.y.min(b.y) - g.origin.y) * inv,
+        );
+        let (u1, v1) = (
+            (a.x.max(b.x) - g.origin.x) * inv,
+            (a.y.max(b.y) - g.origin.y) * inv,
+        );
+        // Cells ⌊u0⌋−1 ..= ⌊u1⌋+1 (and the same in y) must exist: u0 ≥ 1
+        // (then truncation is ⌊·⌋, without a libm call) and ⌊u1⌋+1 < w.
+        if !(u0 >= 1.0 && v0 >= 1.0 && u1 + 1.0 < w as f64 && v1 + 1.0 < h as f64) {
+            return false;
+        }
+        let (i0, j0) = (u0 as usize - 1, v0 as usize - 1);
+        let (i1, j1) = (u1 as usize + 2, v1 as usize + 2);
+        if i1 > w || j1 > h {
+            return false;
+        }
+        let s = &self.blocked_sum;
+        let row = w + 1;
+        s[j1 * row + i1] + s[j0 * row + i0] == s[j0 * row + i1] + s[j1 * row + i0]
+    }
+
     fn point_segment_free(&self, a: Vec2, b: Vec2) -> bool {
+        self.box_free(a, b) || self.walk_free(a, b)
+    }
+
+    /// The points from `a` to `b` every half cell, each free.
+    fn walk_free(&self, a: Vec2, b: Vec2) -> bool {
         let len = a.distance(b);
         let n = (len / (0.5 * self.grid.resolution)).ceil().max(1.0) as usize;
         let g = &self.grid;
@@ -296,6 +362,43 @@ impl PlanningGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The box shortcut answers yes only where the walk does, and often:
+    /// random segments (some leaving the map, some NaN) on a grid with
+    /// random obstacles.
+    #[test]
+    fn box_shortcut_agrees_with_the_walk() {
+        let mut g = OccupancyGrid::new(Vec2::new(-3.0, 2.0), Vec2::new(20.0, 12.0), 0.2).unwrap();
+        let mut rng = crate::rng::Rng::new(7);
+        for _ in 0..40 {
+            let i = (rng.unit() * g.width as f64) as usize;
+            let j = (rng.unit() * g.height as f64) as usize;
+            g.occupied[j * g.width + i] = true;
+        }
+        let pg = PlanningGrid::new(g, 0.3, 0.1);
+        let (mut shortcuts, mut free) = (0, 0);
+        for k in 0..20_000 {
+            let pt = |rng: &mut crate::rng::Rng| {
+                Vec2::new(-4.0 + rng.unit() * 22.0, 1.0 + rng.unit() * 14.0)
+            };
+            let a = pt(&mut rng);
+            let mut b = a + (pt(&mut rng) - a) * (0.05 + 0.3 * rng.unit());
+            if k % 997 == 0 {
+                b.x = f64::NAN;
+            }
+            let walk = pg.walk_free(a, b);
+            if pg.box_free(a, b) {
+                assert!(walk, "box says free, walk does not: {a:?} → {b:?}");
+                shortcuts += 1;
+            }
+            free += usize::from(walk);
+            assert_eq!(pg.segment_free(a, b), walk);
+        }
+        assert!(shortcuts > free / 4, "{shortcuts} shortcuts of {free} free");
+        let copy: PlanningGrid =
+            serde_json::from_str(&serde_json::to_string(&pg).unwrap()).unwrap();
+        assert!(!copy.box_free(Vec2::new(1.0, 5.0), Vec2::new(1.1, 5.0)));
+    }
 
     #[test]
     fn edt_is_exact_against_brute_force() {
