@@ -162,8 +162,10 @@ impl Buckets {
         b
     }
     fn cell_of(&self, p: Vec2) -> (usize, usize) {
-        let cx = (((p.x - self.origin.x) / self.cell).floor().max(0.0) as usize).min(self.nx - 1);
-        let cy = (((p.y - self.origin.y) / self.cell).floor().max(0.0) as usize).min(self.ny - 1);
+        // `as usize` truncates (= floor for values ≥ 0) and saturates
+        // negatives and NaN to 0: ⌊·⌋ clamped to the grid, without libm.
+        let cx = (((p.x - self.origin.x) / self.cell) as usize).min(self.nx - 1);
+        let cy = (((p.y - self.origin.y) / self.cell) as usize).min(self.ny - 1);
         (cx, cy)
     }
     /// Calls `hit(id, d²)` for every point within `r` of `p`, in the
@@ -200,15 +202,9 @@ impl Buckets {
             }
         }
     }
-    /// The column of `x`, clamped to the grid; truncation is `floor` for
-    /// values ≥ 0 (no libm call).
+    /// The column of `x`, as in [`Self::cell_of`].
     fn column(&self, x: f64) -> usize {
-        let c = (x - self.origin.x) / self.cell;
-        if c >= 0.0 {
-            (c as usize).min(self.nx - 1)
-        } else {
-            0
-        }
+        (((x - self.origin.x) / self.cell) as usize).min(self.nx - 1)
     }
 
     /// Every point's neighbours within `r` at once, as an arena: point
@@ -222,7 +218,7 @@ impl Buckets {
     /// candidates and half the square roots of one query per point; no
     /// branch per candidate (about half of a window is in range, at
     /// random, and a conditional push mispredicts often).
-    fn all_within(&self, r: f64) -> (Vec<(u32, u32)>, Vec<u32>, Vec<f64>) {
+    fn all_within(&self, r: f64, expect: usize) -> (Vec<(u32, u32)>, Vec<u32>, Vec<f64>) {
         let n = self.ids.len();
         let r2 = r * r;
         let reach = (r / self.cell).ceil() as usize;
@@ -230,7 +226,11 @@ impl Buckets {
         // exact test decides).
         let wide = r * (1.0 + 1e-9);
         let mut deg = vec![0u32; n];
-        let (mut pi, mut pj, mut pd) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut pi, mut pj, mut pd) = (
+            Vec::with_capacity(expect / 2),
+            Vec::with_capacity(expect / 2),
+            Vec::with_capacity(expect / 2),
+        );
         let mut window: (Vec<u32>, Vec<f64>) = (Vec::new(), Vec::new());
         for i in 0..n {
             let (px, py) = (self.xs[i], self.ys[i]);
@@ -412,7 +412,10 @@ pub fn fmt_star(
     let (mut span, mut arena_idx, mut arena_dist) = if let Radius::KNearest(_) = cfg.radius {
         (vec![(u32::MAX, 0); n], Vec::new(), Vec::new())
     } else {
-        buckets.all_within(r)
+        // About n · (n π r² / area) entries: the pair lists are sized once.
+        let expect = (n as f64 * n as f64 * std::f64::consts::PI * r * r / area)
+            .clamp(n as f64, (1u64 << 24) as f64) as usize;
+        buckets.all_within(r, expect)
     };
     let mut scratch = Vec::new();
     let knn = |p: Vec2, out: &mut Vec<u32>, k: usize| {
@@ -536,7 +539,7 @@ mod tests {
                 .map(|_| Vec2::new(rng.unit() * 50.0, rng.unit() * 20.0))
                 .collect();
             let b = Buckets::new(&pts, Vec2::new(0.0, 0.0), Vec2::new(50.0, 20.0), cell);
-            let (span, ids, dist) = b.all_within(r);
+            let (span, ids, dist) = b.all_within(r, 0);
             for (k, &p) in pts.iter().enumerate() {
                 let (a, l) = (span[k].0 as usize, span[k].1 as usize);
                 let mut want = (vec![], vec![]);

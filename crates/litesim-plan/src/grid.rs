@@ -257,9 +257,19 @@ impl PlanningGrid {
     }
     /// True when a vehicle centred at `p` keeps radius + margin from every obstacle.
     pub fn is_free(&self, p: Vec2) -> bool {
-        self.grid
-            .cell(p)
-            .is_some_and(|(i, j)| self.free[j * self.grid.width + i])
+        // The cell lookup of `OccupancyGrid::cell` inlined: for a
+        // coordinate ≥ 0 truncation is `floor`, and the sign test first
+        // refuses what `floor` would put at −1 (and NaN) — the same cells,
+        // without a libm call (this is the hot query of sampling and edge
+        // walks).
+        let g = &self.grid;
+        let i = (p.x - g.origin.x) / g.resolution;
+        let j = (p.y - g.origin.y) / g.resolution;
+        if !(i >= 0.0 && j >= 0.0) {
+            return false;
+        }
+        let (i, j) = (i as usize, j as usize);
+        i < g.width && j < g.height && self.free[j * g.width + i]
     }
     /// Layer of each cell, row-major.
     pub fn layers(&self) -> Vec<Layer> {
@@ -341,21 +351,7 @@ impl PlanningGrid {
     fn walk_free(&self, a: Vec2, b: Vec2) -> bool {
         let len = a.distance(b);
         let n = (len / (0.5 * self.grid.resolution)).ceil().max(1.0) as usize;
-        let g = &self.grid;
-        // `is_free` per point, with the cell lookup inlined: for a
-        // coordinate ≥ 0 truncation is `floor`, and the sign test first
-        // refuses what `floor` would put at −1 (and NaN) — the same cells
-        // as `OccupancyGrid::cell`, without a libm call per point.
-        (0..=n).all(|k| {
-            let p = a.lerp(b, k as f64 / n as f64);
-            let i = (p.x - g.origin.x) / g.resolution;
-            let j = (p.y - g.origin.y) / g.resolution;
-            if !(i >= 0.0 && j >= 0.0) {
-                return false;
-            }
-            let (i, j) = (i as usize, j as usize);
-            i < g.width && j < g.height && self.free[j * g.width + i]
-        })
+        (0..=n).all(|k| self.is_free(a.lerp(b, k as f64 / n as f64)))
     }
 }
 
