@@ -99,12 +99,7 @@ pub fn run(
         r.steps,
         wall.as_secs_f64() * 1000.0
     );
-    println!(
-        "  path length      {:8.2} m (FMT*, {} samples, r = {:.2} m)",
-        r.path_length,
-        r.fmt.samples.len() - 2,
-        r.fmt.radius
-    );
+    println!("  path length      {:8.2} m ({})", r.path_length, r.planner);
     println!(
         "  cross-track      {:8.3} m max, {:.3} m mean{}",
         r.max_cross_track,

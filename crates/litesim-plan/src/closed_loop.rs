@@ -11,6 +11,7 @@
 use crate::corridor::{Corridor, RefState, SpeedLimits};
 use crate::fmt::{FmtConfig, FmtError, FmtResult, Radius, fmt_star};
 use crate::grid::{Layer, PlanningGrid};
+use crate::hybrid::{HybridConfig, hybrid_astar};
 use crate::mpc::{Mpc, MpcConfig, MpcError};
 use litesim_core::{
     Actor, ActorDescription, ActorKind, ActorState, ControlMode, KinematicBicycle, Pose, Vec2,
@@ -382,6 +383,46 @@ pub enum PlanError {
     Infeasible(String),
 }
 
+/// Which planner made the path a run drove.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PathPlanner {
+    /// FMT*, smoothed into the corridor.
+    Fmt {
+        /// Samples drawn.
+        samples: usize,
+        /// Connection radius (m).
+        radius: f64,
+    },
+    /// The curvature-bounded search ([`crate::hybrid_astar`]), because
+    /// FMT*'s path could not be driven.
+    Hybrid {
+        /// Its tightest turn radius (m).
+        radius: f64,
+        /// Poses it expanded.
+        expansions: usize,
+        /// Why FMT*'s path was not used.
+        fmt_failure: String,
+    },
+}
+
+impl std::fmt::Display for PathPlanner {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Fmt { samples, radius } => {
+                write!(f, "FMT*, {samples} samples, r = {radius:.2} m")
+            }
+            Self::Hybrid {
+                radius,
+                expansions,
+                fmt_failure,
+            } => write!(
+                f,
+                "hybrid A*, turns ≥ {radius:.2} m, {expansions} poses; FMT*'s path was not drivable: {fmt_failure}"
+            ),
+        }
+    }
+}
+
 /// What a run produced.
 #[derive(Clone, Debug)]
 pub struct ClosedLoopResult {
@@ -412,8 +453,13 @@ pub struct ClosedLoopResult {
     /// Where the run ended by a collision: time (s) and the rear axle's
     /// position.
     pub collision: Option<(f64, [f64; 2])>,
-    /// FMT* output.
+    /// FMT* output; when the curvature-bounded search planned instead
+    /// (see `planner`), no tree (start and goal only) and that search's
+    /// path.
     pub fmt: FmtResult,
+    /// Which planner made the path (the log's `planner` meta says the
+    /// same).
+    pub planner: PathPlanner,
     /// The corridor.
     pub corridor: Corridor,
     /// The planning grid.
@@ -522,7 +568,52 @@ pub fn run_closed_loop_timed(
         (None, Some(k)) => Radius::KNearest(k),
         _ => Radius::Eta(pl.eta),
     };
-    let fmt = fmt_star(
+    let limits = SpeedLimits {
+        v_max: veh.max_speed,
+        a_lat_max: veh.max_lat_accel,
+        a_max: veh.max_accel * 0.8,
+        d_max: veh.max_decel * 0.5,
+        v_start: cfg.start.speed.max(0.5),
+        // Half the steering rate: the other half is the controller's
+        // to correct errors with.
+        kappa_rate_max: 0.5 * veh.max_steer_rate / veh.wheelbase,
+        kappa_max,
+        jerk_max: JERK_MAX,
+        start_heading: Some(cfg.start.yaw),
+    };
+    // A path the vehicle cannot drive is refused before it is driven: too
+    // tight a turn, or a body that does not fit where the path goes.
+    let drivable = |corridor: &Corridor| -> Result<(), PlanError> {
+        let turn = corridor.turn_curvature(1.0);
+        if let Some(i) = (0..turn.len())
+            .filter(|&i| turn[i].abs() > kappa_max * 1.02)
+            .max_by(|&a, &b| turn[a].abs().total_cmp(&turn[b].abs()))
+        {
+            let p = corridor.points[i];
+            return Err(PlanError::Infeasible(format!(
+                "the smoothed path turns with a {:.2} m radius at ({:.1}, {:.1}); the {} turns no tighter than {:.2} m (wheelbase {} m, steering {:.0}°)",
+                1.0 / turn[i].abs(),
+                p.x,
+                p.y,
+                cfg.vehicle.preset,
+                1.0 / kappa_max,
+                veh.wheelbase,
+                veh.max_steer.to_degrees()
+            )));
+        }
+        if let Some(p) = corridor.first_blocked(&pgrid) {
+            return Err(PlanError::Infeasible(format!(
+                "the {} m × {} m body does not fit along the path at ({:.1}, {:.1}) with a {} m margin",
+                veh.length, veh.width, p.x, p.y, pl.margin
+            )));
+        }
+        Ok(())
+    };
+    // FMT* first (shortest, fast); when its path cannot be driven — its
+    // straight edges leave no room for this body, or its corners are
+    // tighter than the vehicle turns — the curvature-bounded search plans
+    // arcs the vehicle can follow.
+    let by_fmt = fmt_star(
         &pgrid,
         start,
         goal,
@@ -531,51 +622,80 @@ pub fn run_closed_loop_timed(
             radius,
             seed: pl.seed,
         },
-    )?;
-    let corridor = Corridor::build(
-        &fmt.path,
-        &pgrid,
-        pl.corridor_ds,
-        &SpeedLimits {
-            v_max: veh.max_speed,
-            a_lat_max: veh.max_lat_accel,
-            a_max: veh.max_accel * 0.8,
-            d_max: veh.max_decel * 0.5,
-            v_start: cfg.start.speed.max(0.5),
-            // Half the steering rate: the other half is the controller's
-            // to correct errors with.
-            kappa_rate_max: 0.5 * veh.max_steer_rate / veh.wheelbase,
-            kappa_max,
-            jerk_max: JERK_MAX,
-            start_heading: Some(cfg.start.yaw),
-        },
-    );
+    )
+    .map_err(PlanError::from)
+    .and_then(|fmt| {
+        let corridor = Corridor::build(&fmt.path, &pgrid, pl.corridor_ds, &limits);
+        drivable(&corridor)?;
+        Ok((fmt, corridor))
+    });
+    let (fmt, corridor, planner) = match by_fmt {
+        Ok((fmt, corridor)) => {
+            let used = PathPlanner::Fmt {
+                samples: fmt.samples.len() - 2,
+                radius: fmt.radius,
+            };
+            (fmt, corridor, used)
+        }
+        Err(first @ (PlanError::Infeasible(_) | PlanError::Plan(FmtError::NoPath { .. }))) => {
+            // Curves at 80 % of the limit, so that the controller keeps a
+            // fifth of the steering to correct with; where that finds
+            // nothing, at 95 %. A path may end within half the goal
+            // tolerance when no shot reaches the goal itself.
+            let attempt = |share: f64| {
+                let hcfg = HybridConfig {
+                    goal_tolerance: 0.5 * cfg.goal.tolerance,
+                    ..HybridConfig::new(share * kappa_max, pgrid.grid.resolution)
+                };
+                hybrid_astar(&pgrid, start, cfg.start.yaw, goal, &hcfg)
+                    .map_err(|e| e.to_string())
+                    .and_then(|h| {
+                        let corridor = Corridor::along(&h.points, &pgrid, pl.corridor_ds, &limits);
+                        drivable(&corridor).map_err(|e| e.to_string())?;
+                        Ok((h, corridor, hcfg))
+                    })
+            };
+            let found = attempt(0.8).or_else(|e| {
+                // A start the body does not fit is not a matter of turning.
+                if e.contains("does not fit at its start") {
+                    Err(e)
+                } else {
+                    attempt(0.95)
+                }
+            });
+            match found {
+                Ok((h, corridor, hcfg)) => {
+                    let fmt = FmtResult {
+                        samples: vec![start, goal],
+                        parent: vec![None, None],
+                        cost: vec![0.0, h.length],
+                        edges: Vec::new(),
+                        path: h.points,
+                        path_cost: h.length,
+                        radius: 0.0,
+                        collision_checks: 0,
+                    };
+                    let used = PathPlanner::Hybrid {
+                        radius: 1.0 / hcfg.kappa,
+                        expansions: h.expansions,
+                        fmt_failure: first.to_string(),
+                    };
+                    (fmt, corridor, used)
+                }
+                Err(second) => {
+                    let first = match first {
+                        PlanError::Infeasible(m) => m,
+                        e => e.to_string(),
+                    };
+                    return Err(PlanError::Infeasible(format!(
+                        "{first}; and a search within the turning limit found none: {second}"
+                    )));
+                }
+            }
+        }
+        Err(e) => return Err(e),
+    };
     timings.plan_s = clock() - t_plan;
-    // A path the vehicle cannot drive is refused before it is driven: too
-    // tight a turn, or a body that does not fit where the path goes.
-    let turn = corridor.turn_curvature(1.0);
-    if let Some(i) = (0..turn.len())
-        .filter(|&i| turn[i].abs() > kappa_max * 1.02)
-        .max_by(|&a, &b| turn[a].abs().total_cmp(&turn[b].abs()))
-    {
-        let p = corridor.points[i];
-        return Err(PlanError::Infeasible(format!(
-            "the smoothed path turns with a {:.2} m radius at ({:.1}, {:.1}); the {} turns no tighter than {:.2} m (wheelbase {} m, steering {:.0}°)",
-            1.0 / turn[i].abs(),
-            p.x,
-            p.y,
-            cfg.vehicle.preset,
-            1.0 / kappa_max,
-            veh.wheelbase,
-            veh.max_steer.to_degrees()
-        )));
-    }
-    if let Some(p) = corridor.first_blocked(&pgrid) {
-        return Err(PlanError::Infeasible(format!(
-            "the {} m × {} m body does not fit along the path at ({:.1}, {:.1}) with a {} m margin",
-            veh.length, veh.width, p.x, p.y, pl.margin
-        )));
-    }
 
     // The world: one vehicle on direct (acceleration, steering) control.
     let mut world = World::new(sim.dt).map_err(|e| PlanError::Config(e.to_string()))?;
@@ -607,7 +727,13 @@ pub fn run_closed_loop_timed(
 
     let mut rec = LogRecorder::new(sim.dt);
     rec.meta("kind", "closed_loop");
-    rec.meta("planner", format!("FMT* n={} seed={}", pl.samples, pl.seed));
+    rec.meta(
+        "planner",
+        match &planner {
+            PathPlanner::Fmt { .. } => format!("FMT* n={} seed={}", pl.samples, pl.seed),
+            other => other.to_string(),
+        },
+    );
     rec.meta(
         "tracker",
         format!("MPC N={} dt={}", cfg.tracker.horizon, cfg.tracker.dt),
@@ -777,6 +903,7 @@ pub fn run_closed_loop_timed(
         fmt,
         corridor,
         grid: pgrid,
+        planner,
     };
     Ok((result, timings))
 }

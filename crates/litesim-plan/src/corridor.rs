@@ -191,6 +191,13 @@ fn resample(dense: &[Vec2], ds: f64) -> Vec<Vec2> {
 /// equation on positions — would leave a kink at the clamped second point
 /// and shrink every turn; the fourth-order flow does neither.)
 fn relax(pts: &mut [Vec2], grid: &PlanningGrid, start_heading: Option<f64>, ds: f64) {
+    // Length scale ≈ ds·sweeps^¼: about 2.5 m at ds = 0.5 m.
+    let sweeps = (2.5 / ds).powi(4).round().clamp(16.0, 2000.0) as usize;
+    relax_sweeps(pts, grid, start_heading, sweeps);
+}
+
+/// [`relax`] with a given number of sweeps.
+fn relax_sweeps(pts: &mut [Vec2], grid: &PlanningGrid, start_heading: Option<f64>, sweeps: usize) {
     let n = pts.len();
     if n < 6 {
         return;
@@ -199,8 +206,6 @@ fn relax(pts: &mut [Vec2], grid: &PlanningGrid, start_heading: Option<f64>, ds: 
     clamp_start(pts, grid, start_heading, d);
     let mut next = pts.to_vec();
     let ok = |prev: Vec2, q: Vec2, nxt: Vec2| grid.pose_free(q, (nxt - prev).heading());
-    // Length scale ≈ ds·sweeps^¼: about 2.5 m at ds = 0.5 m.
-    let sweeps = (2.5 / ds).powi(4).round().clamp(16.0, 2000.0) as usize;
     biharmonic(pts, &mut next, sweeps, &ok);
 }
 
@@ -509,6 +514,53 @@ impl Corridor {
         let (points, smoothed) = chosen
             .or(first_free)
             .unwrap_or_else(|| (finish(polyline()), false));
+        Self::from_points(raw.to_vec(), short, points, smoothed, grid, limits)
+    }
+
+    /// Builds a corridor along a path the vehicle can already drive (from
+    /// [`crate::hybrid_astar`]: arcs within its turning limit, footprint
+    /// free): resampled at `ds` and relaxed towards continuous curvature
+    /// (the arcs' joints are curvature jumps), with no shortcut — a
+    /// shortcut would cut the arcs back into corners.
+    pub fn along(path: &[Vec2], grid: &PlanningGrid, ds: f64, limits: &SpeedLimits) -> Self {
+        let ds = if ds.is_finite() && ds > 0.0 { ds } else { 0.5 };
+        let start_heading = limits.start_heading.filter(|h| h.is_finite());
+        let plain = resample(path, ds);
+        // The most relaxed curve whose whole footprint stays free (moves
+        // are checked one at a time, against headings that later moves
+        // change, so a long relaxation can end against a wall): the full
+        // length scale, then ½, ¼, … of it (a sixteenth of the sweeps
+        // halves the scale); else the path as planned.
+        let full = (2.5 / ds).powi(4).round().clamp(16.0, 2000.0) as usize;
+        let mut chosen = None;
+        let mut sweeps = full;
+        while sweeps >= 4 {
+            let mut relaxed = plain.clone();
+            relax_sweeps(&mut relaxed, grid, start_heading, sweeps);
+            let relaxed = resample(&relaxed, ds);
+            if footprint_free(&relaxed, grid) {
+                chosen = Some(relaxed);
+                break;
+            }
+            sweeps /= 16;
+        }
+        let (points, smoothed) = match chosen {
+            Some(p) => (p, true),
+            None => (plain, false),
+        };
+        Self::from_points(path.to_vec(), path.to_vec(), points, smoothed, grid, limits)
+    }
+
+    /// The reference (headings, curvatures, speed profile, bounds) along
+    /// resampled `points`.
+    fn from_points(
+        raw: Vec<Vec2>,
+        short: Vec<Vec2>,
+        points: Vec<Vec2>,
+        smoothed: bool,
+        grid: &PlanningGrid,
+        limits: &SpeedLimits,
+    ) -> Self {
         let n = points.len();
         let mut s = vec![0.0; n];
         for i in 1..n {
@@ -593,7 +645,7 @@ impl Corridor {
             })
             .unzip();
         Self {
-            raw: raw.to_vec(),
+            raw,
             shortcut: short,
             points,
             s,

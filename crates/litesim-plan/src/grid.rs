@@ -221,7 +221,12 @@ impl PlanningGrid {
     /// True when the vehicle at `p` heading `yaw` keeps radius + margin
     /// from every obstacle with its whole footprint.
     pub fn pose_free(&self, p: Vec2, yaw: f64) -> bool {
-        let f = Vec2::from_heading(yaw);
+        self.pose_free_along(p, Vec2::from_heading(yaw))
+    }
+
+    /// [`Self::pose_free`] with the heading as a unit vector `f` (no
+    /// trigonometry: searches that step along arcs rotate `f` instead).
+    pub fn pose_free_along(&self, p: Vec2, f: Vec2) -> bool {
         self.offsets().iter().all(|o| self.is_free(p + f * *o))
     }
 

@@ -3,7 +3,8 @@
 //! Planning and control on occupancy grids (seed 001): [`PlanningGrid`]
 //! (exact distance transform bounded by the map's edge; free / inflated /
 //! hard layers; the vehicle's footprint as covering circles), [`fmt_star`]
-//! (FMT*, Janson et al. 2015), [`Corridor`] (lead-in along the start
+//! (FMT*, Janson et al. 2015), [`hybrid_astar`] (forward arcs within the
+//! turning limit, for vehicles FMT*'s straight edges do not fit), [`Corridor`] (lead-in along the start
 //! heading, centripetal Catmull–Rom, bending-energy relaxation with
 //! footprint checks, arc-length resampling, a speed profile limited by
 //! lateral acceleration and steering rate, lateral bounds), [`Mpc`] (linear
@@ -22,14 +23,18 @@ pub mod closed_loop;
 pub mod corridor;
 pub mod fmt;
 pub mod grid;
+pub mod hybrid;
 pub mod matrix;
 pub mod mpc;
 pub mod qp;
 /// The seeded generator lives in `litesim-core` (shared with the scenario engine).
 pub use litesim_core::rng;
 
-pub use closed_loop::{ClosedLoopConfig, ClosedLoopResult, PlanError, run_closed_loop};
+pub use closed_loop::{
+    ClosedLoopConfig, ClosedLoopResult, PathPlanner, PlanError, run_closed_loop,
+};
 pub use corridor::Corridor;
 pub use fmt::{FmtConfig, FmtError, FmtResult, Radius, fmt_star};
 pub use grid::{Layer, PlanningGrid, distance_transform};
+pub use hybrid::{HybridConfig, HybridError, HybridPath, hybrid_astar};
 pub use mpc::{Mpc, MpcConfig, MpcSolution};

@@ -90,17 +90,25 @@ pub fn render_rgb(log: &SimulationLog, style: &Style) -> Result<(Vec<u8>, u32, u
     let mut buf = vec![0u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        let title = format!(
-            "FMT*: {} samples, {} edges, r = {:.2} m{}",
-            p.samples.len().saturating_sub(2),
-            p.edges.len(),
-            p.radius,
-            if p.smoothed {
-                ""
-            } else {
-                " (corridor not smoothed)"
+        let unsmoothed = if p.smoothed {
+            ""
+        } else {
+            " (corridor not smoothed)"
+        };
+        // A path from the curvature-bounded search has no tree: the title
+        // names that planner (the log's `planner` meta, up to its reason).
+        let title = match log.meta.get("planner") {
+            Some(m) if m.starts_with("hybrid A*") => {
+                let short = m.split(';').next().unwrap_or(m);
+                format!("{short} (FMT*'s path was not drivable){unsmoothed}")
             }
-        );
+            _ => format!(
+                "FMT*: {} samples, {} edges, r = {:.2} m{unsmoothed}",
+                p.samples.len().saturating_sub(2),
+                p.edges.len(),
+                p.radius,
+            ),
+        };
         draw_plan(&root, log, style, usize::MAX, &title)?;
     }
     Ok((buf, w, h))

@@ -1,0 +1,645 @@
+//! Curvature-bounded search: hybrid A* (Dolgov, Thrun, Montemerlo and
+//! Diebel, "Path planning for autonomous vehicles in unknown semi-structured
+//! environments", IJRR 2010), forward driving only.
+//!
+//! FMT* connects samples with straight edges; a long vehicle cannot follow
+//! their corners, and the smoother can only round a corner as far as the
+//! free space around it allows. This search moves a pose (x, y, heading)
+//! along arcs no tighter than the vehicle can drive, checks the whole
+//! footprint along each arc, and keeps the cheapest pose per cell of
+//! (x, y, heading). It is guided by the obstacle-aware distance to the goal
+//! (Dijkstra over the grid for the reference point) and finishes with an
+//! analytic shot — one arc at the planning curvature, then a straight line —
+//! whenever that reaches the goal free. Deterministic: no randomness, ties
+//! broken by insertion order.
+
+use crate::grid::PlanningGrid;
+use litesim_core::Vec2;
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Settings of the search.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HybridConfig {
+    /// The largest curvature a path may have (1/m), below the vehicle's
+    /// limit so that the controller keeps some steering to correct with.
+    pub kappa: f64,
+    /// Arc length of one motion primitive (m).
+    pub step: f64,
+    /// Side of a position cell of the closed set (m).
+    pub cell: f64,
+    /// Heading bins of the closed set.
+    pub headings: usize,
+    /// Spacing of footprint checks along an arc (m).
+    pub check: f64,
+    /// Poses expanded before giving up.
+    pub max_expansions: usize,
+    /// A pose this close to the goal (m) ends the path there when no shot
+    /// reaches the goal itself (0: only shots end it).
+    pub goal_tolerance: f64,
+}
+
+impl HybridConfig {
+    /// Settings for a vehicle whose tightest planned curvature is `kappa`
+    /// (1/m) on a grid of `resolution` m: cells of 0.5 m (at least two grid
+    /// cells), 72 heading bins (5°), primitives of 1.5 cells, checks every
+    /// half grid cell.
+    pub fn new(kappa: f64, resolution: f64) -> Self {
+        let cell = (2.0 * resolution).max(0.5);
+        Self {
+            kappa,
+            step: 1.5 * cell,
+            cell,
+            headings: 72,
+            check: 0.5 * resolution,
+            max_expansions: 200_000,
+            goal_tolerance: 0.0,
+        }
+    }
+}
+
+/// Why the search failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum HybridError {
+    /// Bad settings.
+    #[error("invalid search settings: {0}")]
+    BadConfig(String),
+    /// The vehicle does not fit at the start.
+    #[error("the vehicle does not fit at its start ({0:.2}, {1:.2})")]
+    StartBlocked(f64, f64),
+    /// No forward path within the turning limit.
+    #[error(
+        "no forward path with turns no tighter than {radius:.2} m: {expansions} poses searched, the closest came within {closest:.2} m of the goal at ({at_x:.1}, {at_y:.1})"
+    )]
+    NoPath {
+        /// Tightest turn radius planned (m).
+        radius: f64,
+        /// Poses expanded.
+        expansions: usize,
+        /// Closest distance to the goal reached (m).
+        closest: f64,
+        /// Where (m).
+        at_x: f64,
+        /// Where (m).
+        at_y: f64,
+    },
+}
+
+/// A path found by the search.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HybridPath {
+    /// Points along the path every ≤ `check` m, start to goal.
+    pub points: Vec<Vec2>,
+    /// Its length (m).
+    pub length: f64,
+    /// Poses expanded.
+    pub expansions: usize,
+}
+
+/// The pose after driving `len` m along curvature `k` from `(p, yaw)`.
+fn arc(p: Vec2, yaw: f64, k: f64, len: f64) -> (Vec2, f64) {
+    if k.abs() < 1e-12 {
+        return (p + Vec2::from_heading(yaw) * len, yaw);
+    }
+    let y1 = yaw + k * len;
+    (
+        p + Vec2::new(y1.sin() - yaw.sin(), yaw.cos() - y1.cos()) * (1.0 / k),
+        y1,
+    )
+}
+
+/// Poses every ≤ `check` m along an arc (excluding the start, including the
+/// end); false as soon as one does not fit.
+///
+/// Each sub-step is the same rigid motion in the vehicle's frame, so the
+/// poses follow by rotating the heading vector (no trigonometry per
+/// pose; the drift over an arc is far below a grid cell).
+fn arc_free(grid: &PlanningGrid, p: Vec2, yaw: f64, k: f64, len: f64, check: f64) -> bool {
+    let m = (len / check).ceil().max(1.0) as usize;
+    let ds = len / m as f64;
+    let turn = k * ds;
+    // One sub-step in the frame of its start: ahead, to the left.
+    let (ahead, left) = if k.abs() < 1e-12 {
+        (ds, 0.0)
+    } else {
+        (turn.sin() / k, (1.0 - turn.cos()) / k)
+    };
+    let (c, s) = (turn.cos(), turn.sin());
+    let mut f = Vec2::from_heading(yaw);
+    let mut q = p;
+    for _ in 0..m {
+        q = q + f * ahead + Vec2::new(-f.y, f.x) * left;
+        f = Vec2::new(f.x * c - f.y * s, f.x * s + f.y * c);
+        if !grid.pose_free_along(q, f) {
+            return false;
+        }
+    }
+    true
+}
+
+/// Appends points every ≤ `check` m along an arc (excluding its start).
+fn arc_points(out: &mut Vec<Vec2>, p: Vec2, yaw: f64, k: f64, len: f64, check: f64) {
+    let m = (len / check).ceil().max(1.0) as usize;
+    out.extend((1..=m).map(|j| arc(p, yaw, k, len * j as f64 / m as f64).0));
+}
+
+/// The analytic finish from `(p, yaw)`: an arc of curvature ±`kappa` until
+/// the heading points at `goal`, then straight to it. Returns (curvature,
+/// arc length, straight length) of the shorter free one.
+fn shot(
+    grid: &PlanningGrid,
+    p: Vec2,
+    yaw: f64,
+    goal: Vec2,
+    kappa: f64,
+    check: f64,
+) -> Option<(f64, f64, f64)> {
+    let r = 1.0 / kappa;
+    let mut best: Option<(f64, f64, f64)> = None;
+    for side in [1.0, -1.0] {
+        // Centre of the turning circle on this side.
+        let c = p + Vec2::new(-yaw.sin(), yaw.cos()) * (side * r);
+        let v = goal - c;
+        let dist = v.norm();
+        if dist < r * (1.0 + 1e-9) {
+            continue;
+        }
+        let straight = (dist * dist - r * r).sqrt();
+        // Radial angle of the tangent point, then the angle turned to it
+        // (in the direction of travel, 0 ≤ φ < 2π).
+        let beta = v.heading() - side * straight.atan2(r);
+        let beta0 = (p - c).heading();
+        let mut phi = (side * (beta - beta0)).rem_euclid(std::f64::consts::TAU);
+        if phi > std::f64::consts::TAU - 1e-9 {
+            // Already facing the goal, up to rounding: not a full circle.
+            phi = 0.0;
+        }
+        let turn = phi * r;
+        let total = turn + straight;
+        if best.is_some_and(|b| b.1 + b.2 <= total) {
+            continue;
+        }
+        let k = side * kappa;
+        if !arc_free(grid, p, yaw, k, turn, check) {
+            continue;
+        }
+        let (q, h) = arc(p, yaw, k, turn);
+        if straight > 0.0 && !arc_free(grid, q, h, 0.0, straight, check) {
+            continue;
+        }
+        best = Some((k, turn, straight));
+    }
+    best
+}
+
+/// Obstacle-aware distance (m) from every cell to the goal's cell for the
+/// reference point, 8-connected, through cells where the reference point
+/// can be at all (clearance of at least the covering circles' radius plus
+/// margin, less half their spacing: the point lies on the body's axis
+/// within half a spacing of a circle's centre). +∞ where the goal cannot
+/// be reached: a pose there is pruned.
+fn distance_to_goal(grid: &PlanningGrid, goal: Vec2) -> Vec<f64> {
+    let g = &grid.grid;
+    let (w, h, res) = (g.width, g.height, g.resolution);
+    let spacing = match grid.footprint.as_slice() {
+        [a, b, ..] => (b - a).abs(),
+        _ => 0.0,
+    };
+    let need = grid.radius + grid.margin - 0.5 * spacing;
+    let pass: Vec<bool> = (0..w * h)
+        .map(|c| !g.occupied[c] && grid.distance[c] - 0.5 * res >= need)
+        .collect();
+    let mut dist = vec![f64::INFINITY; w * h];
+    let Some((gi, gj)) = g.cell(goal) else {
+        return dist;
+    };
+    #[derive(PartialEq)]
+    struct Q(f64, usize);
+    impl Eq for Q {}
+    impl PartialOrd for Q {
+        fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+            Some(self.cmp(o))
+        }
+    }
+    impl Ord for Q {
+        fn cmp(&self, o: &Self) -> Ordering {
+            o.0.total_cmp(&self.0).then_with(|| o.1.cmp(&self.1))
+        }
+    }
+    let start = gj * w + gi;
+    dist[start] = 0.0;
+    let mut heap = BinaryHeap::new();
+    heap.push(Q(0.0, start));
+    let diag = res * std::f64::consts::SQRT_2;
+    while let Some(Q(d, c)) = heap.pop() {
+        if d > dist[c] {
+            continue;
+        }
+        let (i, j) = ((c % w) as isize, (c / w) as isize);
+        for (di, dj, step) in [
+            (1, 0, res),
+            (-1, 0, res),
+            (0, 1, res),
+            (0, -1, res),
+            (1, 1, diag),
+            (1, -1, diag),
+            (-1, 1, diag),
+            (-1, -1, diag),
+        ] {
+            let (ni, nj) = (i + di, j + dj);
+            if ni < 0 || nj < 0 || ni >= w as isize || nj >= h as isize {
+                continue;
+            }
+            let nc = nj as usize * w + ni as usize;
+            // The goal's own cell is always a source, even when tight.
+            if !pass[nc] {
+                continue;
+            }
+            let nd = d + step;
+            if nd < dist[nc] {
+                dist[nc] = nd;
+                heap.push(Q(nd, nc));
+            }
+        }
+    }
+    dist
+}
+
+struct Node {
+    p: Vec2,
+    yaw: f64,
+    g: f64,
+    parent: u32,
+    /// Curvature level of the arc that led here.
+    level: usize,
+}
+
+#[derive(PartialEq)]
+struct Open(f64, u32);
+impl Eq for Open {}
+impl PartialOrd for Open {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Open {
+    fn cmp(&self, o: &Self) -> Ordering {
+        o.0.total_cmp(&self.0).then_with(|| o.1.cmp(&self.1))
+    }
+}
+
+/// Plans a forward path from `(start, yaw)` to `goal` (any final heading)
+/// whose curvature never exceeds `cfg.kappa`, with the grid's footprint
+/// free all along.
+pub fn hybrid_astar(
+    grid: &PlanningGrid,
+    start: Vec2,
+    yaw: f64,
+    goal: Vec2,
+    cfg: &HybridConfig,
+) -> Result<HybridPath, HybridError> {
+    let HybridConfig {
+        kappa,
+        step,
+        cell,
+        headings,
+        check,
+        max_expansions,
+        goal_tolerance,
+    } = *cfg;
+    if !(kappa.is_finite() && kappa > 0.0) {
+        return Err(HybridError::BadConfig(format!(
+            "curvature must be positive, got {kappa}"
+        )));
+    }
+    for (name, v) in [("step", step), ("cell", cell), ("check", check)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(HybridError::BadConfig(format!(
+                "{name} must be positive, got {v}"
+            )));
+        }
+    }
+    if headings == 0 {
+        return Err(HybridError::BadConfig("headings must be at least 1".into()));
+    }
+    if !(start.is_finite() && yaw.is_finite() && grid.pose_free(start, yaw)) {
+        return Err(HybridError::StartBlocked(start.x, start.y));
+    }
+    let radius = 1.0 / kappa;
+    let exhausted = |expansions: usize, closest: (f64, Vec2)| HybridError::NoPath {
+        radius,
+        expansions,
+        closest: closest.0,
+        at_x: closest.1.x,
+        at_y: closest.1.y,
+    };
+    let g = &grid.grid;
+    let to_goal = distance_to_goal(grid, goal);
+    let h_of = |p: Vec2| -> f64 {
+        match g.cell(p) {
+            Some((i, j)) => to_goal[j * g.width + i].max(p.distance(goal)),
+            None => f64::INFINITY,
+        }
+    };
+    let extent = Vec2::new(g.width as f64, g.height as f64) * g.resolution;
+    let (nx, ny) = (
+        (extent.x / cell).ceil().max(1.0) as usize,
+        (extent.y / cell).ceil().max(1.0) as usize,
+    );
+    if nx.saturating_mul(ny).saturating_mul(headings) > 16 << 20 {
+        return Err(HybridError::BadConfig(format!(
+            "{nx} × {ny} cells × {headings} headings is too fine for this map: use larger cells"
+        )));
+    }
+    // Curvature levels −κ, −κ/2, 0, κ/2, κ; an arc changes the level by at
+    // most one (steering moves at a finite rate, and a path whose
+    // curvature jumps is one no vehicle follows exactly). The level is
+    // part of the state.
+    let ks = [-kappa, -0.5 * kappa, 0.0, 0.5 * kappa, kappa];
+    let levels = ks.len();
+    let key = |p: Vec2, yaw: f64, level: usize| -> Option<usize> {
+        let u = (p.x - g.origin.x) / cell;
+        let v = (p.y - g.origin.y) / cell;
+        if !(u >= 0.0 && v >= 0.0) {
+            return None;
+        }
+        let (i, j) = (u as usize, v as usize);
+        if i >= nx || j >= ny {
+            return None;
+        }
+        let t = yaw.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU;
+        let b = ((t * headings as f64) as usize).min(headings - 1);
+        Some(((j * nx + i) * headings + b) * levels + level)
+    };
+    let states = nx * ny * headings * levels;
+    let mut best = vec![f64::INFINITY; states];
+    let mut closed = vec![false; states];
+    // The vehicle starts with its wheels straight.
+    let mut nodes = vec![Node {
+        p: start,
+        yaw,
+        g: 0.0,
+        parent: u32::MAX,
+        level: 2,
+    }];
+    let mut heap = BinaryHeap::new();
+    let h0 = h_of(start);
+    if !h0.is_finite() {
+        return Err(exhausted(0, (start.distance(goal), start)));
+    }
+    heap.push(Open(h0, 0));
+    let mut expansions = 0usize;
+    let mut closest = (start.distance(goal), start);
+    // Shots are tried on every expansion near the goal, on every 16th away
+    // (a shot from afar is long to check and rarely free).
+    let near = 2.0 * radius + 5.0;
+    while let Some(Open(_, id)) = heap.pop() {
+        let (p, yaw, gc, lc) = {
+            let n = &nodes[id as usize];
+            (n.p, n.yaw, n.g, n.level)
+        };
+        let Some(kk) = key(p, yaw, lc) else { continue };
+        if closed[kk] || gc > best[kk] {
+            continue;
+        }
+        closed[kk] = true;
+        expansions += 1;
+        if expansions > max_expansions {
+            return Err(exhausted(expansions - 1, closest));
+        }
+        let d = p.distance(goal);
+        if d < closest.0 {
+            closest = (d, p);
+        }
+        if d < near || expansions.is_multiple_of(16) {
+            let found = shot(grid, p, yaw, goal, kappa, check);
+            if let Some((k, turn, straight)) = found {
+                return Ok(reconstruct(
+                    &nodes,
+                    &ks,
+                    id,
+                    step,
+                    check,
+                    Some((k, turn, straight, goal)),
+                    expansions,
+                ));
+            }
+        }
+        if d <= goal_tolerance {
+            return Ok(reconstruct(&nodes, &ks, id, step, check, None, expansions));
+        }
+        let lo = lc.saturating_sub(1);
+        for (level, &k) in ks.iter().enumerate().skip(lo).take(lc + 2 - lo) {
+            if !arc_free(grid, p, yaw, k, step, check) {
+                continue;
+            }
+            let (q, qy) = arc(p, yaw, k, step);
+            let Some(qk) = key(q, qy, level) else {
+                continue;
+            };
+            if closed[qk] {
+                continue;
+            }
+            // Length, a little more for turning and for changing the
+            // turn (smoother paths are cheaper to track).
+            let cost =
+                step * (1.0 + 0.05 * k.abs() / kappa) + 0.1 * step * (level.abs_diff(lc) as f64);
+            let ng = gc + cost;
+            if ng >= best[qk] {
+                continue;
+            }
+            let h = h_of(q);
+            if !h.is_finite() {
+                continue;
+            }
+            best[qk] = ng;
+            nodes.push(Node {
+                p: q,
+                yaw: qy,
+                g: ng,
+                parent: id,
+                level,
+            });
+            heap.push(Open(ng + h, (nodes.len() - 1) as u32));
+        }
+    }
+    Err(exhausted(expansions, closest))
+}
+
+/// The points from the start to node `id`, then the shot (curvature, arc
+/// length, straight length, goal) when there is one.
+fn reconstruct(
+    nodes: &[Node],
+    ks: &[f64],
+    id: u32,
+    step: f64,
+    check: f64,
+    shot: Option<(f64, f64, f64, Vec2)>,
+    expansions: usize,
+) -> HybridPath {
+    let mut chain = vec![id];
+    while let Some(&last) = chain.last() {
+        let parent = nodes[last as usize].parent;
+        if parent == u32::MAX {
+            break;
+        }
+        chain.push(parent);
+    }
+    chain.reverse();
+    let first = &nodes[chain[0] as usize];
+    let mut points = vec![first.p];
+    for w in chain.windows(2) {
+        let (a, b) = (&nodes[w[0] as usize], &nodes[w[1] as usize]);
+        arc_points(&mut points, a.p, a.yaw, ks[b.level], step, check);
+    }
+    if let Some((k, turn, straight, goal)) = shot {
+        let end = &nodes[id as usize];
+        if turn > 0.0 {
+            arc_points(&mut points, end.p, end.yaw, k, turn, check);
+        }
+        let (q, h) = arc(end.p, end.yaw, k, turn);
+        if straight > 0.0 {
+            arc_points(&mut points, q, h, 0.0, straight, check);
+        }
+        // The last point is the goal up to rounding: make it the goal.
+        if let Some(last) = points.last_mut() {
+            *last = goal;
+        }
+    }
+    let length = points.windows(2).map(|w| w[0].distance(w[1])).sum();
+    HybridPath {
+        points,
+        length,
+        expansions,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use litesim_map::{Obstacle, OccupancyGrid};
+
+    fn yard(obstacles: &[Obstacle]) -> PlanningGrid {
+        let g = OccupancyGrid::from_obstacles(Vec2::new(0.0, 0.0), (60.0, 30.0), 0.2, obstacles)
+            .unwrap();
+        PlanningGrid::with_footprint(g, 4.6, 1.9, 1.0, 0.3)
+    }
+
+    fn max_turn_curvature(pts: &[Vec2]) -> f64 {
+        pts.windows(3)
+            .map(|w| {
+                let (a, b) = (w[1] - w[0], w[2] - w[1]);
+                let den = a.norm() * b.norm() * (w[2] - w[0]).norm();
+                if den > 1e-12 {
+                    (2.0 * a.cross(b) / den).abs()
+                } else {
+                    0.0
+                }
+            })
+            .fold(0.0, f64::max)
+    }
+
+    #[test]
+    fn arcs_are_exact() {
+        // A quarter circle of radius 5 to the left from the origin heading +x.
+        let (q, h) = arc(
+            Vec2::new(0.0, 0.0),
+            0.0,
+            0.2,
+            5.0 * std::f64::consts::FRAC_PI_2,
+        );
+        assert!(
+            (q.x - 5.0).abs() < 1e-12 && (q.y - 5.0).abs() < 1e-12,
+            "{q:?}"
+        );
+        assert!((h - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn turns_around_a_wall_within_the_limit_and_is_deterministic() {
+        let grid = yard(&[Obstacle::Rect {
+            min: [25.0, 0.0],
+            max: [28.0, 20.0],
+        }]);
+        let cfg = HybridConfig::new(0.8 / 4.0, 0.2);
+        let (start, goal) = (Vec2::new(5.0, 5.0), Vec2::new(50.0, 5.0));
+        let a = hybrid_astar(&grid, start, 0.0, goal, &cfg).unwrap();
+        let b = hybrid_astar(&grid, start, 0.0, goal, &cfg).unwrap();
+        assert_eq!(a, b);
+        assert_eq!(a.points[0], start);
+        assert_eq!(*a.points.last().unwrap(), goal);
+        // Over the wall's top and back down: longer than the straight line.
+        assert!(a.length > 55.0, "{}", a.length);
+        assert!(max_turn_curvature(&a.points) <= cfg.kappa * 1.01);
+        for w in a.points.windows(2) {
+            assert!(w[0].distance(w[1]) <= cfg.check + 1e-9);
+            assert!(grid.pose_free(w[1], (w[1] - w[0]).heading()));
+        }
+    }
+
+    #[test]
+    fn failures_are_clear() {
+        let grid = yard(&[Obstacle::Rect {
+            min: [25.0, 0.0],
+            max: [28.0, 30.0],
+        }]);
+        let cfg = HybridConfig {
+            max_expansions: 20_000,
+            ..HybridConfig::new(0.2, 0.2)
+        };
+        let e =
+            hybrid_astar(&grid, Vec2::new(5.0, 5.0), 0.0, Vec2::new(50.0, 5.0), &cfg).unwrap_err();
+        assert!(matches!(e, HybridError::NoPath { .. }), "{e}");
+        let e =
+            hybrid_astar(&grid, Vec2::new(26.0, 5.0), 0.0, Vec2::new(50.0, 5.0), &cfg).unwrap_err();
+        assert_eq!(e, HybridError::StartBlocked(26.0, 5.0));
+        let bad = HybridConfig {
+            kappa: f64::NAN,
+            ..cfg
+        };
+        assert!(matches!(
+            hybrid_astar(&grid, Vec2::new(5.0, 5.0), 0.0, Vec2::new(50.0, 5.0), &bad),
+            Err(HybridError::BadConfig(_))
+        ));
+    }
+
+    #[test]
+    fn a_u_turn_needs_room() {
+        // Goal behind the start: a forward U-turn of radius 1/κ needs
+        // about 2/κ of width plus the body.
+        let grid = yard(&[]);
+        let start = Vec2::new(20.0, 15.0);
+        let ok = hybrid_astar(
+            &grid,
+            start,
+            0.0,
+            Vec2::new(10.0, 15.0),
+            &HybridConfig::new(0.2, 0.2),
+        )
+        .unwrap();
+        assert!(max_turn_curvature(&ok.points) <= 0.2 * 1.01);
+        // In a 6 m wide corridor a radius-10 U-turn cannot be made.
+        let corridor = yard(&[
+            Obstacle::Rect {
+                min: [0.0, 0.0],
+                max: [60.0, 12.0],
+            },
+            Obstacle::Rect {
+                min: [0.0, 18.0],
+                max: [60.0, 30.0],
+            },
+        ]);
+        let e = hybrid_astar(
+            &corridor,
+            start,
+            0.0,
+            Vec2::new(10.0, 15.0),
+            &HybridConfig {
+                max_expansions: 50_000,
+                ..HybridConfig::new(0.1, 0.2)
+            },
+        )
+        .unwrap_err();
+        assert!(matches!(e, HybridError::NoPath { .. }), "{e}");
+    }
+}
