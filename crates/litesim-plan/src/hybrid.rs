@@ -603,6 +603,41 @@ mod tests {
         ));
     }
 
+    /// Bad input never panics: starts, yaws and goals anywhere (off the
+    /// map, inside walls, NaN, infinite) end in a path or a clear error.
+    #[test]
+    fn any_input_ends_in_a_path_or_an_error() {
+        let grid = yard(&[Obstacle::Rect {
+            min: [25.0, 0.0],
+            max: [28.0, 20.0],
+        }]);
+        let cfg = HybridConfig {
+            max_expansions: 3_000,
+            goal_tolerance: 0.5,
+            ..HybridConfig::new(0.2, 0.2)
+        };
+        let mut rng = crate::rng::Rng::new(5);
+        let odd = [f64::NAN, f64::INFINITY, -1e300, 1e300, -3.0, 70.0];
+        for k in 0..200 {
+            let mut v = [0.0; 5];
+            for (i, x) in v.iter_mut().enumerate() {
+                *x = if (k + i) % 17 == 0 {
+                    odd[(k + i) % odd.len()]
+                } else {
+                    -5.0 + rng.unit() * 70.0
+                };
+            }
+            let (start, goal) = (Vec2::new(v[0], v[1] * 0.5), Vec2::new(v[2], v[3] * 0.5));
+            match hybrid_astar(&grid, start, v[4], goal, &cfg) {
+                Ok(p) => {
+                    assert!(p.points.iter().all(|q| q.is_finite()));
+                    assert!(p.length.is_finite());
+                }
+                Err(e) => assert!(!e.to_string().is_empty()),
+            }
+        }
+    }
+
     #[test]
     fn a_u_turn_needs_room() {
         // Goal behind the start: a forward U-turn of radius 1/κ needs
