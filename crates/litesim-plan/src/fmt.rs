@@ -301,15 +301,18 @@ impl Buckets {
     }
 }
 
+/// A heap entry ordered so that `BinaryHeap` (a max-heap) pops the lowest
+/// cost first, ties by the lowest id: the search order of FMT*, hybrid A*
+/// and its Dijkstra heuristic, deterministic.
 #[derive(PartialEq)]
-struct Open(f64, usize);
-impl Eq for Open {}
-impl PartialOrd for Open {
+pub(crate) struct Cheapest<I>(pub(crate) f64, pub(crate) I);
+impl<I: Ord> Eq for Cheapest<I> {}
+impl<I: Ord> PartialOrd for Cheapest<I> {
     fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
         Some(self.cmp(o))
     }
 }
-impl Ord for Open {
+impl<I: Ord> Ord for Cheapest<I> {
     fn cmp(&self, o: &Self) -> Ordering {
         o.0.total_cmp(&self.0).then_with(|| o.1.cmp(&self.1))
     }
@@ -402,7 +405,7 @@ pub fn fmt_star(
     cost[0] = 0.0;
     let mut open_cost = vec![f64::INFINITY; n];
     open_cost[0] = 0.0;
-    heap.push(Open(0.0, 0));
+    heap.push(Cheapest(0.0, 0));
     // Neighbour lists are asked for again and again (each node both as `z`
     // and as a candidate `x`): each is computed once, into one arena of
     // indices and distances (no per-node allocation, no repeated square
@@ -453,7 +456,7 @@ pub fn fmt_star(
     let mut reached_goal = false;
     let mut new_open: Vec<usize> = Vec::new();
     let mut near_z: Vec<u32> = Vec::new();
-    while let Some(Open(_, z)) = heap.pop() {
+    while let Some(Cheapest(_, z)) = heap.pop() {
         if state[z] != State::Open {
             continue;
         }
@@ -495,7 +498,7 @@ pub fn fmt_star(
         for &x in &new_open {
             state[x] = State::Open;
             open_cost[x] = cost[x];
-            heap.push(Open(cost[x], x));
+            heap.push(Cheapest(cost[x], x));
         }
         state[z] = State::Closed;
         open_cost[z] = f64::INFINITY;

@@ -13,9 +13,9 @@
 //! whenever that reaches the goal free. Deterministic: no randomness, ties
 //! broken by insertion order.
 
+use crate::fmt::Cheapest;
 use crate::grid::PlanningGrid;
 use litesim_core::Vec2;
-use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 /// Settings of the search.
@@ -213,25 +213,12 @@ fn distance_to_goal(grid: &PlanningGrid, goal: Vec2) -> Vec<f64> {
     let Some((gi, gj)) = g.cell(goal) else {
         return dist;
     };
-    #[derive(PartialEq)]
-    struct Q(f64, usize);
-    impl Eq for Q {}
-    impl PartialOrd for Q {
-        fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-            Some(self.cmp(o))
-        }
-    }
-    impl Ord for Q {
-        fn cmp(&self, o: &Self) -> Ordering {
-            o.0.total_cmp(&self.0).then_with(|| o.1.cmp(&self.1))
-        }
-    }
     let start = gj * w + gi;
     dist[start] = 0.0;
     let mut heap = BinaryHeap::new();
-    heap.push(Q(0.0, start));
+    heap.push(Cheapest(0.0, start));
     let diag = res * std::f64::consts::SQRT_2;
-    while let Some(Q(d, c)) = heap.pop() {
+    while let Some(Cheapest(d, c)) = heap.pop() {
         if d > dist[c] {
             continue;
         }
@@ -258,7 +245,7 @@ fn distance_to_goal(grid: &PlanningGrid, goal: Vec2) -> Vec<f64> {
             let nd = d + step;
             if nd < dist[nc] {
                 dist[nc] = nd;
-                heap.push(Q(nd, nc));
+                heap.push(Cheapest(nd, nc));
             }
         }
     }
@@ -272,20 +259,6 @@ struct Node {
     parent: u32,
     /// Curvature level of the arc that led here.
     level: usize,
-}
-
-#[derive(PartialEq)]
-struct Open(f64, u32);
-impl Eq for Open {}
-impl PartialOrd for Open {
-    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
-        Some(self.cmp(o))
-    }
-}
-impl Ord for Open {
-    fn cmp(&self, o: &Self) -> Ordering {
-        o.0.total_cmp(&self.0).then_with(|| o.1.cmp(&self.1))
-    }
 }
 
 /// Plans a forward path from `(start, yaw)` to `goal` (any final heading)
@@ -387,13 +360,13 @@ pub fn hybrid_astar(
     if !h0.is_finite() {
         return Err(exhausted(0, (start.distance(goal), start)));
     }
-    heap.push(Open(h0, 0));
+    heap.push(Cheapest(h0, 0));
     let mut expansions = 0usize;
     let mut closest = (start.distance(goal), start);
     // Shots are tried on every expansion near the goal, on every 16th away
     // (a shot from afar is long to check and rarely free).
     let near = 2.0 * radius + 5.0;
-    while let Some(Open(_, id)) = heap.pop() {
+    while let Some(Cheapest(_, id)) = heap.pop() {
         let (p, yaw, gc, lc) = {
             let n = &nodes[id as usize];
             (n.p, n.yaw, n.g, n.level)
@@ -460,7 +433,7 @@ pub fn hybrid_astar(
                 parent: id,
                 level,
             });
-            heap.push(Open(ng + h, (nodes.len() - 1) as u32));
+            heap.push(Cheapest(ng + h, (nodes.len() - 1) as u32));
         }
     }
     Err(exhausted(expansions, closest))
