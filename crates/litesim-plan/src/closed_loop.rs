@@ -11,7 +11,7 @@
 use crate::corridor::{Corridor, RefState, SpeedLimits};
 use crate::fmt::{FmtConfig, FmtError, FmtResult, Radius, fmt_star};
 use crate::grid::{Layer, PlanningGrid};
-use crate::hybrid::{HybridConfig, hybrid_astar};
+use crate::hybrid::{HybridConfig, HybridError, hybrid_astar};
 use crate::mpc::{Mpc, MpcConfig, MpcError};
 use litesim_core::{
     Actor, ActorDescription, ActorKind, ActorState, ControlMode, KinematicBicycle, Pose, Vec2,
@@ -647,22 +647,25 @@ pub fn run_closed_loop_timed(
                     goal_tolerance: 0.5 * cfg.goal.tolerance,
                     ..HybridConfig::new(share * kappa_max, pgrid.grid.resolution)
                 };
+                // The error, and whether it is the start (which no other
+                // turning limit changes).
                 hybrid_astar(&pgrid, start, cfg.start.yaw, goal, &hcfg)
-                    .map_err(|e| e.to_string())
+                    .map_err(|e| (matches!(e, HybridError::StartBlocked(..)), e.to_string()))
                     .and_then(|h| {
                         let corridor = Corridor::along(&h.points, &pgrid, pl.corridor_ds, &limits);
-                        drivable(&corridor).map_err(|e| e.to_string())?;
+                        drivable(&corridor).map_err(|e| (false, e.to_string()))?;
                         Ok((h, corridor, hcfg))
                     })
             };
-            let found = attempt(0.8).or_else(|e| {
-                // A start the body does not fit is not a matter of turning.
-                if e.contains("does not fit at its start") {
-                    Err(e)
-                } else {
-                    attempt(0.95)
-                }
-            });
+            let found = attempt(0.8)
+                .or_else(|(at_start, e)| {
+                    if at_start {
+                        Err((at_start, e))
+                    } else {
+                        attempt(0.95)
+                    }
+                })
+                .map_err(|(_, e)| e);
             match found {
                 Ok((h, corridor, hcfg)) => {
                     let fmt = FmtResult {
