@@ -191,9 +191,13 @@ fn resample(dense: &[Vec2], ds: f64) -> Vec<Vec2> {
 /// equation on positions — would leave a kink at the clamped second point
 /// and shrink every turn; the fourth-order flow does neither.)
 fn relax(pts: &mut [Vec2], grid: &PlanningGrid, start_heading: Option<f64>, ds: f64) {
-    // Length scale ≈ ds·sweeps^¼: about 2.5 m at ds = 0.5 m.
-    let sweeps = (2.5 / ds).powi(4).round().clamp(16.0, 2000.0) as usize;
-    relax_sweeps(pts, grid, start_heading, sweeps);
+    relax_sweeps(pts, grid, start_heading, relax_length(ds));
+}
+
+/// Sweeps of a full relaxation at spacing `ds`: the length scale is about
+/// ds·sweeps^¼, 2.5 m at ds = 0.5 m.
+fn relax_length(ds: f64) -> usize {
+    (2.5 / ds).powi(4).round().clamp(16.0, 2000.0) as usize
 }
 
 /// [`relax`] with a given number of sweeps.
@@ -531,9 +535,8 @@ impl Corridor {
         // change, so a long relaxation can end against a wall): the full
         // length scale, then ½, ¼, … of it (a sixteenth of the sweeps
         // halves the scale); else the path as planned.
-        let full = (2.5 / ds).powi(4).round().clamp(16.0, 2000.0) as usize;
         let mut chosen = None;
-        let mut sweeps = full;
+        let mut sweeps = relax_length(ds);
         while sweeps >= 4 {
             let mut relaxed = plain.clone();
             relax_sweeps(&mut relaxed, grid, start_heading, sweeps);
