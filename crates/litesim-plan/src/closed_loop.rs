@@ -650,7 +650,7 @@ pub fn run_closed_loop_timed(
                 // The error, and whether it is the start (which no other
                 // turning limit changes).
                 hybrid_astar(&pgrid, start, cfg.start.yaw, goal, &hcfg)
-                    .map_err(|e| (matches!(e, HybridError::StartBlocked(..)), e.to_string()))
+                    .map_err(|e| (matches!(e, HybridError::StartBlocked { .. }), e.to_string()))
                     .and_then(|h| {
                         let corridor = Corridor::along(&h.points, &pgrid, pl.corridor_ds, &limits);
                         drivable(&corridor).map_err(|e| (false, e.to_string()))?;

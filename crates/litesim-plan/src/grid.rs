@@ -230,6 +230,20 @@ impl PlanningGrid {
         self.offsets().iter().all(|o| self.is_free(p + f * *o))
     }
 
+    /// The covering circle of the pose's footprint with the least
+    /// clearance, and that clearance (m): where a pose that does not fit
+    /// collides first (a circle fits with clearance ≥ radius + margin).
+    pub fn tightest_circle(&self, p: Vec2, yaw: f64) -> (Vec2, f64) {
+        let f = Vec2::from_heading(yaw);
+        self.offsets()
+            .iter()
+            .map(|o| {
+                let c = p + f * *o;
+                (c, self.clearance(c))
+            })
+            .fold((p, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
+    }
+
     /// [`Self::pose_free`] with `extra` m more room than the margin.
     pub fn pose_free_with(&self, p: Vec2, yaw: f64, extra: f64) -> bool {
         let f = Vec2::from_heading(yaw);

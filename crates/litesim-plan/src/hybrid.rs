@@ -65,8 +65,25 @@ pub enum HybridError {
     #[error("invalid search settings: {0}")]
     BadConfig(String),
     /// The vehicle does not fit at the start.
-    #[error("the vehicle does not fit at its start ({0:.2}, {1:.2})")]
-    StartBlocked(f64, f64),
+    #[error(
+        "the vehicle does not fit at its start ({x:.2}, {y:.2}) heading {heading_deg:.0}°: the part of its body around ({at_x:.1}, {at_y:.1}) is {clearance:.2} m from an obstacle or the map's edge, it needs {need:.2} m (the radius of the circles covering its body, plus the margin)"
+    )]
+    StartBlocked {
+        /// The start (m).
+        x: f64,
+        /// The start (m).
+        y: f64,
+        /// The start heading (degrees).
+        heading_deg: f64,
+        /// Centre of the covering circle with the least clearance (m).
+        at_x: f64,
+        /// Centre of the covering circle with the least clearance (m).
+        at_y: f64,
+        /// Its clearance (m).
+        clearance: f64,
+        /// The clearance a covering circle needs (radius + margin, m).
+        need: f64,
+    },
     /// No forward path within the turning limit.
     #[error(
         "no forward path with turns no tighter than {radius:.2} m: {expansions} poses searched, the closest came within {closest:.2} m of the goal at ({at_x:.1}, {at_y:.1})"
@@ -296,7 +313,16 @@ pub fn hybrid_astar(
         return Err(HybridError::BadConfig("headings must be at least 1".into()));
     }
     if !(start.is_finite() && yaw.is_finite() && grid.pose_free(start, yaw)) {
-        return Err(HybridError::StartBlocked(start.x, start.y));
+        let (at, clearance) = grid.tightest_circle(start, yaw);
+        return Err(HybridError::StartBlocked {
+            x: start.x,
+            y: start.y,
+            heading_deg: yaw.to_degrees(),
+            at_x: at.x,
+            at_y: at.y,
+            clearance,
+            need: grid.radius + grid.margin,
+        });
     }
     let radius = 1.0 / kappa;
     let exhausted = |expansions: usize, closest: (f64, Vec2)| HybridError::NoPath {
@@ -565,7 +591,19 @@ mod tests {
         assert!(matches!(e, HybridError::NoPath { .. }), "{e}");
         let e =
             hybrid_astar(&grid, Vec2::new(26.0, 5.0), 0.0, Vec2::new(50.0, 5.0), &cfg).unwrap_err();
-        assert_eq!(e, HybridError::StartBlocked(26.0, 5.0));
+        assert!(
+            matches!(e, HybridError::StartBlocked { x: 26.0, y: 5.0, clearance, .. } if clearance == 0.0),
+            "{e}"
+        );
+        // The reason names the place and both clearances.
+        let e =
+            hybrid_astar(&grid, Vec2::new(1.5, 5.0), 0.0, Vec2::new(50.0, 5.0), &cfg).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.starts_with("the vehicle does not fit at its start (1.50, 5.00) heading 0°: the part of its body around (")
+                && text.contains("m from an obstacle or the map's edge, it needs 1.36 m (the radius"),
+            "{text}"
+        );
         let bad = HybridConfig {
             kappa: f64::NAN,
             ..cfg
