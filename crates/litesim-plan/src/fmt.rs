@@ -164,9 +164,8 @@ impl Buckets {
     fn cell_of(&self, p: Vec2) -> (usize, usize) {
         // `as usize` truncates (= floor for values ≥ 0) and saturates
         // negatives and NaN to 0: ⌊·⌋ clamped to the grid, without libm.
-        let cx = (((p.x - self.origin.x) / self.cell) as usize).min(self.nx - 1);
         let cy = (((p.y - self.origin.y) / self.cell) as usize).min(self.ny - 1);
-        (cx, cy)
+        (self.column(p.x), cy)
     }
     /// Calls `hit(id, d²)` for every point within `r` of `p`, in the
     /// buckets' order (row by row, cell by cell, index within a cell);
@@ -202,7 +201,7 @@ impl Buckets {
             }
         }
     }
-    /// The column of `x`, as in [`Self::cell_of`].
+    /// The column of `x` (see [`Self::cell_of`]).
     fn column(&self, x: f64) -> usize {
         (((x - self.origin.x) / self.cell) as usize).min(self.nx - 1)
     }

@@ -353,10 +353,8 @@ impl PlanningGrid {
             return false;
         }
         let (i0, j0) = (u0 as usize - 1, v0 as usize - 1);
+        // ⌊u1⌋ ≤ w − 2 by the test above, so i1 ≤ w (and j1 ≤ h).
         let (i1, j1) = (u1 as usize + 2, v1 as usize + 2);
-        if i1 > w || j1 > h {
-            return false;
-        }
         let s = &self.blocked_sum;
         let row = w + 1;
         s[j1 * row + i1] + s[j0 * row + i0] == s[j0 * row + i1] + s[j1 * row + i0]

@@ -230,6 +230,7 @@ fn distance_to_goal(grid: &PlanningGrid, goal: Vec2) -> Vec<f64> {
     let Some((gi, gj)) = g.cell(goal) else {
         return dist;
     };
+    // The goal's own cell is the source even when it is tight.
     let start = gj * w + gi;
     dist[start] = 0.0;
     let mut heap = BinaryHeap::new();
@@ -255,7 +256,6 @@ fn distance_to_goal(grid: &PlanningGrid, goal: Vec2) -> Vec<f64> {
                 continue;
             }
             let nc = nj as usize * w + ni as usize;
-            // The goal's own cell is always a source, even when tight.
             if !pass[nc] {
                 continue;
             }
