@@ -257,11 +257,18 @@ impl Loader<'_> {
         match std::fs::read(&found) {
             Ok(bytes) => match String::from_utf8(bytes) {
                 Ok(text) => self.load_file(&found, text),
-                Err(_) => self.prog.diagnostics.push(Diagnostic::error(
-                    "E0204",
-                    span,
-                    format!("'{}' is not UTF-8 text", found.display()),
-                )),
+                Err(e) => {
+                    let (line, col, byte) = first_invalid(&e);
+                    self.prog.diagnostics.push(Diagnostic::error(
+                        "E0204",
+                        span,
+                        format!(
+                            "'{}' is not UTF-8 text (byte 0x{byte:02X} at {}:{line}:{col})",
+                            found.display(),
+                            found.display()
+                        ),
+                    ))
+                }
             },
             Err(e) => self.prog.diagnostics.push(Diagnostic::error(
                 "E0205",
@@ -270,6 +277,18 @@ impl Loader<'_> {
             )),
         }
     }
+}
+
+/// Where the first byte that is not UTF-8 is: line and column (1-based,
+/// columns in characters of the valid text before it) and the byte.
+fn first_invalid(e: &std::string::FromUtf8Error) -> (usize, usize, u8) {
+    let bytes = e.as_bytes();
+    let at = e.utf8_error().valid_up_to();
+    // Valid up to `at`, so this prefix is text.
+    let before = std::str::from_utf8(&bytes[..at]).unwrap_or_default();
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, col, bytes.get(at).copied().unwrap_or(0))
 }
 
 /// Loads `entry` and its imports. `env` looks up environment variables.
@@ -293,8 +312,13 @@ pub fn load_with(
     dialect: Option<Dialect>,
 ) -> Result<Program, String> {
     let bytes = std::fs::read(entry).map_err(|e| format!("{}: {e}", entry.display()))?;
-    let text =
-        String::from_utf8(bytes).map_err(|_| format!("{}: not UTF-8 text", entry.display()))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let (line, col, byte) = first_invalid(&e);
+        format!(
+            "{}:{line}:{col}: not UTF-8 text (byte 0x{byte:02X}; save the file as UTF-8)",
+            entry.display()
+        )
+    })?;
     let mut l = Loader {
         prog: Program::default(),
         search,

@@ -14,9 +14,17 @@ struct P<'a> {
     pos: usize,
     diags: Vec<Diagnostic>,
     depth: usize,
+    /// Indented blocks open around the current token.
+    blocks: usize,
 }
 
-const MAX_DEPTH: usize = 200;
+/// Deepest nesting of expressions: each level is a dozen parser frames, and
+/// 128 levels fit a 2 MiB thread stack even in a debug build (200 did not).
+const MAX_DEPTH: usize = 128;
+/// Deepest nesting of indented blocks: the tree is walked recursively (by
+/// the checker, the lowering, serialisation and drop), so its depth is
+/// bounded where it is built.
+const MAX_BLOCKS: usize = 200;
 
 fn describe(t: &Tok) -> String {
     match t {
@@ -242,7 +250,48 @@ impl<'a> P<'a> {
             self.error("E0104", "an indented block");
             return out;
         }
+        if self.blocks >= MAX_BLOCKS {
+            let span = self.span();
+            self.diags.push(
+                Diagnostic::error(
+                    "E0191",
+                    span,
+                    format!("blocks nested too deeply (more than {MAX_BLOCKS} levels)"),
+                )
+                .with_hint("flatten the nesting: a `serial` or `parallel` can hold many members at one level"),
+            );
+            // Skip the whole block, inner blocks included.
+            let mut open = 0usize;
+            loop {
+                match self.tok() {
+                    Tok::Indent => open += 1,
+                    Tok::Dedent => {
+                        open -= 1;
+                        if open == 0 {
+                            self.bump();
+                            break;
+                        }
+                    }
+                    Tok::Eof => break,
+                    _ => {}
+                }
+                self.bump();
+            }
+            return out;
+        }
         self.bump();
+        self.blocks += 1;
+        let out = self.block_items(out, &mut item);
+        self.blocks -= 1;
+        out
+    }
+
+    /// The items of a block whose `INDENT` was consumed, up to its `DEDENT`.
+    fn block_items<T>(
+        &mut self,
+        mut out: Vec<T>,
+        item: &mut impl FnMut(&mut Self) -> Option<T>,
+    ) -> Vec<T> {
         loop {
             match self.tok() {
                 Tok::Dedent => {
@@ -1242,6 +1291,7 @@ pub fn parse(toks: Vec<Token<'_>>) -> (FileAst, Vec<Diagnostic>) {
         pos: 0,
         diags: Vec::new(),
         depth: 0,
+        blocks: 0,
     };
     let mut ast = FileAst::default();
     if p.toks.is_empty() {
