@@ -223,7 +223,18 @@ pub fn run(
     let style = crate::viz::load_style(style)?;
     let sut = common.sut()?;
     let sut_timeout = common.sut_timeout()?;
+    // The MCAP writer starts first, on the other core: header, schemas and
+    // the map's content as soon as the test has loaded, then the ticks in
+    // pieces as the run records them. A run that fails before
+    // it has a log leaves no file (the streamer's drop waits for that).
+    let streamer = match mcap {
+        Some(m) if !plan_only => Some(McapStreamer::start(m)?),
+        _ => None,
+    };
     let prep = litesim_scenario::prepare(test, &common.load())?;
+    if let Some(st) = &streamer {
+        st.map(prep.net.clone());
+    }
     let calibration = match calibration {
         Some(p) => Some(
             calibrate::from_toml(
@@ -285,21 +296,12 @@ pub fn run(
         _ => {}
     }
     batch::atomic(&out.join("run.json"), &stamp)?;
-    // The MCAP file is written on the other core while the run goes on:
-    // its map content first (the lane polylines do not depend on the run),
-    // then the ticks, handed over in pieces as they are recorded.
-    let streamer = match mcap {
-        Some(m) if !plan_only => {
-            let net = prep.net.clone();
-            let map = std::thread::spawn(move || net.map(|n| litesim_mcap::McapMap::new(&n)));
-            let extra = [
-                ("test".to_string(), test.display().to_string()),
-                ("run".to_string(), run_hash.clone()),
-            ];
-            Some(McapStreamer::start(m, map, extra.into())?)
-        }
-        _ => None,
-    };
+    if let Some(st) = &streamer {
+        st.extra(vec![
+            ("test".to_string(), test.display().to_string()),
+            ("run".to_string(), run_hash.clone()),
+        ]);
+    }
     let opts = RunOptions {
         observer: streamer.as_ref().map(McapStreamer::observer),
         ..opts
@@ -698,18 +700,29 @@ pub fn calibrate_cmd(profile: &str, out: Option<PathBuf>) -> Result<()> {
     Ok(())
 }
 
-/// The MCAP file of `litesim run`, written on its own thread while the run
-/// goes on: the run's observer hands it every 50 recorded ticks, the rest
-/// follows when the run is over ([`McapStreamer::end`]). A run that ends
-/// without a log (an error) leaves no file.
+/// The MCAP file of `litesim run`, written on its own thread from the
+/// moment the test has loaded ([`McapStreamer::map`] hands it the map):
+/// header, schemas and the map's content, then the ticks — every 50 from the
+/// run's observer, the rest when the run is over ([`McapStreamer::end`]). A
+/// run that ends without a log (an error) leaves no file: dropping the
+/// streamer stops the writer, which discards its temporary file, and waits
+/// for it.
 struct McapStreamer {
     state: std::sync::Arc<std::sync::Mutex<StreamState>>,
-    job: std::thread::JoinHandle<Result<(), litesim_mcap::McapError>>,
+    job: Option<std::thread::JoinHandle<Result<(), litesim_mcap::McapError>>>,
+}
+
+/// What the writer thread is handed, in this order: the map, pieces of
+/// ticks, the end.
+enum ToWriter {
+    Map(Option<std::sync::Arc<litesim_map::RoadNetwork>>),
+    Piece(Box<litesim_log::SimulationLog>),
+    Done,
 }
 
 struct StreamState {
-    /// `Some(piece)`, then `None` when the log is complete.
-    tx: std::sync::mpsc::Sender<Option<litesim_log::SimulationLog>>,
+    /// `None` once the writer was told the run is over (or stopped).
+    tx: Option<std::sync::mpsc::Sender<ToWriter>>,
     /// Ticks handed over so far.
     sent: usize,
     /// Metadata the CLI adds to the run's log (test, run), in every piece.
@@ -721,8 +734,10 @@ impl StreamState {
         let mut piece = log.ticks_from(self.sent);
         piece.meta.extend(self.extra.iter().cloned());
         self.sent = log.tick.len();
-        // A writer that stopped has its error waiting at `join`.
-        let _ = self.tx.send(Some(piece));
+        if let Some(tx) = &self.tx {
+            // A writer that stopped has its error waiting at `join`.
+            let _ = tx.send(ToWriter::Piece(Box::new(piece)));
+        }
     }
 }
 
@@ -731,27 +746,22 @@ impl StreamState {
 const STREAM_PIECE: usize = 50;
 
 impl McapStreamer {
-    fn start(
-        path: &Path,
-        map: std::thread::JoinHandle<Option<litesim_mcap::McapMap>>,
-        extra: Vec<(String, String)>,
-    ) -> Result<McapStreamer> {
-        let (tx, rx) = std::sync::mpsc::channel::<Option<litesim_log::SimulationLog>>();
+    fn start(path: &Path) -> Result<McapStreamer> {
+        let (tx, rx) = std::sync::mpsc::channel::<ToWriter>();
         let path = path.to_path_buf();
         let job = std::thread::Builder::new()
             .name("mcap".into())
             .spawn(move || {
-                let map = map.join().map_err(|_| {
-                    litesim_mcap::McapError::Stopped("sampling the map's lanes panicked".into())
-                })?;
-                let Ok(Some(first)) = rx.recv() else {
+                // The file is made once the test has loaded (a test that
+                // does not load leaves nothing, not even a folder).
+                let Ok(ToWriter::Map(net)) = rx.recv() else {
                     return Err(litesim_mcap::McapError::Stopped(
-                        "the run ended without a log".into(),
+                        "the test did not load".into(),
                     ));
                 };
                 let mut made = Ok(());
                 let written = litesim_log::write_atomic_seekable(&path, |w| {
-                    made = stream_pieces(&mut *w, map.as_ref(), &first, &rx);
+                    made = stream_pieces(&mut *w, net, &rx);
                     made.as_ref()
                         .map(|_| ())
                         .map_err(|e| std::io::Error::other(e.to_string()))
@@ -761,11 +771,31 @@ impl McapStreamer {
                 Ok(())
             })
             .map_err(|e| anyhow!("starting the MCAP writer: {e}"))?;
-        let state = StreamState { tx, sent: 0, extra };
+        let state = StreamState {
+            tx: Some(tx),
+            sent: 0,
+            extra: Vec::new(),
+        };
         Ok(McapStreamer {
             state: std::sync::Arc::new(std::sync::Mutex::new(state)),
-            job,
+            job: Some(job),
         })
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, StreamState> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// The run's map (`None`: it has none); before the first tick.
+    fn map(&self, net: Option<std::sync::Arc<litesim_map::RoadNetwork>>) {
+        if let Some(tx) = &self.lock().tx {
+            let _ = tx.send(ToWriter::Map(net));
+        }
+    }
+
+    /// Metadata added to every piece (the run's log gets the same).
+    fn extra(&self, extra: Vec<(String, String)>) {
+        self.lock().extra = extra;
     }
 
     /// The run's observer: a piece every [`STREAM_PIECE`] ticks.
@@ -783,46 +813,68 @@ impl McapStreamer {
 
     /// Hands over the ticks not yet sent from the finished log and says it
     /// is complete; the returned job finishes the file.
-    fn end(self, log: &litesim_log::SimulationLog) -> StreamJob {
+    fn end(mut self, log: &litesim_log::SimulationLog) -> StreamJob {
         {
-            let mut s = self.state.lock().unwrap_or_else(|e| e.into_inner());
+            let mut s = self.lock();
             s.send(log);
-            let _ = s.tx.send(None);
+            if let Some(tx) = s.tx.take() {
+                let _ = tx.send(ToWriter::Done);
+            }
         }
-        StreamJob(self.job)
+        StreamJob(self.job.take())
+    }
+}
+
+impl Drop for McapStreamer {
+    /// A run that failed: the writer sees its channel close, abandons the
+    /// temporary file, and is waited for (a thread cut off at exit would
+    /// leave it behind).
+    fn drop(&mut self) {
+        self.lock().tx = None;
+        if let Some(job) = self.job.take() {
+            let _ = job.join();
+        }
     }
 }
 
 /// The MCAP writer finishing its file.
-struct StreamJob(std::thread::JoinHandle<Result<(), litesim_mcap::McapError>>);
+struct StreamJob(Option<std::thread::JoinHandle<Result<(), litesim_mcap::McapError>>>);
 
 impl StreamJob {
     fn join(self) -> Result<(), litesim_mcap::McapError> {
-        self.0
-            .join()
-            .unwrap_or_else(|_| Err(litesim_mcap::McapError::Stopped("it panicked".into())))
+        match self.0 {
+            Some(job) => job
+                .join()
+                .unwrap_or_else(|_| Err(litesim_mcap::McapError::Stopped("it panicked".into()))),
+            None => Err(litesim_mcap::McapError::Stopped(
+                "it was not running".into(),
+            )),
+        }
     }
 }
 
-/// Writes the MCAP file from its first piece and those that follow on
-/// `rx` until the log is complete (`None`).
+/// Writes the MCAP file of a run on `net` from what arrives on `rx`:
+/// header, schemas and the map's content at once, the first piece's
+/// actors, then each piece until the run is over.
 fn stream_pieces<W: std::io::Write + std::io::Seek>(
     w: W,
-    map: Option<&litesim_mcap::McapMap>,
-    first: &litesim_log::SimulationLog,
-    rx: &std::sync::mpsc::Receiver<Option<litesim_log::SimulationLog>>,
+    net: Option<std::sync::Arc<litesim_map::RoadNetwork>>,
+    rx: &std::sync::mpsc::Receiver<ToWriter>,
 ) -> Result<(), litesim_mcap::McapError> {
-    let mut stream = litesim_mcap::McapStream::new(w, map, first)?;
-    stream.push(first)?;
+    let stopped = || litesim_mcap::McapError::Stopped("the run ended without a log".into());
+    let prelude = litesim_mcap::McapPrelude::new(w)?;
+    let map = net.map(|n| litesim_mcap::McapMap::new(&n));
+    let prelude = prelude.map(map.as_ref());
+    let Ok(ToWriter::Piece(first)) = rx.recv() else {
+        return Err(stopped());
+    };
+    let mut stream = prelude.start(&first)?;
+    stream.push(&first)?;
     loop {
         match rx.recv() {
-            Ok(Some(piece)) => stream.push(&piece)?,
-            Ok(None) => return stream.finish().map(|_| ()),
-            Err(_) => {
-                return Err(litesim_mcap::McapError::Stopped(
-                    "the run ended without a log".into(),
-                ));
-            }
+            Ok(ToWriter::Piece(piece)) => stream.push(&piece)?,
+            Ok(ToWriter::Done) => return stream.finish().map(|_| ()),
+            Ok(ToWriter::Map(_)) | Err(_) => return Err(stopped()),
         }
     }
 }

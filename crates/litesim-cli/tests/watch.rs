@@ -161,6 +161,28 @@ fn an_mcap_path_that_cannot_be_written_is_a_clear_error() {
     assert!(text(&o).contains("/proc/litesim"), "{}", text(&o));
 }
 
+#[test]
+fn a_test_that_does_not_load_leaves_no_mcap_file_or_folder() {
+    // The writer starts before the test is parsed; an error must still
+    // leave nothing behind (no temporary file, no folder made for it).
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.osc");
+    std::fs::write(&bad, "scenario top:\n    do serial:\n        nothing(\n").unwrap();
+    let mcap = dir.path().join("out").join("run.mcap");
+    let o = run(
+        &[
+            bad.to_str().unwrap(),
+            "--no-pictures",
+            "--mcap",
+            mcap.to_str().unwrap(),
+        ],
+        &dir.path().join("run"),
+    );
+    assert_ne!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(text(&o).contains("bad.osc"), "{}", text(&o));
+    assert!(!dir.path().join("out").exists(), "{}", text(&o));
+}
+
 /// A `litesim view` server, stopped when dropped.
 struct Viewer {
     child: std::process::Child,
