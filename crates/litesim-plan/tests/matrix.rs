@@ -47,7 +47,7 @@ fn every_example_with_every_preset_arrives_on_its_path_or_is_refused_with_a_reas
     // raised as planning learns to use more of the free space.
     let arrived = rows.iter().filter(|r| within_bounds(r)).count();
     assert!(
-        arrived >= 38,
+        arrived >= 39,
         "{arrived} of 49 runs arrived within the bounds"
     );
     // Each example's own configuration arrives — the warehouse's too,
@@ -64,6 +64,17 @@ fn every_example_with_every_preset_arrives_on_its_path_or_is_refused_with_a_reas
             cfg.vehicle.preset
         );
     }
+    // The truck on the S-bend: no forward path reaches within half the
+    // tolerance of its goal (5 m from the map's edge), one ends 0.31 m
+    // short of it — within the tolerance less the 10 cm kept for tracking.
+    let truck = rows
+        .iter()
+        .find(|r| r.example == "s_bend" && r.preset == "truck")
+        .unwrap();
+    assert!(
+        within_bounds(truck) && truck.final_distance > 0.25 && truck.final_distance <= 0.4,
+        "{truck:?}"
+    );
     // A refusal names both planners' reasons: FMT*'s, then the search's
     // (a start the body does not fit, or how close it came and where).
     for r in rows.iter().filter(|r| !within_bounds(r)) {
