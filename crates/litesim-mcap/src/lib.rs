@@ -648,11 +648,12 @@ pub struct McapStream<W: Write + Seek> {
     entities: Vec<fg::SceneEntity>,
     transforms: Vec<fg::FrameTransform>,
     objects: Vec<osi3::MovingObject>,
+    /// Per actor: what never changes in its messages, encoded once.
+    pieces: Vec<Pieces>,
     quoted: Vec<String>,
     present: Vec<bool>,
     live: Vec<usize>,
     scene: fg::SceneUpdate,
-    tfs: fg::FrameTransforms,
     gt: osi3::GroundTruth,
     gt_buf: Vec<u8>,
     buf: Vec<u8>,
@@ -774,14 +775,14 @@ impl<W: Write + Seek> McapPrelude<W> {
         let heights: Vec<f64> = tracks.iter().map(|t| height_of(&t.kind)).collect();
         // What never changes in an actor's messages (ids, sizes, colours,
         // classification) is built once; a tick fills in pose and motion.
-        // The actor's messages are moved into the tick's containers for
-        // encoding and back, so a tick allocates nothing.
-        let entities = tracks
+        // A tick encodes them from pre-encoded pieces ([`Pieces`]) around
+        // the fields it sets, so it allocates nothing.
+        let entities: Vec<fg::SceneEntity> = tracks
             .iter()
             .enumerate()
             .map(|(a, t)| entity_template(a, t, heights[a]))
             .collect();
-        let transforms = tracks
+        let transforms: Vec<fg::FrameTransform> = tracks
             .iter()
             .map(|t| fg::FrameTransform {
                 parent_frame_id: WORLD_FRAME.into(),
@@ -789,7 +790,7 @@ impl<W: Write + Seek> McapPrelude<W> {
                 ..Default::default()
             })
             .collect();
-        let objects = tracks
+        let objects: Vec<osi3::MovingObject> = tracks
             .iter()
             .enumerate()
             .map(|(a, t)| object_template(a, t, heights[a]))
@@ -798,6 +799,9 @@ impl<W: Write + Seek> McapPrelude<W> {
         let quoted = tracks
             .iter()
             .map(|t| serde_json::to_string(&t.id).unwrap_or_else(|_| "\"\"".into()))
+            .collect();
+        let pieces = (0..tracks.len())
+            .map(|a| Pieces::of(&entities[a], &transforms[a], &objects[a]))
             .collect();
         let gt = osi3::GroundTruth {
             version: Some(osi3::InterfaceVersion {
@@ -826,10 +830,10 @@ impl<W: Write + Seek> McapPrelude<W> {
             heights,
             entities,
             transforms,
+            pieces,
             objects,
             quoted,
             scene: fg::SceneUpdate::default(),
-            tfs: fg::FrameTransforms::default(),
             gt,
             buf: Vec::with_capacity(4096),
             json: Vec::with_capacity(512),
@@ -975,44 +979,47 @@ impl<W: Write + Seek> McapStream<W> {
                 });
             }
         }
-        let live = std::mem::take(&mut self.live);
-        self.scene
-            .entities
-            .extend(live.iter().map(|&a| std::mem::take(&mut self.entities[a])));
-        self.tfs.transforms.extend(
-            live.iter()
-                .map(|&a| std::mem::take(&mut self.transforms[a])),
-        );
-        self.gt
-            .moving_object
-            .extend(live.iter().map(|&a| std::mem::take(&mut self.objects[a])));
-        let (out, seq) = (&mut self.out, &mut self.seq);
-        let (buf, gt_buf) = (&mut self.buf, &mut self.gt_buf);
-        let encoded = encode("SceneUpdate", &self.scene, buf)
-            .and_then(|()| put(out, seq, self.scene_ch, ns, buf))
-            .and_then(|()| encode("FrameTransforms", &self.tfs, buf))
-            .and_then(|()| put(out, seq, self.tf_ch, ns, buf))
-            .and_then(|()| {
-                gt_buf.clear();
-                if self.first {
-                    gt_buf.extend_from_slice(&self.static_bytes);
-                    self.first = false;
-                }
-                prost::Message::encode(&self.gt, gt_buf)
-                    .map_err(|e| McapError::Encode("GroundTruth", e.to_string()))
-            })
-            .and_then(|()| put(out, seq, self.osi_ch, ns, gt_buf));
-        for (&a, e) in live.iter().zip(self.scene.entities.drain(..)) {
-            self.entities[a] = e;
+        // The three protobuf messages from each actor's pre-encoded pieces
+        // and the fields this tick set: the bytes prost writes for the
+        // whole messages (checked in debug builds), at a fraction of the
+        // work (no strings, colours or sizes re-encoded every tick).
+        let buf = &mut self.buf;
+        buf.clear();
+        for d in &self.scene.deletions {
+            pm::encode(1, d, buf);
         }
-        for (&a, tf) in live.iter().zip(self.tfs.transforms.drain(..)) {
-            self.transforms[a] = tf;
+        for &a in &self.live {
+            self.pieces[a].entity(&self.entities[a], buf);
         }
-        for (&a, o) in live.iter().zip(self.gt.moving_object.drain(..)) {
-            self.objects[a] = o;
+        #[cfg(debug_assertions)]
+        self.check_against_prost(Whole::Scene);
+        put(&mut self.out, &mut self.seq, self.scene_ch, ns, &self.buf)?;
+        let buf = &mut self.buf;
+        buf.clear();
+        for &a in &self.live {
+            self.pieces[a].transform(&self.transforms[a], buf);
         }
-        self.live = live;
-        encoded
+        #[cfg(debug_assertions)]
+        self.check_against_prost(Whole::Transforms);
+        put(&mut self.out, &mut self.seq, self.tf_ch, ns, &self.buf)?;
+        let gt_buf = &mut self.gt_buf;
+        gt_buf.clear();
+        if self.first {
+            gt_buf.extend_from_slice(&self.static_bytes);
+            self.first = false;
+        }
+        let at = gt_buf.len();
+        opt(1, &self.gt.version, gt_buf);
+        opt(2, &self.gt.timestamp, gt_buf);
+        opt(3, &self.gt.host_vehicle_id, gt_buf);
+        for &a in &self.live {
+            self.pieces[a].object(&self.objects[a], gt_buf);
+        }
+        #[cfg(debug_assertions)]
+        self.check_against_prost(Whole::GroundTruth(at));
+        #[cfg(not(debug_assertions))]
+        let _ = at;
+        put(&mut self.out, &mut self.seq, self.osi_ch, ns, &self.gt_buf)
     }
 
     /// Writes the summary and footer; what was written per topic.
@@ -1036,6 +1043,213 @@ impl<W: Write + Seek> McapStream<W> {
             count(&format!("/actors/{id}/state"), ch);
         }
         Ok(McapStats { messages, bytes: 0 })
+    }
+}
+
+use prost::encoding::{self as pe, message as pm};
+
+/// A length-delimited field's size: key, length, body.
+fn field_len(tag: u32, inner: usize) -> usize {
+    pe::key_len(tag) + pe::encoded_len_varint(inner as u64) + inner
+}
+
+/// An optional message field's size (0 when absent).
+fn opt_len<M: prost::Message>(tag: u32, m: &Option<M>) -> usize {
+    m.as_ref().map_or(0, |m| pm::encoded_len(tag, m))
+}
+
+/// An optional message field (nothing when absent).
+fn opt<M: prost::Message>(tag: u32, m: &Option<M>, buf: &mut Vec<u8>) {
+    if let Some(m) = m {
+        pm::encode(tag, m, buf);
+    }
+}
+
+/// A length-delimited field's key and length.
+fn head(tag: u32, inner: usize, buf: &mut Vec<u8>) {
+    pe::encode_key(tag, pe::WireType::LengthDelimited, buf);
+    pe::encode_varint(inner as u64, buf);
+}
+
+/// An actor's messages split at the fields a tick sets. prost writes a
+/// message's fields in tag order, and the fields a tick sets come first
+/// (timestamps, poses: tag 1) or between fixed ones, so each message is
+/// a few pre-encoded runs of bytes with the tick's fields between them.
+struct Pieces {
+    /// SceneEntity fields 2–6 (frame, id, metadata).
+    entity: Vec<u8>,
+    /// CubePrimitive fields 2–3 (size, colour).
+    cube_tail: Vec<u8>,
+    /// TextPrimitive fields 2–6 (billboard, font, colour, text).
+    text_tail: Vec<u8>,
+    /// FrameTransform fields 2–3 (parent and child frame).
+    transform: Vec<u8>,
+    /// MovingObject field 1 (id).
+    object_id: Vec<u8>,
+    /// BaseMoving field 1 (dimension).
+    dimension: Vec<u8>,
+    /// MovingObject fields 3– (type, classification, model).
+    object_tail: Vec<u8>,
+}
+
+impl Pieces {
+    /// The fixed parts of an actor's templates.
+    fn of(e: &fg::SceneEntity, tf: &fg::FrameTransform, o: &osi3::MovingObject) -> Pieces {
+        let bytes = |m: &dyn Fn(&mut Vec<u8>)| {
+            let mut b = Vec::new();
+            m(&mut b);
+            b
+        };
+        use prost::Message;
+        Pieces {
+            entity: fg::SceneEntity {
+                timestamp: None,
+                cubes: vec![],
+                texts: vec![],
+                ..e.clone()
+            }
+            .encode_to_vec(),
+            cube_tail: bytes(&|b| {
+                for c in e.cubes.iter().take(1) {
+                    fg::CubePrimitive { pose: None, ..*c }.encode_raw(b);
+                }
+            }),
+            text_tail: bytes(&|b| {
+                for t in e.texts.iter().take(1) {
+                    fg::TextPrimitive {
+                        pose: None,
+                        ..t.clone()
+                    }
+                    .encode_raw(b);
+                }
+            }),
+            transform: fg::FrameTransform {
+                timestamp: None,
+                translation: None,
+                rotation: None,
+                ..tf.clone()
+            }
+            .encode_to_vec(),
+            object_id: bytes(&|b| opt(1, &o.id, b)),
+            dimension: bytes(&|b| opt(1, &o.base.as_ref().and_then(|b| b.dimension), b)),
+            object_tail: osi3::MovingObject {
+                id: None,
+                base: None,
+                ..o.clone()
+            }
+            .encode_to_vec(),
+        }
+    }
+
+    /// `e` (this actor's entity with the tick's timestamp and poses) as a
+    /// SceneUpdate `entities` field. Only its first cube and text are
+    /// written: the templates have one of each.
+    fn entity(&self, e: &fg::SceneEntity, buf: &mut Vec<u8>) {
+        let cube_pose = e.cubes.first().and_then(|c| c.pose);
+        let text_pose = e.texts.first().and_then(|t| t.pose);
+        let cube = opt_len(1, &cube_pose) + self.cube_tail.len();
+        let text = opt_len(1, &text_pose) + self.text_tail.len();
+        let mut len = opt_len(1, &e.timestamp) + self.entity.len();
+        if !e.cubes.is_empty() {
+            len += field_len(8, cube);
+        }
+        if !e.texts.is_empty() {
+            len += field_len(13, text);
+        }
+        head(2, len, buf);
+        opt(1, &e.timestamp, buf);
+        buf.extend_from_slice(&self.entity);
+        if !e.cubes.is_empty() {
+            head(8, cube, buf);
+            opt(1, &cube_pose, buf);
+            buf.extend_from_slice(&self.cube_tail);
+        }
+        if !e.texts.is_empty() {
+            head(13, text, buf);
+            opt(1, &text_pose, buf);
+            buf.extend_from_slice(&self.text_tail);
+        }
+    }
+
+    /// `tf` as a FrameTransforms `transforms` field.
+    fn transform(&self, tf: &fg::FrameTransform, buf: &mut Vec<u8>) {
+        let len = opt_len(1, &tf.timestamp)
+            + self.transform.len()
+            + opt_len(4, &tf.translation)
+            + opt_len(5, &tf.rotation);
+        head(1, len, buf);
+        opt(1, &tf.timestamp, buf);
+        buf.extend_from_slice(&self.transform);
+        opt(4, &tf.translation, buf);
+        opt(5, &tf.rotation, buf);
+    }
+
+    /// `o` (with the tick's motion in its base) as a GroundTruth
+    /// `moving_object` field.
+    fn object(&self, o: &osi3::MovingObject, buf: &mut Vec<u8>) {
+        let base = o.base.as_ref().map(|b| {
+            self.dimension.len()
+                + opt_len(2, &b.position)
+                + opt_len(3, &b.orientation)
+                + opt_len(4, &b.velocity)
+                + opt_len(5, &b.acceleration)
+                + opt_len(6, &b.orientation_rate)
+        });
+        let len =
+            self.object_id.len() + base.map_or(0, |n| field_len(2, n)) + self.object_tail.len();
+        head(5, len, buf);
+        buf.extend_from_slice(&self.object_id);
+        if let (Some(b), Some(n)) = (&o.base, base) {
+            head(2, n, buf);
+            buf.extend_from_slice(&self.dimension);
+            opt(2, &b.position, buf);
+            opt(3, &b.orientation, buf);
+            opt(4, &b.velocity, buf);
+            opt(5, &b.acceleration, buf);
+            opt(6, &b.orientation_rate, buf);
+        }
+        buf.extend_from_slice(&self.object_tail);
+    }
+}
+
+/// Which whole message a debug build compares with prost's encoding.
+#[cfg(debug_assertions)]
+enum Whole {
+    Scene,
+    Transforms,
+    /// The ground truth, after this many bytes of static map content.
+    GroundTruth(usize),
+}
+
+#[cfg(debug_assertions)]
+impl<W: Write + Seek> McapStream<W> {
+    /// The pieced-together message equals prost's encoding of the whole
+    /// message, byte for byte (every debug test run checks every tick).
+    fn check_against_prost(&self, which: Whole) {
+        use prost::Message;
+        let live = &self.live;
+        match which {
+            Whole::Scene => {
+                let whole = fg::SceneUpdate {
+                    deletions: self.scene.deletions.clone(),
+                    entities: live.iter().map(|&a| self.entities[a].clone()).collect(),
+                };
+                assert_eq!(self.buf, whole.encode_to_vec(), "SceneUpdate");
+            }
+            Whole::Transforms => {
+                let whole = fg::FrameTransforms {
+                    transforms: live.iter().map(|&a| self.transforms[a].clone()).collect(),
+                };
+                assert_eq!(self.buf, whole.encode_to_vec(), "FrameTransforms");
+            }
+            Whole::GroundTruth(at) => {
+                let whole = osi3::GroundTruth {
+                    moving_object: live.iter().map(|&a| self.objects[a].clone()).collect(),
+                    ..self.gt.clone()
+                };
+                assert_eq!(self.gt_buf[at..], whole.encode_to_vec(), "GroundTruth");
+            }
+        }
     }
 }
 
