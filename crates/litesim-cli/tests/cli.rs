@@ -331,6 +331,18 @@ fn plan_runs_configs_from_obstacles_png_and_opendrive() {
             && text.contains("the compact turns no tighter than 3.14 m"),
         "{text}"
     );
+    // The planner views show that search's tree: the log's plan holds its
+    // first expanded poses (after start and goal) and their edges.
+    let log: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("warehouse/log.json")).unwrap(),
+    )
+    .unwrap();
+    let samples = log["plan"]["samples"].as_array().unwrap().len();
+    let edges = log["plan"]["edges"].as_array().unwrap().len();
+    assert!(
+        samples > 1000 && edges == samples - 3,
+        "{samples} samples, {edges} edges"
+    );
     for name in ["narrow_passage", "curvy_road"] {
         let cfg = workspace().join(format!("examples/plan/{name}.toml"));
         let out = litesim()

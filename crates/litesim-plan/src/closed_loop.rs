@@ -679,11 +679,19 @@ pub fn run_closed_loop_timed(
             let found = found.map_err(|(_, e)| e);
             match found {
                 Ok((h, corridor, hcfg)) => {
+                    // The search's tree in the planner views: its expanded
+                    // positions after start and goal, its edges in
+                    // expansion order (the exploration GIF replays them).
+                    let n = h.explored.len();
+                    let mut samples = vec![start, goal];
+                    samples.extend(&h.explored);
+                    let mut cost = vec![0.0, h.length];
+                    cost.resize(n + 2, f64::INFINITY);
                     let fmt = FmtResult {
-                        samples: vec![start, goal],
-                        parent: vec![None, None],
-                        cost: vec![0.0, h.length],
-                        edges: Vec::new(),
+                        samples,
+                        parent: vec![None; n + 2],
+                        cost,
+                        edges: h.tree.iter().map(|&(a, b)| (a + 2, b + 2)).collect(),
                         path: h.points,
                         path_cost: h.length,
                         radius: 0.0,

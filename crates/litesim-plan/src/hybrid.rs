@@ -111,7 +111,18 @@ pub struct HybridPath {
     pub length: f64,
     /// Poses expanded.
     pub expansions: usize,
+    /// The search as a tree to look at: the positions of the first
+    /// [`TREE_CAP`] poses expanded, in expansion order, and the edges
+    /// (parent, child) between them, indices into `explored`.
+    pub explored: Vec<Vec2>,
+    /// See `explored`.
+    pub tree: Vec<(usize, usize)>,
 }
+
+/// Expanded poses kept for [`HybridPath::explored`]: enough to show where a
+/// search went (a typical arrival expands 1,000–30,000), bounded so that a
+/// hard search does not bloat the log.
+pub const TREE_CAP: usize = 20_000;
 
 /// The pose after driving `len` m along curvature `k` from `(p, yaw)`.
 fn arc(p: Vec2, yaw: f64, k: f64, len: f64) -> (Vec2, f64) {
@@ -276,6 +287,8 @@ struct Node {
     parent: u32,
     /// Curvature level of the arc that led here.
     level: usize,
+    /// Index in the tree kept for display (u32::MAX: not in it).
+    shown: u32,
 }
 
 /// Plans a forward path from `(start, yaw)` to `goal` (any final heading)
@@ -380,7 +393,10 @@ pub fn hybrid_astar(
         g: 0.0,
         parent: u32::MAX,
         level: 2,
+        shown: u32::MAX,
     }];
+    let mut explored: Vec<Vec2> = Vec::new();
+    let mut tree: Vec<(usize, usize)> = Vec::new();
     let mut heap = BinaryHeap::new();
     let h0 = h_of(start);
     if !h0.is_finite() {
@@ -403,6 +419,17 @@ pub fn hybrid_astar(
         }
         closed[kk] = true;
         expansions += 1;
+        if explored.len() < TREE_CAP {
+            let at = explored.len();
+            nodes[id as usize].shown = at as u32;
+            explored.push(p);
+            let parent = nodes[id as usize].parent;
+            if let Some(pn) = nodes.get(parent as usize)
+                && pn.shown != u32::MAX
+            {
+                tree.push((pn.shown as usize, at));
+            }
+        }
         if expansions > max_expansions {
             return Err(exhausted(expansions - 1, closest));
         }
@@ -413,19 +440,27 @@ pub fn hybrid_astar(
         if d < near || expansions.is_multiple_of(16) {
             let found = shot(grid, p, yaw, goal, kappa, check);
             if let Some((k, turn, straight)) = found {
-                return Ok(reconstruct(
-                    &nodes,
-                    &ks,
-                    id,
-                    step,
-                    check,
-                    Some((k, turn, straight, goal)),
-                    expansions,
-                ));
+                return Ok(HybridPath {
+                    explored,
+                    tree,
+                    ..reconstruct(
+                        &nodes,
+                        &ks,
+                        id,
+                        step,
+                        check,
+                        Some((k, turn, straight, goal)),
+                        expansions,
+                    )
+                });
             }
         }
         if d <= goal_tolerance {
-            return Ok(reconstruct(&nodes, &ks, id, step, check, None, expansions));
+            return Ok(HybridPath {
+                explored,
+                tree,
+                ..reconstruct(&nodes, &ks, id, step, check, None, expansions)
+            });
         }
         let lo = lc.saturating_sub(1);
         for (level, &k) in ks.iter().enumerate().skip(lo).take(lc + 2 - lo) {
@@ -458,6 +493,7 @@ pub fn hybrid_astar(
                 g: ng,
                 parent: id,
                 level,
+                shown: u32::MAX,
             });
             heap.push(Cheapest(ng + h, (nodes.len() - 1) as u32));
         }
@@ -510,6 +546,8 @@ fn reconstruct(
         points,
         length,
         expansions,
+        explored: Vec::new(),
+        tree: Vec::new(),
     }
 }
 
@@ -573,6 +611,17 @@ mod tests {
         for w in a.points.windows(2) {
             assert!(w[0].distance(w[1]) <= cfg.check + 1e-9);
             assert!(grid.pose_free(w[1], (w[1] - w[0]).heading()));
+        }
+        // The tree kept for display: the expanded poses from the start, in
+        // expansion order, each after its parent, one edge per pose but
+        // the start, every edge one primitive long.
+        assert_eq!(a.explored.len(), a.expansions.min(TREE_CAP));
+        assert_eq!(a.explored[0], start);
+        assert_eq!(a.tree.len(), a.explored.len() - 1);
+        for &(p, c) in &a.tree {
+            assert!(p < c && c < a.explored.len(), "({p}, {c})");
+            let d = a.explored[p].distance(a.explored[c]);
+            assert!(d <= cfg.step + 1e-9 && d > 0.5 * cfg.step, "{d}");
         }
     }
 

@@ -1,6 +1,8 @@
 //! Planner debug views: FMT* samples, accepted edges, raw and smoothed
 //! corridor (PNG), and an exploration GIF that adds the edges in the order
-//! FMT* accepted them, batched into a bounded number of frames.
+//! FMT* accepted them, batched into a bounded number of frames. A path
+//! from the curvature-bounded search (hybrid A*) shows that search's tree
+//! instead: its first expanded poses and their parents, in expansion order.
 
 use crate::draw::map_chart;
 use crate::style::Style;
@@ -13,6 +15,14 @@ fn plan(log: &SimulationLog) -> Result<&PlanRecord, VizError> {
     log.plan.as_ref().ok_or_else(|| {
         VizError::Empty("the log has no planner data (it was not made by `litesim plan`)".into())
     })
+}
+
+/// Whether the run's path came from the curvature-bounded search (the
+/// log's `planner` meta) rather than FMT*.
+fn is_hybrid(log: &SimulationLog) -> bool {
+    log.meta
+        .get("planner")
+        .is_some_and(|m| m.starts_with("hybrid A*"))
 }
 
 fn draw_plan<DB: DrawingBackend>(
@@ -95,12 +105,16 @@ pub fn render_rgb(log: &SimulationLog, style: &Style) -> Result<(Vec<u8>, u32, u
         } else {
             " (corridor not smoothed)"
         };
-        // A path from the curvature-bounded search has no tree: the title
-        // names that planner (the log's `planner` meta, up to its reason).
+        // A path from the curvature-bounded search: the title names that
+        // planner (the log's `planner` meta, up to its reason); the tree
+        // drawn is its first expanded poses.
         let title = match log.meta.get("planner") {
-            Some(m) if m.starts_with("hybrid A*") => {
+            Some(m) if is_hybrid(log) => {
                 let short = m.split(';').next().unwrap_or(m);
-                format!("{short} (FMT*'s path was not drivable){unsmoothed}")
+                format!(
+                    "{short} (FMT*'s path was not drivable; {} poses shown){unsmoothed}",
+                    p.samples.len().saturating_sub(2)
+                )
             }
             _ => format!(
                 "FMT*: {} samples, {} edges, r = {:.2} m{unsmoothed}",
@@ -143,7 +157,14 @@ pub fn write_exploration_gif(
         loop {
             upto = (upto + per).min(p.edges.len());
             let done = upto >= p.edges.len();
-            let title = format!("FMT* exploration: {upto} / {} edges", p.edges.len());
+            let title = if is_hybrid(log) {
+                format!(
+                    "hybrid A* search: {upto} / {} expansions shown",
+                    p.edges.len()
+                )
+            } else {
+                format!("FMT* exploration: {upto} / {} edges", p.edges.len())
+            };
             {
                 let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
                 draw_plan(
