@@ -1,6 +1,6 @@
 //! # litesim-map
 //!
-//! OpenDRIVE (1.4–1.8) road networks: [`parse`] turns `.xodr` text into the
+//! OpenDRIVE (1.4–1.8) road networks: [`parse()`] turns `.xodr` text into the
 //! [`model`] with precise errors ([`MapError`]: file, line, column, element
 //! path) and warnings (ignored elements, reference-line gaps); [`RoadNetwork`]
 //! adds what queries need — a spatial index of the reference lines for

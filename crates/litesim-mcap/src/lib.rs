@@ -543,7 +543,7 @@ pub fn write(
     write_with(log, map.map(McapMap::new).as_ref(), path)
 }
 
-/// [`write`] with the map's polylines sampled beforehand ([`McapMap::new`]).
+/// [`write()`] with the map's polylines sampled beforehand ([`McapMap::new`]).
 pub fn write_with(
     log: &SimulationLog,
     map: Option<&McapMap>,
@@ -579,7 +579,7 @@ pub fn write_with(
     }
 }
 
-/// Writes `log` as MCAP to any seekable writer (see [`write`]).
+/// Writes `log` as MCAP to any seekable writer (see [`write()`]).
 pub fn write_to<W: Write + Seek>(
     log: &SimulationLog,
     map: Option<&RoadNetwork>,

@@ -138,8 +138,9 @@ impl ActorPlan {
     }
 
     /// The planned state at time `t` (held at the ends). Positions follow
-    /// the samples' headings between them (see [`between`]); heading, speed
-    /// are interpolated linearly.
+    /// the samples' headings between them (a cubic Hermite curve along the
+    /// headings where a vehicle follows its path, else linear); heading and
+    /// speed are interpolated linearly.
     pub fn at(&self, t: f64, dt: f64) -> PlanSample {
         let n = self.samples.len();
         if n == 0 {
