@@ -38,8 +38,10 @@ mod op {
 /// it goes on, large enough for zstd to find the repetition between ticks.
 const CHUNK_LIMIT: usize = 256 * 1024;
 
-/// zstd level of the chunks: the fastest positive level (the ticks repeat
-/// each other, so it already compresses ~10×).
+/// zstd level of the chunks: one of its fast (negative) levels. On a run's
+/// messages (`zstd -b` on the README example's 1 MB) it compresses 10×
+/// at 1.9 GB/s, against 13× at 1.25 GB/s at level 1: the ticks repeat each
+/// other, and the writer's time is what a run pays.
 const ZSTD_LEVEL: i32 = -3;
 
 /// A record body being assembled: little-endian fields as the spec lays
