@@ -654,13 +654,23 @@ pub fn run_closed_loop_timed(
                     goal_tolerance: end_within,
                     ..HybridConfig::new(share * kappa_max, pgrid.grid.resolution)
                 };
-                // The error, and whether it is the start (which no other
-                // turning limit changes).
+                // The error, whether it is the start (which no other
+                // turning limit changes), and how close the search came.
                 hybrid_astar(&pgrid, start, cfg.start.yaw, goal, &hcfg)
-                    .map_err(|e| (matches!(e, HybridError::StartBlocked { .. }), e.to_string()))
+                    .map_err(|e| {
+                        let closest = match &e {
+                            HybridError::NoPath { closest, .. } => Some(*closest),
+                            _ => None,
+                        };
+                        (
+                            matches!(e, HybridError::StartBlocked { .. }),
+                            closest,
+                            e.to_string(),
+                        )
+                    })
                     .and_then(|h| {
                         let corridor = Corridor::along(&h.points, &pgrid, pl.corridor_ds, &limits);
-                        drivable(&corridor).map_err(|e| (false, e.to_string()))?;
+                        drivable(&corridor).map_err(|e| (false, None, e.to_string()))?;
                         Ok((h, corridor, hcfg))
                     })
             };
@@ -669,14 +679,33 @@ pub fn run_closed_loop_timed(
                 tries.extend([(0.8, wide), (0.95, wide)]);
             }
             let mut found = attempt(0.8, half);
+            // How close each curvature's first search came. A search with a
+            // wider end expands the same poses in the same order and stops
+            // at the first within its end, so it can only succeed where one
+            // came that close (or where the first found a path the vehicle
+            // could not drive): otherwise it is not run.
+            let closest_of = |r: &Result<_, (bool, Option<f64>, String)>| match r {
+                Err((_, c, _)) => *c,
+                Ok(_) => None,
+            };
+            let mut came: Vec<(f64, Option<f64>)> = vec![(0.8, closest_of(&found))];
             for (share, end_within) in tries {
                 // A start the body does not fit ends the search: no other
                 // turning limit or end changes it.
-                if let Err((false, _)) = found {
-                    found = attempt(share, end_within);
+                let Err((false, _, _)) = found else { break };
+                let hopeless = end_within > half
+                    && came
+                        .iter()
+                        .any(|&(s, c)| s == share && c.is_some_and(|c| c > end_within));
+                if hopeless {
+                    continue;
+                }
+                found = attempt(share, end_within);
+                if end_within <= half {
+                    came.push((share, closest_of(&found)));
                 }
             }
-            let found = found.map_err(|(_, e)| e);
+            let found = found.map_err(|(_, _, e)| e);
             match found {
                 Ok((h, corridor, hcfg)) => {
                     // The search's tree in the planner views: its expanded
