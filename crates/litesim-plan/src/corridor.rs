@@ -259,7 +259,7 @@ fn curvature3(p0: Vec2, p1: Vec2, p2: Vec2) -> f64 {
 }
 
 /// Largest |curvature| of a polyline (three-point formula).
-fn max_curvature(pts: &[Vec2]) -> f64 {
+pub(crate) fn max_curvature(pts: &[Vec2]) -> f64 {
     pts.windows(3)
         .map(|w| curvature3(w[0], w[1], w[2]).abs())
         .fold(0.0, f64::max)

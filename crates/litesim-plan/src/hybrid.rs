@@ -562,20 +562,6 @@ mod tests {
         PlanningGrid::with_footprint(g, 4.6, 1.9, 1.0, 0.3)
     }
 
-    fn max_turn_curvature(pts: &[Vec2]) -> f64 {
-        pts.windows(3)
-            .map(|w| {
-                let (a, b) = (w[1] - w[0], w[2] - w[1]);
-                let den = a.norm() * b.norm() * (w[2] - w[0]).norm();
-                if den > 1e-12 {
-                    (2.0 * a.cross(b) / den).abs()
-                } else {
-                    0.0
-                }
-            })
-            .fold(0.0, f64::max)
-    }
-
     #[test]
     fn arcs_are_exact() {
         // A quarter circle of radius 5 to the left from the origin heading +x.
@@ -607,7 +593,7 @@ mod tests {
         assert_eq!(*a.points.last().unwrap(), goal);
         // Over the wall's top and back down: longer than the straight line.
         assert!(a.length > 55.0, "{}", a.length);
-        assert!(max_turn_curvature(&a.points) <= cfg.kappa * 1.01);
+        assert!(crate::corridor::max_curvature(&a.points) <= cfg.kappa * 1.01);
         for w in a.points.windows(2) {
             assert!(w[0].distance(w[1]) <= cfg.check + 1e-9);
             assert!(grid.pose_free(w[1], (w[1] - w[0]).heading()));
@@ -712,7 +698,7 @@ mod tests {
             &HybridConfig::new(0.2, 0.2),
         )
         .unwrap();
-        assert!(max_turn_curvature(&ok.points) <= 0.2 * 1.01);
+        assert!(crate::corridor::max_curvature(&ok.points) <= 0.2 * 1.01);
         // In a 6 m wide corridor a radius-10 U-turn cannot be made.
         let corridor = yard(&[
             Obstacle::Rect {
