@@ -188,10 +188,7 @@ impl<W: Write> Container<W> {
     fn emit(&mut self, opcode: u8, b: &Body) -> std::io::Result<()> {
         self.scratch.clear();
         b.record(opcode, &mut self.scratch);
-        let r = std::mem::take(&mut self.scratch);
-        let done = self.out.put(&r);
-        self.scratch = r;
-        done
+        self.out.put(&self.scratch)
     }
 
     /// Adds a schema; its id.
@@ -248,19 +245,17 @@ impl<W: Write> Container<W> {
         Ok(())
     }
 
-    /// A message on channel `ch` (added before), numbered `sequence`.
-    pub(crate) fn message(
-        &mut self,
-        ch: u16,
-        sequence: u32,
-        log_time: u64,
-        publish_time: u64,
-        data: &[u8],
-    ) -> std::io::Result<()> {
+    /// A message on channel `ch` (added before), logged and published at
+    /// `time`, numbered 1, 2, … per channel (the sequence wraps after
+    /// 2³² messages, as MCAP allows).
+    pub(crate) fn message(&mut self, ch: u16, time: u64, data: &[u8]) -> std::io::Result<()> {
         let k = usize::from(ch);
         if k >= self.channels.len() {
             return Err(std::io::Error::other(format!("MCAP: no channel {ch}")));
         }
+        self.counts[k] += 1;
+        let sequence = self.counts[k] as u32;
+        let (log_time, publish_time) = (time, time);
         let offset = self.chunk.len() as u64;
         let c = &mut self.chunk;
         c.push(op::MESSAGE);
@@ -271,7 +266,6 @@ impl<W: Write> Container<W> {
         c.extend_from_slice(&publish_time.to_le_bytes());
         c.extend_from_slice(data);
         self.chunk_messages[k].push((log_time, offset));
-        self.counts[k] += 1;
         let widen = |b: Option<(u64, u64)>| match b {
             None => Some((log_time, log_time)),
             Some((s, e)) => Some((s.min(log_time), e.max(log_time))),
@@ -309,10 +303,7 @@ impl<W: Write> Container<W> {
         rec.extend_from_slice(&((head.0.len() + self.compressed.len()) as u64).to_le_bytes());
         rec.extend_from_slice(&head.0);
         self.out.put(&rec)?;
-        let compressed = std::mem::take(&mut self.compressed);
-        let put = self.out.put(&compressed);
-        self.compressed = compressed;
-        put?;
+        self.out.put(&self.compressed)?;
         let length = self.out.pos - offset;
 
         let mut index_offsets = Vec::new();
@@ -330,9 +321,7 @@ impl<W: Write> Container<W> {
             index_offsets.push((ch as u16, self.out.pos));
             self.scratch.clear();
             b.record(op::MESSAGE_INDEX, &mut self.scratch);
-            self.out.w.write_all(&self.scratch)?;
-            self.out.crc.update(&self.scratch);
-            self.out.pos += self.scratch.len() as u64;
+            self.out.put(&self.scratch)?;
         }
         self.chunk_indexes.push(ChunkIndex {
             start,
@@ -346,6 +335,11 @@ impl<W: Write> Container<W> {
         });
         self.chunk.clear();
         Ok(())
+    }
+
+    /// Messages written so far on channel `ch`.
+    pub(crate) fn messages(&self, ch: u16) -> u64 {
+        self.counts.get(usize::from(ch)).copied().unwrap_or(0)
     }
 
     /// Ends the data section and writes the summary, the footer and the

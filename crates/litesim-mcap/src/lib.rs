@@ -638,8 +638,6 @@ pub struct McapStream<W: Write + Seek> {
     state_ch: Vec<u16>,
     /// The actors, in track order (their OSI ids are 1..=n).
     ids: Vec<String>,
-    /// Messages so far per channel id (the sequence number of the next).
-    seq: Vec<u32>,
     /// The map's line strips, sent at the first tick.
     map_entity: Option<fg::SceneEntity>,
     static_bytes: Vec<u8>,
@@ -653,7 +651,8 @@ pub struct McapStream<W: Write + Seek> {
     quoted: Vec<String>,
     present: Vec<bool>,
     live: Vec<usize>,
-    scene: fg::SceneUpdate,
+    /// The tick's deletions (actors that left), on /scene.
+    deletions: Vec<fg::SceneEntityDeletion>,
     gt: osi3::GroundTruth,
     gt_buf: Vec<u8>,
     buf: Vec<u8>,
@@ -820,7 +819,6 @@ impl<W: Write + Seek> McapPrelude<W> {
             osi_ch,
             state_ch,
             ids: tracks.iter().map(|t| t.id.clone()).collect(),
-            seq: vec![0; 4 + tracks.len()],
             map_entity,
             gt_buf: Vec::with_capacity(static_bytes.len() + 1024),
             static_bytes,
@@ -833,7 +831,7 @@ impl<W: Write + Seek> McapPrelude<W> {
             pieces,
             objects,
             quoted,
-            scene: fg::SceneUpdate::default(),
+            deletions: Vec::new(),
             gt,
             buf: Vec::with_capacity(4096),
             json: Vec::with_capacity(512),
@@ -859,7 +857,7 @@ impl<W: Write + Seek> McapStream<W> {
             entities: vec![e],
         };
         encode("SceneUpdate", &up, &mut self.buf)?;
-        put(&mut self.out, &mut self.seq, self.map_ch, ns, &self.buf)
+        Ok(self.out.message(self.map_ch, ns, &self.buf)?)
     }
 
     /// Writes the messages of `piece`'s ticks (the ticks after those pushed
@@ -902,7 +900,7 @@ impl<W: Write + Seek> McapStream<W> {
     ) -> Result<(), McapError> {
         let ns = nanos(time);
         let ts = stamp(ns);
-        self.scene.deletions.clear();
+        self.deletions.clear();
         self.live.clear();
         self.gt.timestamp = Some(osi3::Timestamp {
             seconds: Some((ns / 1_000_000_000) as i64),
@@ -912,7 +910,7 @@ impl<W: Write + Seek> McapStream<W> {
             let at = index[a][k].map(|i| i as usize);
             let Some((i, s)) = at.and_then(|i| Some((i, Sample::of(t, i)?))) else {
                 if self.present[a] {
-                    self.scene.deletions.push(fg::SceneEntityDeletion {
+                    self.deletions.push(fg::SceneEntityDeletion {
                         timestamp: Some(ts),
                         r#type: fg::scene_entity_deletion::Type::MatchingId as i32,
                         id: t.id.clone(),
@@ -956,13 +954,7 @@ impl<W: Write + Seek> McapStream<W> {
             tf.rotation = Some(quat_yaw(s.yaw));
             self.json.clear();
             actor_state_json(&mut self.json, ns, tick, &self.quoted[a], t, i);
-            put(
-                &mut self.out,
-                &mut self.seq,
-                self.state_ch[a],
-                ns,
-                &self.json,
-            )?;
+            self.out.message(self.state_ch[a], ns, &self.json)?;
             if let Some(b) = self.objects[a].base.as_mut() {
                 b.position = Some(v3(s.x, s.y, s.z + h / 2.0));
                 b.orientation = Some(osi3::Orientation3d {
@@ -985,7 +977,7 @@ impl<W: Write + Seek> McapStream<W> {
         // work (no strings, colours or sizes re-encoded every tick).
         let buf = &mut self.buf;
         buf.clear();
-        for d in &self.scene.deletions {
+        for d in &self.deletions {
             pm::encode(1, d, buf);
         }
         for &a in &self.live {
@@ -993,7 +985,7 @@ impl<W: Write + Seek> McapStream<W> {
         }
         #[cfg(debug_assertions)]
         self.check_against_prost(Whole::Scene);
-        put(&mut self.out, &mut self.seq, self.scene_ch, ns, &self.buf)?;
+        self.out.message(self.scene_ch, ns, &self.buf)?;
         let buf = &mut self.buf;
         buf.clear();
         for &a in &self.live {
@@ -1001,7 +993,7 @@ impl<W: Write + Seek> McapStream<W> {
         }
         #[cfg(debug_assertions)]
         self.check_against_prost(Whole::Transforms);
-        put(&mut self.out, &mut self.seq, self.tf_ch, ns, &self.buf)?;
+        self.out.message(self.tf_ch, ns, &self.buf)?;
         let gt_buf = &mut self.gt_buf;
         gt_buf.clear();
         if self.first {
@@ -1019,21 +1011,17 @@ impl<W: Write + Seek> McapStream<W> {
         self.check_against_prost(Whole::GroundTruth(at));
         #[cfg(not(debug_assertions))]
         let _ = at;
-        put(&mut self.out, &mut self.seq, self.osi_ch, ns, &self.gt_buf)
+        Ok(self.out.message(self.osi_ch, ns, &self.gt_buf)?)
     }
 
     /// Writes the summary and footer; what was written per topic.
     pub fn finish(mut self) -> Result<McapStats, McapError> {
         // A run without ticks still gets its map, at time 0.
         self.map_message(0)?;
-        self.out.finish()?;
-        let seq = &self.seq;
+        let out = &self.out;
         let mut messages = BTreeMap::new();
         let mut count = |topic: &str, ch: u16| {
-            messages.insert(
-                topic.to_string(),
-                u64::from(seq.get(usize::from(ch)).copied().unwrap_or(0)),
-            );
+            messages.insert(topic.to_string(), out.messages(ch));
         };
         count(TOPIC_MAP, self.map_ch);
         count(TOPIC_SCENE, self.scene_ch);
@@ -1042,6 +1030,7 @@ impl<W: Write + Seek> McapStream<W> {
         for (id, &ch) in self.ids.iter().zip(&self.state_ch) {
             count(&format!("/actors/{id}/state"), ch);
         }
+        self.out.finish()?;
         Ok(McapStats { messages, bytes: 0 })
     }
 }
@@ -1231,7 +1220,7 @@ impl<W: Write + Seek> McapStream<W> {
         match which {
             Whole::Scene => {
                 let whole = fg::SceneUpdate {
-                    deletions: self.scene.deletions.clone(),
+                    deletions: self.deletions.clone(),
                     entities: live.iter().map(|&a| self.entities[a].clone()).collect(),
                 };
                 assert_eq!(self.buf, whole.encode_to_vec(), "SceneUpdate");
@@ -1251,24 +1240,6 @@ impl<W: Write + Seek> McapStream<W> {
             }
         }
     }
-}
-
-/// One message on a known channel, numbered per channel.
-/// The channel ids are the container's dense ids, so `seq` is indexed by
-/// them.
-fn put<W: Write>(
-    out: &mut container::Container<W>,
-    seq: &mut [u32],
-    ch: u16,
-    ns: u64,
-    data: &[u8],
-) -> Result<(), McapError> {
-    let s = seq
-        .get_mut(usize::from(ch))
-        .ok_or_else(|| McapError::Log(format!("no MCAP channel {ch}")))?;
-    *s += 1;
-    out.message(ch, *s, ns, ns, data)?;
-    Ok(())
 }
 
 #[cfg(test)]
