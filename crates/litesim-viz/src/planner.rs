@@ -17,12 +17,13 @@ fn plan(log: &SimulationLog) -> Result<&PlanRecord, VizError> {
     })
 }
 
-/// Whether the run's path came from the curvature-bounded search (the
-/// log's `planner` meta) rather than FMT*.
-fn is_hybrid(log: &SimulationLog) -> bool {
+/// The log's `planner` meta when the run's path came from the
+/// curvature-bounded search rather than FMT*.
+fn hybrid_planner(log: &SimulationLog) -> Option<&str> {
     log.meta
         .get("planner")
-        .is_some_and(|m| m.starts_with("hybrid A*"))
+        .map(String::as_str)
+        .filter(|m| m.starts_with("hybrid A*"))
 }
 
 fn draw_plan<DB: DrawingBackend>(
@@ -108,8 +109,8 @@ pub fn render_rgb(log: &SimulationLog, style: &Style) -> Result<(Vec<u8>, u32, u
         // A path from the curvature-bounded search: the title names that
         // planner (the log's `planner` meta, up to its reason); the tree
         // drawn is its first expanded poses.
-        let title = match log.meta.get("planner") {
-            Some(m) if is_hybrid(log) => {
+        let title = match hybrid_planner(log) {
+            Some(m) => {
                 let short = m.split(';').next().unwrap_or(m);
                 format!(
                     "{short} (FMT*'s path was not drivable; {} poses shown){unsmoothed}",
@@ -157,7 +158,7 @@ pub fn write_exploration_gif(
         loop {
             upto = (upto + per).min(p.edges.len());
             let done = upto >= p.edges.len();
-            let title = if is_hybrid(log) {
+            let title = if hybrid_planner(log).is_some() {
                 format!(
                     "hybrid A* search: {upto} / {} expansions shown",
                     p.edges.len()
