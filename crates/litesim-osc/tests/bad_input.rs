@@ -29,6 +29,11 @@ fn load(path: &Path) -> (Result<litesim_osc::Program, String>, Duration) {
     (r, t.elapsed())
 }
 
+/// Every diagnostic of `p` as a user sees it.
+fn rendered(p: &litesim_osc::Program) -> Vec<String> {
+    p.diagnostics.iter().map(|d| d.render(&p.sources)).collect()
+}
+
 fn scenario(k: usize) -> String {
     format!(
         "scenario sut.s{k}:\n    r{k}: one_way_road\n    car{k}: vehicle\n    do serial():\n        a: sut.car.drive() with:\n            speed(20kph)\n        wait elapsed(2s)\n\n"
@@ -75,7 +80,7 @@ fn ten_thousand_levels_of_nesting_are_refused_with_a_place() {
     std::fs::write(&path, &deep).unwrap();
     let (r, took) = load(&path);
     let p = r.unwrap();
-    let shown: Vec<String> = p.diagnostics.iter().map(|d| d.render(&p.sources)).collect();
+    let shown = rendered(&p);
     assert!(
         shown
             .iter()
@@ -95,7 +100,7 @@ fn ten_thousand_levels_of_nesting_are_refused_with_a_place() {
     let (r, took) = load(&path);
     let p = r.unwrap();
     assert!(p.has_errors());
-    let shown: Vec<String> = p.diagnostics.iter().map(|d| d.render(&p.sources)).collect();
+    let shown = rendered(&p);
     assert!(
         shown.iter().any(|s| s.contains("E0191")
             && s.contains("blocks nested too deeply")
@@ -122,7 +127,7 @@ fn invalid_utf8_names_the_file_and_the_place() {
     std::fs::write(&main, "import \"latin1.osc\"\n").unwrap();
     let (r, _) = load(&main);
     let p = r.unwrap();
-    let shown: Vec<String> = p.diagnostics.iter().map(|d| d.render(&p.sources)).collect();
+    let shown = rendered(&p);
     assert!(
         shown.iter().any(|s| s.contains("E0204")
             && s.contains("latin1.osc:2:")
