@@ -4,10 +4,11 @@
 //! (exact distance transform bounded by the map's edge; free / inflated /
 //! hard layers; the vehicle's footprint as covering circles), [`fmt_star`]
 //! (FMT*, Janson et al. 2015), [`hybrid_astar`] (forward arcs within the
-//! turning limit, for vehicles FMT*'s straight edges do not fit), [`Corridor`] (lead-in along the start
-//! heading, centripetal Catmull–Rom, bending-energy relaxation with
-//! footprint checks, arc-length resampling, a speed profile limited by
-//! lateral acceleration and steering rate, lateral bounds), [`Mpc`] (linear
+//! turning limit, for vehicles FMT*'s straight edges do not fit),
+//! [`Corridor`] (lead-in along the start heading, centripetal Catmull–Rom,
+//! bending-energy relaxation with footprint checks, arc-length
+//! resampling, a speed profile limited by lateral acceleration and steering
+//! rate, lateral bounds), [`Mpc`] (linear
 //! time-varying tracking MPC for the kinematic bicycle, condensed and
 //! solved by the dual active-set method of [`qp`]; Clarabel solves the same
 //! QP as the reference), the closed-loop runner ([`closed_loop`]) that ties
