@@ -612,11 +612,15 @@ impl RoadNetwork {
     /// World pose at (road, lane, s) plus a lateral offset from the lane
     /// centre; heading along the lane's direction of travel.
     pub fn lane_pose(&self, road: &str, lane: i32, s: f64, offset: f64) -> Option<Pose> {
-        let r = self.road(road)?;
+        self.lane_pose_on(self.road(road)?, lane, s, offset)
+    }
+
+    /// [`RoadNetwork::lane_pose`] on a road already looked up (the planner
+    /// walks lanes by road index: no lookup by name per sample).
+    pub fn lane_pose_on(&self, r: &Road, lane: i32, s: f64, offset: f64) -> Option<Pose> {
         let span = r.lane_span(s, lane)?;
         let t = span.t_center() + offset;
-        let (x, y, z) = r.st_to_xyz(s, t);
-        let h = r.reference(s).hdg;
+        let (x, y, z, h) = r.st_to_xyz_hdg(s, t);
         // Lane centre heading: road heading + atan(dt/ds), by a central difference.
         let ds = 0.05;
         let (a, b) = ((s - ds).max(0.0), (s + ds).min(r.length));

@@ -140,6 +140,30 @@ impl Road {
 
     /// The span of one lane at `s`.
     pub fn lane_span(&self, s: f64, lane: i32) -> Option<LaneSpan> {
+        // Only the lane's own side: the other side's widths do not move it
+        // (the same numbers as `find_span`, without evaluating the left
+        // lanes for every right lane). Ids on the wrong side, which a
+        // hand-written map may have, go the long way.
+        let sc = s.clamp(0.0, self.length);
+        let (o, _) = self.lane_offset(sc);
+        let (ls, rs) = self.sides(sc);
+        let (sec, lanes, sign) = if lane > 0 {
+            (ls, &ls.left, 1.0)
+        } else {
+            (rs, &rs.right, -1.0)
+        };
+        let mut t = o;
+        for l in lanes {
+            let t_out = outer(l, sec.s, sc, t, o, sign);
+            if l.id == lane {
+                return Some(LaneSpan {
+                    id: lane,
+                    t_inner: t,
+                    t_outer: t_out,
+                });
+            }
+            t = t_out;
+        }
         self.find_span(s, |l| l.id == lane)
     }
 
@@ -155,6 +179,13 @@ impl Road {
 
     /// World point `(x, y, z)` of road coordinates `(s, t)` with superelevation.
     pub fn st_to_xyz(&self, s: f64, t: f64) -> (f64, f64, f64) {
+        let (x, y, z, _) = self.st_to_xyz_hdg(s, t);
+        (x, y, z)
+    }
+
+    /// [`Road::st_to_xyz`] and the reference line's heading at `s` (one
+    /// evaluation of the reference line for both).
+    pub fn st_to_xyz_hdg(&self, s: f64, t: f64) -> (f64, f64, f64, f64) {
         let r = self.reference(s);
         let roll = eval_cubics(&self.superelevation, s).0;
         let (t_h, dz) = if roll == 0.0 {
@@ -163,7 +194,12 @@ impl Road {
             (t * math::cos(roll), -t * math::sin(roll))
         };
         let (sn, cs) = math::sin_cos(r.hdg);
-        (r.x - t_h * sn, r.y + t_h * cs, self.elevation(s) + dz)
+        (
+            r.x - t_h * sn,
+            r.y + t_h * cs,
+            self.elevation(s) + dz,
+            r.hdg,
+        )
     }
 
     /// Direction of travel of lane `id` under the road's rule.

@@ -1087,6 +1087,8 @@ fn plan_once(
     let order: Vec<usize> = (0..plans.len()).filter(|i| active[*i]).collect();
     let mut pending = order.clone();
     let mut guard = 0;
+    // Placing does not change the plans: one index for every placement.
+    let index = plans_index(&plans);
     while !pending.is_empty() {
         guard += 1;
         if guard > plans.len() + 2 {
@@ -1116,7 +1118,7 @@ fn plan_once(
                 i,
                 leaf.mods.as_slice(),
                 &placed,
-                &plans_index(&plans),
+                &index,
                 rng,
                 &roads_ok,
                 &leaf.at,
