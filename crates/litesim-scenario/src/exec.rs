@@ -308,6 +308,32 @@ impl Driver {
 
 /// `x` rounded to a multiple of `res` (commands travel at the resolution
 /// the profile declares).
+/// The planned points of the trajectory last sent to one actor (see
+/// `sent` in [`execute`]).
+#[derive(Clone, Debug, Default)]
+struct Sent {
+    from_ms: u64,
+    offset: f64,
+    /// Sent on the plain plan clock (`points` is filled only then).
+    plain: bool,
+    points: Vec<(f64, f64, f64)>,
+}
+
+impl Sent {
+    /// The planned (x, y, v) at `ms` if it was sent and the actor's clock
+    /// and shift are still the ones it was sent with (`tau(t) = t`).
+    fn planned(&self, ms: u64, step_ms: u64, w: &Warp) -> Option<(f64, f64, f64)> {
+        if !self.plain || w.lag != 0.0 || w.rate != 1.0 || w.offset != self.offset {
+            return None;
+        }
+        let d = ms.checked_sub(self.from_ms)?;
+        if d % step_ms != 0 {
+            return None;
+        }
+        self.points.get((d / step_ms) as usize).copied()
+    }
+}
+
 fn quantise(x: f64, res: f64) -> f64 {
     if res > 0.0 {
         (x / res).round() * res
@@ -563,6 +589,11 @@ pub fn execute(
         _ => Vec::new(),
     };
     let mut warps = vec![Warp::new(); ids.len()];
+    // Per actor: the planned (x, y, v) of the trajectory last sent on the
+    // plain plan clock (no lag, rate 1), from which time, and its offset —
+    // the path error then reads the point sent instead of sampling the
+    // plan again (the same numbers: the same times, the same function).
+    let mut sent: Vec<Sent> = vec![Sent::default(); ids.len()];
     // Each goal's (actor, reference) indices; goals come sorted by end time.
     let mut goal_actors = goal_indices(&plan);
     // Conditions seen on the simulated state: times fixed for the planner,
@@ -842,6 +873,12 @@ pub fn execute(
                     let mut points = Vec::with_capacity(n as usize + 1);
                     let mut times = Vec::with_capacity(n as usize + 1);
                     let mut sp = Vec::with_capacity(n as usize + 1);
+                    let plain = w.lag == 0.0 && w.rate == 1.0;
+                    let keep = &mut sent[i];
+                    keep.points.clear();
+                    keep.from_ms = now_ms;
+                    keep.offset = w.offset;
+                    keep.plain = plain;
                     for j in 0..=n {
                         let tm = now_ms + j * step_ms;
                         let tau = if w.lag == 0.0 && w.rate == 1.0 {
@@ -850,6 +887,9 @@ pub fn execute(
                             w.tau(now_ms as f64 / 1000.0) + w.rate * (j * step_ms) as f64 / 1000.0
                         };
                         let p = shifted(a.at(tau, plan.dt), w.offset);
+                        if plain {
+                            keep.points.push((p.x, p.y, p.v));
+                        }
                         points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), mirror));
                         times.push(tm);
                         sp.push(p.v);
@@ -955,7 +995,14 @@ pub fn execute(
                         ScenarioError::Simulator(format!("the simulator lost actor '{}'", a.id))
                     })?,
                 };
-                let p = shifted(a.at(warps[i].tau(t), plan.dt), warps[i].offset);
+                let w = &warps[i];
+                let p = match sent[i].planned(info.sim_time_ms, step_ms, w) {
+                    Some(p) => p,
+                    None => {
+                        let p = shifted(a.at(w.tau(t), plan.dt), w.offset);
+                        (p.x, p.y, p.v)
+                    }
+                };
                 boxes.push(BoxState {
                     x: st.pose.position.x,
                     y: st.pose.position.y,
@@ -970,7 +1017,7 @@ pub fn execute(
                     let (sy, cy) = math::sin_cos(st.pose.yaw);
                     accels.push(st.acceleration.x * cy + st.acceleration.y * sy);
                 }
-                planned.push((p.x, p.y, p.v));
+                planned.push(p);
                 let vehicle = a.kind == crate::elab::ActorKind::Vehicle;
                 let here = st.pose.position.xy();
                 let surely_on = on_road_until[i].is_some_and(|z| z.contains(here));

@@ -46,18 +46,54 @@ struct Shape {
 
 impl Shape {
     fn of(b: &BoxState) -> Self {
-        let sc = math::sin_cos(b.yaw);
-        let (s, c) = sc;
+        Self::with(b, Trig::of(b.yaw))
+    }
+
+    /// The shape of `b` whose heading's trig is `t`.
+    fn with(b: &BoxState, t: Trig) -> Self {
         let (hl, hw) = (b.length / 2.0, b.width / 2.0);
-        let p = |u: f64, v: f64| (b.x + u * c - v * s, b.y + u * s + v * c);
         Shape {
-            corners: [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)],
+            corners: corners(b, t.sc),
             centre: (b.x, b.y),
             half: (hl, hw),
             radius: math::hypot(hl, hw),
-            sc,
-            sc90: math::sin_cos(b.yaw + std::f64::consts::FRAC_PI_2),
+            sc: t.sc,
+            sc90: t.sc90,
         }
+    }
+}
+
+/// A box's corners, given `sin_cos` of its heading.
+fn corners(b: &BoxState, (s, c): (f64, f64)) -> [(f64, f64); 4] {
+    let (hl, hw) = (b.length / 2.0, b.width / 2.0);
+    let p = |u: f64, v: f64| (b.x + u * c - v * s, b.y + u * s + v * c);
+    [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)]
+}
+
+/// The trig a [`Shape`] needs of one heading, kept per actor while its
+/// heading stays the same bits (on a straight road, all run long).
+#[derive(Clone, Copy, Debug)]
+struct Trig {
+    yaw: u64,
+    sc: (f64, f64),
+    sc90: (f64, f64),
+}
+
+impl Trig {
+    fn of(yaw: f64) -> Self {
+        Trig {
+            yaw: yaw.to_bits(),
+            sc: math::sin_cos(yaw),
+            sc90: math::sin_cos(yaw + std::f64::consts::FRAC_PI_2),
+        }
+    }
+
+    /// `self` if it is of `yaw`, else the trig of `yaw`.
+    fn update(&mut self, yaw: f64) -> Self {
+        if self.yaw != yaw.to_bits() {
+            *self = Trig::of(yaw);
+        }
+        *self
     }
 }
 
@@ -314,7 +350,12 @@ pub struct Kpis {
     last: Vec<Option<(f64, f64)>>,
     index: BTreeMap<String, usize>,
     order: Vec<u32>,
+    /// Per actor: its shape, valid where `shape_at` is this step's number
+    /// (made only for actors in a pair measured this step).
     shapes: Vec<Shape>,
+    shape_at: Vec<usize>,
+    /// Per actor: the trig of its heading (see [`Trig`]).
+    trig: Vec<Trig>,
     swept: Vec<[f64; 4]>,
     near_box: Vec<[f64; 4]>,
     ttc_box: Vec<[f64; 4]>,
@@ -486,8 +527,11 @@ impl Kpis {
         self.n += 1;
         let n = boxes.len();
         if n > 1 {
-            self.shapes.clear();
-            self.shapes.extend(boxes.iter().map(Shape::of));
+            if self.trig.len() != n {
+                self.trig = boxes.iter().map(|b| Trig::of(b.yaw)).collect();
+                self.shapes = boxes.iter().map(Shape::of).collect();
+                self.shape_at = vec![0; n];
+            }
             let inv = 1.0 / n as f64;
             let (mut cx, mut cy, mut px, mut py) = (0.0, 0.0, 0.0, 0.0);
             for b in boxes {
@@ -503,7 +547,7 @@ impl Kpis {
             for (i, b) in boxes.iter().enumerate() {
                 let d = (b.x - px, b.y - py);
                 let (ox, oy) = self.drift_pos[i];
-                let r = self.shapes[i].radius;
+                let r = math::hypot(b.length / 2.0, b.width / 2.0);
                 // Rounding of the differences (a few ulps of the
                 // coordinates) is added so the bound stays a bound.
                 let slack = 1e-15 * (b.x.abs() + b.y.abs() + px.abs() + py.abs() + 1.0);
@@ -636,9 +680,9 @@ impl Kpis {
         self.swept.clear();
         self.near_box.clear();
         self.ttc_box.clear();
-        for (b, sh) in boxes.iter().zip(&self.shapes) {
+        for (b, tr) in boxes.iter().zip(&mut self.trig) {
             let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-            for p in &sh.corners {
+            for p in &corners(b, tr.update(b.yaw).sc) {
                 x0 = x0.min(p.0);
                 x1 = x1.max(p.0);
                 y0 = y0.min(p.1);
@@ -761,6 +805,12 @@ impl Kpis {
             return None;
         }
         let (a, b) = (&boxes[i], &boxes[j]);
+        for x in [i, j] {
+            if self.shape_at[x] != self.n {
+                self.shape_at[x] = self.n;
+                self.shapes[x] = Shape::with(&boxes[x], self.trig[x]);
+            }
+        }
         let (sa, sb) = (&self.shapes[i], &self.shapes[j]);
         let slot = (!self.dense.is_empty()).then(|| i * self.ids.len() + j);
         let known = match slot {
