@@ -161,7 +161,7 @@ impl RoadNetwork {
     /// The pose at `p`, `offset` m left of the lane centre (the origin when
     /// the lane is not there).
     pub fn lane_pos_pose(&self, p: LanePos, offset: f64) -> Pose {
-        self.lane_pose_on(&self.roads()[p.road], p.lane, p.s, offset)
+        self.lane_pose_at(p.road, p.lane, p.s, offset)
             .unwrap_or_else(|| Pose::planar(0.0, 0.0, 0.0))
     }
 }

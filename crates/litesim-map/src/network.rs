@@ -155,6 +155,10 @@ pub struct RoadNetwork {
     segments: SegmentIndex,
     graph: BTreeMap<LaneRef, Vec<(LaneRef, f64)>>,
     edges: Vec<EdgeBounds>,
+    /// Per road: every lane centre keeps its distance from the reference
+    /// line along the whole road (one section, constant widths and lane
+    /// offset), so a lane's heading is the reference line's.
+    parallel: Vec<bool>,
 }
 
 /// A disc every point of which is on a road (see
@@ -339,8 +343,10 @@ impl RoadNetwork {
             segments: SegmentIndex::default(),
             graph: BTreeMap::new(),
             edges: Vec::new(),
+            parallel: Vec::new(),
         };
         net.edges = net.od.roads.iter().map(EdgeBounds::of).collect();
+        net.parallel = net.od.roads.iter().map(lanes_parallel).collect();
         net.build_segments();
         net.build_graph(&mut warnings);
         net.warnings = warnings;
@@ -612,20 +618,28 @@ impl RoadNetwork {
     /// World pose at (road, lane, s) plus a lateral offset from the lane
     /// centre; heading along the lane's direction of travel.
     pub fn lane_pose(&self, road: &str, lane: i32, s: f64, offset: f64) -> Option<Pose> {
-        self.lane_pose_on(self.road(road)?, lane, s, offset)
+        self.lane_pose_at(self.road_index(road)?, lane, s, offset)
     }
 
-    /// [`RoadNetwork::lane_pose`] on a road already looked up (the planner
-    /// walks lanes by road index: no lookup by name per sample).
-    pub fn lane_pose_on(&self, r: &Road, lane: i32, s: f64, offset: f64) -> Option<Pose> {
+    /// [`RoadNetwork::lane_pose`] on road index `road` (the planner walks
+    /// lanes by index: no lookup by name per sample). Panics on an index
+    /// out of range.
+    pub fn lane_pose_at(&self, road: usize, lane: i32, s: f64, offset: f64) -> Option<Pose> {
+        let r = &self.od.roads[road];
         let span = r.lane_span(s, lane)?;
         let t = span.t_center() + offset;
         let (x, y, z, h) = r.st_to_xyz_hdg(s, t);
-        // Lane centre heading: road heading + atan(dt/ds), by a central difference.
+        // Lane centre heading: road heading + atan(dt/ds), by a central
+        // difference — exactly 0 where the lanes run parallel to the
+        // reference line (the two spans are the same sums of constants).
         let ds = 0.05;
         let (a, b) = ((s - ds).max(0.0), (s + ds).min(r.length));
-        let dt = r.lane_span(b, lane).map_or(0.0, |l| l.t_center())
-            - r.lane_span(a, lane).map_or(0.0, |l| l.t_center());
+        let dt = if self.parallel[road] {
+            0.0
+        } else {
+            r.lane_span(b, lane).map_or(0.0, |l| l.t_center())
+                - r.lane_span(a, lane).map_or(0.0, |l| l.t_center())
+        };
         let mut yaw = h + if b > a { math::atan(dt / (b - a)) } else { 0.0 };
         if r.lane_direction(s, lane) == Direction::Backward {
             yaw += std::f64::consts::PI;
@@ -1260,4 +1274,23 @@ fn mark_runs(
         }
     }
     runs
+}
+
+/// Whether every lane centre of `r` keeps its distance from the reference
+/// line: one lane section, a lane offset that is one constant record from
+/// s = 0 (or none), and each lane's width one constant record.
+fn lanes_parallel(r: &Road) -> bool {
+    let constant = |c: &Cubic| c.b == 0.0 && c.c == 0.0 && c.d == 0.0 && c.a.is_finite();
+    let offset_ok = match r.lane_offsets.as_slice() {
+        [] => true,
+        [o] => o.s <= 0.0 && constant(o),
+        _ => false,
+    };
+    offset_ok
+        && r.sections.len() == 1
+        && r.sections[0]
+            .left
+            .iter()
+            .chain(&r.sections[0].right)
+            .all(|l| matches!(l.widths.as_slice(), [w] if constant(w)))
 }
