@@ -359,6 +359,12 @@ pub struct Kpis {
     swept: Vec<[f64; 4]>,
     near_box: Vec<[f64; 4]>,
     ttc_box: Vec<[f64; 4]>,
+    /// Per actor: the step whose `near_box`, `ttc_box` and `swept` it
+    /// holds (made for every actor only when the broad phase runs, else
+    /// for the actors of the pairs measured).
+    bounds_at: Vec<usize>,
+    /// The actors' mean velocity this step.
+    mean_v: (f64, f64),
     /// Per actor: its position relative to the actors' mean position (a
     /// pair's relative position is the difference of these, exactly).
     drift_pos: Vec<(f64, f64)>,
@@ -529,6 +535,10 @@ impl Kpis {
         if n > 1 {
             if self.trig.len() != n {
                 self.trig = boxes.iter().map(|b| Trig::of(b.yaw)).collect();
+                self.near_box = vec![[0.0; 4]; n];
+                self.ttc_box = vec![[0.0; 4]; n];
+                self.swept = vec![[0.0; 4]; n];
+                self.bounds_at = vec![0; n];
                 self.shapes = boxes.iter().map(Shape::of).collect();
                 self.shape_at = vec![0; n];
             }
@@ -575,8 +585,11 @@ impl Kpis {
                     rebuild = wobble > 0.5 * SKIN - 1e-6;
                 }
             }
-            self.boxes_of(boxes, (cx, cy));
+            self.mean_v = (cx, cy);
             if rebuild {
+                for (x, b) in boxes.iter().enumerate() {
+                    self.bounds(x, b);
+                }
                 self.sweep(boxes, (cx, cy));
             }
             let mut cands = std::mem::take(&mut self.cands);
@@ -676,36 +689,37 @@ impl Kpis {
     /// boxes of a pair by the same c·τ changes no overlap, so a pair can
     /// meet within the horizon only where the boxes swept along v − c
     /// meet — and traffic that moves together sweeps (almost) nothing.
-    fn boxes_of(&mut self, boxes: &[BoxState], (cx, cy): (f64, f64)) {
-        self.swept.clear();
-        self.near_box.clear();
-        self.ttc_box.clear();
-        for (b, tr) in boxes.iter().zip(&mut self.trig) {
-            let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-            for p in &corners(b, tr.update(b.yaw).sc) {
-                x0 = x0.min(p.0);
-                x1 = x1.max(p.0);
-                y0 = y0.min(p.1);
-                y1 = y1.max(p.1);
-            }
-            let h = 0.5 * NEAR;
-            let grown = [x0 - h, x1 + h, y0 - h, y1 + h];
-            let (dx, dy) = ((b.vx - cx) * TTC_HORIZON, (b.vy - cy) * TTC_HORIZON);
-            let swept = [
-                x0 + dx.min(0.0),
-                x1 + dx.max(0.0),
-                y0 + dy.min(0.0),
-                y1 + dy.max(0.0),
-            ];
-            self.near_box.push(grown);
-            self.swept.push([
-                grown[0].min(swept[0]),
-                grown[1].max(swept[1]),
-                grown[2].min(swept[2]),
-                grown[3].max(swept[3]),
-            ]);
-            self.ttc_box.push(swept);
+    /// (Made for actor `x`, box `b`, once per step: see `bounds_at`.)
+    fn bounds(&mut self, x: usize, b: &BoxState) {
+        if self.bounds_at[x] == self.n {
+            return;
         }
+        self.bounds_at[x] = self.n;
+        let (cx, cy) = self.mean_v;
+        let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for p in &corners(b, self.trig[x].update(b.yaw).sc) {
+            x0 = x0.min(p.0);
+            x1 = x1.max(p.0);
+            y0 = y0.min(p.1);
+            y1 = y1.max(p.1);
+        }
+        let h = 0.5 * NEAR;
+        let grown = [x0 - h, x1 + h, y0 - h, y1 + h];
+        let (dx, dy) = ((b.vx - cx) * TTC_HORIZON, (b.vy - cy) * TTC_HORIZON);
+        let swept = [
+            x0 + dx.min(0.0),
+            x1 + dx.max(0.0),
+            y0 + dy.min(0.0),
+            y1 + dy.max(0.0),
+        ];
+        self.near_box[x] = grown;
+        self.swept[x] = [
+            grown[0].min(swept[0]),
+            grown[1].max(swept[1]),
+            grown[2].min(swept[2]),
+            grown[3].max(swept[3]),
+        ];
+        self.ttc_box[x] = swept;
     }
 
     /// The broad phase (sort-and-sweep on the `swept` bounds grown by
@@ -799,6 +813,8 @@ impl Kpis {
         let meets = |u: &[f64; 4], v: &[f64; 4]| {
             !(u[0] > v[1] || v[0] > u[1] || u[2] > v[3] || v[2] > u[3])
         };
+        self.bounds(i, &boxes[i]);
+        self.bounds(j, &boxes[j]);
         let near = meets(&self.near_box[i], &self.near_box[j]);
         let can_meet = meets(&self.ttc_box[i], &self.ttc_box[j]);
         if !near && !can_meet {
