@@ -145,7 +145,7 @@ impl Default for SessionLimits {
 #[derive(Clone, Debug)]
 struct ActorMeta {
     /// The id as reports carry it.
-    id: std::sync::Arc<str>,
+    id: smol_str::SmolStr,
     category: ActorCategory,
     actual: ActualDescription,
     limits: ActuatorLimits,
