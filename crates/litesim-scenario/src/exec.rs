@@ -306,8 +306,6 @@ impl Driver {
     }
 }
 
-/// `x` rounded to a multiple of `res` (commands travel at the resolution
-/// the profile declares).
 /// The planned points of the trajectory last sent to one actor (see
 /// `sent` in [`execute`]).
 #[derive(Clone, Debug, Default)]
@@ -334,6 +332,8 @@ impl Sent {
     }
 }
 
+/// `x` rounded to a multiple of `res` (commands travel at the resolution
+/// the profile declares).
 fn quantise(x: f64, res: f64) -> f64 {
     if res > 0.0 {
         (x / res).round() * res
