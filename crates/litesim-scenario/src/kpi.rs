@@ -323,11 +323,7 @@ type PairHash = std::hash::BuildHasherDefault<PairHasher>;
 /// actors' drift since, so while that stays above its recorded minimum and
 /// beyond what the pair can close within the TTC horizon, the pair is
 /// skipped without touching its boxes (a property test checks against
-/// every pair measured exactly at every step). A pair that passes that
-/// test is not even looked at again until it could fail it: it sleeps
-/// until both actors' drift and change of velocity together use up its
-/// margin (a wake-up queue per actor), so a platoon's ~1,000 neighbour
-/// pairs cost nothing per step.
+/// every pair measured exactly at every step).
 #[derive(Clone, Debug, Default)]
 pub struct Kpis {
     /// Pairs that came near, in (i, j) order of the actor list (filled by
@@ -380,22 +376,8 @@ pub struct Kpis {
     cands: Vec<Cand>,
     /// Per actor: yaw at the last step.
     yaw_prev: Vec<f64>,
-    /// Per actor: its velocity at the last step.
-    vel_prev: Vec<(f64, f64)>,
-    /// Per actor: drift plus [`WAKE_HORIZON`] × the summed change of its
-    /// velocity (never decreasing). A sleeping pair's test can change only
-    /// after both actors' growth together reaches its budget.
-    motion: Vec<f64>,
-    /// Per actor: the sleeping pairs it wakes, soonest first.
-    wake: Vec<std::collections::BinaryHeap<std::cmp::Reverse<Wake>>>,
-    /// The candidates to look at this step (awake), in candidate order.
-    awake: Vec<u32>,
     swept_once: bool,
 }
-
-/// [`TTC_HORIZON`] and a rounding margin: the longest time a pair's change
-/// of relative velocity can act over in its skip test.
-const WAKE_HORIZON: f64 = TTC_HORIZON * (1.0 + 1e-6);
 
 /// A pair met so far: its (i, j), its KPIs, its last exact distance and
 /// when it may be skipped.
@@ -422,20 +404,6 @@ struct Cand {
     i: u32,
     j: u32,
     k: u32,
-    /// Bumped each time the pair falls asleep: wake-up entries of an
-    /// earlier sleep are stale.
-    sleep: u32,
-    asleep: bool,
-}
-
-/// A sleeping candidate's wake-up entry in one actor's queue: the pair
-/// wakes once that actor's [`Kpis::motion`] reaches `at` (f64 bits; the
-/// values are ≥ 0, so bit order is numeric order).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-struct Wake {
-    at: u64,
-    cand: u32,
-    sleep: u32,
 }
 
 /// What a tracked pair needs to stay untouched: its distance is at least
@@ -479,9 +447,6 @@ impl Kpis {
             drift_pos: vec![(0.0, 0.0); ids.len()],
             drift: vec![0.0; ids.len()],
             yaw_prev: vec![0.0; ids.len()],
-            vel_prev: vec![(0.0, 0.0); ids.len()],
-            motion: vec![0.0; ids.len()],
-            wake: vec![std::collections::BinaryHeap::new(); ids.len()],
             dense: if ids.len() <= DENSE_PAIRS {
                 vec![u32::MAX; ids.len() * ids.len()]
             } else {
@@ -563,17 +528,8 @@ impl Kpis {
                 let slack = 1e-15 * (b.x.abs() + b.y.abs() + px.abs() + py.abs() + 1.0);
                 if !first {
                     let turn = wrap_angle(b.yaw - self.yaw_prev[i]).abs();
-                    let grow = math::hypot(d.0 - ox, d.1 - oy) + r * turn + slack;
-                    self.drift[i] += grow;
-                    let (vx, vy) = self.vel_prev[i];
-                    let dv = math::hypot(b.vx - vx, b.vy - vy)
-                        + 1e-15 * (b.vx.abs() + b.vy.abs() + vx.abs() + vy.abs());
-                    // The last term exceeds what rounding this sum and
-                    // the drift's (≤ drift ≤ motion) can lose: the running
-                    // sum's growth stays a bound of the true growth.
-                    self.motion[i] += grow + WAKE_HORIZON * dv + 4e-16 * self.motion[i];
+                    self.drift[i] += math::hypot(d.0 - ox, d.1 - oy) + r * turn + slack;
                 }
-                self.vel_prev[i] = (b.vx, b.vy);
                 self.drift_pos[i] = d;
                 let w = (b.vx - cx, b.vy - cy);
                 if !rebuild {
@@ -593,34 +549,24 @@ impl Kpis {
                 self.sweep(boxes, (cx, cy));
             }
             let mut cands = std::mem::take(&mut self.cands);
-            let mut awake = std::mem::take(&mut self.awake);
-            if rebuild {
-                awake.clear();
-                awake.extend(0..cands.len() as u32);
-                self.wake.iter_mut().for_each(|q| q.clear());
-            } else {
-                // Pairs whose budget ran out rejoin the awake ones.
-                for (q, m) in self.wake.iter_mut().zip(&self.motion) {
-                    while let Some(std::cmp::Reverse(w)) = q.peek().copied()
-                        && f64::from_bits(w.at) <= *m
+            for c in &mut cands {
+                let (i, j) = (c.i as usize, c.j as usize);
+                if c.k != u32::MAX {
+                    let q = self.near[c.k as usize].quiet;
+                    let lb = q.key - self.drift[i] - self.drift[j];
+                    // The TTC cannot beat the limit when the pair cannot
+                    // close the bound within it: lb > |w| · limit, squared.
+                    let (a, b) = (&boxes[i], &boxes[j]);
+                    let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
+                    let reach = lb - 1e-6;
+                    if lb > q.floor
+                        && reach > 0.0
+                        && reach * reach > (wx * wx + wy * wy) * q.limit * q.limit * (1.0 + 1e-9)
                     {
-                        q.pop();
-                        let c = &mut cands[w.cand as usize];
-                        if c.asleep && c.sleep == w.sleep {
-                            c.asleep = false;
-                            awake.push(w.cand);
-                        }
+                        continue;
                     }
                 }
-                awake.sort_unstable();
-            }
-            let mut still = 0;
-            for x in 0..awake.len() {
-                let ci = awake[x];
-                let c = &mut cands[ci as usize];
-                let (i, j) = (c.i as usize, c.j as usize);
-                let skip = c.k != u32::MAX && self.skippable(c.k as usize, i, j, boxes).is_some();
-                if !skip && let Some((k, d)) = self.pair(t, i, j, boxes) {
+                if let Some((k, d)) = self.pair(t, i, j, boxes) {
                     c.k = k as u32;
                     let e = &mut self.near[k];
                     let p = &e.kpi;
@@ -630,34 +576,7 @@ impl Kpis {
                         limit: p.min_ttc.map_or(TTC_HORIZON, |m| m.min(TTC_HORIZON)),
                     };
                 }
-                // A pair that passes the skip test now sleeps until both
-                // actors together have moved or changed velocity by its
-                // budget: until then the test provably keeps passing.
-                let budget = match c.k {
-                    u32::MAX => None,
-                    k => self.skippable(k as usize, i, j, boxes),
-                };
-                match budget {
-                    Some(b) if b > 0.0 => {
-                        c.sleep = c.sleep.wrapping_add(1);
-                        c.asleep = true;
-                        let half = 0.5 * b * (1.0 - 1e-9);
-                        for a in [i, j] {
-                            self.wake[a].push(std::cmp::Reverse(Wake {
-                                at: (self.motion[a] + half).to_bits(),
-                                cand: ci,
-                                sleep: c.sleep,
-                            }));
-                        }
-                    }
-                    _ => {
-                        awake[still] = ci;
-                        still += 1;
-                    }
-                }
             }
-            awake.truncate(still);
-            self.awake = awake;
             self.cands = cands;
         }
         for (y, b) in self.yaw_prev.iter_mut().zip(boxes) {
@@ -766,33 +685,8 @@ impl Kpis {
                     i: a as u32,
                     j: b as u32,
                     k,
-                    sleep: 0,
-                    asleep: false,
                 });
             }
-        }
-    }
-
-    /// Whether tracked pair `k` = (i, j) may be skipped this step: its
-    /// distance bound stays above its recorded minimum and beyond what the
-    /// pair can close within its TTC limit. If so, the budget: how much
-    /// both actors' [`Kpis::motion`] may grow together before that can
-    /// change (drift lowers the bound one for one; a change of relative
-    /// velocity raises the closing distance by at most itself × the limit).
-    fn skippable(&self, k: usize, i: usize, j: usize, boxes: &[BoxState]) -> Option<f64> {
-        let q = self.near[k].quiet;
-        let lb = q.key - self.drift[i] - self.drift[j];
-        let (a, b) = (&boxes[i], &boxes[j]);
-        let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
-        let reach = lb - 1e-6;
-        // The TTC cannot beat the limit when the pair cannot close the
-        // bound within it: lb > |w| · limit, squared.
-        let w2 = wx * wx + wy * wy;
-        if lb > q.floor && reach > 0.0 && reach * reach > w2 * q.limit * q.limit * (1.0 + 1e-9) {
-            let close = w2.sqrt() * q.limit * (1.0 + 1e-6);
-            Some((lb - q.floor).min(reach - close) * (1.0 - 1e-9))
-        } else {
-            None
         }
     }
 
