@@ -621,6 +621,14 @@ impl RoadNetwork {
         self.lane_pose_at(self.road_index(road)?, lane, s, offset)
     }
 
+    /// Whether road `road`'s lane centres all keep their distance from its
+    /// reference line (one lane section, constant widths and lane offset);
+    /// there a lane's heading is the reference line's. Panics on an index
+    /// out of range.
+    pub fn lanes_parallel(&self, road: usize) -> bool {
+        self.parallel[road]
+    }
+
     /// [`RoadNetwork::lane_pose`] on road index `road` (the planner walks
     /// lanes by index: no lookup by name per sample). Panics on an index
     /// out of range.

@@ -524,3 +524,66 @@ fn load_errors_and_warnings_name_the_place() {
         n.warnings
     );
 }
+
+/// The shortcut in `lane_pose_at` (no central difference on roads whose
+/// lanes run parallel to the reference line) rests on the difference being
+/// exactly 0 there: checked on every lane of every such road of the
+/// shipped and test maps, and the roads with changing widths are not
+/// taken for parallel.
+#[test]
+fn parallel_lanes_have_exactly_no_lateral_slope() {
+    let data = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/");
+    let mut nets: Vec<(String, RoadNetwork)> = ["straight", "curvy", "circ", "junction"]
+        .iter()
+        .map(|n| (n.to_string(), map(&format!("{n}.xodr"))))
+        .collect();
+    for f in ["widths.xodr", "fuzz_cubic_width.xodr"] {
+        let text = std::fs::read_to_string(format!("{data}{f}")).unwrap();
+        nets.push((f.into(), RoadNetwork::from_xodr(&text, f).unwrap()));
+    }
+    let (mut parallel, mut checked) = (0, 0);
+    for (name, net) in &nets {
+        for (ri, r) in net.roads().iter().enumerate() {
+            let varies = r.sections.len() > 1
+                || r.sections
+                    .iter()
+                    .flat_map(|s| s.left.iter().chain(&s.right))
+                    .any(|l| {
+                        l.widths.len() != 1
+                            || l.widths
+                                .iter()
+                                .any(|w| w.b != 0.0 || w.c != 0.0 || w.d != 0.0)
+                    });
+            if varies {
+                assert!(!net.lanes_parallel(ri), "{name} road {}: widths vary", r.id);
+            }
+            if !net.lanes_parallel(ri) {
+                continue;
+            }
+            parallel += 1;
+            let lanes: Vec<i32> = r.lane_spans(0.0).iter().map(|l| l.id).collect();
+            for k in 0..=50 {
+                let s = r.length * k as f64 / 50.0;
+                let (a, b) = ((s - 0.05).max(0.0), (s + 0.05).min(r.length));
+                for &lane in &lanes {
+                    let t = |x: f64| r.lane_span(x, lane).map_or(0.0, |l| l.t_center());
+                    assert_eq!(
+                        t(b) - t(a),
+                        0.0,
+                        "{name} road {} lane {lane} at s = {s}",
+                        r.id
+                    );
+                    checked += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        parallel >= 2 && checked > 100,
+        "{parallel} roads, {checked} checks"
+    );
+    assert!(
+        nets[0].1.lanes_parallel(0),
+        "straight.xodr's road runs parallel"
+    );
+}
