@@ -540,7 +540,10 @@ pub fn execute(
     // command: the plan is known, so trajectories go out a chunk (up to
     // 60 s) ahead and the chunk's steps run in one `step_many` call — a
     // handful of round trips per test over gRPC instead of one per step.
-    // Replies stay bounded: ≤ 20,000 actor states per call.
+    // Replies stay bounded: ≤ 5,000 actor states per call (20,000 made the
+    // 100-vehicle test 1.25× slower: a chunk's ~4.6 MB of states pushed
+    // the checkers' tables out of the cache; 2,000 re-sends too much
+    // overlap — BENCHMARKS.md, eleventh session).
     let open_loop = drivers.iter().all(Option::is_none) && ego_i.is_none();
     // Paced to the wall clock: one step per call, each released on time.
     let mut pacer = cfg
@@ -548,7 +551,7 @@ pub fn execute(
         .map(|p| crate::realtime::Pacer::new(step_ms as u32, p));
     let mut realtime_failure: Option<String> = None;
     let chunk = if open_loop && pacer.is_none() {
-        (60_000 / step_ms).clamp(1, (20_000 / ids.len().max(1)) as u64)
+        (60_000 / step_ms).clamp(1, (5_000 / ids.len().max(1)) as u64)
     } else {
         1
     };
