@@ -104,9 +104,10 @@ pub struct Actor {
     // The reported state is computed from the vehicle columns: set at the
     // first integrated step, cleared when the state is given or stored.
     live: bool,
-    // The last heading a trajectory gave (bits) and its (sin, cos): a
-    // heading that holds (a straight road, a standing actor) costs no trig.
-    heading_trig: (u64, f64, f64),
+    // The trig of the last heading a trajectory gave (a cache: not saved,
+    // and no part of the actor's equality).
+    #[serde(skip)]
+    heading_trig: math::SinCosMemo,
 }
 
 impl Actor {
@@ -126,7 +127,7 @@ impl Actor {
             last_input: VehicleInput::default(),
             mode: ControlMode::Stored,
             live: false,
-            heading_trig: (u64::MAX, 0.0, 1.0),
+            heading_trig: math::SinCosMemo::new(state.pose.yaw),
         }
     }
     /// The control mode.
@@ -641,11 +642,7 @@ impl World {
                     if let Some(s) = tr.sample(t) {
                         let prev = a.state;
                         let yaw = s.yaw.unwrap_or(prev.pose.yaw);
-                        if a.heading_trig.0 != yaw.to_bits() {
-                            let (sn, cs) = math::sin_cos(yaw);
-                            a.heading_trig = (yaw.to_bits(), sn, cs);
-                        }
-                        let (_, sn, cs) = a.heading_trig;
+                        let (sn, cs) = a.heading_trig.get(yaw);
                         let yaw_rate = wrap_angle(yaw - prev.pose.yaw) / dt;
                         let long_acc = (s.speed - prev.speed) / dt;
                         let velocity = Vec3::new(s.speed * cs, s.speed * sn, 0.0);

@@ -46,19 +46,19 @@ struct Shape {
 
 impl Shape {
     fn of(b: &BoxState) -> Self {
-        Self::with(b, Trig::of(b.yaw))
+        Self::with(b, math::sin_cos(b.yaw))
     }
 
-    /// The shape of `b` whose heading's trig is `t`.
-    fn with(b: &BoxState, t: Trig) -> Self {
+    /// The shape of `b` whose heading's `sin_cos` is `sc`.
+    fn with(b: &BoxState, sc: (f64, f64)) -> Self {
         let (hl, hw) = (b.length / 2.0, b.width / 2.0);
         Shape {
-            corners: corners(b, t.sc),
+            corners: corners(b, sc),
             centre: (b.x, b.y),
             half: (hl, hw),
             radius: math::hypot(hl, hw),
-            sc: t.sc,
-            sc90: t.sc90,
+            sc,
+            sc90: math::sin_cos(b.yaw + std::f64::consts::FRAC_PI_2),
         }
     }
 }
@@ -68,33 +68,6 @@ fn corners(b: &BoxState, (s, c): (f64, f64)) -> [(f64, f64); 4] {
     let (hl, hw) = (b.length / 2.0, b.width / 2.0);
     let p = |u: f64, v: f64| (b.x + u * c - v * s, b.y + u * s + v * c);
     [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)]
-}
-
-/// The trig a [`Shape`] needs of one heading, kept per actor while its
-/// heading stays the same bits (on a straight road, all run long).
-#[derive(Clone, Copy, Debug)]
-struct Trig {
-    yaw: u64,
-    sc: (f64, f64),
-    sc90: (f64, f64),
-}
-
-impl Trig {
-    fn of(yaw: f64) -> Self {
-        Trig {
-            yaw: yaw.to_bits(),
-            sc: math::sin_cos(yaw),
-            sc90: math::sin_cos(yaw + std::f64::consts::FRAC_PI_2),
-        }
-    }
-
-    /// `self` if it is of `yaw`, else the trig of `yaw`.
-    fn update(&mut self, yaw: f64) -> Self {
-        if self.yaw != yaw.to_bits() {
-            *self = Trig::of(yaw);
-        }
-        *self
-    }
 }
 
 /// The interval a box's corners cover along the axis (ux, uy).
@@ -350,8 +323,8 @@ pub struct Kpis {
     /// (made only for actors in a pair measured this step).
     shapes: Vec<Shape>,
     shape_at: Vec<usize>,
-    /// Per actor: the trig of its heading (see [`Trig`]).
-    trig: Vec<Trig>,
+    /// Per actor: the `sin_cos` of its heading, kept while it holds.
+    trig: Vec<math::SinCosMemo>,
     swept: Vec<[f64; 4]>,
     near_box: Vec<[f64; 4]>,
     ttc_box: Vec<[f64; 4]>,
@@ -499,7 +472,7 @@ impl Kpis {
         let n = boxes.len();
         if n > 1 {
             if self.trig.len() != n {
-                self.trig = boxes.iter().map(|b| Trig::of(b.yaw)).collect();
+                self.trig = boxes.iter().map(|b| math::SinCosMemo::new(b.yaw)).collect();
                 self.near_box = vec![[0.0; 4]; n];
                 self.ttc_box = vec![[0.0; 4]; n];
                 self.swept = vec![[0.0; 4]; n];
@@ -616,7 +589,7 @@ impl Kpis {
         self.bounds_at[x] = self.n;
         let (cx, cy) = self.mean_v;
         let (mut x0, mut x1, mut y0, mut y1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-        for p in &corners(b, self.trig[x].update(b.yaw).sc) {
+        for p in &corners(b, self.trig[x].get(b.yaw)) {
             x0 = x0.min(p.0);
             x1 = x1.max(p.0);
             y0 = y0.min(p.1);
@@ -718,7 +691,7 @@ impl Kpis {
         for x in [i, j] {
             if self.shape_at[x] != self.n {
                 self.shape_at[x] = self.n;
-                self.shapes[x] = Shape::with(&boxes[x], self.trig[x]);
+                self.shapes[x] = Shape::with(&boxes[x], self.trig[x].get(boxes[x].yaw));
             }
         }
         let (sa, sb) = (&self.shapes[i], &self.shapes[j]);

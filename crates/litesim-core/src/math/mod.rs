@@ -142,6 +142,48 @@ pub fn clamp(x: f64, lo: f64, hi: f64) -> f64 {
     }
 }
 
+/// [`sin_cos`] of an angle, kept while the same angle (bit for bit) is
+/// asked again: a heading that holds — a straight road, a standing actor —
+/// costs no trig, and the answer is the one `sin_cos` gives.
+#[derive(Clone, Copy, Debug)]
+pub struct SinCosMemo {
+    bits: u64,
+    sc: (f64, f64),
+}
+
+impl SinCosMemo {
+    /// Holding `sin_cos(x)`.
+    pub fn new(x: f64) -> Self {
+        SinCosMemo {
+            bits: x.to_bits(),
+            sc: sin_cos(x),
+        }
+    }
+
+    /// `sin_cos(x)`, computed only when `x` differs from the last angle.
+    #[inline]
+    pub fn get(&mut self, x: f64) -> (f64, f64) {
+        if self.bits != x.to_bits() {
+            *self = SinCosMemo::new(x);
+        }
+        self.sc
+    }
+}
+
+impl Default for SinCosMemo {
+    /// Holding `sin_cos(0)`.
+    fn default() -> Self {
+        SinCosMemo::new(0.0)
+    }
+}
+
+/// A cache carries no value of its holder's: any two compare equal.
+impl PartialEq for SinCosMemo {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
 /// Euclidean length `sqrt(x² + y²)` (exactly rounded sqrt; no hypot scaling).
 #[inline]
 pub fn hypot(x: f64, y: f64) -> f64 {
