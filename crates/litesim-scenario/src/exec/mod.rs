@@ -8,23 +8,27 @@
 //! throttle and brake, and a curvature feed-forward plus PD on lateral and
 //! heading error for steering; the gains are the profile's calibration.
 //! People and objects stay kinematic. After each step the states are read
-//! back, checked ([`crate::kpi`]) and, when asked, logged.
+//! back, checked ([`crate::kpi`]) and, when asked, logged (`readback`);
+//! an open-loop run of several chunks reads one chunk back on a second
+//! core while the next is stepped (`pipeline`).
+
+mod readback;
 
 use crate::error::ScenarioError;
-use crate::intent::{LaneRelation, Order};
 use crate::kpi::{BoxState, EgoKpi, Kpis};
 use crate::plan::Plan;
 use crate::reactive::{Body, GoalResult, LaneResult, Warp, shifted};
 use crate::sut::{LightState, ObjectState, Observation, RoadPos, Route, Sut, SutCommand, SutInfo};
 use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
-use litesim_log::{ActorSample, ControlSample, LogRecorder, SimulationLog};
+use litesim_log::{ControlSample, LogRecorder, SimulationLog};
 use litesim_map::RoadNetwork;
 use litesim_ssp::api::*;
 use litesim_ssp::profile::{Calibration, PidGains};
 use litesim_ssp::traffic::{
     BulbColor, BulbMode, BulbState, LightTarget, TrafficLightBox, TrafficLights,
 };
+use readback::{ReadEnv, Readback};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::collections::{BTreeMap, BTreeSet};
@@ -332,6 +336,126 @@ impl Sent {
     }
 }
 
+/// Runs an open-loop plan's `steps` in chunks of `chunk` steps on two
+/// cores: this thread makes and sends each chunk's trajectories and steps
+/// it, while a rayon task reads the chunks before it back, in order.
+/// Returns the steps run.
+///
+/// The read-back is the same pure function of each chunk's states
+/// whichever thread runs it, so the bits are the same; its error wins over
+/// a later one of the simulator, as it would one chunk at a time. In a
+/// busy pool (a batch) the task runs when this thread waits at the scope's
+/// end: the same work in the same order on one core, nothing waits for a
+/// task that cannot start.
+fn pipeline(
+    ssp: &mut dyn Ssp,
+    rb: &mut Readback,
+    env: &ReadEnv<'_, '_>,
+    upload: impl Fn(u64, u64) -> Upload,
+    steps: u64,
+    chunk: u64,
+    filter: &ActorFilter,
+) -> Result<u64, ScenarioError> {
+    type Chunk = (Vec<(StepInfo, Vec<ReportedState>)>, Vec<Sent>);
+    let (to_reader, chunks) = std::sync::mpsc::channel::<Chunk>();
+    let (give_back, spare) = std::sync::mpsc::channel::<Vec<Sent>>();
+    let mut read: Result<(), ScenarioError> = Ok(());
+    let plan = env.plan;
+    let stepped = rayon::in_place_scope(|s| {
+        let read = &mut read;
+        s.spawn(move |_| {
+            for (results, sent) in chunks {
+                if read.is_ok() {
+                    *read = rb.chunk(
+                        &ReadEnv {
+                            sent: &sent,
+                            ..*env
+                        },
+                        results,
+                    );
+                }
+                // This thread may be done already: the buffer is dropped.
+                let _ = give_back.send(sent);
+            }
+        });
+        // Dropped on every way out of this closure: the reader then ends.
+        let to_reader = to_reader;
+        let mut k = 0;
+        while k < steps {
+            let n_steps = chunk.min(steps - k);
+            let mut sent = spare
+                .try_recv()
+                .unwrap_or_else(|_| vec![Sent::default(); plan.actors.len()]);
+            let at = upload(k * env.step_ms, n_steps);
+            for ((a, w), keep) in plan.actors.iter().zip(env.warps).zip(&mut sent) {
+                let t = plan_trajectory(a, w, &at, keep);
+                ssp.set_xy_trajectory(&a.id, t).map_err(ssp_err)?;
+            }
+            let results = ssp.step_many(n_steps as u32, filter).map_err(ssp_err)?;
+            k += n_steps;
+            if to_reader.send((results, sent)).is_err() {
+                // The reader is gone (it panicked): the scope re-raises that.
+                break;
+            }
+        }
+        Ok(k)
+    });
+    read?;
+    stepped
+}
+
+/// When and how far ahead a plan goes out as an xy trajectory.
+struct Upload {
+    now_ms: u64,
+    ahead_ms: u64,
+    step_ms: u64,
+    plan_dt: f64,
+    mirror: bool,
+}
+
+/// Actor `a`'s plan (on its clock `w`) from `at.now_ms` for `at.ahead_ms`
+/// as an xy trajectory; the points on the plain plan clock are kept in
+/// `keep` (the path error reads them back).
+fn plan_trajectory(
+    a: &crate::plan::ActorPlan,
+    w: &Warp,
+    at: &Upload,
+    keep: &mut Sent,
+) -> XyTrajectory {
+    let (now_ms, step_ms) = (at.now_ms, at.step_ms);
+    let n = at.ahead_ms / step_ms + 1;
+    let mut points = Vec::with_capacity(n as usize + 1);
+    let mut times = Vec::with_capacity(n as usize + 1);
+    let mut sp = Vec::with_capacity(n as usize + 1);
+    let plain = w.lag == 0.0 && w.rate == 1.0;
+    keep.points.clear();
+    keep.from_ms = now_ms;
+    keep.offset = w.offset;
+    keep.plain = plain;
+    for j in 0..=n {
+        let tm = now_ms + j * step_ms;
+        let tau = if plain {
+            tm as f64 / 1000.0
+        } else {
+            w.tau(now_ms as f64 / 1000.0) + w.rate * (j * step_ms) as f64 / 1000.0
+        };
+        let p = shifted(a.at(tau, at.plan_dt), w.offset);
+        if plain {
+            keep.points.push((p.x, p.y, p.v));
+        }
+        points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), at.mirror));
+        times.push(tm);
+        sp.push(p.v);
+    }
+    XyTrajectory {
+        start_time_ms: now_ms,
+        end_time_ms: now_ms + n * step_ms,
+        points,
+        point_times_ms: times,
+        speeds: sp,
+    }
+}
+
 /// `x` rounded to a multiple of `res` (commands travel at the resolution
 /// the profile declares).
 fn quantise(x: f64, res: f64) -> f64 {
@@ -517,25 +641,25 @@ pub fn execute(
         }));
     }
     let ids: Vec<String> = plan.actors.iter().map(|a| a.id.clone()).collect();
-    let mut kpis = Kpis::new(&ids);
+    let kpis = Kpis::new(&ids);
     let mut steps = litesim_core::steps_for_horizon(plan.duration, dt);
     let send_every = (200 / step_ms).max(1);
     let horizon_ms = 400;
     let filter = ActorFilter::default();
-    let mut boxes = Vec::with_capacity(ids.len());
-    let mut speeds = Vec::with_capacity(ids.len());
-    let mut planned = Vec::with_capacity(ids.len());
-    let mut off = Vec::with_capacity(ids.len());
+    let boxes = Vec::with_capacity(ids.len());
+    let speeds = Vec::with_capacity(ids.len());
+    let planned = Vec::with_capacity(ids.len());
+    let off = Vec::with_capacity(ids.len());
     let mut controls = vec![ControlSample::default(); ids.len()];
     // Coverage: each item's sample time (phase ends from the plan; the
     // run's end is taken after the loop), the live state it reads.
     let sampling = !cfg.covers.is_empty();
-    let mut live: Vec<crate::coverage::LiveActor> = Vec::new();
-    let mut samples: Vec<Option<crate::coverage::Sample>> = vec![None; cfg.covers.len()];
-    let mut last_t = 0.0;
-    let mut accels: Vec<f64> = Vec::new();
-    let mut next_due = due_time(cfg, &plan, &samples);
-    let mut states: Vec<Option<ReportedState>> = vec![None; ids.len()];
+    let live: Vec<crate::coverage::LiveActor> = Vec::new();
+    let samples: Vec<Option<crate::coverage::Sample>> = vec![None; cfg.covers.len()];
+    let last_t = 0.0;
+    let accels: Vec<f64> = Vec::new();
+    let next_due = due_time(cfg, &plan, &samples);
+    let states: Vec<Option<ReportedState>> = vec![None; ids.len()];
     // Without closed-loop drivers nothing needs the states before the next
     // command: the plan is known, so trajectories go out a chunk (up to
     // 60 s) ahead and the chunk's steps run in one `step_many` call — a
@@ -574,13 +698,13 @@ pub fn execute(
         .as_ref()
         .map(|l| l.boxes.iter().map(shows_red).collect())
         .unwrap_or_default();
-    let mut last_pos: Vec<Option<litesim_map::Located>> = vec![None; ids.len()];
+    let last_pos: Vec<Option<litesim_map::Located>> = vec![None; ids.len()];
     // Where each vehicle was last located and how far it may move from
     // there and surely still be on a road (`on_road_radius`): the off-road
     // check locates it again only beyond that. Not for the SUT's car (it
     // sees its road position each step) nor with traffic lights (red-light
     // crossings need every step's s).
-    let mut on_road_until: Vec<Option<litesim_map::SurelyOnRoad>> = vec![None; ids.len()];
+    let on_road_until: Vec<Option<litesim_map::SurelyOnRoad>> = vec![None; ids.len()];
     // Each light box's road as an index into the map's roads (compared per
     // vehicle and step; a box on a road the map lacks never matches).
     let box_roads: Vec<Option<usize>> = match (lights.as_ref(), net) {
@@ -611,14 +735,14 @@ pub fn execute(
         .iter()
         .map(|c| (c.key.clone(), c.at))
         .collect();
-    let mut next_goal = 0;
-    let mut next_lane_goal = 0;
-    let mut lane_results: Vec<LaneResult> = Vec::new();
+    let next_goal = 0;
+    let next_lane_goal = 0;
+    let lane_results: Vec<LaneResult> = Vec::new();
     // The SUT's view of the lights is rebuilt only after a switch.
     let mut lights_seen = false;
-    let mut goal_results = Vec::new();
+    let goal_results = Vec::new();
     let mut sut_error: Option<String> = None;
-    let mut ego_kpi = ego_index.map(|e| EgoKpi::new(&plan.actors[e].id, dt));
+    let ego_kpi = ego_index.map(|e| EgoKpi::new(&plan.actors[e].id, dt));
     // The object list as the SUT sees it, kept between steps (ids once).
     let mut obs = Observation::default();
     let mut route = Route::default();
@@ -670,10 +794,65 @@ pub fn execute(
             sut_error = Some(format!("sut error at t=0.00 s (reset): {err}"));
         }
     }
-    let mut tracking = Tracking::default();
+    let dynamic: Vec<bool> = drivers.iter().map(Option::is_some).collect();
+    let mut rb = Readback {
+        boxes,
+        speeds,
+        accels,
+        planned,
+        off,
+        kpis,
+        last_pos,
+        on_road_until,
+        rec,
+        tracking: Tracking::default(),
+        states,
+        obs,
+        ego_kpi,
+        last_t,
+        live,
+        samples,
+        next_due,
+        next_goal,
+        next_lane_goal,
+        goal_results,
+        lane_results,
+    };
     let switch_tick = |t: f64| (t * 1000.0 / step_ms as f64).round() as u64;
     let mut next_switch = 0;
     let mut k = 0;
+    // An open-loop run of several chunks reads each chunk back on a second
+    // core while the next one is sent and stepped (see `readback`).
+    let pipelined = open_loop && pacer.is_none() && plan.lights.is_empty() && steps > chunk;
+    if pipelined {
+        let env = ReadEnv {
+            plan: &plan,
+            net,
+            cfg,
+            lights: lights.as_ref(),
+            red: &red,
+            box_roads: &box_roads,
+            dims: &dims,
+            dynamic: &dynamic,
+            controls: &controls,
+            ego_i,
+            ego_index,
+            sampling,
+            mirror,
+            step_ms,
+            goal_actors: &goal_actors,
+            warps: &warps,
+            sent: &[],
+        };
+        let upload = |now_ms: u64, n_steps: u64| Upload {
+            now_ms,
+            ahead_ms: n_steps * step_ms + 200,
+            step_ms,
+            plan_dt: plan.dt,
+            mirror,
+        };
+        k = pipeline(ssp, &mut rb, &env, upload, steps, chunk, &filter)?;
+    }
     while k < steps && sut_error.is_none() {
         if let (Some(_), Some(replan)) = (ego_i, replan)
             && !plan.conditions.is_empty()
@@ -681,7 +860,7 @@ pub fn execute(
             let t = (k * step_ms) as f64 / 1000.0;
             let changed = live_conditions(
                 &plan,
-                &obs,
+                &rb.obs,
                 t,
                 &mut fixed,
                 &mut settled,
@@ -697,18 +876,18 @@ pub fn execute(
                     ));
                 }
                 plan = Cow::Owned(new);
-                next_due = due_time(cfg, &plan, &samples);
+                rb.next_due = due_time(cfg, &plan, &rb.samples);
                 steps = litesim_core::steps_for_horizon(plan.duration, dt);
                 goal_actors = goal_indices(&plan);
                 // Goals ended and switches due by now belong to the past.
-                next_goal = plan.goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
-                next_lane_goal = plan.lane_goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
+                rb.next_goal = plan.goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
+                rb.next_lane_goal = plan.lane_goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
                 next_switch = plan
                     .lights
                     .iter()
                     .filter(|sw| switch_tick(sw.t) < k)
                     .count();
-                tracking.cum.clear();
+                rb.tracking.cum.clear();
                 // Trajectories sent from the old plan go out again.
                 for w in &mut warps {
                     w.sent_lag = f64::NAN;
@@ -760,7 +939,12 @@ pub fn execute(
                         }
                     };
                     let planned = crate::reactive::gap(g, &pb(i), &pb(r));
-                    (g, body(&obs.objects[i]), body(&obs.objects[r]), planned)
+                    (
+                        g,
+                        body(&rb.obs.objects[i]),
+                        body(&rb.obs.objects[r]),
+                        planned,
+                    )
                 });
                 warps[i].advance(
                     a,
@@ -771,10 +955,10 @@ pub fn execute(
                 );
             }
             let s = sut.as_deref_mut().expect("closed loop has a SUT");
-            obs.tick = k;
-            obs.time = t;
-            obs.ego = obs.objects[e].clone();
-            let rp = route.project(obs.ego.x, obs.ego.y, route_hint);
+            rb.obs.tick = k;
+            rb.obs.time = t;
+            rb.obs.ego = rb.obs.objects[e].clone();
+            let rp = route.project(rb.obs.ego.x, rb.obs.ego.y, route_hint);
             if let Some(p) = rp {
                 route_hint = p.segment;
             }
@@ -810,25 +994,25 @@ pub fn execute(
                     warps[m].shift_towards(target, dt);
                 }
             }
-            obs.distance_to_goal = rp.map_or(0.0, |p| route.length() - p.s);
-            obs.requested_speed = plan.actors[e].at(t, plan.dt).v;
-            obs.road = last_pos[e].as_ref().zip(net).map(|(p, n)| RoadPos {
+            rb.obs.distance_to_goal = rp.map_or(0.0, |p| route.length() - p.s);
+            rb.obs.requested_speed = plan.actors[e].at(t, plan.dt).v;
+            rb.obs.road = rb.last_pos[e].as_ref().zip(net).map(|(p, n)| RoadPos {
                 road: n.od.roads[p.road].id.clone(),
                 lane: p.lane,
                 s: p.s,
                 offset: p.offset,
             });
             if !lights_seen {
-                obs.lights = lights
+                rb.obs.lights = lights
                     .as_ref()
                     .map(|l| l.boxes.iter().map(light_state).collect())
                     .unwrap_or_default();
                 lights_seen = true;
             }
             // The SUT sees every actor but itself.
-            let ego_obj = obs.objects.remove(e);
-            let answer = s.step(&obs);
-            obs.objects.insert(e, ego_obj);
+            let ego_obj = rb.obs.objects.remove(e);
+            let answer = s.step(&rb.obs);
+            rb.obs.objects.insert(e, ego_obj);
             let cmd = answer.map_err(|err| err.0).and_then(|c| {
                 c.validate()
                     .map(|()| c)
@@ -872,45 +1056,18 @@ pub fn execute(
                     } else {
                         horizon_ms
                     };
-                    let n = ahead / step_ms + 1;
-                    let mut points = Vec::with_capacity(n as usize + 1);
-                    let mut times = Vec::with_capacity(n as usize + 1);
-                    let mut sp = Vec::with_capacity(n as usize + 1);
-                    let plain = w.lag == 0.0 && w.rate == 1.0;
-                    let keep = &mut sent[i];
-                    keep.points.clear();
-                    keep.from_ms = now_ms;
-                    keep.offset = w.offset;
-                    keep.plain = plain;
-                    for j in 0..=n {
-                        let tm = now_ms + j * step_ms;
-                        let tau = if w.lag == 0.0 && w.rate == 1.0 {
-                            tm as f64 / 1000.0
-                        } else {
-                            w.tau(now_ms as f64 / 1000.0) + w.rate * (j * step_ms) as f64 / 1000.0
-                        };
-                        let p = shifted(a.at(tau, plan.dt), w.offset);
-                        if plain {
-                            keep.points.push((p.x, p.y, p.v));
-                        }
-                        points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), mirror));
-                        times.push(tm);
-                        sp.push(p.v);
-                    }
-                    ssp.set_xy_trajectory(
-                        &a.id,
-                        XyTrajectory {
-                            start_time_ms: now_ms,
-                            end_time_ms: now_ms + n * step_ms,
-                            points,
-                            point_times_ms: times,
-                            speeds: sp,
-                        },
-                    )
-                    .map_err(ssp_err)?;
+                    let at = Upload {
+                        now_ms,
+                        ahead_ms: ahead,
+                        step_ms,
+                        plan_dt: plan.dt,
+                        mirror,
+                    };
+                    let t = plan_trajectory(a, &w, &at, &mut sent[i]);
+                    ssp.set_xy_trajectory(&a.id, t).map_err(ssp_err)?;
                 }
                 Some(d) => {
-                    let Some(st) = &states[i] else {
+                    let Some(st) = &rb.states[i] else {
                         // First step: the actor starts at the plan's speed; hold it.
                         let p = a.at(warps[i].tau(t_next), plan.dt);
                         let u = d.pedals(d.feed_forward(p.a), p.a, p.v);
@@ -979,206 +1136,42 @@ pub fn execute(
             ssp.step_many(n_steps as u32, &filter).map_err(ssp_err)?
         };
         k += n_steps;
-        for (info, mut got) in results {
-            if mirror {
-                got.iter_mut().for_each(ReportedState::mirror_y);
-            }
-            let t = info.sim_time_ms as f64 / 1000.0;
-            boxes.clear();
-            speeds.clear();
-            accels.clear();
-            planned.clear();
-            off.clear();
-            for (i, a) in plan.actors.iter().enumerate() {
-                // States usually come back in creation order: look there first
-                // (a search per actor would make a step quadratic in actors).
-                let st = match got.get(i) {
-                    Some(st) if *st.actor_id == *a.id => st,
-                    _ => got.iter().find(|s| *s.actor_id == *a.id).ok_or_else(|| {
-                        ScenarioError::Simulator(format!("the simulator lost actor '{}'", a.id))
-                    })?,
-                };
-                let w = &warps[i];
-                let p = match sent[i].planned(info.sim_time_ms, step_ms, w) {
-                    Some(p) => p,
-                    None => {
-                        let p = shifted(a.at(w.tau(t), plan.dt), w.offset);
-                        (p.x, p.y, p.v)
-                    }
-                };
-                boxes.push(BoxState {
-                    x: st.pose.position.x,
-                    y: st.pose.position.y,
-                    yaw: st.pose.yaw,
-                    length: dims[i].0,
-                    width: dims[i].1,
-                    vx: st.velocity.x,
-                    vy: st.velocity.y,
-                });
-                speeds.push(st.speed);
-                if sampling {
-                    let (sy, cy) = math::sin_cos(st.pose.yaw);
-                    accels.push(st.acceleration.x * cy + st.acceleration.y * sy);
-                }
-                planned.push(p);
-                let vehicle = a.kind == crate::elab::ActorKind::Vehicle;
-                let here = st.pose.position.xy();
-                let surely_on = on_road_until[i].is_some_and(|z| z.contains(here));
-                if surely_on {
-                    off.push(false);
-                } else {
-                    let pos = if vehicle {
-                        net.and_then(|n| n.locate_near(here, last_pos[i]))
-                    } else {
-                        None
-                    };
-                    off.push(vehicle && net.is_some() && pos.is_none());
-                    // Red light: the car's s passes a red box's s on a lane it controls.
-                    if let (Some(info), Some(p), Some(q)) = (lights.as_ref(), &pos, &last_pos[i]) {
-                        for ((b, is_red), road) in info.boxes.iter().zip(&red).zip(&box_roads) {
-                            let lane_ok =
-                                b.valid_lanes.is_empty() || b.valid_lanes.contains(&p.lane);
-                            let crossed = *road == Some(p.road)
-                                && *road == Some(q.road)
-                                && ((q.s < b.s && p.s >= b.s) || (q.s > b.s && p.s <= b.s));
-                            if *is_red && lane_ok && crossed {
-                                kpis.red_light(i, &b.id, t);
-                            }
-                        }
-                    }
-                    on_road_until[i] = match (net, &pos) {
-                        (Some(n), Some(p)) if lights.is_none() && Some(i) != ego_i => {
-                            Some(n.surely_on_road(here, p))
-                        }
-                        _ => None,
-                    };
-                    last_pos[i] = pos;
-                }
-                if let Some(r) = rec.as_mut() {
-                    if i == 0 {
-                        // The ticks so far are complete: the observer may
-                        // take them before the next one starts.
-                        if let Some(o) = &cfg.observer
-                            && !r.log().tick.is_empty()
-                        {
-                            (o.0.lock().unwrap_or_else(|e| e.into_inner()))(r.log());
-                        }
-                        r.begin(info.step_index, t);
-                    }
-                    let mut s = ActorSample::from_kinematics(
-                        st.pose,
-                        st.velocity,
-                        st.acceleration,
-                        st.yaw_rate,
-                        st.speed,
-                        dims[i].2,
-                    );
-                    s.control = controls[i];
-                    let mode = if drivers[i].is_some() || Some(i) == ego_i {
-                        "dynamic"
-                    } else {
-                        "trajectory"
-                    };
-                    r.sample(&a.id, mode, &s);
-                    if a.ego {
-                        tracking.push(info.step_index, t, st, a, &plan);
-                    }
-                }
-                if drivers[i].is_some() {
-                    states[i] = Some(st.clone());
-                }
-                if ego_i.is_some() {
-                    let o = &mut obs.objects[i];
-                    let (sy, cy) = math::sin_cos(st.pose.yaw);
-                    o.x = st.pose.position.x;
-                    o.y = st.pose.position.y;
-                    o.yaw = st.pose.yaw;
-                    o.speed = st.speed;
-                    o.vx = st.velocity.x;
-                    o.vy = st.velocity.y;
-                    o.acceleration = st.acceleration.x * cy + st.acceleration.y * sy;
-                }
-                if Some(i) == ego_index
-                    && let Some(ek) = ego_kpi.as_mut()
-                {
-                    ek.step(t, st.speed, st.pose.position.x, st.pose.position.y);
-                }
-            }
-            kpis.step(t, &boxes, &speeds, &planned, &off);
-            last_t = t;
-            if sampling && t >= next_due - 1e-9 {
-                live_state(&boxes, &speeds, &accels, &mut live);
-                sample_items(cfg, &plan, net, &live, t, false, &mut samples);
-                next_due = due_time(cfg, &plan, &samples);
-            }
-            // Gap goals whose phase ends now: judged on the simulated state.
-            while next_lane_goal < plan.lane_goals.len()
-                && t >= plan.lane_goals[next_lane_goal].t1 - 1e-9
-            {
-                let g = &plan.lane_goals[next_lane_goal];
-                next_lane_goal += 1;
-                let idx = |id: &str| plan.actors.iter().position(|a| a.id == id);
-                let (Some(m), Some(r), Some(net)) = (idx(&g.actor), idx(&g.reference), net) else {
-                    continue;
-                };
-                let on = |j: usize| net.to_road(litesim_core::Vec2::new(boxes[j].x, boxes[j].y));
-                let got = on(m).map(|p| p.lane);
-                let wanted = on(r).and_then(|p| {
-                    let road = net.roads().iter().position(|x| x.id == p.road)?;
-                    let here = litesim_map::LanePos {
-                        road,
-                        lane: p.lane,
-                        s: p.s,
-                    };
-                    match g.relation {
-                        LaneRelation::SameAs => Some(p.lane),
-                        r => net.lane_beside(here, r.offset()),
-                    }
-                });
-                lane_results.push(LaneResult {
-                    actor: g.actor.clone(),
-                    reference: g.reference.clone(),
-                    relation: g.relation,
-                    wanted,
-                    got,
-                    t,
-                    met: wanted.is_some() && wanted == got,
-                    strict: g.strict,
-                    at: g.at.clone(),
-                });
-            }
-            while next_goal < plan.goals.len() && t >= plan.goals[next_goal].t1 - 1e-9 {
-                let g = &plan.goals[next_goal];
-                let ix = goal_actors[next_goal];
-                next_goal += 1;
-                if let Some((m, r)) = ix {
-                    let bx = |j: usize| Body {
-                        x: boxes[j].x,
-                        y: boxes[j].y,
-                        yaw: boxes[j].yaw,
-                        speed: speeds[j],
-                        length: boxes[j].length,
-                    };
-                    let got = crate::reactive::gap(g, &bx(m), &bx(r));
-                    goal_results.push(GoalResult {
-                        actor: g.actor.clone(),
-                        reference: g.reference.clone(),
-                        relation: if g.sign > 0.0 {
-                            Order::AheadOf
-                        } else {
-                            Order::Behind
-                        },
-                        wanted: g.distance,
-                        got,
-                        t,
-                        met: (got - g.distance).abs() <= crate::reactive::GAP_TOLERANCE,
-                        strict: g.strict,
-                        at: g.at.clone(),
-                    });
-                }
-            }
-        }
+        let env = ReadEnv {
+            plan: &plan,
+            net,
+            cfg,
+            lights: lights.as_ref(),
+            red: &red,
+            box_roads: &box_roads,
+            dims: &dims,
+            dynamic: &dynamic,
+            controls: &controls,
+            ego_i,
+            ego_index,
+            sampling,
+            mirror,
+            step_ms,
+            goal_actors: &goal_actors,
+            warps: &warps,
+            sent: &sent,
+        };
+        rb.chunk(&env, results)?;
     }
+    let Readback {
+        boxes,
+        speeds,
+        accels,
+        mut kpis,
+        rec,
+        tracking,
+        mut ego_kpi,
+        last_t,
+        mut live,
+        mut samples,
+        goal_results,
+        lane_results,
+        ..
+    } = rb;
     ssp.end_simulation(if sut_error.is_some() {
         "system under test failed"
     } else {
