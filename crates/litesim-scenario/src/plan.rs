@@ -1132,11 +1132,14 @@ fn plan_once(
     // others' futures first (position at: end reads the other's plan).
     let plan_dt = step_s * (0.1 / step_s).round().max(1.0);
     let n = (duration / plan_dt).ceil() as usize + 1;
-    let mut order = order;
-    order.sort_by_key(|i| {
+    // An actor's motion reads other actors' plans only for `position(…,
+    // at: end)`: the actors without it (sorted first) are independent of
+    // one another and move on all cores, their outputs gathered in order;
+    // the others follow one by one. The same results either way.
+    let ties = |i: usize| {
         rleaves
             .iter()
-            .filter(|l| l.actor == plans[*i].id)
+            .filter(|l| l.actor == plans[i].id)
             .flat_map(|l| l.mods.iter())
             .any(|m| {
                 matches!(
@@ -1148,8 +1151,16 @@ fn plan_once(
                     }
                 )
             })
-    });
-    for i in order {
+    };
+    let mut order = order;
+    order.sort_by_key(|&i| ties(i));
+    let free = order.iter().take_while(|&&i| !ties(i)).count();
+    let motion = |i: usize, plans: &[ActorPlan]| -> Result<Moved, ScenarioError> {
+        let mut violations = Vec::new();
+        let mut notes = Vec::new();
+        let mut goals = Vec::new();
+        let mut lane_goals = Vec::new();
+        let mut side_follows = Vec::new();
         let id = plans[i].id.clone();
         let mut mo = placed[&id].clone();
         let my: Vec<&RLeaf> = rleaves.iter().filter(|l| l.actor == id).collect();
@@ -1438,7 +1449,38 @@ fn plan_once(
                 v
             ));
         }
-        plans[i].samples = samples;
+        Ok(Moved {
+            samples,
+            violations,
+            notes,
+            goals,
+            lane_goals,
+            side_follows,
+        })
+    };
+    let mut gather = |i: usize, plans: &mut [ActorPlan], m: Moved| {
+        plans[i].samples = m.samples;
+        violations.extend(m.violations);
+        notes.extend(m.notes);
+        goals.extend(m.goals);
+        lane_goals.extend(m.lane_goals);
+        side_follows.extend(m.side_follows);
+    };
+    let moved: Vec<Result<Moved, ScenarioError>> = if free >= PARALLEL_MOTION {
+        use rayon::prelude::*;
+        order[..free]
+            .par_iter()
+            .map(|&i| motion(i, &plans))
+            .collect()
+    } else {
+        order[..free].iter().map(|&i| motion(i, &plans)).collect()
+    };
+    for (&i, m) in order[..free].iter().zip(moved) {
+        gather(i, &mut plans, m?);
+    }
+    for &i in &order[free..] {
+        let m = motion(i, &plans)?;
+        gather(i, &mut plans, m);
     }
     let mut phases: Vec<Phase> = rleaves
         .iter()
@@ -1478,6 +1520,20 @@ fn plan_once(
         },
         conds,
     ))
+}
+
+/// Actors whose motions are planned on all cores once at least this many
+/// are independent (below it, spreading them costs more than it saves).
+const PARALLEL_MOTION: usize = 16;
+
+/// One actor's planned motion and what planning it found.
+struct Moved {
+    samples: Vec<PlanSample>,
+    violations: Vec<String>,
+    notes: Vec<String>,
+    goals: Vec<GapGoal>,
+    lane_goals: Vec<LaneGoal>,
+    side_follows: Vec<SideFollow>,
 }
 
 fn plans_index(plans: &[ActorPlan]) -> BTreeMap<String, usize> {
