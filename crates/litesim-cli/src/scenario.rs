@@ -224,7 +224,8 @@ pub fn run(
     let sut = common.sut()?;
     let sut_timeout = common.sut_timeout()?;
     // The MCAP writer starts first, on the other core: header, schemas and
-    // the map's content as soon as the test has loaded, then the ticks in
+    // the map's content as soon as the test has loaded and the run's folder
+    // is ready, then the ticks in
     // pieces as the run records them. A run that fails before
     // it has a log leaves no file (the streamer's drop waits for that).
     let streamer = match mcap {
@@ -232,9 +233,6 @@ pub fn run(
         _ => None,
     };
     let prep = litesim_scenario::prepare(test, &common.load())?;
-    if let Some(st) = &streamer {
-        st.map(prep.net.clone());
-    }
     let calibration = match calibration {
         Some(p) => Some(
             calibrate::from_toml(
@@ -276,6 +274,12 @@ pub fn run(
     let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{stem}-seed{run_seed}")));
     std::fs::create_dir_all(&out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
     batch::clean_temporaries(&out);
+    // Only now may the writer make its temporary file: cleaning the folder
+    // above removes what a killed run left, and would take a temporary
+    // file the writer had already made in it (`--mcap OUT/run.mcap`).
+    if let Some(st) = &streamer {
+        st.map(prep.net.clone());
+    }
     let stamp = serde_json::json!({
         "litesim": env!("CARGO_PKG_VERSION"),
         "test": test.display().to_string(),

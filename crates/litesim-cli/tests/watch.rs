@@ -161,6 +161,32 @@ fn an_mcap_path_that_cannot_be_written_is_a_clear_error() {
     assert!(text(&o).contains("/proc/litesim"), "{}", text(&o));
 }
 
+/// A bug that was fixed: with `--mcap OUT/run.mcap` the run cleaned its
+/// new folder of stale temporary files while the MCAP writer had already
+/// made its own there, and the file could not be renamed into place
+/// ("No such file or directory", exit 1) — one run in a few. The writer
+/// now starts its file once the folder is ready.
+#[test]
+fn an_mcap_file_in_the_run_folder_is_always_written() {
+    let dir = tempfile::tempdir().unwrap();
+    for k in 0..8 {
+        let out = dir.path().join(format!("run{k}"));
+        let mcap = out.join("run.mcap");
+        let o = run(
+            &[
+                "examples/scenarios/cut_in.osc",
+                "--no-pictures",
+                "--mcap",
+                mcap.to_str().unwrap(),
+            ],
+            &out,
+        );
+        assert_eq!(o.status.code(), Some(0), "run {k}: {}", text(&o));
+        assert!(std::fs::metadata(&mcap).unwrap().len() > 1000, "run {k}");
+        assert!(out.join("summary.json").is_file(), "run {k}");
+    }
+}
+
 #[test]
 fn a_test_that_does_not_load_leaves_no_mcap_file_or_folder() {
     // The writer starts before the test is parsed; an error must still
