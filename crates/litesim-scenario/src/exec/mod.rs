@@ -8,9 +8,7 @@
 //! throttle and brake, and a curvature feed-forward plus PD on lateral and
 //! heading error for steering; the gains are the profile's calibration.
 //! People and objects stay kinematic. After each step the states are read
-//! back, checked ([`crate::kpi`]) and, when asked, logged (`readback`);
-//! an open-loop run of several chunks reads one chunk back on a second
-//! core while the next is stepped (`pipeline`).
+//! back (`readback`): checked ([`crate::kpi`]) and, when asked, logged.
 
 mod readback;
 
@@ -334,74 +332,6 @@ impl Sent {
         }
         self.points.get((d / step_ms) as usize).copied()
     }
-}
-
-/// Runs an open-loop plan's `steps` in chunks of `chunk` steps on two
-/// cores: this thread makes and sends each chunk's trajectories and steps
-/// it, while a rayon task reads the chunks before it back, in order.
-/// Returns the steps run.
-///
-/// The read-back is the same pure function of each chunk's states
-/// whichever thread runs it, so the bits are the same; its error wins over
-/// a later one of the simulator, as it would one chunk at a time. In a
-/// busy pool (a batch) the task runs when this thread waits at the scope's
-/// end: the same work in the same order on one core, nothing waits for a
-/// task that cannot start.
-fn pipeline(
-    ssp: &mut dyn Ssp,
-    rb: &mut Readback,
-    env: &ReadEnv<'_, '_>,
-    upload: impl Fn(u64, u64) -> Upload,
-    steps: u64,
-    chunk: u64,
-    filter: &ActorFilter,
-) -> Result<u64, ScenarioError> {
-    type Chunk = (Vec<(StepInfo, Vec<ReportedState>)>, Vec<Sent>);
-    let (to_reader, chunks) = std::sync::mpsc::channel::<Chunk>();
-    let (give_back, spare) = std::sync::mpsc::channel::<Vec<Sent>>();
-    let mut read: Result<(), ScenarioError> = Ok(());
-    let plan = env.plan;
-    let stepped = rayon::in_place_scope(|s| {
-        let read = &mut read;
-        s.spawn(move |_| {
-            for (results, sent) in chunks {
-                if read.is_ok() {
-                    *read = rb.chunk(
-                        &ReadEnv {
-                            sent: &sent,
-                            ..*env
-                        },
-                        results,
-                    );
-                }
-                // This thread may be done already: the buffer is dropped.
-                let _ = give_back.send(sent);
-            }
-        });
-        // Dropped on every way out of this closure: the reader then ends.
-        let to_reader = to_reader;
-        let mut k = 0;
-        while k < steps {
-            let n_steps = chunk.min(steps - k);
-            let mut sent = spare
-                .try_recv()
-                .unwrap_or_else(|_| vec![Sent::default(); plan.actors.len()]);
-            let at = upload(k * env.step_ms, n_steps);
-            for ((a, w), keep) in plan.actors.iter().zip(env.warps).zip(&mut sent) {
-                let t = plan_trajectory(a, w, &at, keep);
-                ssp.set_xy_trajectory(&a.id, t).map_err(ssp_err)?;
-            }
-            let results = ssp.step_many(n_steps as u32, filter).map_err(ssp_err)?;
-            k += n_steps;
-            if to_reader.send((results, sent)).is_err() {
-                // The reader is gone (it panicked): the scope re-raises that.
-                break;
-            }
-        }
-        Ok(k)
-    });
-    read?;
-    stepped
 }
 
 /// When and how far ahead a plan goes out as an xy trajectory.
@@ -821,38 +751,6 @@ pub fn execute(
     let switch_tick = |t: f64| (t * 1000.0 / step_ms as f64).round() as u64;
     let mut next_switch = 0;
     let mut k = 0;
-    // An open-loop run of several chunks reads each chunk back on a second
-    // core while the next one is sent and stepped (see `readback`).
-    let pipelined = open_loop && pacer.is_none() && plan.lights.is_empty() && steps > chunk;
-    if pipelined {
-        let env = ReadEnv {
-            plan: &plan,
-            net,
-            cfg,
-            lights: lights.as_ref(),
-            red: &red,
-            box_roads: &box_roads,
-            dims: &dims,
-            dynamic: &dynamic,
-            controls: &controls,
-            ego_i,
-            ego_index,
-            sampling,
-            mirror,
-            step_ms,
-            goal_actors: &goal_actors,
-            warps: &warps,
-            sent: &[],
-        };
-        let upload = |now_ms: u64, n_steps: u64| Upload {
-            now_ms,
-            ahead_ms: n_steps * step_ms + 200,
-            step_ms,
-            plan_dt: plan.dt,
-            mirror,
-        };
-        k = pipeline(ssp, &mut rb, &env, upload, steps, chunk, &filter)?;
-    }
     while k < steps && sut_error.is_none() {
         if let (Some(_), Some(replan)) = (ego_i, replan)
             && !plan.conditions.is_empty()

@@ -4,11 +4,12 @@
 //! at their phase ends.
 //!
 //! Everything the read-back changes lives in [`Readback`]; everything it
-//! only reads comes in a [`ReadEnv`]. The split lets an open-loop run read
-//! one chunk of steps back on a second core while the next chunk is sent and
-//! stepped: the read-back of a chunk depends only on its own states and on
-//! the read-backs before it, never on the simulator, so the result is the
-//! same bits whichever thread does it.
+//! only reads comes in a [`ReadEnv`], rebuilt for each chunk (in closed
+//! loop the plan, the lights and the actors' clocks change between chunks).
+//! A chunk's read-back depends only on its own states and on the read-backs
+//! before it, never on the simulator. (Reading one chunk back on a second
+//! core while the next was stepped was tried on this split and dropped:
+//! BENCHMARKS.md, twelfth session.)
 
 use super::{ExecConfig, Sent, Tracking, due_time, live_state, sample_items};
 use crate::error::ScenarioError;

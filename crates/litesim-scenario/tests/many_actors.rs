@@ -1,8 +1,8 @@
-//! An open-loop run of many actors is stepped in chunks, and each chunk's
-//! states are read back (checks, log) on a second core while the next
-//! chunk is sent and stepped. These tests hold it to the same bytes as the
-//! one-chunk-at-a-time executor it replaced (a golden digest blessed with
-//! that executor), at every thread count and over gRPC.
+//! A test of many actors: its run is stepped in several chunks and the
+//! motions of its independent actors are planned on all cores. These tests
+//! hold it to the same bytes as the one-thread planner before that change
+//! (a golden digest blessed with it), at every thread count, inside a busy
+//! pool and over gRPC.
 
 use litesim_scenario::{Prepared, RunOptions, RunResult, prepare, run};
 
@@ -67,15 +67,16 @@ fn in_pool(threads: usize, prep: &Prepared) -> (String, usize, u64) {
     pool.install(|| digest(&run(prep, &mut litesim_scenario::in_process(), &opts()).unwrap()))
 }
 
-/// Log size and digest of the 40-vehicle run, from the executor that read
-/// each chunk back before stepping the next.
+/// Log size and digest of the 40-vehicle run, from the planner that
+/// planned one actor's motion after the other.
 const GOLDEN: (usize, u64) = (3_054_868, 0x2f58_7569_96ad_2592);
 
 #[test]
-fn chunks_read_back_beside_the_stepping_give_the_same_bytes() {
+fn many_actors_give_the_same_bytes_at_every_thread_count() {
     let (_f, prep) = prepared();
     let here = digest(&run(&prep, &mut litesim_scenario::in_process(), &opts()).unwrap());
-    // 40 actors × 500 steps: several chunks, so the pipeline runs.
+    // 40 actors × 500 steps: four chunks of 125 steps; 39 independent
+    // motions, planned in parallel (from 16 on).
     assert!(here.0.contains("\"steps\":500"), "{}", here.0);
     assert!(
         !here.0.contains("\"pass\":true"),
@@ -88,7 +89,7 @@ fn chunks_read_back_beside_the_stepping_give_the_same_bytes() {
         here.1,
         here.2
     );
-    // One thread (the reader runs after the stepping), two, four.
+    // One thread, two, four.
     for threads in [1, 2, 4] {
         assert_eq!(in_pool(threads, &prep), here, "{threads} threads");
     }
@@ -108,7 +109,7 @@ fn chunks_read_back_beside_the_stepping_give_the_same_bytes() {
 }
 
 #[test]
-fn over_grpc_the_pipelined_run_is_the_same() {
+fn over_grpc_the_run_of_many_actors_is_the_same() {
     let (_f, prep) = prepared();
     let here = digest(&run(&prep, &mut litesim_scenario::in_process(), &opts()).unwrap());
     let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();
