@@ -219,7 +219,10 @@ pub fn run(
     trace_rpc: Option<&Path>,
     pacing: Pacing,
 ) -> Result<Outcome> {
-    // A bad stylesheet or SUT name fails before anything runs.
+    // A bad stylesheet, SUT name or output file fails before anything runs.
+    if let Some(m) = mcap {
+        mcap_file_to_write(m)?;
+    }
     let style = crate::viz::load_style(style)?;
     let sut = common.sut()?;
     let sut_timeout = common.sut_timeout()?;
@@ -428,8 +431,11 @@ pub fn run(
         if let Err(e) = job.join() {
             // Streaming refused the run (an actor that joined late): the
             // file is written from the whole log instead.
-            if !matches!(e, litesim_mcap::McapError::Log(_)) {
-                bail!("{}: {e}", m.display());
+            match e {
+                // The error names the file already.
+                litesim_mcap::McapError::Write(_) => bail!("{e}"),
+                litesim_mcap::McapError::Log(_) => {}
+                _ => bail!("{}: {e}", m.display()),
             }
             litesim_mcap::write(log, prep.net.as_deref(), m)
                 .map_err(|e| anyhow!("{}: {e}", m.display()))?;
@@ -511,6 +517,31 @@ pub enum Outcome {
 }
 
 /// Parses `A..B` (inclusive) or a single seed.
+/// Refuses an `--mcap` path that cannot be written before the run spends
+/// its time: a folder, or a path below a file. (Folders that do not exist
+/// yet are made when the file is written.)
+fn mcap_file_to_write(path: &Path) -> Result<()> {
+    if path.is_dir() {
+        bail!(
+            "--mcap {}: this is a folder; name the file to write in it (e.g. {})",
+            path.display(),
+            path.join("run.mcap").display()
+        );
+    }
+    if let Some(file) = path
+        .ancestors()
+        .skip(1)
+        .find(|a| !a.as_os_str().is_empty() && a.exists() && !a.is_dir())
+    {
+        bail!(
+            "--mcap {}: {} is a file, not a folder",
+            path.display(),
+            file.display()
+        );
+    }
+    Ok(())
+}
+
 pub fn seeds(text: &str) -> Result<(u64, u64)> {
     let parse = |s: &str| {
         s.trim()

@@ -187,6 +187,38 @@ fn an_mcap_file_in_the_run_folder_is_always_written() {
     }
 }
 
+/// An `--mcap` path that names a folder, or lies below a file, is refused
+/// before the run (it used to fail after the whole run, with no summary
+/// and the path named twice), and nothing is written.
+#[test]
+fn an_mcap_path_that_is_a_folder_or_below_a_file_is_refused_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("afile");
+    std::fs::write(&file, "x").unwrap();
+    let below = file.join("x.mcap");
+    for (mcap, says) in [
+        (dir.path().to_path_buf(), "this is a folder; name the file"),
+        (below.clone(), "is a file, not a folder"),
+    ] {
+        let out = dir.path().join("run");
+        let o = run(
+            &[
+                "examples/scenarios/cut_in.osc",
+                "--no-pictures",
+                "--mcap",
+                mcap.to_str().unwrap(),
+            ],
+            &out,
+        );
+        assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+        let t = text(&o);
+        assert!(t.contains("--mcap") && t.contains(says), "{t}");
+        let named = format!("{}:", mcap.display());
+        assert_eq!(t.matches(&named).count(), 1, "{t}");
+        assert!(!out.exists(), "the run went ahead: {t}");
+    }
+}
+
 #[test]
 fn a_test_that_does_not_load_leaves_no_mcap_file_or_folder() {
     // The writer starts before the test is parsed; an error must still
