@@ -28,7 +28,8 @@ pub enum LogError {
         /// What is wrong.
         message: String,
     },
-    /// Well-formed JSON that breaks the log's invariants.
+    /// Not a log: not UTF-8 text, empty, or well-formed JSON that breaks
+    /// the log's invariants.
     #[error("{path}: {message}")]
     Invalid {
         /// The file.
@@ -166,22 +167,42 @@ impl SimulationLog {
 
     /// Reads and validates the JSON form.
     pub fn read_json(path: &Path) -> Result<Self, LogError> {
-        let text = std::fs::read_to_string(path).map_err(io_err(path))?;
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::InvalidData {
+                LogError::Invalid {
+                    path: path.to_path_buf(),
+                    message: "not UTF-8 text: not a litesim log (JSON)".into(),
+                }
+            } else {
+                io_err(path)(e)
+            }
+        })?;
         Self::from_json_str(&text, path)
     }
 
     /// Parses and validates the JSON form (`path` is used in messages).
     pub fn from_json_str(text: &str, path: &Path) -> Result<Self, LogError> {
-        let log: SimulationLog = serde_json::from_str(text).map_err(|e| LogError::Json {
-            path: path.to_path_buf(),
-            line: e.line(),
-            column: e.column(),
-            message: e.to_string(),
-        })?;
         let invalid = |message: String| LogError::Invalid {
             path: path.to_path_buf(),
             message,
         };
+        if text.trim().is_empty() {
+            return Err(invalid(
+                "the file is empty (expected a litesim log: JSON)".into(),
+            ));
+        }
+        let log: SimulationLog = serde_json::from_str(text).map_err(|e| {
+            // serde_json's text ends with the place, which the error
+            // gives on its own: say it once.
+            let text = e.to_string();
+            let place = format!(" at line {} column {}", e.line(), e.column());
+            LogError::Json {
+                path: path.to_path_buf(),
+                line: e.line(),
+                column: e.column(),
+                message: text.strip_suffix(&place).unwrap_or(&text).to_string(),
+            }
+        })?;
         if log.format_version != 1 {
             return Err(invalid(format!(
                 "format_version {} is not supported (expected 1)",

@@ -105,6 +105,25 @@ fn bad_files_are_precise_errors() {
         Err(LogError::Io { .. })
     ));
     assert!(SimulationLog::from_json_str("", &p).is_err());
+    // Each message names the place once, and says what a file that is
+    // not a log at all is.
+    let e = SimulationLog::read_json(&p).unwrap_err().to_string();
+    assert!(
+        e.ends_with("line 2, column 24: EOF while parsing a value"),
+        "{e}"
+    );
+    std::fs::write(&p, " \n").unwrap();
+    let e = SimulationLog::read_json(&p).unwrap_err().to_string();
+    assert!(
+        e.ends_with("bad.json: the file is empty (expected a litesim log: JSON)"),
+        "{e}"
+    );
+    std::fs::write(&p, [0x8b_u8, 0xff, 0x00, 0x12]).unwrap();
+    let e = SimulationLog::read_json(&p).unwrap_err().to_string();
+    assert!(
+        e.ends_with("bad.json: not UTF-8 text: not a litesim log (JSON)"),
+        "{e}"
+    );
 }
 
 /// Pieces of a log by tick index: clamped at both ends, every track cut to
