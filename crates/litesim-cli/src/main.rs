@@ -30,7 +30,7 @@ const EXIT_USAGE: u8 = 64;
     name = "litesim",
     version,
     about = "A lightweight, deterministic vehicle and scenario simulator",
-    after_help = "Exit codes (every command): 0 done and every check passed; 2 a check failed (a test failed, or some run of a batch failed); 1 could not run (bad input, unreadable test or map, SUT error, I/O); 64 the command line is not valid."
+    after_help = "Exit codes (every command): 0 done and every check passed; 2 a check failed (a test failed, or some run of a batch failed); 1 could not run (bad input, unreadable test or map, SUT error, I/O); 64 the command line is not valid (an unknown flag, or a value such as --seeds abc or an unknown --sut)."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -399,7 +399,11 @@ fn main() -> std::process::ExitCode {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            std::process::ExitCode::FAILURE
+            if e.chain().any(|c| c.is::<scenario::UsageError>()) {
+                std::process::ExitCode::from(EXIT_USAGE)
+            } else {
+                std::process::ExitCode::FAILURE
+            }
         }
     }
 }

@@ -6,6 +6,28 @@ use litesim_scenario::sut::SutChoice;
 use litesim_scenario::{DriveMode, LoadOptions, RunOptions, batch, calibrate, plan::Plan};
 use std::path::{Path, PathBuf};
 
+/// A value on the command line that cannot be used (`--seeds abc`, an
+/// unknown `--sut`): `litesim` exits with 64, as for the errors its
+/// argument parser finds, so that scripts can tell a mistyped command from
+/// a run that could not run (1) or failed (2).
+#[derive(Debug)]
+pub struct UsageError(pub String);
+
+impl std::fmt::Display for UsageError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for UsageError {}
+
+/// A [`UsageError`] from a format string.
+macro_rules! usage {
+    ($($arg:tt)*) => {
+        anyhow::Error::new(UsageError(format!($($arg)*)))
+    };
+}
+
 /// Options shared by `run` and `batch`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct Common {
@@ -66,7 +88,7 @@ impl Common {
     fn sut_timeout(&self) -> Result<Option<f64>> {
         match self.sut_timeout {
             Some(t) if !(t.is_finite() && t > 0.0 && t <= 3600.0) => {
-                bail!("--sut-timeout {t}: expected seconds in (0, 3600]")
+                Err(usage!("--sut-timeout {t}: expected seconds in (0, 3600]"))
             }
             t => Ok(t),
         }
@@ -89,13 +111,13 @@ pub fn dialect_choice(name: &str) -> Option<litesim_osc::Dialect> {
 
 /// Parses a `--sut` value.
 pub fn sut_choice(name: &str) -> Result<SutChoice> {
-    if let Some(c) = litesim_grpc::sut::choice_by_name(name).map_err(|e| anyhow!("--sut {e}"))? {
+    if let Some(c) = litesim_grpc::sut::choice_by_name(name).map_err(|e| usage!("--sut {e}"))? {
         return Ok(c);
     }
-    bail!(
+    Err(usage!(
         "--sut {name}: unknown system under test; valid: {}, grpc://HOST:PORT",
         litesim_scenario::sut::BUILTIN.join(", ")
-    )
+    ))
 }
 
 /// The plan as a log (one sample per plan step), for pictures.
@@ -333,7 +355,7 @@ pub fn run(
         Some(url) => {
             let addr = url
                 .strip_prefix("grpc://")
-                .ok_or_else(|| anyhow!("--sim {url}: expected grpc://HOST:PORT or in-process"))?;
+                .ok_or_else(|| usage!("--sim {url}: expected grpc://HOST:PORT or in-process"))?;
             let mut remote = litesim_grpc::RemoteSsp::connect(addr).map_err(|e| anyhow!("{e}"))?;
             traced(&mut remote)
         }
@@ -546,20 +568,20 @@ pub fn seeds(text: &str) -> Result<(u64, u64)> {
     let parse = |s: &str| {
         s.trim()
             .parse::<u64>()
-            .map_err(|_| anyhow!("--seeds {text}: '{s}' is not a seed (expected A..B)"))
+            .map_err(|_| usage!("--seeds {text}: '{s}' is not a seed (expected A..B)"))
     };
     match text.split_once("..") {
         Some((a, b)) => {
             let (a, b) = (parse(a)?, parse(b.trim_start_matches('='))?);
             if b < a {
-                bail!("--seeds {text}: the range is empty");
+                return Err(usage!("--seeds {text}: the range is empty"));
             }
             if b - a >= batch::MAX_SEEDS {
-                bail!(
+                return Err(usage!(
                     "--seeds {text}: {} seeds; a batch takes at most {} (split it with --shard or several folders)",
                     (b - a) as u128 + 1,
                     batch::MAX_SEEDS
-                );
+                ));
             }
             Ok((a, b))
         }
@@ -572,7 +594,7 @@ pub fn seeds(text: &str) -> Result<(u64, u64)> {
 
 /// Parses `i/N`.
 pub fn shard(text: &str) -> Result<(u64, u64)> {
-    let bad = || anyhow!("--shard {text}: expected i/N with 0 ≤ i < N");
+    let bad = || usage!("--shard {text}: expected i/N with 0 ≤ i < N");
     let (i, n) = text.split_once('/').ok_or_else(bad)?;
     let (i, n) = (
         i.trim().parse::<u64>().map_err(|_| bad())?,

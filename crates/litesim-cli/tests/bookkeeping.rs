@@ -239,8 +239,15 @@ fn exit_codes_follow_the_documented_matrix() {
     assert_eq!(cut_in(&["--resume"]), Some(0));
     assert_eq!(cut_in(&["--resume", "--force-new"]), Some(64));
     assert_eq!(run(&["run", "no/such/test.osc", "--no-pictures"]), Some(1));
-    // 64: the command line itself is wrong.
+    // 64: the command line itself is wrong — a flag, or a value.
     assert_eq!(run(&["batch", "--no-such-flag"]), Some(64));
+    let t = "examples/scenarios/cut_in.osc";
+    assert_eq!(run(&["batch", t, "--seeds", "abc", "-o", &z]), Some(64));
+    assert_eq!(run(&["batch", t, "--seeds", "5..1", "-o", &z]), Some(64));
+    assert_eq!(run(&["batch", t, "--shard", "3/2", "-o", &z]), Some(64));
+    assert_eq!(run(&["run", t, "--sut", "turbo", "-o", &z]), Some(64));
+    assert_eq!(run(&["run", t, "--sut-timeout", "nan", "-o", &z]), Some(64));
+    assert_eq!(run(&["run", t, "--sim", "http://x:1", "-o", &z]), Some(64));
     assert_eq!(run(&["frobnicate"]), Some(64));
     assert_eq!(run(&["run"]), Some(64));
     // Help and version are answers.
@@ -267,7 +274,9 @@ fn absurd_seed_ranges_and_durations_are_refused_at_once() {
         .output()
         .unwrap();
     let took = started.elapsed();
-    assert_eq!(o.status.code(), Some(1));
+    // A value the command line cannot take: a usage error (sysexits'
+    // EX_USAGE covers "bad syntax in a parameter").
+    assert_eq!(o.status.code(), Some(64));
     assert!(
         text(&o).contains("a batch takes at most 1000000"),
         "{}",

@@ -860,7 +860,8 @@ fn batch_shards_merge_and_calibrate_from_the_command_line() {
             .args(bad)
             .output()
             .unwrap();
-        assert_eq!(o.status.code(), Some(1), "{bad:?}");
+        // A value the command line cannot take: a usage error.
+        assert_eq!(o.status.code(), Some(64), "{bad:?}");
     }
     // Failed runs keep their logs for debugging.
     let failing = dir.path().join("failing");
