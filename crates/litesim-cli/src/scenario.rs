@@ -538,7 +538,6 @@ pub enum Outcome {
     CouldNotRun,
 }
 
-/// Parses `A..B` (inclusive) or a single seed.
 /// Refuses an `--mcap` path that cannot be written before the run spends
 /// its time: a folder, or a path below a file. (Folders that do not exist
 /// yet are made when the file is written.)
@@ -564,6 +563,7 @@ fn mcap_file_to_write(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Parses `A..B` (inclusive) or a single seed.
 pub fn seeds(text: &str) -> Result<(u64, u64)> {
     let parse = |s: &str| {
         s.trim()

@@ -1152,9 +1152,11 @@ fn plan_once(
                 )
             })
     };
-    let mut order = order;
-    order.sort_by_key(|&i| ties(i));
-    let free = order.iter().take_while(|&&i| !ties(i)).count();
+    // Independent actors first, each side in its order (a stable sort on
+    // `ties`, with `ties` looked at once per actor).
+    let (mut order, tied): (Vec<usize>, Vec<usize>) = order.into_iter().partition(|&i| !ties(i));
+    let free = order.len();
+    order.extend(tied);
     let motion = |i: usize, plans: &[ActorPlan]| -> Result<Moved, ScenarioError> {
         let mut violations = Vec::new();
         let mut notes = Vec::new();
