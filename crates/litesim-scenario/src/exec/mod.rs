@@ -334,58 +334,6 @@ impl Sent {
     }
 }
 
-/// When and how far ahead a plan goes out as an xy trajectory.
-struct Upload {
-    now_ms: u64,
-    ahead_ms: u64,
-    step_ms: u64,
-    plan_dt: f64,
-    mirror: bool,
-}
-
-/// Actor `a`'s plan (on its clock `w`) from `at.now_ms` for `at.ahead_ms`
-/// as an xy trajectory; the points on the plain plan clock are kept in
-/// `keep` (the path error reads them back).
-fn plan_trajectory(
-    a: &crate::plan::ActorPlan,
-    w: &Warp,
-    at: &Upload,
-    keep: &mut Sent,
-) -> XyTrajectory {
-    let (now_ms, step_ms) = (at.now_ms, at.step_ms);
-    let n = at.ahead_ms / step_ms + 1;
-    let mut points = Vec::with_capacity(n as usize + 1);
-    let mut times = Vec::with_capacity(n as usize + 1);
-    let mut sp = Vec::with_capacity(n as usize + 1);
-    let plain = w.lag == 0.0 && w.rate == 1.0;
-    keep.points.clear();
-    keep.from_ms = now_ms;
-    keep.offset = w.offset;
-    keep.plain = plain;
-    for j in 0..=n {
-        let tm = now_ms + j * step_ms;
-        let tau = if plain {
-            tm as f64 / 1000.0
-        } else {
-            w.tau(now_ms as f64 / 1000.0) + w.rate * (j * step_ms) as f64 / 1000.0
-        };
-        let p = shifted(a.at(tau, at.plan_dt), w.offset);
-        if plain {
-            keep.points.push((p.x, p.y, p.v));
-        }
-        points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), at.mirror));
-        times.push(tm);
-        sp.push(p.v);
-    }
-    XyTrajectory {
-        start_time_ms: now_ms,
-        end_time_ms: now_ms + n * step_ms,
-        points,
-        point_times_ms: times,
-        speeds: sp,
-    }
-}
-
 /// `x` rounded to a multiple of `res` (commands travel at the resolution
 /// the profile declares).
 fn quantise(x: f64, res: f64) -> f64 {
@@ -571,25 +519,21 @@ pub fn execute(
         }));
     }
     let ids: Vec<String> = plan.actors.iter().map(|a| a.id.clone()).collect();
-    let kpis = Kpis::new(&ids);
+    let mut rb = Readback::new(
+        &ids,
+        rec,
+        ego_index.map(|e| EgoKpi::new(&plan.actors[e].id, dt)),
+        cfg,
+        &plan,
+    );
     let mut steps = litesim_core::steps_for_horizon(plan.duration, dt);
     let send_every = (200 / step_ms).max(1);
     let horizon_ms = 400;
     let filter = ActorFilter::default();
-    let boxes = Vec::with_capacity(ids.len());
-    let speeds = Vec::with_capacity(ids.len());
-    let planned = Vec::with_capacity(ids.len());
-    let off = Vec::with_capacity(ids.len());
     let mut controls = vec![ControlSample::default(); ids.len()];
     // Coverage: each item's sample time (phase ends from the plan; the
     // run's end is taken after the loop), the live state it reads.
     let sampling = !cfg.covers.is_empty();
-    let live: Vec<crate::coverage::LiveActor> = Vec::new();
-    let samples: Vec<Option<crate::coverage::Sample>> = vec![None; cfg.covers.len()];
-    let last_t = 0.0;
-    let accels: Vec<f64> = Vec::new();
-    let next_due = due_time(cfg, &plan, &samples);
-    let states: Vec<Option<ReportedState>> = vec![None; ids.len()];
     // Without closed-loop drivers nothing needs the states before the next
     // command: the plan is known, so trajectories go out a chunk (up to
     // 60 s) ahead and the chunk's steps run in one `step_many` call — a
@@ -628,13 +572,6 @@ pub fn execute(
         .as_ref()
         .map(|l| l.boxes.iter().map(shows_red).collect())
         .unwrap_or_default();
-    let last_pos: Vec<Option<litesim_map::Located>> = vec![None; ids.len()];
-    // Where each vehicle was last located and how far it may move from
-    // there and surely still be on a road (`on_road_radius`): the off-road
-    // check locates it again only beyond that. Not for the SUT's car (it
-    // sees its road position each step) nor with traffic lights (red-light
-    // crossings need every step's s).
-    let on_road_until: Vec<Option<litesim_map::SurelyOnRoad>> = vec![None; ids.len()];
     // Each light box's road as an index into the map's roads (compared per
     // vehicle and step; a box on a road the map lacks never matches).
     let box_roads: Vec<Option<usize>> = match (lights.as_ref(), net) {
@@ -665,16 +602,9 @@ pub fn execute(
         .iter()
         .map(|c| (c.key.clone(), c.at))
         .collect();
-    let next_goal = 0;
-    let next_lane_goal = 0;
-    let lane_results: Vec<LaneResult> = Vec::new();
     // The SUT's view of the lights is rebuilt only after a switch.
     let mut lights_seen = false;
-    let goal_results = Vec::new();
     let mut sut_error: Option<String> = None;
-    let ego_kpi = ego_index.map(|e| EgoKpi::new(&plan.actors[e].id, dt));
-    // The object list as the SUT sees it, kept between steps (ids once).
-    let mut obs = Observation::default();
     let mut route = Route::default();
     let mut route_hint = 0;
     if let (Some(e), Some(s)) = (ego_i, sut.as_deref_mut()) {
@@ -682,7 +612,7 @@ pub fn execute(
         let pts: Vec<[f64; 2]> = ego.samples.iter().map(|p| [p.x, p.y]).collect();
         let sp: Vec<f64> = ego.samples.iter().map(|p| p.v).collect();
         route = Route::new(&pts, &sp);
-        obs.objects = plan
+        rb.obs.objects = plan
             .actors
             .iter()
             .enumerate()
@@ -725,29 +655,6 @@ pub fn execute(
         }
     }
     let dynamic: Vec<bool> = drivers.iter().map(Option::is_some).collect();
-    let mut rb = Readback {
-        boxes,
-        speeds,
-        accels,
-        planned,
-        off,
-        kpis,
-        last_pos,
-        on_road_until,
-        rec,
-        tracking: Tracking::default(),
-        states,
-        obs,
-        ego_kpi,
-        last_t,
-        live,
-        samples,
-        next_due,
-        next_goal,
-        next_lane_goal,
-        goal_results,
-        lane_results,
-    };
     let switch_tick = |t: f64| (t * 1000.0 / step_ms as f64).round() as u64;
     let mut next_switch = 0;
     let mut k = 0;
@@ -954,15 +861,42 @@ pub fn execute(
                     } else {
                         horizon_ms
                     };
-                    let at = Upload {
-                        now_ms,
-                        ahead_ms: ahead,
-                        step_ms,
-                        plan_dt: plan.dt,
-                        mirror,
-                    };
-                    let t = plan_trajectory(a, &w, &at, &mut sent[i]);
-                    ssp.set_xy_trajectory(&a.id, t).map_err(ssp_err)?;
+                    let n = ahead / step_ms + 1;
+                    let mut points = Vec::with_capacity(n as usize + 1);
+                    let mut times = Vec::with_capacity(n as usize + 1);
+                    let mut sp = Vec::with_capacity(n as usize + 1);
+                    let plain = w.lag == 0.0 && w.rate == 1.0;
+                    let keep = &mut sent[i];
+                    keep.points.clear();
+                    keep.from_ms = now_ms;
+                    keep.offset = w.offset;
+                    keep.plain = plain;
+                    for j in 0..=n {
+                        let tm = now_ms + j * step_ms;
+                        let tau = if w.lag == 0.0 && w.rate == 1.0 {
+                            tm as f64 / 1000.0
+                        } else {
+                            w.tau(now_ms as f64 / 1000.0) + w.rate * (j * step_ms) as f64 / 1000.0
+                        };
+                        let p = shifted(a.at(tau, plan.dt), w.offset);
+                        if plain {
+                            keep.points.push((p.x, p.y, p.v));
+                        }
+                        points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), mirror));
+                        times.push(tm);
+                        sp.push(p.v);
+                    }
+                    ssp.set_xy_trajectory(
+                        &a.id,
+                        XyTrajectory {
+                            start_time_ms: now_ms,
+                            end_time_ms: now_ms + n * step_ms,
+                            points,
+                            point_times_ms: times,
+                            speeds: sp,
+                        },
+                    )
+                    .map_err(ssp_err)?;
                 }
                 Some(d) => {
                     let Some(st) = &rb.states[i] else {

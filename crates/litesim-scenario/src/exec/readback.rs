@@ -89,6 +89,43 @@ pub(super) struct Readback {
 }
 
 impl Readback {
+    /// Nothing read back yet, for the actors `ids`: the log goes to `rec`
+    /// (when recorded), sut.car's KPIs to `ego_kpi`, and `cfg`'s coverage
+    /// items are sampled when `plan` has them due.
+    pub(super) fn new(
+        ids: &[String],
+        rec: Option<LogRecorder>,
+        ego_kpi: Option<EgoKpi>,
+        cfg: &ExecConfig<'_>,
+        plan: &Plan,
+    ) -> Self {
+        let n = ids.len();
+        let samples = vec![None; cfg.covers.len()];
+        Readback {
+            boxes: Vec::with_capacity(n),
+            speeds: Vec::with_capacity(n),
+            accels: Vec::new(),
+            planned: Vec::with_capacity(n),
+            off: Vec::with_capacity(n),
+            kpis: Kpis::new(ids),
+            last_pos: vec![None; n],
+            on_road_until: vec![None; n],
+            rec,
+            tracking: Tracking::default(),
+            states: vec![None; n],
+            obs: Observation::default(),
+            ego_kpi,
+            last_t: 0.0,
+            live: Vec::new(),
+            next_due: due_time(cfg, plan, &samples),
+            samples,
+            next_goal: 0,
+            next_lane_goal: 0,
+            goal_results: Vec::new(),
+            lane_results: Vec::new(),
+        }
+    }
+
     /// Reads a chunk of steps back, in step order.
     pub(super) fn chunk(
         &mut self,
