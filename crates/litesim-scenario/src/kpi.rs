@@ -349,6 +349,18 @@ pub struct Kpis {
     cands: Vec<Cand>,
     /// Per actor: yaw at the last step.
     yaw_prev: Vec<f64>,
+    /// Per actor: velocity at the last step.
+    v_prev: Vec<(f64, f64)>,
+    /// How far any pair's skip margin can have shrunk since the start: per
+    /// step, twice the largest growth of one actor's drift plus
+    /// [`TTC_HORIZON`] times its change of velocity (summed).
+    shrink: f64,
+    /// Indices into `cands` of the candidates to look at this step; the
+    /// others sleep in `asleep` until `shrink` reaches their wake.
+    awake: Vec<u32>,
+    /// Sleeping candidates by wake (the bits of a positive `f64` order as
+    /// the number does), least first.
+    asleep: std::collections::BinaryHeap<std::cmp::Reverse<(u64, u32)>>,
     swept_once: bool,
 }
 
@@ -360,6 +372,8 @@ struct Tracked {
     kpi: PairKpi,
     last: Option<Last>,
     quiet: Quiet,
+    /// The `shrink` up to which the pair's skip test surely passes.
+    wake: f64,
 }
 
 /// An actor as the last broad phase saw it: drift position, yaw and
@@ -371,12 +385,18 @@ struct SweepRef {
     w: (f64, f64),
 }
 
-/// A broad-phase candidate pair and its tracked pair (`u32::MAX`: none yet).
+/// A broad-phase candidate pair, its tracked pair (`u32::MAX`: none yet)
+/// and a copy of that pair's [`Quiet`]: the skip test of a step then reads
+/// the candidate list in order instead of each tracked pair's record at
+/// random (that load led the profile of 100-vehicle traffic).
 #[derive(Clone, Copy, Debug)]
 struct Cand {
     i: u32,
     j: u32,
     k: u32,
+    quiet: Quiet,
+    /// As [`Tracked::wake`] (0: look every step).
+    wake: f64,
 }
 
 /// What a tracked pair needs to stay untouched: its distance is at least
@@ -389,6 +409,32 @@ struct Quiet {
     floor: f64,
     limit: f64,
 }
+
+/// A pair's skip test at `t0` holds while its bound `lb` stays above the
+/// floor and above what the pair closes within `limit` (≤ [`TTC_HORIZON`]).
+/// Until then the bound falls by at most both actors' drift growth and the
+/// closing speed |w| grows by at most both actors' change of velocity, so
+/// the test surely passes again while the summed shrink of the margin
+/// stays below its margin at `t0` — half of it here, a cushion far above
+/// the rounding of the sums. Returns the `shrink` it may sleep until
+/// (≤ `shrink`: look again next step).
+fn wake(shrink: f64, lb: f64, q: Quiet, (wx, wy): (f64, f64)) -> f64 {
+    let closes = math::hypot(wx, wy) * q.limit * WAKE_SLACK;
+    let margin = (lb - q.floor).min(lb - 1e-6 - closes);
+    if margin > 1e-12 * (1.0 + lb.abs()) {
+        shrink + 0.5 * margin
+    } else {
+        shrink
+    }
+}
+
+/// [`TTC_HORIZON`] with the relative cushion of the skip test's squared
+/// comparison (`1 + 1e-9`, whose root this exceeds).
+const WAKE_SLACK: f64 = 1.0 + 1e-6;
+
+/// How a change of velocity counts against a sleeping pair's margin: the
+/// longest TTC limit times [`WAKE_SLACK`].
+const WAKE_REACH: f64 = TTC_HORIZON * WAKE_SLACK;
 
 /// The broad phase's margin (m): candidate boxes are grown by half of it
 /// each, and the candidate list is rebuilt once an actor's box (or its
@@ -420,6 +466,7 @@ impl Kpis {
             drift_pos: vec![(0.0, 0.0); ids.len()],
             drift: vec![0.0; ids.len()],
             yaw_prev: vec![0.0; ids.len()],
+            v_prev: vec![(0.0, 0.0); ids.len()],
             dense: if ids.len() <= DENSE_PAIRS {
                 vec![u32::MAX; ids.len() * ids.len()]
             } else {
@@ -492,6 +539,7 @@ impl Kpis {
             // Drift relative to the mean: common motion moves no pair.
             let first = !self.swept_once;
             let mut rebuild = first;
+            let mut grow = 0.0f64;
             for (i, b) in boxes.iter().enumerate() {
                 let d = (b.x - px, b.y - py);
                 let (ox, oy) = self.drift_pos[i];
@@ -501,8 +549,12 @@ impl Kpis {
                 let slack = 1e-15 * (b.x.abs() + b.y.abs() + px.abs() + py.abs() + 1.0);
                 if !first {
                     let turn = wrap_angle(b.yaw - self.yaw_prev[i]).abs();
-                    self.drift[i] += math::hypot(d.0 - ox, d.1 - oy) + r * turn + slack;
+                    let step = math::hypot(d.0 - ox, d.1 - oy) + r * turn + slack;
+                    self.drift[i] += step;
+                    let (ux, uy) = self.v_prev[i];
+                    grow = grow.max(step + WAKE_REACH * math::hypot(b.vx - ux, b.vy - uy));
                 }
+                self.v_prev[i] = (b.vx, b.vy);
                 self.drift_pos[i] = d;
                 let w = (b.vx - cx, b.vy - cy);
                 if !rebuild {
@@ -515,17 +567,30 @@ impl Kpis {
                 }
             }
             self.mean_v = (cx, cy);
+            self.shrink += 2.0 * grow;
             if rebuild {
                 for (x, b) in boxes.iter().enumerate() {
                     self.bounds(x, b);
                 }
                 self.sweep(boxes, (cx, cy));
             }
+            let shrink = self.shrink;
             let mut cands = std::mem::take(&mut self.cands);
-            for c in &mut cands {
+            let mut awake = std::mem::take(&mut self.awake);
+            while let Some(&std::cmp::Reverse((w, x))) = self.asleep.peek() {
+                if f64::from_bits(w) > shrink {
+                    break;
+                }
+                self.asleep.pop();
+                awake.push(x);
+            }
+            let mut still = 0;
+            for a in 0..awake.len() {
+                let x = awake[a];
+                let c = &mut cands[x as usize];
                 let (i, j) = (c.i as usize, c.j as usize);
                 if c.k != u32::MAX {
-                    let q = self.near[c.k as usize].quiet;
+                    let q = c.quiet;
                     let lb = q.key - self.drift[i] - self.drift[j];
                     // The TTC cannot beat the limit when the pair cannot
                     // close the bound within it: lb > |w| · limit, squared.
@@ -536,6 +601,14 @@ impl Kpis {
                         && reach > 0.0
                         && reach * reach > (wx * wx + wy * wy) * q.limit * q.limit * (1.0 + 1e-9)
                     {
+                        c.wake = wake(shrink, lb, q, (wx, wy));
+                        self.near[c.k as usize].wake = c.wake;
+                        if c.wake > shrink {
+                            self.asleep.push(std::cmp::Reverse((c.wake.to_bits(), x)));
+                        } else {
+                            awake[still] = x;
+                            still += 1;
+                        }
                         continue;
                     }
                 }
@@ -548,8 +621,22 @@ impl Kpis {
                         floor: (p.min_distance - DISTANCE_RESOLUTION).max(0.0),
                         limit: p.min_ttc.map_or(TTC_HORIZON, |m| m.min(TTC_HORIZON)),
                     };
+                    c.quiet = e.quiet;
+                    // Asleep from the next step on while the test surely passes.
+                    let lb = c.quiet.key - self.drift[i] - self.drift[j];
+                    let (a, b) = (&boxes[i], &boxes[j]);
+                    e.wake = wake(shrink, lb, c.quiet, (b.vx - a.vx, b.vy - a.vy));
+                    c.wake = e.wake;
+                    if c.wake > shrink {
+                        self.asleep.push(std::cmp::Reverse((c.wake.to_bits(), x)));
+                        continue;
+                    }
                 }
+                awake[still] = x;
+                still += 1;
             }
+            awake.truncate(still);
+            self.awake = awake;
             self.cands = cands;
         }
         for (y, b) in self.yaw_prev.iter_mut().zip(boxes) {
@@ -653,12 +740,27 @@ impl Kpis {
                     continue;
                 }
                 let (a, b) = (i.min(j), i.max(j));
-                let k = self.lookup(a, b).map_or(u32::MAX, |k| k as u32);
+                let (k, quiet, wake) = match self.lookup(a, b) {
+                    Some(k) => (k as u32, self.near[k].quiet, self.near[k].wake),
+                    None => (u32::MAX, Quiet::default(), 0.0),
+                };
                 self.cands.push(Cand {
                     i: a as u32,
                     j: b as u32,
                     k,
+                    quiet,
+                    wake,
                 });
+            }
+        }
+        self.awake.clear();
+        self.asleep.clear();
+        for (x, c) in self.cands.iter().enumerate() {
+            if c.wake > self.shrink {
+                self.asleep
+                    .push(std::cmp::Reverse((c.wake.to_bits(), x as u32)));
+            } else {
+                self.awake.push(x as u32);
             }
         }
     }
@@ -713,6 +815,7 @@ impl Kpis {
                     },
                     last: None,
                     quiet: Quiet::default(),
+                    wake: 0.0,
                 });
                 let k = self.near.len() - 1;
                 match slot {
