@@ -390,6 +390,13 @@ impl World {
     pub fn is_empty(&self) -> bool {
         self.actors.is_empty()
     }
+    /// The actor at position `i` of [`World::actors`], if any.
+    pub fn actor_at(&self, i: usize) -> Option<ActorRef<'_>> {
+        (i < self.actors.len()).then_some(ActorRef {
+            world: self,
+            index: i,
+        })
+    }
     /// An actor by id.
     pub fn actor(&self, id: &str) -> Option<ActorRef<'_>> {
         self.index
@@ -482,7 +489,20 @@ impl World {
     /// a trajectory already held from its own start time on.
     pub fn set_mode(&mut self, id: &str, mode: ControlMode) -> Result<(), WorldError> {
         let i = self.index_of(id)?;
-        let reported = self.state_at(i);
+        self.set_mode_at(i, mode)
+    }
+
+    /// [`World::set_mode`] for the actor at position `i` of
+    /// [`World::actors`] (see [`World::position`]): a caller that keeps
+    /// per-actor data by position sets a trajectory per actor and chunk
+    /// without looking its id up again.
+    ///
+    /// # Panics
+    /// If `i` is not below [`World::len`].
+    pub fn set_mode_at(&mut self, i: usize, mode: ControlMode) -> Result<(), WorldError> {
+        // What it reports now, kept where it leaves the model (only then:
+        // made for every new trajectory it was a tenth of a 100-actor run).
+        let reported = self.actors[i].live.then(|| self.state_at(i));
         let a = &mut self.actors[i];
         let needs_model = matches!(mode, ControlMode::Dynamic { .. } | ControlMode::External(_));
         if needs_model && a.model.is_none() {
@@ -511,7 +531,7 @@ impl World {
         if needs_model && !was_integrating {
             self.vehicles.set(i, &vehicle_from(&a.state));
         }
-        if !needs_model && a.live {
+        if !needs_model && let Some(reported) = reported {
             // Leaving the model: from now on the state is stored again.
             a.state = reported;
             a.live = false;

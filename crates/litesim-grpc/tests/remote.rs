@@ -509,6 +509,107 @@ fn step_many_equals_repeated_steps_and_refuses_bad_counts() {
     );
 }
 
+/// `step_many_kinematics`: the in-process session writes the states from
+/// its world, a remote simulator gets them with `step_many` (the trait's
+/// default) — the same numbers as each step's reports, in the profile's
+/// frame (CARLA's mirrored one too), ids once; too big a reply is refused
+/// before anything steps.
+#[test]
+fn kinematic_steps_equal_the_reports_locally_and_over_the_socket() {
+    let server = start(ServerConfig::default());
+    for profile in ["dummy", "carla-0.9.15"] {
+        let init = InitRequest {
+            profile: profile.into(),
+            ..InitRequest::default()
+        };
+        let mut remote = RemoteSsp::connect(&server.addr.to_string()).unwrap();
+        let mut local = Session::default();
+        let mut reports = Session::default();
+        for s in [&mut remote as &mut dyn Ssp, &mut local, &mut reports] {
+            s.init(init.clone()).unwrap();
+            s.start_simulation(0).unwrap();
+            s.wait_start_simulation(100).unwrap();
+            for (k, id) in ["a", "b", "c"].into_iter().enumerate() {
+                let mut c = car(id);
+                c.position = Coord6::xy_yaw(10.0 * k as f64, 3.0 * k as f64, 0.2 * k as f64);
+                c.speed = Coord6 {
+                    x: Some(4.0 + k as f64),
+                    ..Coord6::default()
+                };
+                s.create_actor(c).unwrap();
+                s.set_external_controller(
+                    id,
+                    ExternalMove {
+                        controller: "cruise".into(),
+                        desired_speed: Some(12.0),
+                        ..ExternalMove::default()
+                    },
+                )
+                .unwrap();
+            }
+        }
+        let mut want = KinematicSteps::default();
+        for (info, states) in reports.step_many(30, &ActorFilter::default()).unwrap() {
+            want.push_reported(info, &states).unwrap();
+        }
+        assert_eq!(want.ids, ["a", "b", "c"]);
+        assert_eq!(want.states.len(), 90);
+        assert_eq!(
+            want.step(29)[1],
+            Kinematics::from(&reports.get_actors_states(&ActorFilter::default()).unwrap()[1])
+        );
+        for s in [&mut remote as &mut dyn Ssp, &mut local] {
+            let mut got = KinematicSteps::default();
+            s.step_many_kinematics(30, &mut got).unwrap();
+            assert_eq!(got, want, "{profile}");
+            // The buffer is emptied and reused.
+            s.step_many_kinematics(2, &mut got).unwrap();
+            assert_eq!(got.infos.len(), 2);
+            assert_eq!(got.infos[1].step_index, 32);
+            assert_eq!(got.states.len(), 6);
+        }
+        // In the profile's frame, as the actor was created (CARLA's mirrored
+        // one is mirrored back at the boundary both ways).
+        assert!(
+            (want.step(0)[1].pose.position.y - 3.0).abs() < 0.1,
+            "{profile}"
+        );
+    }
+    // 100 actors × 10,000 steps: refused with the count that fits, nothing stepped.
+    let mut s = Session::default();
+    s.init(InitRequest::default()).unwrap();
+    s.start_simulation(0).unwrap();
+    s.wait_start_simulation(100).unwrap();
+    for k in 0..100 {
+        let mut c = car(&format!("x{k}"));
+        c.position.y = Some(k as f64 * 5.0);
+        s.create_actor(c).unwrap();
+    }
+    let mut got = KinematicSteps::default();
+    let e = s
+        .step_many_kinematics(MAX_STEPS_PER_CALL, &mut got)
+        .unwrap_err();
+    assert_eq!(e.code, ErrorCode::ResourceExhausted, "{e:?}");
+    assert!(
+        e.message.contains("at most 2000 steps per call"),
+        "{}",
+        e.message
+    );
+    let e = s.step_many_kinematics(0, &mut got).unwrap_err();
+    assert_eq!(e.code, ErrorCode::InvalidArgument, "{e:?}");
+    assert_eq!(
+        s.step(None, &ActorFilter::default()).unwrap().0.step_index,
+        1
+    );
+    // Steps of one call that report other actors are refused.
+    let mut steps = KinematicSteps::default();
+    let (i1, one) = s.step(None, &ActorFilter::default()).unwrap();
+    steps.push_reported(i1, &one).unwrap();
+    let e = steps.push_reported(i1, &one[1..]).unwrap_err();
+    assert_eq!(e.code, ErrorCode::Internal, "{e:?}");
+    assert!(e.message.contains("other actors"), "{}", e.message);
+}
+
 #[test]
 fn huge_ids_get_bounded_answers_not_transport_errors() {
     let server = start(ServerConfig::default());

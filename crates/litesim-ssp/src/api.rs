@@ -364,6 +364,103 @@ impl ReportedState {
     }
 }
 
+/// An actor's kinematic state: a [`ReportedState`] without its id,
+/// controls and modes — what a checker reads of every actor each step.
+///
+/// A tenth of the bytes of a report and no string: a run that reads every
+/// actor at every step gets them from [`Ssp::step_many_kinematics`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Kinematics {
+    /// Pose (m, rad).
+    pub pose: Pose,
+    /// World-frame velocity (m/s).
+    pub velocity: Vec3,
+    /// World-frame acceleration (m/s²).
+    pub acceleration: Vec3,
+    /// Yaw rate (rad/s).
+    pub yaw_rate: f64,
+    /// Longitudinal speed (m/s).
+    pub speed: f64,
+}
+
+impl Kinematics {
+    /// As [`ReportedState::mirror_y`]: y, yaw, roll, the lateral velocity
+    /// and acceleration and the yaw rate change sign. Its own inverse.
+    pub fn mirror_y(&mut self) {
+        self.pose.position.y = -self.pose.position.y;
+        self.pose.yaw = -self.pose.yaw;
+        self.pose.roll = -self.pose.roll;
+        self.velocity.y = -self.velocity.y;
+        self.acceleration.y = -self.acceleration.y;
+        self.yaw_rate = -self.yaw_rate;
+    }
+}
+
+impl From<&ReportedState> for Kinematics {
+    fn from(s: &ReportedState) -> Self {
+        Kinematics {
+            pose: s.pose,
+            velocity: s.velocity,
+            acceleration: s.acceleration,
+            yaw_rate: s.yaw_rate,
+            speed: s.speed,
+        }
+    }
+}
+
+/// Steps and every actor's [`Kinematics`] after each (what
+/// [`Ssp::step_many_kinematics`] fills): the ids once, the states step by
+/// step in that order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct KinematicSteps {
+    /// Each step's info, in order.
+    pub infos: Vec<StepInfo>,
+    /// The actors, in the order of each step's states.
+    pub ids: Vec<smol_str::SmolStr>,
+    /// `infos.len() × ids.len()` states, step-major.
+    pub states: Vec<Kinematics>,
+}
+
+impl KinematicSteps {
+    /// Empties it, keeping its memory.
+    pub fn clear(&mut self) {
+        self.infos.clear();
+        self.ids.clear();
+        self.states.clear();
+    }
+
+    /// Step `k`'s states (one per id).
+    pub fn step(&self, k: usize) -> &[Kinematics] {
+        let n = self.ids.len();
+        &self.states[k * n..(k + 1) * n]
+    }
+
+    /// Appends one step's reported states (the first step sets the ids;
+    /// a later one must report the same actors in the same order).
+    pub fn push_reported(&mut self, info: StepInfo, states: &[ReportedState]) -> SspResult<()> {
+        if self.infos.is_empty() {
+            self.ids.clear();
+            self.ids.extend(states.iter().map(|s| s.actor_id.clone()));
+        } else if states.len() != self.ids.len()
+            || states
+                .iter()
+                .zip(&self.ids)
+                .any(|(s, id)| s.actor_id != *id)
+        {
+            return Err(crate::SspError::new(
+                crate::ErrorCode::Internal,
+                format!(
+                    "step {} reported other actors than the steps before it in the same call",
+                    info.step_index
+                ),
+            ));
+        }
+        self.infos.push(info);
+        self.states.extend(states.iter().map(Kinematics::from));
+        Ok(())
+    }
+}
+
 /// Which actors a state query returns.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ActorFilter {
@@ -574,7 +671,7 @@ pub trait Ssp {
     ) -> SspResult<Vec<(StepInfo, Vec<ReportedState>)>> {
         check_step_count(steps)?;
         if steps > 1 {
-            let per_step = self.get_actors_states(filter)?.len() as u64;
+            let per_step = self.count_states(filter)?;
             if u64::from(steps) * per_step > MAX_STATES_PER_CALL {
                 return Err(crate::SspError::exhausted(format!(
                     "steps = {steps} with {per_step} actor states each is {} states in one reply; the limit is {MAX_STATES_PER_CALL}: ask for at most {} steps per call (or filter the states)",
@@ -584,6 +681,29 @@ pub trait Ssp {
             }
         }
         (0..steps).map(|_| self.step(None, filter)).collect()
+    }
+
+    /// [`Ssp::step_many`] for every actor, their states kept as
+    /// [`Kinematics`] in `out` (emptied first; its memory is reused).
+    ///
+    /// The default steps with `step_many` and converts; an in-process
+    /// simulator writes the states straight from its world (a run of 100
+    /// vehicles reads half a million states).
+    fn step_many_kinematics(&mut self, steps: u32, out: &mut KinematicSteps) -> SspResult<()> {
+        let got = self.step_many(steps, &ActorFilter::default())?;
+        out.clear();
+        for (info, states) in &got {
+            out.push_reported(*info, states)?;
+        }
+        Ok(())
+    }
+
+    /// How many states [`Ssp::get_actors_states`] would return for
+    /// `filter` now (what [`Ssp::step_many`] checks its reply size with).
+    /// The default asks for the states; a simulator that can count them
+    /// without making them says so.
+    fn count_states(&mut self, filter: &ActorFilter) -> SspResult<u64> {
+        Ok(self.get_actors_states(filter)?.len() as u64)
     }
 
     /// Start-step, wait-step and get-states in one call.

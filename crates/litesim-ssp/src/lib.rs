@@ -27,6 +27,8 @@ pub use error::{ErrorCode, SspError, SspResult};
 pub use model::{Model, model_by_name, models};
 pub use profile::Profile;
 pub use session::{Phase, Session, SessionLimits};
+/// The small string of actor ids in reports (re-exported for callers that keep them).
+pub use smol_str::SmolStr;
 pub use traffic::{
     Bulb, BulbColor, BulbIcon, BulbMode, BulbState, LightTarget, LogicalTrafficLight,
     TrafficLightBox, TrafficLights,

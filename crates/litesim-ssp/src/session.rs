@@ -379,6 +379,13 @@ impl Session {
         self.slot(id).map(|i| &self.meta[i])
     }
 
+    /// Whether `filter` selects actor `a` (by id, then by category).
+    fn selects(&self, filter: &ActorFilter, a: ActorRef<'_>) -> bool {
+        (filter.actor_ids.is_empty() || filter.actor_ids.iter().any(|id| id == a.id()))
+            && (filter.categories.is_empty()
+                || filter.categories.contains(&self.meta[a.index()].category))
+    }
+
     fn report(&self, a: ActorRef<'_>) -> ReportedState {
         let m = &self.meta[a.index()];
         let s = a.state();
@@ -672,6 +679,55 @@ impl Ssp for Session {
         })
     }
 
+    fn step_many_kinematics(&mut self, steps: u32, out: &mut KinematicSteps) -> SspResult<()> {
+        check_step_count(steps)?;
+        self.require("get_actors_states")?;
+        let n = self.world.as_ref().map_or(0, World::len);
+        if u64::from(steps) * n as u64 > MAX_STATES_PER_CALL {
+            return Err(SspError::exhausted(format!(
+                "steps = {steps} with {n} actor states each is {} states in one reply; the limit is {MAX_STATES_PER_CALL}: ask for at most {} steps per call",
+                u64::from(steps) * n as u64,
+                (MAX_STATES_PER_CALL / (n as u64).max(1)).max(1)
+            )));
+        }
+        out.clear();
+        let mirror = self.mirror();
+        for _ in 0..steps {
+            self.start_step(None)?;
+            let info = self.wait_step(0)?;
+            let w = self.world.as_ref().expect("world exists after init");
+            if out.infos.is_empty() {
+                out.ids
+                    .extend(w.actors().map(|a| self.meta[a.index()].id.clone()));
+            }
+            out.infos.push(info);
+            out.states.extend(w.actors().map(|a| {
+                let s = a.state();
+                let mut k = Kinematics {
+                    pose: s.pose,
+                    velocity: s.velocity,
+                    acceleration: s.acceleration,
+                    yaw_rate: s.yaw_rate,
+                    speed: s.speed,
+                };
+                if mirror {
+                    k.mirror_y();
+                }
+                k
+            }));
+        }
+        Ok(())
+    }
+
+    fn count_states(&mut self, filter: &ActorFilter) -> SspResult<u64> {
+        self.require("get_actors_states")?;
+        for id in &filter.actor_ids {
+            self.meta(id)?;
+        }
+        let w = self.world.as_ref().expect("world exists after init");
+        Ok(w.actors().filter(|a| self.selects(filter, *a)).count() as u64)
+    }
+
     fn get_actors_states(&mut self, filter: &ActorFilter) -> SspResult<Vec<ReportedState>> {
         self.require("get_actors_states")?;
         for id in &filter.actor_ids {
@@ -688,13 +744,7 @@ impl Ssp for Session {
         });
         out.extend(
             w.actors()
-                .filter(|a| {
-                    filter.actor_ids.is_empty() || filter.actor_ids.iter().any(|id| id == a.id())
-                })
-                .filter(|a| {
-                    filter.categories.is_empty()
-                        || filter.categories.contains(&self.meta[a.index()].category)
-                })
+                .filter(|a| self.selects(filter, *a))
                 .map(|a| self.report(a)),
         );
         Ok(out)
@@ -1015,9 +1065,9 @@ impl Ssp for Session {
         }
     }
 
-    fn set_xy_trajectory(&mut self, actor_id: &str, traj: XyTrajectory) -> SspResult<()> {
+    fn set_xy_trajectory(&mut self, actor_id: &str, mut traj: XyTrajectory) -> SspResult<()> {
         self.require("set_xy_trajectory")?;
-        self.meta(actor_id)?;
+        let slot = self.slot(actor_id)?;
         let n = traj.points.len();
         if n == 0 {
             return Err(SspError::invalid("polyline must have at least 1 point"));
@@ -1041,7 +1091,7 @@ impl Ssp for Session {
                     traj.point_times_ms.len()
                 )));
             }
-            traj.point_times_ms.clone()
+            std::mem::take(&mut traj.point_times_ms)
         } else if n == 1 {
             vec![traj.start_time_ms]
         } else {
@@ -1056,11 +1106,16 @@ impl Ssp for Session {
                 .map(|i| traj.start_time_ms + span * i / (n as u64 - 1))
                 .collect()
         };
-        let z0 = self
-            .world
-            .as_ref()
-            .and_then(|w| w.actor(actor_id))
-            .map_or(0.0, |a| a.state().pose.position.z);
+        // The actor's height, for points without z (only then: it is a
+        // state report of the actor).
+        let z0 = if traj.points.iter().any(|c| c.z.is_none()) {
+            self.world
+                .as_ref()
+                .and_then(|w| w.actor_at(slot))
+                .map_or(0.0, |a| a.state().pose.position.z)
+        } else {
+            0.0
+        };
         let mut points = Vec::with_capacity(n);
         for (i, c) in traj.points.iter().enumerate() {
             let (Some(_), Some(_)) = (c.x, c.y) else {
@@ -1089,7 +1144,7 @@ impl Ssp for Session {
             Trajectory::new(points).map_err(|e| SspError::invalid(format!("polyline: {e}")))?;
         self.parts()
             .0
-            .set_mode(actor_id, ControlMode::Trajectory(trajectory))
+            .set_mode_at(slot, ControlMode::Trajectory(trajectory))
             .map_err(world_err)
     }
 

@@ -658,6 +658,8 @@ pub fn execute(
     let switch_tick = |t: f64| (t * 1000.0 / step_ms as f64).round() as u64;
     let mut next_switch = 0;
     let mut k = 0;
+    // Each chunk's states, the memory kept from chunk to chunk.
+    let mut got = litesim_ssp::api::KinematicSteps::default();
     while k < steps && sut_error.is_none() {
         if let (Some(_), Some(replan)) = (ego_i, replan)
             && !plan.conditions.is_empty()
@@ -962,11 +964,14 @@ pub fn execute(
             realtime_failure = Some(msg);
             break;
         }
-        let results = if n_steps == 1 {
-            vec![ssp.step(None, &filter).map_err(ssp_err)?]
+        if n_steps == 1 {
+            let (info, states) = ssp.step(None, &filter).map_err(ssp_err)?;
+            got.clear();
+            got.push_reported(info, &states).map_err(ssp_err)?;
         } else {
-            ssp.step_many(n_steps as u32, &filter).map_err(ssp_err)?
-        };
+            ssp.step_many_kinematics(n_steps as u32, &mut got)
+                .map_err(ssp_err)?;
+        }
         k += n_steps;
         let env = ReadEnv {
             plan: &plan,
@@ -987,7 +992,7 @@ pub fn execute(
             warps: &warps,
             sent: &sent,
         };
-        rb.chunk(&env, results)?;
+        rb.chunk(&env, &mut got)?;
     }
     let Readback {
         boxes,
@@ -1171,7 +1176,7 @@ impl Tracking {
         &mut self,
         tick: u64,
         t: f64,
-        st: &ReportedState,
+        st: &litesim_ssp::api::Kinematics,
         a: &crate::plan::ActorPlan,
         plan: &Plan,
     ) {

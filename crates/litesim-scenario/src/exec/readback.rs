@@ -21,7 +21,7 @@ use crate::sut::Observation;
 use litesim_core::math;
 use litesim_log::{ActorSample, ControlSample, LogRecorder};
 use litesim_map::RoadNetwork;
-use litesim_ssp::api::{ReportedState, StepInfo};
+use litesim_ssp::api::{KinematicSteps, Kinematics};
 use litesim_ssp::traffic::TrafficLights;
 
 /// What reading steps back only reads (fixed for a chunk; in open loop for
@@ -74,7 +74,11 @@ pub(super) struct Readback {
     pub rec: Option<LogRecorder>,
     pub tracking: Tracking,
     /// The last state of each dynamic actor (what its driver reads).
-    pub states: Vec<Option<ReportedState>>,
+    pub states: Vec<Option<Kinematics>>,
+    /// Per plan actor: its place in the simulator's list of the last
+    /// chunk (found again only when the list changes).
+    pub slots: Vec<usize>,
+    slot_ids: Vec<litesim_ssp::SmolStr>,
     /// The object list as the SUT sees it, kept between steps (ids once).
     pub obs: Observation,
     pub ego_kpi: Option<EgoKpi>,
@@ -113,6 +117,8 @@ impl Readback {
             rec,
             tracking: Tracking::default(),
             states: vec![None; n],
+            slots: Vec::new(),
+            slot_ids: Vec::new(),
             obs: Observation::default(),
             ego_kpi,
             last_t: 0.0,
@@ -126,11 +132,12 @@ impl Readback {
         }
     }
 
-    /// Reads a chunk of steps back, in step order.
+    /// Reads a chunk of steps back, in step order (`got`'s states are in
+    /// the simulator's frame).
     pub(super) fn chunk(
         &mut self,
         env: &ReadEnv<'_, '_>,
-        results: Vec<(StepInfo, Vec<ReportedState>)>,
+        got: &mut KinematicSteps,
     ) -> Result<(), ScenarioError> {
         let ReadEnv {
             plan,
@@ -163,6 +170,8 @@ impl Readback {
             rec,
             tracking,
             states,
+            slots,
+            slot_ids,
             obs,
             ego_kpi,
             last_t,
@@ -174,10 +183,26 @@ impl Readback {
             goal_results,
             lane_results,
         } = self;
-        for (info, mut got) in results {
-            if mirror {
-                got.iter_mut().for_each(ReportedState::mirror_y);
+        if *slot_ids != got.ids {
+            // States usually come back in creation order: look there first
+            // (a search per actor would make a chunk quadratic in actors).
+            slots.clear();
+            for (i, a) in plan.actors.iter().enumerate() {
+                let at = match got.ids.get(i) {
+                    Some(id) if **id == *a.id => i,
+                    _ => got.ids.iter().position(|id| **id == *a.id).ok_or_else(|| {
+                        ScenarioError::Simulator(format!("the simulator lost actor '{}'", a.id))
+                    })?,
+                };
+                slots.push(at);
             }
+            slot_ids.clone_from(&got.ids);
+        }
+        if mirror {
+            got.states.iter_mut().for_each(Kinematics::mirror_y);
+        }
+        for (k, info) in got.infos.iter().enumerate() {
+            let step = got.step(k);
             let t = info.sim_time_ms as f64 / 1000.0;
             boxes.clear();
             speeds.clear();
@@ -185,14 +210,7 @@ impl Readback {
             planned.clear();
             off.clear();
             for (i, a) in plan.actors.iter().enumerate() {
-                // States usually come back in creation order: look there first
-                // (a search per actor would make a step quadratic in actors).
-                let st = match got.get(i) {
-                    Some(st) if *st.actor_id == *a.id => st,
-                    _ => got.iter().find(|s| *s.actor_id == *a.id).ok_or_else(|| {
-                        ScenarioError::Simulator(format!("the simulator lost actor '{}'", a.id))
-                    })?,
-                };
+                let st = &step[slots[i]];
                 let w = &warps[i];
                 let p = match sent[i].planned(info.sim_time_ms, step_ms, w) {
                     Some(p) => p,
@@ -280,7 +298,7 @@ impl Readback {
                     }
                 }
                 if dynamic[i] {
-                    states[i] = Some(st.clone());
+                    states[i] = Some(*st);
                 }
                 if ego_i.is_some() {
                     let o = &mut obs.objects[i];
