@@ -351,6 +351,8 @@ pub struct Kpis {
     yaw_prev: Vec<f64>,
     /// Per actor: velocity at the last step.
     v_prev: Vec<(f64, f64)>,
+    /// Per actor: the length and width of its box and its half diagonal.
+    radii: Vec<(f64, f64, f64)>,
     /// How far any pair's skip margin can have shrunk since the start: per
     /// step, twice the largest growth of one actor's drift plus
     /// [`TTC_HORIZON`] times its change of velocity (summed).
@@ -543,7 +545,7 @@ impl Kpis {
             for (i, b) in boxes.iter().enumerate() {
                 let d = (b.x - px, b.y - py);
                 let (ox, oy) = self.drift_pos[i];
-                let r = math::hypot(b.length / 2.0, b.width / 2.0);
+                let r = self.radius(i, b);
                 // Rounding of the differences (a few ulps of the
                 // coordinates) is added so the bound stays a bound.
                 let slack = 1e-15 * (b.x.abs() + b.y.abs() + px.abs() + py.abs() + 1.0);
@@ -552,16 +554,20 @@ impl Kpis {
                     let step = math::hypot(d.0 - ox, d.1 - oy) + r * turn + slack;
                     self.drift[i] += step;
                     let (ux, uy) = self.v_prev[i];
-                    grow = grow.max(step + WAKE_REACH * math::hypot(b.vx - ux, b.vy - uy));
+                    // |Δv| bounded by its 1-norm (a bound is all it needs).
+                    grow = grow.max(step + WAKE_REACH * ((b.vx - ux).abs() + (b.vy - uy).abs()));
                 }
                 self.v_prev[i] = (b.vx, b.vy);
                 self.drift_pos[i] = d;
                 let w = (b.vx - cx, b.vy - cy);
                 if !rebuild {
                     let o = self.at_sweep[i];
-                    let wobble = math::hypot(d.0 - o.pos.0, d.1 - o.pos.1)
+                    // 1-norms: at least the lengths, so the list is rebuilt
+                    // no later than it must be.
+                    let wobble = (d.0 - o.pos.0).abs()
+                        + (d.1 - o.pos.1).abs()
                         + r * wrap_angle(b.yaw - o.yaw).abs()
-                        + TTC_HORIZON * math::hypot(w.0 - o.w.0, w.1 - o.w.1)
+                        + TTC_HORIZON * ((w.0 - o.w.0).abs() + (w.1 - o.w.1).abs())
                         + slack;
                     rebuild = wobble > 0.5 * SKIN - 1e-6;
                 }
@@ -660,6 +666,21 @@ impl Kpis {
             }
             self.last[i] = Some((b.x, b.y));
         }
+    }
+
+    /// Actor `i`'s half diagonal (its box's corners' distance from its
+    /// centre), made again only when its box's size changes.
+    fn radius(&mut self, i: usize, b: &BoxState) -> f64 {
+        if self.radii.len() <= i {
+            self.radii.resize(i + 1, (f64::NAN, f64::NAN, 0.0));
+        }
+        let (l, w, r) = self.radii[i];
+        if l == b.length && w == b.width {
+            return r;
+        }
+        let r = math::hypot(b.length / 2.0, b.width / 2.0);
+        self.radii[i] = (b.length, b.width, r);
+        r
     }
 
     /// Per box: its axis-aligned bounds grown by [`NEAR`]/2 (`near_box`),

@@ -1116,15 +1116,32 @@ impl Ssp for Session {
         } else {
             0.0
         };
+        let mirror = self.mirror();
         let mut points = Vec::with_capacity(n);
         for (i, c) in traj.points.iter().enumerate() {
-            let (Some(_), Some(_)) = (c.x, c.y) else {
+            let (Some(x), Some(y)) = (c.x, c.y) else {
                 return Err(SspError::invalid(format!(
                     "polyline[{i}]: x and y are mandatory"
                 )));
             };
-            check_coord(&|| format!("polyline[{i}]"), c)?;
-            let c = self.frame(*c);
+            // Every given value finite and within MAX_COORD (NaN and ±inf
+            // fail the comparison): else the checks that say which and why.
+            let fine = |v: Option<f64>| v.is_none_or(|v| v.abs() <= MAX_COORD);
+            if !(fine(c.x)
+                && fine(c.y)
+                && fine(c.z)
+                && fine(c.roll)
+                && fine(c.pitch)
+                && fine(c.yaw))
+            {
+                check_coord(&|| format!("polyline[{i}]"), c)?;
+            }
+            // Into litesim's frame (as `frame`: y and yaw mirrored for CARLA).
+            let (y, yaw) = if mirror {
+                (-y, c.yaw.map(|v| -v))
+            } else {
+                (y, c.yaw)
+            };
             let speed = traj.speeds.get(i).copied();
             if let Some(s) = speed
                 && !(s.is_finite() && s >= 0.0)
@@ -1135,8 +1152,8 @@ impl Ssp for Session {
             }
             points.push(TimedPoint {
                 t: times[i] as f64 / 1000.0,
-                position: Vec3::new(c.x.unwrap_or(0.0), c.y.unwrap_or(0.0), c.z.unwrap_or(z0)),
-                yaw: c.yaw,
+                position: Vec3::new(x, y, c.z.unwrap_or(z0)),
+                yaw,
                 speed,
             });
         }

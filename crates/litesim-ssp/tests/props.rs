@@ -197,3 +197,73 @@ proptest! {
         }
     }
 }
+
+/// A trajectory point's values are checked one by one where one is bad:
+/// the message names the point, the field and what was wrong; the
+/// session keeps the actor's previous move.
+#[test]
+fn bad_trajectory_points_are_named() {
+    let mut s = Session::default();
+    s.init(InitRequest::default()).unwrap();
+    s.start_simulation(0).unwrap();
+    s.wait_start_simulation(0).unwrap();
+    s.create_actor(CreateActor {
+        actor_id: "a".into(),
+        position: Coord6::xy_yaw(1.0, 2.0, 0.3),
+        ..CreateActor::default()
+    })
+    .unwrap();
+    let traj = |bad: Coord6| XyTrajectory {
+        start_time_ms: 0,
+        end_time_ms: 200,
+        points: vec![
+            Coord6::xy_yaw(1.0, 2.0, 0.3),
+            bad,
+            Coord6::xy_yaw(5.0, 2.0, 0.3),
+        ],
+        ..XyTrajectory::default()
+    };
+    let before = s.get_actors_states(&ActorFilter::default()).unwrap();
+    for (bad, says) in [
+        (Coord6::xy_yaw(f64::NAN, 2.0, 0.0), "polyline[1].x"),
+        (Coord6::xy_yaw(3.0, f64::INFINITY, 0.0), "polyline[1].y"),
+        (
+            Coord6::xy_yaw(3.0, 2.0, f64::NEG_INFINITY),
+            "polyline[1].yaw",
+        ),
+        (
+            Coord6 {
+                z: Some(2e9),
+                ..Coord6::xy_yaw(3.0, 2.0, 0.0)
+            },
+            "polyline[1].z = 2000000000 is beyond ±1e9",
+        ),
+        (
+            Coord6 {
+                pitch: Some(f64::NAN),
+                ..Coord6::xy_yaw(3.0, 2.0, 0.0)
+            },
+            "polyline[1].pitch",
+        ),
+        (
+            Coord6 {
+                y: None,
+                ..Coord6::xy_yaw(3.0, 2.0, 0.0)
+            },
+            "polyline[1]: x and y are mandatory",
+        ),
+    ] {
+        let e = s.set_xy_trajectory("a", traj(bad)).unwrap_err();
+        assert_eq!(e.code, ErrorCode::InvalidArgument, "{e:?}");
+        assert!(e.message.contains(says), "{says}: {}", e.message);
+        assert_eq!(
+            s.get_actors_states(&ActorFilter::default()).unwrap(),
+            before
+        );
+    }
+    // A good one is taken and followed.
+    s.set_xy_trajectory("a", traj(Coord6::xy_yaw(3.0, 2.0, 0.0)))
+        .unwrap();
+    let (_, st) = s.step(None, &ActorFilter::default()).unwrap();
+    assert!(st[0].pose.position.x > 1.0, "{:?}", st[0]);
+}

@@ -859,7 +859,7 @@ pub fn execute(
                     warps[i].sent_lag = w.lag;
                     warps[i].sent_offset = w.offset;
                     let ahead = if open_loop {
-                        n_steps * step_ms + 200
+                        n_steps * step_ms
                     } else {
                         horizon_ms
                     };
