@@ -82,6 +82,20 @@ impl RoadNetwork {
     /// length match (the planned speed is then the speed a car really has).
     /// `at_p` is `p`'s pose when the caller has it already (the sampler does).
     pub fn advance_path(&self, p: LanePos, dist: f64, at_p: Option<Pose>) -> LanePos {
+        self.advance_path_pose(p, dist, at_p).0
+    }
+
+    /// [`Self::advance_path`], with the lane-centre pose at the place it
+    /// returns where it computed that pose on the way (a straight lane: the
+    /// chord is the distance and the corrected move lands where the first
+    /// did) — a caller stepping along a lane then needs one pose per step
+    /// instead of two. The same place and pose as computing them anew.
+    pub fn advance_path_pose(
+        &self,
+        p: LanePos,
+        dist: f64,
+        at_p: Option<Pose>,
+    ) -> (LanePos, Option<Pose>) {
         let q = self.advance(p, dist);
         let a = at_p.unwrap_or_else(|| self.lane_pos_pose(p, 0.0));
         let b = self.lane_pos_pose(q, 0.0);
@@ -89,9 +103,10 @@ impl RoadNetwork {
         // Chords of long placement moves (tens of metres) are shorter than
         // arcs; the error stays below 0.1 % on lanes of radius > 50 m.
         if chord > 1e-6 && q.road == p.road {
-            self.advance(p, dist * dist.abs() / chord)
+            let r = self.advance(p, dist * dist.abs() / chord);
+            (r, (r == q).then_some(b))
         } else {
-            q
+            (q, Some(b))
         }
     }
 

@@ -84,3 +84,33 @@ fn the_radius_is_useful_in_a_lane_and_zero_on_an_edge() {
     let at = net.locate(Vec2::new(x, y)).unwrap();
     assert_eq!(net.on_road_radius(&at), 0.0);
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+    /// `advance_path_pose` lands where `advance_path` does, and the pose it
+    /// hands back (where it has one) is the lane-centre pose there, to the
+    /// bit: the planner steps along lanes with it.
+    #[test]
+    fn advance_path_pose_is_advance_path_and_its_pose(
+        m in 0usize..5,
+        road in 0.0f64..1.0,
+        s in 0.0f64..1.0,
+        lane in 0usize..8,
+        dist in -30.0f64..60.0,
+        given in any::<bool>(),
+    ) {
+        let (name, net) = &maps()[m];
+        let roads = net.roads();
+        let ri = ((road * roads.len() as f64) as usize).min(roads.len() - 1);
+        let r = &roads[ri];
+        let spans = r.lane_spans(s * r.length);
+        let Some(l) = spans.get(lane % spans.len().max(1)) else { return Ok(()) };
+        let p = litesim_map::LanePos { road: ri, lane: l.id, s: s * r.length };
+        let at_p = given.then(|| net.lane_pos_pose(p, 0.0));
+        let (q, pose) = net.advance_path_pose(p, dist, at_p);
+        prop_assert_eq!(q, net.advance_path(p, dist, at_p), "{}", name);
+        if let Some(c) = pose {
+            prop_assert_eq!(c, net.lane_pos_pose(q, 0.0), "{}", name);
+        }
+    }
+}

@@ -1180,6 +1180,9 @@ fn plan_once(
         let mut started: Option<usize> = None;
         // `along(road, at: end)`: (phase end, road id, place) to verify.
         let mut along_end: Vec<(f64, String, String)> = Vec::new();
+        // The lane-centre pose the last move computed at the place it
+        // reached (reused where the next sample starts from that place).
+        let mut reached: Option<(LanePos, litesim_core::Pose)> = None;
         for k in 0..n {
             let t = k as f64 * plan_dt;
             // Phases that end now and asked to end on a road.
@@ -1405,7 +1408,10 @@ fn plan_once(
                 q.position.y = a.position.y + (b.position.y - a.position.y) * sm;
                 q
             } else {
-                let c = net.lane_pos_pose(mo.pos, 0.0);
+                let c = match reached {
+                    Some((at, c)) if at == mo.pos => c,
+                    _ => net.lane_pos_pose(mo.pos, 0.0),
+                };
                 centre = Some(c);
                 c
             };
@@ -1434,7 +1440,9 @@ fn plan_once(
                 mo.lateral += mo.across * mo.v * plan_dt;
             } else {
                 let before = mo.pos;
-                mo.pos = net.advance_path(mo.pos, mo.v * plan_dt, centre);
+                let (to, pose) = net.advance_path_pose(mo.pos, mo.v * plan_dt, centre);
+                mo.pos = to;
+                reached = pose.map(|c| (to, c));
                 if mo.v > 0.0 && mo.pos == before && !dead_end {
                     dead_end = true;
                     notes.push(format!(
