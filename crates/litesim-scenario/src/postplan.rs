@@ -6,7 +6,7 @@
 //! the actor, the time and the numbers.
 
 use crate::elab::ActorKind;
-use crate::plan::Plan;
+use crate::plan::{ActorPlan, Plan};
 use litesim_core::geometry::wrap_angle;
 use litesim_map::RoadNetwork;
 use litesim_ssp::Profile;
@@ -15,7 +15,35 @@ use litesim_ssp::Profile;
 pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) -> Vec<String> {
     let mut out = plan.violations.clone();
     let limits = profile.map(|p| p.post_plan).filter(|l| l.enabled);
-    for a in plan.actors.iter().filter(|a| a.kind == ActorKind::Vehicle) {
+    let vehicles: Vec<&ActorPlan> = plan
+        .actors
+        .iter()
+        .filter(|a| a.kind == ActorKind::Vehicle)
+        .collect();
+    // Each vehicle's checks read only its own plan: many are checked on
+    // all cores, the reports gathered in actor order (the same list).
+    let each = |a: &&ActorPlan| vehicle(a, limits, net);
+    let found: Vec<Vec<String>> = if vehicles.len() >= PARALLEL_CHECKS {
+        use rayon::prelude::*;
+        vehicles.par_iter().map(each).collect()
+    } else {
+        vehicles.iter().map(each).collect()
+    };
+    out.extend(found.into_iter().flatten());
+    out
+}
+
+/// Vehicles checked on all cores from this many on.
+const PARALLEL_CHECKS: usize = 16;
+
+/// The violations of one vehicle's plan, in the order found.
+fn vehicle(
+    a: &ActorPlan,
+    limits: Option<litesim_ssp::profile::PostPlanChecks>,
+    net: Option<&RoadNetwork>,
+) -> Vec<String> {
+    let mut out = Vec::new();
+    {
         // One report per actor and kind: the first time it happens.
         let mut seen = [false; 5];
         let mut report = |k: usize, msg: String| {

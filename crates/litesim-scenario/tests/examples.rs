@@ -1074,6 +1074,43 @@ fn profiles_take_their_steps_and_checks_from_the_simulators() {
     }
 }
 
+/// Many vehicles are checked on all cores: the same reports, in actor
+/// order, as checking each vehicle alone.
+#[test]
+fn post_plan_checks_of_many_vehicles_keep_the_actor_order() {
+    let one = litesim_scenario::calibrate::reference_plan(
+        litesim_scenario::calibrate::Manoeuvre::Curve,
+        0.02,
+    );
+    let mut p = litesim_ssp::Profile::builtin("dspace").unwrap();
+    p.post_plan.max_curvature = 0.01;
+    p.post_plan.max_speed = 1.0;
+    let mut many = one.clone();
+    many.actors = (0..40)
+        .map(|k| {
+            let mut a = one.actors[0].clone();
+            a.id = format!("v{k:02}");
+            a
+        })
+        .collect();
+    let each: Vec<String> = many
+        .actors
+        .iter()
+        .flat_map(|a| {
+            let mut alone = one.clone();
+            alone.actors = vec![a.clone()];
+            litesim_scenario::postplan::check(&alone, Some(&p), None)
+        })
+        .collect();
+    let got = litesim_scenario::postplan::check(&many, Some(&p), None);
+    assert_eq!(got.len(), 80, "{got:?}");
+    assert!(
+        got[0].starts_with("v00: speed") && got[79].starts_with("v39: curvature"),
+        "{got:?}"
+    );
+    assert_eq!(got, each);
+}
+
 /// A run's observer sees every completed tick but the last, in order, and
 /// an MCAP file streamed from its pieces while the run goes on is the same
 /// bytes as one written from the finished log (what `litesim run --mcap`
