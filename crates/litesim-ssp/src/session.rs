@@ -691,6 +691,10 @@ impl Ssp for Session {
             )));
         }
         out.clear();
+        // Sized once (grown by doubling, a chunk of 5,000 states was
+        // copied a dozen times on its way up).
+        out.infos.reserve(steps as usize);
+        out.states.reserve(steps as usize * n);
         let mirror = self.mirror();
         for _ in 0..steps {
             self.start_step(None)?;
