@@ -14,7 +14,7 @@ mod readback;
 
 use crate::error::ScenarioError;
 use crate::kpi::{BoxState, EgoKpi, Kpis};
-use crate::plan::Plan;
+use crate::plan::{ActorPlan, Plan};
 use crate::reactive::{Body, GoalResult, LaneResult, Warp, shifted};
 use crate::sut::{LightState, ObjectState, Observation, RoadPos, Route, Sut, SutCommand, SutInfo};
 use litesim_core::geometry::wrap_angle;
@@ -331,6 +331,67 @@ impl Sent {
             return None;
         }
         self.points.get((d / step_ms) as usize).copied()
+    }
+}
+
+/// From how many actors an open-loop chunk's trajectories are made on all
+/// cores.
+const PARALLEL_TRAJECTORIES: usize = 16;
+
+/// When and how a trajectory is sampled: from `now_ms`, a point every
+/// `step_ms` up to `ahead_ms` past it (and one more), of a plan sampled
+/// every `dt` s, in the simulator's frame (`mirror`: CARLA's).
+#[derive(Clone, Copy)]
+struct Clock {
+    now_ms: u64,
+    step_ms: u64,
+    ahead_ms: u64,
+    dt: f64,
+    mirror: bool,
+}
+
+/// The trajectory actor `a` follows on its clock `w` from `c.now_ms`: its
+/// planned points (shifted sideways by the warp's offset), their times and
+/// speeds. What was sent on the plain plan clock is kept in `keep` for the
+/// read-back's path error.
+fn plan_trajectory(a: &ActorPlan, w: &Warp, c: Clock, keep: &mut Sent) -> XyTrajectory {
+    let Clock {
+        now_ms,
+        step_ms,
+        ahead_ms,
+        dt,
+        mirror,
+    } = c;
+    let n = ahead_ms / step_ms + 1;
+    let mut points = Vec::with_capacity(n as usize + 1);
+    let mut times = Vec::with_capacity(n as usize + 1);
+    let mut sp = Vec::with_capacity(n as usize + 1);
+    let plain = w.lag == 0.0 && w.rate == 1.0;
+    keep.points.clear();
+    keep.from_ms = now_ms;
+    keep.offset = w.offset;
+    keep.plain = plain;
+    for j in 0..=n {
+        let tm = now_ms + j * step_ms;
+        let tau = if plain {
+            tm as f64 / 1000.0
+        } else {
+            w.tau(now_ms as f64 / 1000.0) + w.rate * (j * step_ms) as f64 / 1000.0
+        };
+        let p = shifted(a.at(tau, dt), w.offset);
+        if plain {
+            keep.points.push((p.x, p.y, p.v));
+        }
+        points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), mirror));
+        times.push(tm);
+        sp.push(p.v);
+    }
+    XyTrajectory {
+        start_time_ms: now_ms,
+        end_time_ms: now_ms + n * step_ms,
+        points,
+        point_times_ms: times,
+        speeds: sp,
     }
 }
 
@@ -660,6 +721,8 @@ pub fn execute(
     let mut k = 0;
     // Each chunk's states, the memory kept from chunk to chunk.
     let mut got = litesim_ssp::api::KinematicSteps::default();
+    // A chunk's trajectories made ahead of sending (open loop, many actors).
+    let mut made: Vec<Option<XyTrajectory>> = Vec::new();
     while k < steps && sut_error.is_none() {
         if let (Some(_), Some(replan)) = (ego_i, replan)
             && !plan.conditions.is_empty()
@@ -841,6 +904,26 @@ pub fn execute(
                 }
             }
         }
+        // Open loop, many actors: every actor's trajectory for the chunk is
+        // made on all cores first (each reads only its own plan), then
+        // sent in actor order as below.
+        made.clear();
+        if open_loop && plan.actors.len() >= PARALLEL_TRAJECTORIES {
+            use rayon::prelude::*;
+            let clock = Clock {
+                now_ms,
+                step_ms,
+                ahead_ms: n_steps * step_ms,
+                dt: plan.dt,
+                mirror,
+            };
+            plan.actors
+                .par_iter()
+                .zip(&warps)
+                .zip(sent.par_iter_mut())
+                .map(|((a, w), keep)| Some(plan_trajectory(a, w, clock, keep)))
+                .collect_into_vec(&mut made);
+        }
         for (i, a) in plan.actors.iter().enumerate() {
             if Some(i) == ego_i {
                 continue;
@@ -858,47 +941,25 @@ pub fn execute(
                     }
                     warps[i].sent_lag = w.lag;
                     warps[i].sent_offset = w.offset;
-                    let ahead = if open_loop {
-                        n_steps * step_ms
-                    } else {
-                        horizon_ms
-                    };
-                    let n = ahead / step_ms + 1;
-                    let mut points = Vec::with_capacity(n as usize + 1);
-                    let mut times = Vec::with_capacity(n as usize + 1);
-                    let mut sp = Vec::with_capacity(n as usize + 1);
-                    let plain = w.lag == 0.0 && w.rate == 1.0;
-                    let keep = &mut sent[i];
-                    keep.points.clear();
-                    keep.from_ms = now_ms;
-                    keep.offset = w.offset;
-                    keep.plain = plain;
-                    for j in 0..=n {
-                        let tm = now_ms + j * step_ms;
-                        let tau = if w.lag == 0.0 && w.rate == 1.0 {
-                            tm as f64 / 1000.0
-                        } else {
-                            w.tau(now_ms as f64 / 1000.0) + w.rate * (j * step_ms) as f64 / 1000.0
-                        };
-                        let p = shifted(a.at(tau, plan.dt), w.offset);
-                        if plain {
-                            keep.points.push((p.x, p.y, p.v));
+                    let traj = match made.get_mut(i).and_then(Option::take) {
+                        Some(t) => t,
+                        None => {
+                            let ahead = if open_loop {
+                                n_steps * step_ms
+                            } else {
+                                horizon_ms
+                            };
+                            let clock = Clock {
+                                now_ms,
+                                step_ms,
+                                ahead_ms: ahead,
+                                dt: plan.dt,
+                                mirror,
+                            };
+                            plan_trajectory(a, &w, clock, &mut sent[i])
                         }
-                        points.push(to_sim(Coord6::xy_yaw(p.x, p.y, p.yaw), mirror));
-                        times.push(tm);
-                        sp.push(p.v);
-                    }
-                    ssp.set_xy_trajectory(
-                        &a.id,
-                        XyTrajectory {
-                            start_time_ms: now_ms,
-                            end_time_ms: now_ms + n * step_ms,
-                            points,
-                            point_times_ms: times,
-                            speeds: sp,
-                        },
-                    )
-                    .map_err(ssp_err)?;
+                    };
+                    ssp.set_xy_trajectory(&a.id, traj).map_err(ssp_err)?;
                 }
                 Some(d) => {
                     let Some(st) = &rb.states[i] else {
