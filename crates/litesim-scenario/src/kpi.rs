@@ -1090,6 +1090,56 @@ mod tests {
         frames
     }
 
+    /// Every pair of `k` (stepped over `frames`, `dt` apart) against the
+    /// exact distance, collision and TTC of every frame: the minimum of a
+    /// pair that comes within 10 m (to DISTANCE_RESOLUTION), the first
+    /// collision and the minimum TTC of every pair that has one. (A pair
+    /// tracked only for its TTC keeps the distances it met.)
+    fn agrees_with_exact(
+        k: &Kpis,
+        ids: &[String],
+        frames: &[Vec<BoxState>],
+        dt: f64,
+    ) -> Result<(), TestCaseError> {
+        let n = ids.len();
+        for i in 0..n {
+            for j in i + 1..n {
+                let (mut dmin, mut hit, mut ttc) = (f64::INFINITY, None, None::<f64>);
+                for (s, f) in frames.iter().enumerate() {
+                    let d = distance(&f[i], &f[j]);
+                    dmin = dmin.min(d);
+                    if d == 0.0 && hit.is_none() {
+                        hit = Some(s as f64 * dt);
+                    }
+                    if d > 0.0
+                        && let Some(x) = time_to_collision(&f[i], &f[j])
+                        && x <= TTC_HORIZON
+                    {
+                        ttc = Some(ttc.map_or(x, |m: f64| m.min(x)));
+                    }
+                }
+                let got = k.pairs.iter().find(|p| p.a == ids[i] && p.b == ids[j]);
+                if dmin < 10.0 || ttc.is_some() {
+                    let p = got.expect("a close pair is reported");
+                    if dmin < 10.0 {
+                        prop_assert!(
+                            p.min_distance >= dmin - 1e-12
+                                && p.min_distance <= dmin + DISTANCE_RESOLUTION,
+                            "{}-{}: {} vs {}",
+                            i,
+                            j,
+                            p.min_distance,
+                            dmin
+                        );
+                    }
+                    prop_assert_eq!(p.collision_at, hit);
+                    prop_assert_eq!(p.min_ttc, ttc, "{}-{}", i, j);
+                }
+            }
+        }
+        Ok(())
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(48))]
         /// The broad phase, the candidate list and every skipped pair lose
@@ -1105,37 +1155,7 @@ mod tests {
                 k.step(s as f64 * 0.05, f, &vec![0.0; n], &vec![(0.0, 0.0, 0.0); n], &vec![false; n]);
             }
             k.finish();
-            for i in 0..n {
-                for j in i + 1..n {
-                    let (mut dmin, mut hit, mut ttc) = (f64::INFINITY, None, None::<f64>);
-                    for (s, f) in frames.iter().enumerate() {
-                        let t = s as f64 * 0.05;
-                        let d = distance(&f[i], &f[j]);
-                        dmin = dmin.min(d);
-                        if d == 0.0 && hit.is_none() {
-                            hit = Some(t);
-                        }
-                        if d > 0.0
-                            && let Some(x) = time_to_collision(&f[i], &f[j])
-                            && x <= TTC_HORIZON
-                        {
-                            ttc = Some(ttc.map_or(x, |m: f64| m.min(x)));
-                        }
-                    }
-                    let got = k.pairs.iter().find(|p| p.a == ids[i] && p.b == ids[j]);
-                    if dmin < 10.0 || ttc.is_some() {
-                        let p = got.expect("a close pair is reported");
-                        if dmin < 10.0 {
-                            prop_assert!(
-                                p.min_distance >= dmin - 1e-12 && p.min_distance <= dmin + DISTANCE_RESOLUTION,
-                                "{}-{}: {} vs {}", i, j, p.min_distance, dmin
-                            );
-                        }
-                        prop_assert_eq!(p.collision_at, hit);
-                        prop_assert_eq!(p.min_ttc, ttc, "{}-{}", i, j);
-                    }
-                }
-            }
+            agrees_with_exact(&k, &ids, &frames, 0.05)?;
         }
     }
 
@@ -1177,38 +1197,7 @@ mod tests {
                 k.step(s as f64 * dt, f, &vec![0.0; n], &vec![(0.0, 0.0, 0.0); n], &vec![false; n]);
             }
             k.finish();
-            for i in 0..n {
-                for j in i + 1..n {
-                    let (mut dmin, mut hit, mut ttc) = (f64::INFINITY, None, None::<f64>);
-                    for (s, f) in frames.iter().enumerate() {
-                        let d = distance(&f[i], &f[j]);
-                        dmin = dmin.min(d);
-                        if d == 0.0 && hit.is_none() {
-                            hit = Some(s as f64 * dt);
-                        }
-                        if d > 0.0
-                            && let Some(x) = time_to_collision(&f[i], &f[j])
-                            && x <= TTC_HORIZON
-                        {
-                            ttc = Some(ttc.map_or(x, |m: f64| m.min(x)));
-                        }
-                    }
-                    let got = k.pairs.iter().find(|p| p.a == ids[i] && p.b == ids[j]);
-                    // (Minima are exact for pairs that come close; a pair
-                    // tracked only for its TTC keeps the distances it met.)
-                    if dmin < 10.0 || ttc.is_some() {
-                        let p = got.expect("a close pair is reported");
-                        if dmin < 10.0 {
-                            prop_assert!(
-                                p.min_distance >= dmin - 1e-12 && p.min_distance <= dmin + DISTANCE_RESOLUTION,
-                                "{}-{}: {} vs {}", i, j, p.min_distance, dmin
-                            );
-                        }
-                        prop_assert_eq!(p.collision_at, hit);
-                        prop_assert_eq!(p.min_ttc, ttc, "{}-{}", i, j);
-                    }
-                }
-            }
+            agrees_with_exact(&k, &ids, &frames, dt)?;
         }
     }
 
