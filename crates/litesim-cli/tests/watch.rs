@@ -23,20 +23,26 @@ fn run(args: &[&str], out: &Path) -> Output {
         .unwrap()
 }
 
+/// `litesim run` of the README example without pictures, its MCAP file to
+/// `mcap`, its folder `out`.
+fn run_cut_in_mcap(mcap: &str, out: &Path) -> Output {
+    run(
+        &[
+            "examples/scenarios/cut_in.osc",
+            "--no-pictures",
+            "--mcap",
+            mcap,
+        ],
+        out,
+    )
+}
+
 #[test]
 fn a_run_writes_mcap_that_foxglove_and_osi_tools_read() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("run");
     let mcap = dir.path().join("cut_in.mcap");
-    let o = run(
-        &[
-            "examples/scenarios/cut_in.osc",
-            "--no-pictures",
-            "--mcap",
-            mcap.to_str().unwrap(),
-        ],
-        &out,
-    );
+    let o = run_cut_in_mcap(mcap.to_str().unwrap(), &out);
     assert!(o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("cut_in.mcap"), "{}", text(&o));
     let said = python(
@@ -50,15 +56,7 @@ fn a_run_writes_mcap_that_foxglove_and_osi_tools_read() {
     assert!(said.contains("500 ticks, 2 actors"), "{said}");
     // The same run gives the same bytes.
     let again = dir.path().join("again.mcap");
-    let o = run(
-        &[
-            "examples/scenarios/cut_in.osc",
-            "--no-pictures",
-            "--mcap",
-            again.to_str().unwrap(),
-        ],
-        &dir.path().join("run2"),
-    );
+    let o = run_cut_in_mcap(again.to_str().unwrap(), &dir.path().join("run2"));
     assert!(o.status.success(), "{}", text(&o));
     assert_eq!(
         std::fs::read(&mcap).unwrap(),
@@ -148,15 +146,7 @@ fn batch_save_failed_writes_failed_runs_as_mcap() {
 #[test]
 fn an_mcap_path_that_cannot_be_written_is_a_clear_error() {
     let dir = tempfile::tempdir().unwrap();
-    let o = run(
-        &[
-            "examples/scenarios/cut_in.osc",
-            "--no-pictures",
-            "--mcap",
-            "/proc/litesim/no.mcap",
-        ],
-        &dir.path().join("run"),
-    );
+    let o = run_cut_in_mcap("/proc/litesim/no.mcap", &dir.path().join("run"));
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("/proc/litesim"), "{}", text(&o));
 }
@@ -172,15 +162,7 @@ fn an_mcap_file_in_the_run_folder_is_always_written() {
     for k in 0..8 {
         let out = dir.path().join(format!("run{k}"));
         let mcap = out.join("run.mcap");
-        let o = run(
-            &[
-                "examples/scenarios/cut_in.osc",
-                "--no-pictures",
-                "--mcap",
-                mcap.to_str().unwrap(),
-            ],
-            &out,
-        );
+        let o = run_cut_in_mcap(mcap.to_str().unwrap(), &out);
         assert_eq!(o.status.code(), Some(0), "run {k}: {}", text(&o));
         assert!(std::fs::metadata(&mcap).unwrap().len() > 1000, "run {k}");
         assert!(out.join("summary.json").is_file(), "run {k}");
@@ -201,15 +183,7 @@ fn an_mcap_path_that_is_a_folder_or_below_a_file_is_refused_at_once() {
         (below.clone(), "is a file, not a folder"),
     ] {
         let out = dir.path().join("run");
-        let o = run(
-            &[
-                "examples/scenarios/cut_in.osc",
-                "--no-pictures",
-                "--mcap",
-                mcap.to_str().unwrap(),
-            ],
-            &out,
-        );
+        let o = run_cut_in_mcap(mcap.to_str().unwrap(), &out);
         assert_eq!(o.status.code(), Some(1), "{}", text(&o));
         let t = text(&o);
         assert!(t.contains("--mcap") && t.contains(says), "{t}");

@@ -10,11 +10,12 @@ use litesim_scenario::{LoadOptions, Prepared, RunOptions, prepare, run};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::hint::black_box;
-use std::path::PathBuf;
 
-fn root() -> PathBuf {
-    PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../.."))
-}
+// The test binaries' helpers: the repository root, a test written beside
+// the examples, the traffic test (the many-actors test runs it too).
+#[path = "../tests/common/mod.rs"]
+mod common;
+use common::{example_file, root, traffic};
 
 fn load() -> Prepared {
     let env = BTreeMap::from([("FTX".to_string(), root().join("osc").display().to_string())]);
@@ -26,29 +27,6 @@ fn load() -> Prepared {
         },
     )
     .unwrap()
-}
-
-/// A test of `n` vehicles (sut.car included) in three lanes, 8 m apart.
-fn traffic(n: usize) -> String {
-    let mut t = String::from(
-        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.traffic()\nscenario sut.traffic:\n    r: two_way_road\n",
-    );
-    for k in 1..n {
-        t += &format!("    v{k}: vehicle\n");
-    }
-    t += "    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            lane(1, at: start)\n";
-    for k in 1..n {
-        let lane = match k % 3 {
-            0 => "same_as: sut.car".to_string(),
-            1 => "left_of: sut.car".to_string(),
-            _ => format!("left_of: v{}", k - 1),
-        };
-        t += &format!(
-            "        v{k}.drive() with:\n            speed(30kph)\n            lane({lane}, at: start)\n            position({}m, ahead_of: sut.car, at: start)\n",
-            (k / 3) * 8 + 1
-        );
-    }
-    t + "    with: duration(10s)\n"
 }
 
 fn main() {
@@ -175,11 +153,7 @@ fn main() {
     let mut g = c.benchmark_group("scale");
     g.sample_size(10);
     for n in [10usize, 100] {
-        let f = tempfile::Builder::new()
-            .suffix(".osc")
-            .tempfile_in(root().join("examples/scenarios"))
-            .unwrap();
-        std::fs::write(f.path(), traffic(n)).unwrap();
+        let f = example_file(&traffic(n, None));
         let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
         let one = RunOptions {
             seed: Some(1),

@@ -411,23 +411,26 @@ struct Quiet {
 /// the test surely passes again while the summed shrink of the margin
 /// stays below its margin at `t0` — half of it here, a cushion far above
 /// the rounding of the sums. Returns the `shrink` it may sleep until
-/// (≤ `shrink`: look again next step).
-fn wake(shrink: f64, lb: f64, q: Quiet, (wx, wy): (f64, f64)) -> f64 {
+/// — or `None` where that is within `pace` of `shrink`: a pair sleeps
+/// only where its margin lasts several steps at the current pace (in
+/// traffic that changes a lot a heap entry per pair and step would cost
+/// more than the test it saves). Half the floor margin bounds the wake, so
+/// below the pace nothing more is computed.
+fn wake(shrink: f64, pace: f64, lb: f64, q: Quiet, (wx, wy): (f64, f64)) -> Option<f64> {
+    if 0.5 * (lb - q.floor) <= pace {
+        return None;
+    }
     let closes = math::hypot(wx, wy) * q.limit * WAKE_SLACK;
     let margin = (lb - q.floor).min(lb - 1e-6 - closes);
-    if margin > 1e-12 * (1.0 + lb.abs()) {
-        shrink + 0.5 * margin
-    } else {
-        shrink
-    }
+    (margin > 1e-12 * (1.0 + lb.abs()) && 0.5 * margin > pace).then_some(shrink + 0.5 * margin)
 }
 
 /// A pair is put to sleep only where its margin lasts at least this many
 /// steps at the current step's pace of shrinking.
 const SLEEP_STEPS: f64 = 4.0;
 
-/// [`TTC_HORIZON`] with the relative cushion of the skip test's squared
-/// comparison (`1 + 1e-9`, whose root this exceeds).
+/// The skip test's relative cushion on its squared comparison (`1 + 1e-9`)
+/// as a factor on lengths: this exceeds its square root.
 const WAKE_SLACK: f64 = 1.0 + 1e-6;
 
 /// How a change of velocity counts against a sleeping pair's margin: the
@@ -465,6 +468,8 @@ impl Kpis {
             drift: vec![0.0; ids.len()],
             yaw_prev: vec![0.0; ids.len()],
             v_prev: vec![(0.0, 0.0); ids.len()],
+            // No size yet (NaN equals nothing): made at the first step.
+            radii: vec![(f64::NAN, f64::NAN, 0.0); ids.len()],
             dense: if ids.len() <= DENSE_PAIRS {
                 vec![u32::MAX; ids.len() * ids.len()]
             } else {
@@ -567,9 +572,7 @@ impl Kpis {
             }
             self.mean_v = (cx, cy);
             self.shrink += 2.0 * grow;
-            // A pair sleeps only where its margin lasts several steps at
-            // this step's pace: in traffic that changes a lot a heap entry
-            // per pair and step would cost more than the test it saves.
+            // How far the margins shrink in a few steps at this step's pace.
             let pace = SLEEP_STEPS * 2.0 * grow;
             if rebuild {
                 for (x, b) in boxes.iter().enumerate() {
@@ -604,14 +607,9 @@ impl Kpis {
                         && reach > 0.0
                         && reach * reach > (wx * wx + wy * wy) * q.limit * q.limit * (1.0 + 1e-9)
                     {
-                        // (Half the floor margin bounds the wake: below the
-                        // pace the pair stays awake without more work.)
-                        if 0.5 * (lb - q.floor) > pace {
-                            let w = wake(shrink, lb, q, (wx, wy));
-                            if w - shrink > pace {
-                                self.asleep.push(std::cmp::Reverse((w.to_bits(), x)));
-                                continue;
-                            }
+                        if let Some(w) = wake(shrink, pace, lb, q, (wx, wy)) {
+                            self.asleep.push(std::cmp::Reverse((w.to_bits(), x)));
+                            continue;
                         }
                         awake[still] = x;
                         still += 1;
@@ -630,13 +628,10 @@ impl Kpis {
                     // Asleep from the next step on while the test surely passes.
                     let q = e.quiet;
                     let lb = q.key - self.drift[i] - self.drift[j];
-                    if 0.5 * (lb - q.floor) > pace {
-                        let (a, b) = (&boxes[i], &boxes[j]);
-                        let w = wake(shrink, lb, q, (b.vx - a.vx, b.vy - a.vy));
-                        if w - shrink > pace {
-                            self.asleep.push(std::cmp::Reverse((w.to_bits(), x)));
-                            continue;
-                        }
+                    let (a, b) = (&boxes[i], &boxes[j]);
+                    if let Some(w) = wake(shrink, pace, lb, q, (b.vx - a.vx, b.vy - a.vy)) {
+                        self.asleep.push(std::cmp::Reverse((w.to_bits(), x)));
+                        continue;
                     }
                 }
                 awake[still] = x;
@@ -672,9 +667,6 @@ impl Kpis {
     /// Actor `i`'s half diagonal (its box's corners' distance from its
     /// centre), made again only when its box's size changes.
     fn radius(&mut self, i: usize, b: &BoxState) -> f64 {
-        if self.radii.len() <= i {
-            self.radii.resize(i + 1, (f64::NAN, f64::NAN, 0.0));
-        }
         let (l, w, r) = self.radii[i];
         if l == b.length && w == b.width {
             return r;

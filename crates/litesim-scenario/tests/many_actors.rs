@@ -7,36 +7,10 @@
 use litesim_scenario::{Prepared, RunOptions, RunResult, prepare, run};
 
 mod common;
-use common::example_file;
-
-/// A 10 s test of `n` vehicles (sut.car included) in three lanes, 8 m
-/// apart; every fourth one is faster, so that pairs close in, come near
-/// and collide (the checks have something to find).
-fn traffic(n: usize) -> String {
-    let mut t = String::from(
-        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.traffic()\nscenario sut.traffic:\n    r: two_way_road\n",
-    );
-    for k in 1..n {
-        t += &format!("    v{k}: vehicle\n");
-    }
-    t += "    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            lane(1, at: start)\n";
-    for k in 1..n {
-        let lane = match k % 3 {
-            0 => "same_as: sut.car".to_string(),
-            1 => "left_of: sut.car".to_string(),
-            _ => format!("left_of: v{}", k - 1),
-        };
-        let speed = if k % 4 == 0 { 38 } else { 30 };
-        t += &format!(
-            "        v{k}.drive() with:\n            speed({speed}kph)\n            lane({lane}, at: start)\n            position({}m, ahead_of: sut.car, at: start)\n",
-            (k / 3) * 8 + 1
-        );
-    }
-    t + "    with: duration(10s)\n"
-}
+use common::{example_file, traffic};
 
 fn prepared() -> (tempfile::NamedTempFile, Prepared) {
-    let f = example_file(&traffic(40));
+    let f = example_file(&traffic(40, Some(4)));
     let p = prepare(f.path(), &Default::default()).unwrap();
     (f, p)
 }

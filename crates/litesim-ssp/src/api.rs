@@ -12,7 +12,7 @@
 
 use crate::error::SspResult;
 use crate::traffic::{BulbState, LightTarget, TrafficLightBox, TrafficLights};
-use litesim_core::{Pose, TrajectoryStatus, Vec3};
+use litesim_core::{ActorState, Pose, TrajectoryStatus, Vec3};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -413,6 +413,18 @@ impl Kinematics {
     }
 }
 
+impl From<&ActorState> for Kinematics {
+    fn from(s: &ActorState) -> Self {
+        Kinematics {
+            pose: s.pose,
+            velocity: s.velocity,
+            acceleration: s.acceleration,
+            yaw_rate: s.yaw_rate,
+            speed: s.speed,
+        }
+    }
+}
+
 impl From<&ReportedState> for Kinematics {
     fn from(s: &ReportedState) -> Self {
         Kinematics {
@@ -616,6 +628,26 @@ pub fn check_step_count(steps: u32) -> SspResult<()> {
     Ok(())
 }
 
+/// Checks that `steps` steps of `per_step` states each fit in one reply
+/// ([`MAX_STATES_PER_CALL`]); the refusal says how many steps would.
+/// `filterable`: the call takes an [`ActorFilter`], and the message says
+/// that filtering is the other way out.
+pub fn check_reply_size(steps: u32, per_step: u64, filterable: bool) -> SspResult<()> {
+    let states = u64::from(steps) * per_step;
+    if states > MAX_STATES_PER_CALL {
+        return Err(crate::SspError::exhausted(format!(
+            "steps = {steps} with {per_step} actor states each is {states} states in one reply; the limit is {MAX_STATES_PER_CALL}: ask for at most {} steps per call{}",
+            (MAX_STATES_PER_CALL / per_step.max(1)).max(1),
+            if filterable {
+                " (or filter the states)"
+            } else {
+                ""
+            }
+        )));
+    }
+    Ok(())
+}
+
 /// The simulator-support API.
 ///
 /// Calls are refused with `FAILED_PRECONDITION` when the session's life-cycle
@@ -688,14 +720,7 @@ pub trait Ssp {
     ) -> SspResult<Vec<(StepInfo, Vec<ReportedState>)>> {
         check_step_count(steps)?;
         if steps > 1 {
-            let per_step = self.count_states(filter)?;
-            if u64::from(steps) * per_step > MAX_STATES_PER_CALL {
-                return Err(crate::SspError::exhausted(format!(
-                    "steps = {steps} with {per_step} actor states each is {} states in one reply; the limit is {MAX_STATES_PER_CALL}: ask for at most {} steps per call (or filter the states)",
-                    u64::from(steps) * per_step,
-                    (MAX_STATES_PER_CALL / per_step.max(1)).max(1)
-                )));
-            }
+            check_reply_size(steps, self.count_states(filter)?, true)?;
         }
         (0..steps).map(|_| self.step(None, filter)).collect()
     }

@@ -240,7 +240,21 @@ const MAX_COORD: f64 = 1e9;
 
 /// Checks the six coordinates; `field` names the place in messages and is
 /// only built on error (this runs for every trajectory point).
+#[inline]
 fn check_coord(field: &dyn Fn() -> String, c: &Coord6) -> SspResult<()> {
+    // Every given value finite and within MAX_COORD (NaN and ±inf fail the
+    // comparison) is the common case, answered in one pass inline; else
+    // `coord_error` says which value and why.
+    let fine = |v: Option<f64>| v.is_none_or(|v| v.abs() <= MAX_COORD);
+    if fine(c.x) && fine(c.y) && fine(c.z) && fine(c.roll) && fine(c.pitch) && fine(c.yaw) {
+        return Ok(());
+    }
+    coord_error(field, c)
+}
+
+/// The refusal of a coordinate that [`check_coord`] found out of bounds.
+#[cold]
+fn coord_error(field: &dyn Fn() -> String, c: &Coord6) -> SspResult<()> {
     for (name, v) in [
         ("x", c.x),
         ("y", c.y),
@@ -683,13 +697,7 @@ impl Ssp for Session {
         check_step_count(steps)?;
         self.require("get_actors_states")?;
         let n = self.world.as_ref().map_or(0, World::len);
-        if u64::from(steps) * n as u64 > MAX_STATES_PER_CALL {
-            return Err(SspError::exhausted(format!(
-                "steps = {steps} with {n} actor states each is {} states in one reply; the limit is {MAX_STATES_PER_CALL}: ask for at most {} steps per call",
-                u64::from(steps) * n as u64,
-                (MAX_STATES_PER_CALL / (n as u64).max(1)).max(1)
-            )));
-        }
+        check_reply_size(steps, n as u64, false)?;
         out.clear();
         // Sized once (grown by doubling, a chunk of 5,000 states was
         // copied a dozen times on its way up).
@@ -706,14 +714,7 @@ impl Ssp for Session {
             }
             out.infos.push(info);
             out.states.extend(w.actors().map(|a| {
-                let s = a.state();
-                let mut k = Kinematics {
-                    pose: s.pose,
-                    velocity: s.velocity,
-                    acceleration: s.acceleration,
-                    yaw_rate: s.yaw_rate,
-                    speed: s.speed,
-                };
+                let mut k = Kinematics::from(&a.state());
                 if mirror {
                     k.mirror_y();
                 }
@@ -1128,18 +1129,7 @@ impl Ssp for Session {
                     "polyline[{i}]: x and y are mandatory"
                 )));
             };
-            // Every given value finite and within MAX_COORD (NaN and ±inf
-            // fail the comparison): else the checks that say which and why.
-            let fine = |v: Option<f64>| v.is_none_or(|v| v.abs() <= MAX_COORD);
-            if !(fine(c.x)
-                && fine(c.y)
-                && fine(c.z)
-                && fine(c.roll)
-                && fine(c.pitch)
-                && fine(c.yaw))
-            {
-                check_coord(&|| format!("polyline[{i}]"), c)?;
-            }
+            check_coord(&|| format!("polyline[{i}]"), c)?;
             // Into litesim's frame (as `frame`: y and yaw mirrored for CARLA).
             let (y, yaw) = if mirror {
                 (-y, c.yaw.map(|v| -v))

@@ -907,16 +907,21 @@ pub fn execute(
         // Open loop, many actors: every actor's trajectory for the chunk is
         // made on all cores first (each reads only its own plan), then
         // sent in actor order as below.
+        // Trajectories go out the chunk ahead (open loop) or 400 ms.
+        let clock = Clock {
+            now_ms,
+            step_ms,
+            ahead_ms: if open_loop {
+                n_steps * step_ms
+            } else {
+                horizon_ms
+            },
+            dt: plan.dt,
+            mirror,
+        };
         made.clear();
         if open_loop && plan.actors.len() >= PARALLEL_TRAJECTORIES {
             use rayon::prelude::*;
-            let clock = Clock {
-                now_ms,
-                step_ms,
-                ahead_ms: n_steps * step_ms,
-                dt: plan.dt,
-                mirror,
-            };
             plan.actors
                 .par_iter()
                 .zip(&warps)
@@ -943,21 +948,7 @@ pub fn execute(
                     warps[i].sent_offset = w.offset;
                     let traj = match made.get_mut(i).and_then(Option::take) {
                         Some(t) => t,
-                        None => {
-                            let ahead = if open_loop {
-                                n_steps * step_ms
-                            } else {
-                                horizon_ms
-                            };
-                            let clock = Clock {
-                                now_ms,
-                                step_ms,
-                                ahead_ms: ahead,
-                                dt: plan.dt,
-                                mirror,
-                            };
-                            plan_trajectory(a, &w, clock, &mut sent[i])
-                        }
+                        None => plan_trajectory(a, &w, clock, &mut sent[i]),
                     };
                     ssp.set_xy_trajectory(&a.id, traj).map_err(ssp_err)?;
                 }
