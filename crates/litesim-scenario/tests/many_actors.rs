@@ -93,3 +93,30 @@ fn over_grpc_the_run_of_many_actors_is_the_same() {
     server.stop().unwrap();
     assert_eq!(over, here);
 }
+
+/// Many actors on a map whose lights switch mid-run (chunks end at each
+/// switch, off the regular grid): the next chunk's trajectories, made while
+/// a chunk is read back, are for the chunk the loop then steps (a debug
+/// build asserts it), and the run is the same at every thread count.
+#[test]
+fn chunks_cut_by_light_switches_are_foreseen() {
+    let text = traffic(20, None)
+        .replace("../maps/straight.xodr", "../maps/junction.xodr")
+        .replace(
+            "    r: two_way_road\n",
+            "    r: two_way_road\n    east_west: traffic_light with:\n        keep(it.light_id == \"c1\")\n",
+        )
+        .replace(
+            "    do parallel(overlap: equal):\n",
+            "    do parallel(overlap: equal):\n        serial():\n            wait elapsed(3.3s)\n            east_west.switch(red)\n            wait elapsed(2.8s)\n            east_west.switch(green)\n",
+        );
+    let f = example_file(&text);
+    let prep = prepare(f.path(), &Default::default()).unwrap();
+    let r = run(&prep, &mut litesim_scenario::in_process(), &opts()).unwrap();
+    assert_eq!(r.plan.lights.len(), 2, "{:?}", r.plan.lights);
+    assert_eq!(r.summary.steps, 500);
+    let here = digest(&r);
+    for threads in [1, 2] {
+        assert_eq!(in_pool(threads, &prep), here, "{threads} threads");
+    }
+}

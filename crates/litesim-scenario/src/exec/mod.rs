@@ -341,7 +341,7 @@ const PARALLEL_TRAJECTORIES: usize = 16;
 /// When and how a trajectory is sampled: from `now_ms`, a point every
 /// `step_ms` up to `ahead_ms` past it (and one more), of a plan sampled
 /// every `dt` s, in the simulator's frame (`mirror`: CARLA's).
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, PartialEq)]
 struct Clock {
     now_ms: u64,
     step_ms: u64,
@@ -723,6 +723,13 @@ pub fn execute(
     let mut got = litesim_ssp::api::KinematicSteps::default();
     // A chunk's trajectories made ahead of sending (open loop, many actors).
     let mut made: Vec<Option<XyTrajectory>> = Vec::new();
+    // Open loop, many actors: the next chunk's trajectories, made on
+    // another core while this chunk is read back, with the clock they were
+    // made for and what they send (`sent` for the next chunk).
+    let overlap = open_loop && plan.actors.len() >= PARALLEL_TRAJECTORIES;
+    let mut next_made: Vec<Option<XyTrajectory>> = Vec::new();
+    let mut next_clock: Option<Clock> = None;
+    let mut next_sent: Vec<Sent> = if overlap { sent.clone() } else { Vec::new() };
     while k < steps && sut_error.is_none() {
         if let (Some(_), Some(replan)) = (ego_i, replan)
             && !plan.conditions.is_empty()
@@ -920,7 +927,20 @@ pub fn execute(
             mirror,
         };
         made.clear();
-        if open_loop && plan.actors.len() >= PARALLEL_TRAJECTORIES {
+        // The loop's head must have foreseen this chunk (the light
+        // switches, the run's end) exactly; a miss would only cost time
+        // (the trajectories are made again below), but tests catch it.
+        let foreseen = next_clock.take();
+        debug_assert!(
+            foreseen.is_none_or(|c| c == clock),
+            "chunk at {now_ms} ms foreseen wrong"
+        );
+        if overlap && foreseen == Some(clock) {
+            // Made while the last chunk was read back, for this very clock
+            // (an open loop's plan and warps do not change).
+            std::mem::swap(&mut made, &mut next_made);
+            std::mem::swap(&mut sent, &mut next_sent);
+        } else if overlap {
             use rayon::prelude::*;
             plan.actors
                 .par_iter()
@@ -1044,7 +1064,46 @@ pub fn execute(
             warps: &warps,
             sent: &sent,
         };
-        rb.chunk(&env, &mut got)?;
+        // The next chunk's clock as the loop's head will make it: from
+        // here to the end or the next light switch.
+        let upcoming = (overlap && k < steps).then(|| {
+            let passed = plan.lights[next_switch..]
+                .iter()
+                .take_while(|sw| switch_tick(sw.t) <= k)
+                .count();
+            let mut n = chunk.min(steps - k);
+            if let Some(sw) = plan.lights.get(next_switch + passed) {
+                n = n.min(switch_tick(sw.t).saturating_sub(k).max(1));
+            }
+            Clock {
+                now_ms: k * step_ms,
+                ahead_ms: n * step_ms,
+                ..clock
+            }
+        });
+        match upcoming {
+            Some(c) => {
+                // Reading back here, the next trajectories on another core
+                // (or after, on this one, when none is free).
+                let actors = &plan.actors;
+                let (warps, next_made, next_sent) = (&warps, &mut next_made, &mut next_sent);
+                rayon::in_place_scope(|s| {
+                    s.spawn(move |_| {
+                        next_made.clear();
+                        next_made.extend(
+                            actors
+                                .iter()
+                                .zip(warps)
+                                .zip(next_sent.iter_mut())
+                                .map(|((a, w), keep)| Some(plan_trajectory(a, w, c, keep))),
+                        );
+                    });
+                    rb.chunk(&env, &mut got)
+                })?;
+                next_clock = Some(c);
+            }
+            None => rb.chunk(&env, &mut got)?,
+        }
     }
     let Readback {
         boxes,
