@@ -446,7 +446,36 @@ fn calibration_file(prep: &Prepared, opts: &RunOptions, profile: &str) -> Option
 }
 
 /// Runs a prepared test on `ssp` under a seed.
+///
+/// A test of many actors (from [`POOLED_RUN`]) with sut.car on its plan,
+/// called from outside rayon's pool, runs on one of the pool's threads
+/// (the caller waits): its parallel parts (motion planning, post-plan
+/// checks, trajectories made while a chunk is read back) then share their
+/// work with the thread that runs it instead of handing it over and
+/// sleeping until it is done — on two cores the 100-vehicle test's median
+/// went from ~10 to ~8.5 ms (BENCHMARKS.md). Runs with a system under test
+/// stay on the caller's thread (an external SUT may need it). Same results
+/// on any thread.
 pub fn run(
+    prep: &Prepared,
+    ssp: &mut dyn Ssp,
+    opts: &RunOptions,
+) -> Result<RunResult, ScenarioError> {
+    if prep.test.actors.len() >= POOLED_RUN
+        && matches!(opts.sut, sut::SutChoice::Planned)
+        && rayon::current_thread_index().is_none()
+    {
+        return rayon::scope(|_| run_here(prep, ssp, opts));
+    }
+    run_here(prep, ssp, opts)
+}
+
+/// From how many actors [`run`] goes into rayon's pool (the size from
+/// which its parts run in parallel).
+pub const POOLED_RUN: usize = 16;
+
+/// [`run`] on the calling thread.
+fn run_here(
     prep: &Prepared,
     ssp: &mut dyn Ssp,
     opts: &RunOptions,

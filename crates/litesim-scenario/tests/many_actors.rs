@@ -120,3 +120,39 @@ fn chunks_cut_by_light_switches_are_foreseen() {
         assert_eq!(in_pool(threads, &prep), here, "{threads} threads");
     }
 }
+
+/// Where a run goes on: a test of many actors called from outside rayon's
+/// pool runs on one of its threads (its parallel parts share their work
+/// with it); a small one, or one driven by a system under test, on the
+/// caller's thread. The observer sees each tick on the thread that runs.
+#[test]
+fn many_actors_run_on_a_pool_thread_and_the_rest_where_called() {
+    use std::sync::{Arc, Mutex};
+    let on = |text: String, sut: litesim_scenario::sut::SutChoice| {
+        let threads: Arc<Mutex<std::collections::BTreeSet<Option<usize>>>> = Arc::default();
+        let seen = Arc::clone(&threads);
+        let opts = RunOptions {
+            sut,
+            record: true,
+            observer: Some(litesim_scenario::TickObserver(Arc::new(Mutex::new(
+                move |_: &litesim_log::SimulationLog| {
+                    seen.lock().unwrap().insert(rayon::current_thread_index());
+                },
+            )))),
+            ..opts()
+        };
+        let f = example_file(&text);
+        let prep = prepare(f.path(), &Default::default()).unwrap();
+        run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+        let t = threads.lock().unwrap().clone();
+        assert_eq!(t.len(), 1, "{t:?}");
+        t.into_iter().next().unwrap()
+    };
+    let planned = litesim_scenario::sut::SutChoice::Planned;
+    assert!(on(traffic(20, None), planned.clone()).is_some());
+    assert_eq!(on(traffic(4, None), planned), None);
+    assert_eq!(
+        on(traffic(20, None), litesim_scenario::sut::SutChoice::Acc),
+        None
+    );
+}

@@ -652,7 +652,7 @@ pub fn check_reply_size(steps: u32, per_step: u64, filterable: bool) -> SspResul
 ///
 /// Calls are refused with `FAILED_PRECONDITION` when the session's life-cycle
 /// state does not allow them; the message says the state and what is allowed.
-pub trait Ssp {
+pub trait Ssp: Send {
     /// Initialises the session; must be the first call.
     fn init(&mut self, req: InitRequest) -> SspResult<InitResponse>;
     /// Launches the simulator process (a no-op for the in-process model);

@@ -74,7 +74,7 @@ impl<'a, W: Write> TracingSsp<'a, W> {
     }
 }
 
-impl<W: Write> Ssp for TracingSsp<'_, W> {
+impl<W: Write + Send> Ssp for TracingSsp<'_, W> {
     fn init(&mut self, req: InitRequest) -> SspResult<InitResponse> {
         let args = serde_json::to_value(&req).unwrap_or(Value::Null);
         self.call("init", args, |s| s.init(req))
