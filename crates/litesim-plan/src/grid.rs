@@ -126,6 +126,12 @@ pub struct PlanningGrid {
     /// of `radius` at the reference point.
     #[serde(default)]
     pub footprint: Vec<f64>,
+    /// The body the circles cover — length, width, and how far the
+    /// reference point is ahead of the rear bumper (m) — checked exactly
+    /// where the circles, which reach beyond it, do not fit
+    /// ([`Self::pose_free`]). `None` for a disc vehicle.
+    #[serde(default)]
+    pub body: Option<[f64; 3]>,
     /// Summed-area table of the cells that are not free, (w+1)·(h+1)
     /// entries: a rectangle of cells is known free in four lookups, so an
     /// edge whose bounding box is clear skips its per-point walk. Rebuilt
@@ -181,6 +187,7 @@ impl PlanningGrid {
             margin,
             free,
             footprint: Vec::new(),
+            body: None,
             blocked_sum,
         }
     }
@@ -205,6 +212,7 @@ impl PlanningGrid {
         let radius = ((0.5 * width).powi(2) + (0.5 * seg).powi(2)).sqrt();
         let mut g = Self::new(grid, radius, margin);
         g.footprint = (0..k).map(|j| -rear + seg * (j as f64 + 0.5)).collect();
+        g.body = Some([length, width, rear]);
         g
     }
 
@@ -218,8 +226,10 @@ impl PlanningGrid {
         }
     }
 
-    /// True when the vehicle at `p` heading `yaw` keeps radius + margin
-    /// from every obstacle with its whole footprint.
+    /// True when the vehicle at `p` heading `yaw` keeps the margin from
+    /// every obstacle and the map's edge with its whole body: its covering
+    /// circles fit (radius + margin), or else its rectangle does, checked
+    /// exactly ([`Self::body_free`]).
     pub fn pose_free(&self, p: Vec2, yaw: f64) -> bool {
         self.pose_free_along(p, Vec2::from_heading(yaw))
     }
@@ -227,7 +237,65 @@ impl PlanningGrid {
     /// [`Self::pose_free`] with the heading as a unit vector `f` (no
     /// trigonometry: searches that step along arcs rotate `f` instead).
     pub fn pose_free_along(&self, p: Vec2, f: Vec2) -> bool {
+        self.circles_free_along(p, f) || self.body_free(p, f, 0.0)
+    }
+
+    /// The covering circles alone fit (radius + margin): more room than
+    /// the body needs, which keeps a search from spending its poses along
+    /// walls ([`crate::hybrid_astar`] checks the body exactly only while
+    /// it leaves its start).
+    pub fn circles_free_along(&self, p: Vec2, f: Vec2) -> bool {
         self.offsets().iter().all(|o| self.is_free(p + f * *o))
+    }
+
+    /// The body's rectangle at `p` heading along the unit vector `f` keeps
+    /// `margin + extra` from every obstacle and the map's edge; false for
+    /// a disc vehicle (no body). Circles that cover a rectangle reach
+    /// beyond its sides and ends (a bus's by 0.13 m and 0.2 m), so a long
+    /// vehicle 3 m from a wall, or starting near the map's edge, does not
+    /// fit its circles where its body fits.
+    ///
+    /// Clearance is measured per cell (between cell centres, less half a
+    /// cell), so it may drop by up to a cell's diagonal `r√2` between a
+    /// point and one within half a cell of it. Points every cell along the
+    /// outline keep `margin + extra + r√2`: every point of the outline is
+    /// within half a cell of one, so every point of it keeps `margin +
+    /// extra` as the planner (and the closed loop's check) measures it.
+    /// Points every cell along the axis (less the margin at each end) keep
+    /// more than `w/2 − margin + r√2`: an obstacle cell under the body lies
+    /// at least `margin` inside the outline (or the outline's points would
+    /// not keep theirs), so within `w/2 − margin` of that stretch of the
+    /// axis, and such a point would be nearer.
+    /// The outline's rule is stricter than the circles' along the sides and
+    /// looser at the bumpers, where the circles reach far beyond the body.
+    pub fn body_free(&self, p: Vec2, f: Vec2, extra: f64) -> bool {
+        let Some([length, width, rear]) = self.body else {
+            return false;
+        };
+        let s = self.grid.resolution.max(1e-3);
+        let n = Vec2::new(-f.y, f.x);
+        let (a0, a1, hw) = (-rear, length - rear, 0.5 * width);
+        let slack = s * std::f64::consts::SQRT_2;
+        let edge = self.margin + extra + slack;
+        let deep = hw - self.margin + slack;
+        let along = (length / s).ceil().max(1.0) as usize;
+        let across = (width / s).ceil().max(1.0) as usize;
+        let at = |a: f64, l: f64| p + f * a + n * l;
+        // The axis where an obstacle `margin` inside the outline can be.
+        let (c0, c1) = (a0 + self.margin, a1 - self.margin);
+        let inner = ((c1 - c0) / s).ceil().max(1.0) as usize;
+        (0..=along).all(|k| {
+            let a = a0 + (a1 - a0) * k as f64 / along as f64;
+            self.clearance(at(a, -hw)) >= edge && self.clearance(at(a, hw)) >= edge
+        }) && (0..=across).all(|k| {
+            let l = -hw + width * k as f64 / across as f64;
+            self.clearance(at(a0, l)) >= edge && self.clearance(at(a1, l)) >= edge
+        }) && (deep <= 0.0
+            || c1 < c0
+            || (0..=inner).all(|k| {
+                let a = c0 + (c1 - c0) * k as f64 / inner as f64;
+                self.clearance(at(a, 0.0)) > deep
+            }))
     }
 
     /// The covering circle of the pose's footprint with the least
@@ -244,6 +312,39 @@ impl PlanningGrid {
             .fold((p, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a })
     }
 
+    /// The point of the body's outline (every cell along it) with the
+    /// least clearance, that clearance, and the clearance the outline needs
+    /// (the margin plus a cell's diagonal, [`Self::body_free`]); for a disc vehicle the tightest covering
+    /// circle ([`Self::tightest_circle`]) and radius + margin.
+    pub fn tightest_part(&self, p: Vec2, yaw: f64) -> (Vec2, f64, f64) {
+        let Some([length, width, rear]) = self.body else {
+            let (c, d) = self.tightest_circle(p, yaw);
+            return (c, d, self.radius + self.margin);
+        };
+        let s = self.grid.resolution.max(1e-3);
+        let f = Vec2::from_heading(yaw);
+        let n = Vec2::new(-f.y, f.x);
+        let (a0, hw) = (-rear, 0.5 * width);
+        let along = (length / s).ceil().max(1.0) as usize;
+        let across = (width / s).ceil().max(1.0) as usize;
+        let sides = (0..=along).flat_map(|k| {
+            let a = a0 + length * k as f64 / along as f64;
+            [(a, -hw), (a, hw)]
+        });
+        let ends = (0..=across).flat_map(|k| {
+            let l = -hw + width * k as f64 / across as f64;
+            [(a0, l), (a0 + length, l)]
+        });
+        let (q, d) = sides
+            .chain(ends)
+            .map(|(a, l)| {
+                let q = p + f * a + n * l;
+                (q, self.clearance(q))
+            })
+            .fold((p, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+        (q, d, self.margin + s * std::f64::consts::SQRT_2)
+    }
+
     /// [`Self::pose_free`] with `extra` m more room than the margin.
     pub fn pose_free_with(&self, p: Vec2, yaw: f64, extra: f64) -> bool {
         let f = Vec2::from_heading(yaw);
@@ -251,6 +352,7 @@ impl PlanningGrid {
         self.offsets()
             .iter()
             .all(|o| self.clearance(p + f * *o) >= need)
+            || self.body_free(p, f, extra)
     }
 
     /// Clearance at a point (m); 0 outside the grid.
@@ -411,6 +513,89 @@ mod tests {
         let copy: PlanningGrid =
             serde_json::from_str(&serde_json::to_string(&pg).unwrap()).unwrap();
         assert!(!copy.box_free(Vec2::new(1.0, 5.0), Vec2::new(1.1, 5.0)));
+    }
+
+    /// The body check is sound: random grids (small obstacles, some deep
+    /// inside where a body may stand) and random poses of a bus and a car;
+    /// wherever it admits a pose, every point of the body's outline on a
+    /// fine lattice (5 cm) keeps the margin as the planner measures
+    /// clearance, and no obstacle cell lies under the body (inside, 5 cm
+    /// lattice). It admits many poses the circles refuse.
+    #[test]
+    fn the_body_check_keeps_the_margin_everywhere_it_admits_a_pose() {
+        let mut rng = crate::rng::Rng::new(11);
+        let (mut body_only, mut both) = (0, 0);
+        for (length, width, rear) in [(12.0, 2.55, 2.4), (4.6, 1.9, 1.0)] {
+            for round in 0..6 {
+                let mut g =
+                    OccupancyGrid::new(Vec2::new(0.0, 0.0), Vec2::new(40.0, 24.0), 0.2).unwrap();
+                for _ in 0..(10 + 15 * round) {
+                    let i = (rng.unit() * g.width as f64) as usize;
+                    let j = (rng.unit() * g.height as f64) as usize;
+                    g.occupied[j * g.width + i] = true;
+                }
+                let pg = PlanningGrid::with_footprint(g, length, width, rear, 0.4);
+                for _ in 0..4_000 {
+                    let p = Vec2::new(rng.unit() * 40.0, rng.unit() * 24.0);
+                    let yaw = (rng.unit() - 0.5) * 7.0;
+                    let f = Vec2::from_heading(yaw);
+                    if !pg.body_free(p, f, 0.0) {
+                        continue;
+                    }
+                    if pg.circles_free_along(p, f) {
+                        both += 1;
+                    } else {
+                        body_only += 1;
+                    }
+                    let n = Vec2::new(-f.y, f.x);
+                    let (na, nl) = ((length / 0.05) as usize, (width / 0.05) as usize);
+                    for a in 0..=na {
+                        for l in 0..=nl {
+                            let q = p
+                                + f * (-rear + length * a as f64 / na as f64)
+                                + n * (-0.5 * width + width * l as f64 / nl as f64);
+                            assert!(
+                                !pg.grid.is_occupied(q) && pg.grid.cell(q).is_some(),
+                                "obstacle or the map's edge under the body at {q:?}"
+                            );
+                            let outline = a == 0 || a == na || l == 0 || l == nl;
+                            if outline {
+                                assert!(
+                                    pg.clearance(q) >= 0.4 - 1e-9,
+                                    "{q:?} of the body at {p:?} {yaw}: {}",
+                                    pg.clearance(q)
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(body_only > 100 && both > 1_000, "{body_only} {both}");
+    }
+
+    /// A truck starting 1.6 m from the map's edge, heading away from it:
+    /// its rear circle (1.37 m, plus 0.4 m of margin) does not fit, its
+    /// body (1.05 m from the edge at the rear bumper) does; the tightest
+    /// part named is on the rear bumper.
+    #[test]
+    fn a_long_body_fits_near_the_edge_where_its_circles_do_not() {
+        let g = OccupancyGrid::new(Vec2::new(0.0, 0.0), Vec2::new(30.0, 30.0), 0.2).unwrap();
+        let pg = PlanningGrid::with_footprint(g, 8.5, 2.5, 0.6 + 1.3, 0.4);
+        let (p, yaw) = (Vec2::new(15.0, 3.0), std::f64::consts::FRAC_PI_2);
+        assert!(!pg.circles_free_along(p, Vec2::from_heading(yaw)));
+        assert!(pg.pose_free(p, yaw));
+        let (at, clearance, need) = pg.tightest_part(p, yaw);
+        assert!((at.y - 1.1).abs() < 1e-9, "{at:?}");
+        assert!(
+            clearance >= need && need == 0.4 + 0.2 * std::f64::consts::SQRT_2,
+            "{clearance} {need}"
+        );
+        // Backed up to 0.6 m from the edge the body no longer keeps its margin.
+        assert!(!pg.pose_free(Vec2::new(15.0, 2.5), yaw));
+        // A disc vehicle has no body to fall back on.
+        let disc = PlanningGrid::new(pg.grid.clone(), 1.4, 0.4);
+        assert!(!disc.body_free(p, Vec2::from_heading(yaw), 0.0));
     }
 
     #[test]

@@ -66,7 +66,7 @@ pub enum HybridError {
     BadConfig(String),
     /// The vehicle does not fit at the start.
     #[error(
-        "the vehicle does not fit at its start ({x:.2}, {y:.2}) heading {heading_deg:.0}°: the part of its body around ({at_x:.1}, {at_y:.1}) is {clearance:.2} m from an obstacle or the map's edge, it needs {need:.2} m (the radius of the circles covering its body, plus the margin)"
+        "the vehicle does not fit at its start ({x:.2}, {y:.2}) heading {heading_deg:.0}°: the part of its body around ({at_x:.1}, {at_y:.1}) is {clearance:.2} m from an obstacle or the map's edge, it needs {need:.2} m ({rule})"
     )]
     StartBlocked {
         /// The start (m).
@@ -75,14 +75,17 @@ pub enum HybridError {
         y: f64,
         /// The start heading (degrees).
         heading_deg: f64,
-        /// Centre of the covering circle with the least clearance (m).
+        /// The point of the body's outline (a disc vehicle: the centre of
+        /// its circle) with the least clearance (m).
         at_x: f64,
-        /// Centre of the covering circle with the least clearance (m).
+        /// The same point's y (m).
         at_y: f64,
         /// Its clearance (m).
         clearance: f64,
-        /// The clearance a covering circle needs (radius + margin, m).
+        /// The clearance it needs (m).
         need: f64,
+        /// What that clearance is made of.
+        rule: &'static str,
     },
     /// No forward path within the turning limit.
     #[error(
@@ -137,12 +140,21 @@ fn arc(p: Vec2, yaw: f64, k: f64, len: f64) -> (Vec2, f64) {
 }
 
 /// Poses every ≤ `check` m along an arc (excluding the start, including the
-/// end); false as soon as one does not fit.
+/// end); false as soon as one does not fit — by its covering circles, or
+/// with `exact` by its body ([`PlanningGrid::pose_free_along`]).
 ///
 /// Each sub-step is the same rigid motion in the vehicle's frame, so the
 /// poses follow by rotating the heading vector (no trigonometry per
 /// pose; the drift over an arc is far below a grid cell).
-fn arc_free(grid: &PlanningGrid, p: Vec2, yaw: f64, k: f64, len: f64, check: f64) -> bool {
+fn arc_free(
+    grid: &PlanningGrid,
+    p: Vec2,
+    yaw: f64,
+    k: f64,
+    len: f64,
+    check: f64,
+    exact: bool,
+) -> bool {
     let m = (len / check).ceil().max(1.0) as usize;
     let ds = len / m as f64;
     let turn = k * ds;
@@ -158,7 +170,12 @@ fn arc_free(grid: &PlanningGrid, p: Vec2, yaw: f64, k: f64, len: f64, check: f64
     for _ in 0..m {
         q = q + f * ahead + Vec2::new(-f.y, f.x) * left;
         f = Vec2::new(f.x * c - f.y * s, f.x * s + f.y * c);
-        if !grid.pose_free_along(q, f) {
+        let free = if exact {
+            grid.pose_free_along(q, f)
+        } else {
+            grid.circles_free_along(q, f)
+        };
+        if !free {
             return false;
         }
     }
@@ -208,11 +225,11 @@ fn shot(
             continue;
         }
         let k = side * kappa;
-        if !arc_free(grid, p, yaw, k, turn, check) {
+        if !arc_free(grid, p, yaw, k, turn, check, false) {
             continue;
         }
         let (q, h) = arc(p, yaw, k, turn);
-        if straight > 0.0 && !arc_free(grid, q, h, 0.0, straight, check) {
+        if straight > 0.0 && !arc_free(grid, q, h, 0.0, straight, check, false) {
             continue;
         }
         best = Some((k, turn, straight));
@@ -326,7 +343,7 @@ pub fn hybrid_astar(
         return Err(HybridError::BadConfig("headings must be at least 1".into()));
     }
     if !(start.is_finite() && yaw.is_finite() && grid.pose_free(start, yaw)) {
-        let (at, clearance) = grid.tightest_circle(start, yaw);
+        let (at, clearance, need) = grid.tightest_part(start, yaw);
         return Err(HybridError::StartBlocked {
             x: start.x,
             y: start.y,
@@ -334,7 +351,12 @@ pub fn hybrid_astar(
             at_x: at.x,
             at_y: at.y,
             clearance,
-            need: grid.radius + grid.margin,
+            need,
+            rule: if grid.body.is_some() {
+                "the margin, plus a cell's diagonal"
+            } else {
+                "the vehicle's radius plus the margin"
+            },
         });
     }
     let radius = 1.0 / kappa;
@@ -408,6 +430,8 @@ pub fn hybrid_astar(
     // Shots are tried on every expansion near the goal, on every 16th away
     // (a shot from afar is long to check and rarely free).
     let near = 2.0 * radius + 5.0;
+    // How far from its start the body is checked exactly: a body length.
+    let leave = grid.body.map_or(0.0, |[length, ..]| length);
     while let Some(Cheapest(_, id)) = heap.pop() {
         let (p, yaw, gc, lc) = {
             let n = &nodes[id as usize];
@@ -464,7 +488,10 @@ pub fn hybrid_astar(
         }
         let lo = lc.saturating_sub(1);
         for (level, &k) in ks.iter().enumerate().skip(lo).take(lc + 2 - lo) {
-            if !arc_free(grid, p, yaw, k, step, check) {
+            // A start the circles do not fit (a long body near a wall or
+            // the map's edge) is left with the body checked exactly; the
+            // rest of the search keeps the circles' room.
+            if !arc_free(grid, p, yaw, k, step, check, gc < leave) {
                 continue;
             }
             let (q, qy) = arc(p, yaw, k, step);
@@ -636,7 +663,7 @@ mod tests {
         let text = e.to_string();
         assert!(
             text.starts_with("the vehicle does not fit at its start (1.50, 5.00) heading 0°: the part of its body around (")
-                && text.contains("m from an obstacle or the map's edge, it needs 1.36 m (the radius"),
+                && text.contains("m from an obstacle or the map's edge, it needs 0.58 m (the margin, plus a cell's diagonal)"),
             "{text}"
         );
         let bad = HybridConfig {

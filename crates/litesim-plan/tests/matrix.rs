@@ -47,9 +47,20 @@ fn every_example_with_every_preset_arrives_on_its_path_or_is_refused_with_a_reas
     // raised as planning learns to use more of the free space.
     let arrived = rows.iter().filter(|r| within_bounds(r)).count();
     assert!(
-        arrived >= 39,
+        arrived >= 41,
         "{arrived} of 49 runs arrived within the bounds"
     );
+    // The truck in the forest and in the parking lot starts near the map's
+    // edge, its rear circle within its radius and margin of it (1.50 and
+    // 1.70 m against 1.77 m): its body keeps the margin there, so the body
+    // is checked exactly while it leaves its start, and it arrives.
+    for example in ["forest", "parking_lot"] {
+        let truck = rows
+            .iter()
+            .find(|r| r.example == example && r.preset == "truck")
+            .unwrap();
+        assert!(within_bounds(truck), "{example}: {truck:?}");
+    }
     // Each example's own configuration arrives — the warehouse's too,
     // whose 90° aisle corners the smoothed FMT* path takes tighter than
     // any preset turns: the curvature-bounded search plans it instead.
