@@ -5,9 +5,27 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// JSON has no NaN: writers emit `null` for "no value"; read it back as NaN.
+/// Straight into the column (no intermediate `Vec<Option<f64>>` of twice
+/// the size, copied once more): a long log's columns are most of what
+/// reading it allocates.
 fn nan_vec<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
-    let v: Vec<Option<f64>> = Deserialize::deserialize(d)?;
-    Ok(v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())
+    struct Column;
+    impl<'de> serde::de::Visitor<'de> for Column {
+        type Value = Vec<f64>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a sequence of numbers or nulls")
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Vec<f64>, A::Error> {
+            // A hint from the format, bounded: a hostile length is not
+            // allocated up front.
+            let mut out = Vec::with_capacity(seq.size_hint().unwrap_or(0).min(1 << 16));
+            while let Some(x) = seq.next_element::<Option<f64>>()? {
+                out.push(x.unwrap_or(f64::NAN));
+            }
+            Ok(out)
+        }
+    }
+    d.deserialize_seq(Column)
 }
 
 /// State columns of one actor (SI units, world frame).

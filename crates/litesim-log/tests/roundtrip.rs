@@ -165,3 +165,36 @@ fn ticks_between_cuts_every_track_at_the_same_ticks() {
     let json = |l: &SimulationLog| serde_json::to_string(&l.tracks).unwrap();
     assert_eq!(json(&log.ticks_from(0)), json(&log));
 }
+
+/// Columns read straight into numbers: `null` is NaN, numbers keep their
+/// bits, and anything else in a column is refused with its place and what
+/// a column holds.
+#[test]
+fn columns_read_nulls_as_nan_and_refuse_other_values() {
+    let log = sample_log();
+    let p = std::path::Path::new("log.json");
+    let mut v = serde_json::to_value(&log).unwrap();
+    let x = &mut v["tracks"][0]["state"]["x"];
+    let n = x.as_array().unwrap().len();
+    x[0] = serde_json::Value::Null;
+    x[1] = serde_json::json!(0.1 + 0.2);
+    let back = SimulationLog::from_json_str(&v.to_string(), p).unwrap();
+    let col = &back.tracks[0].state.x;
+    assert_eq!(col.len(), n);
+    assert!(col[0].is_nan());
+    assert_eq!(col[1].to_bits(), (0.1f64 + 0.2).to_bits());
+    assert_eq!(&col[2..], &log.tracks[0].state.x[2..]);
+    v["tracks"][0]["state"]["x"][2] = serde_json::json!("fast");
+    let e = SimulationLog::from_json_str(&v.to_string(), p)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("line 1, column") && e.contains("expected f64"),
+        "{e}"
+    );
+    v["tracks"][0]["state"]["x"] = serde_json::json!({"a": 1});
+    let e = SimulationLog::from_json_str(&v.to_string(), p)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("a sequence of numbers or nulls"), "{e}");
+}
