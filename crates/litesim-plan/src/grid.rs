@@ -269,33 +269,48 @@ impl PlanningGrid {
     /// The outline's rule is stricter than the circles' along the sides and
     /// looser at the bumpers, where the circles reach far beyond the body.
     pub fn body_free(&self, p: Vec2, f: Vec2, extra: f64) -> bool {
-        let Some([length, width, rear]) = self.body else {
+        let Some(body @ [length, width, rear]) = self.body else {
             return false;
         };
         let s = self.grid.resolution.max(1e-3);
-        let n = Vec2::new(-f.y, f.x);
-        let (a0, a1, hw) = (-rear, length - rear, 0.5 * width);
         let slack = s * std::f64::consts::SQRT_2;
         let edge = self.margin + extra + slack;
-        let deep = hw - self.margin + slack;
+        let deep = 0.5 * width - self.margin + slack;
+        // The axis where an obstacle `margin` inside the outline can be.
+        let (c0, c1) = (self.margin - rear, length - rear - self.margin);
+        let inner = ((c1 - c0) / s).ceil().max(1.0) as usize;
+        self.outline(body, p, f).all(|q| self.clearance(q) >= edge)
+            && (deep <= 0.0
+                || c1 < c0
+                || (0..=inner).all(|k| {
+                    let a = c0 + (c1 - c0) * k as f64 / inner as f64;
+                    self.clearance(p + f * a) > deep
+                }))
+    }
+
+    /// Points of the outline of `body` ([`Self::body`]) at `p` heading
+    /// along the unit vector `f`, at most a cell apart along each side
+    /// (corners included).
+    fn outline(
+        &self,
+        [length, width, rear]: [f64; 3],
+        p: Vec2,
+        f: Vec2,
+    ) -> impl Iterator<Item = Vec2> {
+        let s = self.grid.resolution.max(1e-3);
+        let n = Vec2::new(-f.y, f.x);
+        let (a0, hw) = (-rear, 0.5 * width);
         let along = (length / s).ceil().max(1.0) as usize;
         let across = (width / s).ceil().max(1.0) as usize;
-        let at = |a: f64, l: f64| p + f * a + n * l;
-        // The axis where an obstacle `margin` inside the outline can be.
-        let (c0, c1) = (a0 + self.margin, a1 - self.margin);
-        let inner = ((c1 - c0) / s).ceil().max(1.0) as usize;
-        (0..=along).all(|k| {
-            let a = a0 + (a1 - a0) * k as f64 / along as f64;
-            self.clearance(at(a, -hw)) >= edge && self.clearance(at(a, hw)) >= edge
-        }) && (0..=across).all(|k| {
+        let sides = (0..=along).flat_map(move |k| {
+            let a = a0 + length * k as f64 / along as f64;
+            [(a, -hw), (a, hw)]
+        });
+        let ends = (0..=across).flat_map(move |k| {
             let l = -hw + width * k as f64 / across as f64;
-            self.clearance(at(a0, l)) >= edge && self.clearance(at(a1, l)) >= edge
-        }) && (deep <= 0.0
-            || c1 < c0
-            || (0..=inner).all(|k| {
-                let a = c0 + (c1 - c0) * k as f64 / inner as f64;
-                self.clearance(at(a, 0.0)) > deep
-            }))
+            [(a0, l), (a0 + length, l)]
+        });
+        sides.chain(ends).map(move |(a, l)| p + f * a + n * l)
     }
 
     /// The covering circle of the pose's footprint with the least
@@ -317,31 +332,15 @@ impl PlanningGrid {
     /// (the margin plus a cell's diagonal, [`Self::body_free`]); for a disc vehicle the tightest covering
     /// circle ([`Self::tightest_circle`]) and radius + margin.
     pub fn tightest_part(&self, p: Vec2, yaw: f64) -> (Vec2, f64, f64) {
-        let Some([length, width, rear]) = self.body else {
+        let Some(body) = self.body else {
             let (c, d) = self.tightest_circle(p, yaw);
             return (c, d, self.radius + self.margin);
         };
-        let s = self.grid.resolution.max(1e-3);
-        let f = Vec2::from_heading(yaw);
-        let n = Vec2::new(-f.y, f.x);
-        let (a0, hw) = (-rear, 0.5 * width);
-        let along = (length / s).ceil().max(1.0) as usize;
-        let across = (width / s).ceil().max(1.0) as usize;
-        let sides = (0..=along).flat_map(|k| {
-            let a = a0 + length * k as f64 / along as f64;
-            [(a, -hw), (a, hw)]
-        });
-        let ends = (0..=across).flat_map(|k| {
-            let l = -hw + width * k as f64 / across as f64;
-            [(a0, l), (a0 + length, l)]
-        });
-        let (q, d) = sides
-            .chain(ends)
-            .map(|(a, l)| {
-                let q = p + f * a + n * l;
-                (q, self.clearance(q))
-            })
+        let (q, d) = self
+            .outline(body, p, Vec2::from_heading(yaw))
+            .map(|q| (q, self.clearance(q)))
             .fold((p, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+        let s = self.grid.resolution.max(1e-3);
         (q, d, self.margin + s * std::f64::consts::SQRT_2)
     }
 

@@ -447,7 +447,7 @@ fn calibration_file(prep: &Prepared, opts: &RunOptions, profile: &str) -> Option
 
 /// Runs a prepared test on `ssp` under a seed.
 ///
-/// A test of many actors (from [`POOLED_RUN`]) with sut.car on its plan,
+/// A test of many actors (from [`PARALLEL_ACTORS`]) with sut.car on its plan,
 /// called from outside rayon's pool, runs on one of the pool's threads
 /// (the caller waits): its parallel parts (motion planning, post-plan
 /// checks, trajectories made while a chunk is read back) then share their
@@ -461,7 +461,7 @@ pub fn run(
     ssp: &mut dyn Ssp,
     opts: &RunOptions,
 ) -> Result<RunResult, ScenarioError> {
-    if prep.test.actors.len() >= POOLED_RUN
+    if prep.test.actors.len() >= PARALLEL_ACTORS
         && matches!(opts.sut, sut::SutChoice::Planned)
         && rayon::current_thread_index().is_none()
     {
@@ -470,9 +470,12 @@ pub fn run(
     run_here(prep, ssp, opts)
 }
 
-/// From how many actors [`run`] goes into rayon's pool (the size from
-/// which its parts run in parallel).
-pub const POOLED_RUN: usize = 16;
+/// From how many actors a run's parts run on all cores — independent
+/// motions planned, vehicles' plans checked, an open loop's trajectories
+/// made while a chunk is read back — and so from how many [`run`] goes
+/// into rayon's pool. Below it, spreading the work costs more than it
+/// saves.
+pub const PARALLEL_ACTORS: usize = 16;
 
 /// [`run`] on the calling thread.
 fn run_here(

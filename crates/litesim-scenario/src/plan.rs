@@ -1476,7 +1476,7 @@ fn plan_once(
         lane_goals.extend(m.lane_goals);
         side_follows.extend(m.side_follows);
     };
-    let moved: Vec<Result<Moved, ScenarioError>> = if free >= PARALLEL_MOTION {
+    let moved: Vec<Result<Moved, ScenarioError>> = if free >= crate::PARALLEL_ACTORS {
         use rayon::prelude::*;
         order[..free]
             .par_iter()
@@ -1531,10 +1531,6 @@ fn plan_once(
         conds,
     ))
 }
-
-/// Actors whose motions are planned on all cores once at least this many
-/// are independent (below it, spreading them costs more than it saves).
-const PARALLEL_MOTION: usize = 16;
 
 /// One actor's planned motion and what planning it found.
 struct Moved {

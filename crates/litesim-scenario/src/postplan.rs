@@ -23,7 +23,7 @@ pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) 
     // Each vehicle's checks read only its own plan: many are checked on
     // all cores, the reports gathered in actor order (the same list).
     let each = |a: &&ActorPlan| vehicle(a, limits, net);
-    let found: Vec<Vec<String>> = if vehicles.len() >= PARALLEL_CHECKS {
+    let found: Vec<Vec<String>> = if vehicles.len() >= crate::PARALLEL_ACTORS {
         use rayon::prelude::*;
         vehicles.par_iter().map(each).collect()
     } else {
@@ -32,9 +32,6 @@ pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) 
     out.extend(found.into_iter().flatten());
     out
 }
-
-/// Vehicles checked on all cores from this many on.
-const PARALLEL_CHECKS: usize = 16;
 
 /// The violations of one vehicle's plan, in the order found.
 fn vehicle(

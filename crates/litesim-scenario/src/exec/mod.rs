@@ -334,10 +334,6 @@ impl Sent {
     }
 }
 
-/// From how many actors an open-loop chunk's trajectories are made on all
-/// cores.
-const PARALLEL_TRAJECTORIES: usize = 16;
-
 /// When and how a trajectory is sampled: from `now_ms`, a point every
 /// `step_ms` up to `ahead_ms` past it (and one more), of a plan sampled
 /// every `dt` s, in the simulator's frame (`mirror`: CARLA's).
@@ -392,6 +388,15 @@ fn plan_trajectory(a: &ActorPlan, w: &Warp, c: Clock, keep: &mut Sent) -> XyTraj
         points,
         point_times_ms: times,
         speeds: sp,
+    }
+}
+
+/// Steps of the chunk from step `k`: `most`, or fewer so that it ends
+/// where the next light switch (`switch`, its step) happens — at least one.
+fn chunk_steps(k: u64, most: u64, switch: Option<u64>) -> u64 {
+    match switch {
+        Some(at) => most.min(at.saturating_sub(k).max(1)),
+        None => most,
     }
 }
 
@@ -726,7 +731,7 @@ pub fn execute(
     // Open loop, many actors: the next chunk's trajectories, made on
     // another core while this chunk is read back, with the clock they were
     // made for and what they send (`sent` for the next chunk).
-    let overlap = open_loop && plan.actors.len() >= PARALLEL_TRAJECTORIES;
+    let overlap = open_loop && plan.actors.len() >= crate::PARALLEL_ACTORS;
     let mut next_made: Vec<Option<XyTrajectory>> = Vec::new();
     let mut next_clock: Option<Clock> = None;
     let mut next_sent: Vec<Sent> = if overlap { sent.clone() } else { Vec::new() };
@@ -783,11 +788,11 @@ pub fn execute(
             next_switch += 1;
             lights_seen = false;
         }
-        let mut n_steps = chunk.min(steps - k);
-        if let Some(sw) = plan.lights.get(next_switch) {
-            // A chunk ends where the next switch happens.
-            n_steps = n_steps.min(switch_tick(sw.t).saturating_sub(k).max(1));
-        }
+        let n_steps = chunk_steps(
+            k,
+            chunk.min(steps - k),
+            plan.lights.get(next_switch).map(|sw| switch_tick(sw.t)),
+        );
         let now_ms = k * step_ms;
         let t_next = (now_ms + step_ms) as f64 / 1000.0;
         if let Some(e) = ego_i {
@@ -1067,17 +1072,14 @@ pub fn execute(
         // The next chunk's clock as the loop's head will make it: from
         // here to the end or the next light switch.
         let upcoming = (overlap && k < steps).then(|| {
-            let passed = plan.lights[next_switch..]
+            // The head switches every light due by then first.
+            let switch = plan.lights[next_switch..]
                 .iter()
-                .take_while(|sw| switch_tick(sw.t) <= k)
-                .count();
-            let mut n = chunk.min(steps - k);
-            if let Some(sw) = plan.lights.get(next_switch + passed) {
-                n = n.min(switch_tick(sw.t).saturating_sub(k).max(1));
-            }
+                .map(|sw| switch_tick(sw.t))
+                .find(|&at| at > k);
             Clock {
                 now_ms: k * step_ms,
-                ahead_ms: n * step_ms,
+                ahead_ms: chunk_steps(k, chunk.min(steps - k), switch) * step_ms,
                 ..clock
             }
         });
