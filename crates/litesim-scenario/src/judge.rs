@@ -67,19 +67,32 @@ pub fn verdict(
         if g.met {
             continue;
         }
+        let side = |o: crate::intent::Order| match o {
+            crate::intent::Order::AheadOf => "ahead of",
+            crate::intent::Order::Behind => "behind",
+        };
+        let other = match g.relation {
+            crate::intent::Order::AheadOf => crate::intent::Order::Behind,
+            crate::intent::Order::Behind => crate::intent::Order::AheadOf,
+        };
+        // A gap that ended on the other side is said so ("18.8 m behind",
+        // not "-18.8 m ahead of"), with the side that was wanted.
+        let (got, ended, wanted_side) = if g.got < 0.0 {
+            (-g.got, side(other), format!(" {} it", side(g.relation)))
+        } else {
+            (g.got, side(g.relation), String::new())
+        };
         let msg = format!(
-            "{}: {} ended {:.1} m {} {} at {:.2} s, wanted {} m ± {} m",
+            "{}: {} ended {:.1} m {} {} at {:.2} s, wanted {} m ± {} m{}",
             g.at,
             g.actor,
-            g.got,
-            match g.relation {
-                crate::intent::Order::AheadOf => "ahead of",
-                crate::intent::Order::Behind => "behind",
-            },
+            got,
+            ended,
             g.reference,
             g.t,
             g.wanted,
-            crate::reactive::GAP_TOLERANCE
+            crate::reactive::GAP_TOLERANCE,
+            wanted_side
         );
         if g.strict {
             failures.push(msg);

@@ -225,6 +225,11 @@ impl Sut for Bad {
                 steering: 0.0,
             }),
             "error" if obs.tick == 25 => Err(SutError("lost its mind".into())),
+            // Speeds away once the cut-in phase starts (6 s).
+            "sprint" if obs.tick >= 300 => Ok(SutCommand::Accel {
+                acceleration: 3.0,
+                curvature: 0.0,
+            }),
             _ => Ok(SutCommand::Accel {
                 acceleration: 0.0,
                 curvature: 0.0,
@@ -267,6 +272,126 @@ fn a_sut_that_fails_ends_the_run_with_a_sut_error_verdict() {
         );
         assert!(r.summary.steps < 500, "{kind}: the run stops at the error");
     }
+}
+
+/// A gap goal the other cannot meet because the SUT speeds away: under
+/// `run_mode: strict` (the default) the run fails naming the phase, the
+/// actor, the miss, the reference and the target; under `best_effort` it
+/// is a note and the run is not failed for it.
+#[test]
+fn a_gap_goal_missed_fails_a_strict_run_and_is_a_note_in_best_effort() {
+    let sprint = || SutChoice::External(Arc::new(BadFactory("sprint")));
+    let strict = go("cut_in", sprint());
+    let g = &strict.summary.goals[0];
+    assert!(!g.met && (g.got - 5.0).abs() > 1.0, "{g:?}");
+    // The sprinting ego passed it: the gap ended on the other side, said
+    // so, with the side that was wanted; the place is the modifier's.
+    assert!(g.got < -1.0, "{g:?}");
+    let miss = strict
+        .summary
+        .failures
+        .iter()
+        .find(|f| f.contains("wanted 5 m ± 1 m"))
+        .unwrap_or_else(|| panic!("{:?}", strict.summary.failures));
+    assert!(
+        miss.contains("cut_in.osc:30:13: other ended ")
+            && miss.ends_with(&format!(
+                "{:.1} m behind sut.car at 10.00 s, wanted 5 m ± 1 m ahead of it",
+                -g.got
+            )),
+        "{miss}"
+    );
+    let text = std::fs::read_to_string(common::root().join("examples/scenarios/cut_in.osc"))
+        .unwrap()
+        .replace(
+            "position(5m, ahead_of: sut.car, at: end)",
+            "position(5m, ahead_of: sut.car, at: end, run_mode: best_effort)",
+        );
+    assert!(text.contains("best_effort"));
+    let f = example_file(&text);
+    let p = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let opts = RunOptions {
+        sut: sprint(),
+        ..RunOptions::default()
+    };
+    let lenient = run(&p, &mut litesim_scenario::in_process(), &opts).unwrap();
+    assert!(
+        lenient
+            .summary
+            .failures
+            .iter()
+            .all(|f| !f.contains("wanted 5 m")),
+        "{:?}",
+        lenient.summary.failures
+    );
+    assert!(
+        lenient
+            .summary
+            .notes
+            .iter()
+            .any(|n| n.starts_with("best effort: ")
+                && n.contains("other ended ")
+                && n.contains("wanted 5 m ± 1 m")),
+        "{:?}",
+        lenient.summary.notes
+    );
+}
+
+/// The third kind of command: physical forces and a steering-wheel angle
+/// (the profile's actuator units) drive sut.car — the drive force speeds
+/// it up, a wheel turned left (+) turns it left, the brake force stops it.
+#[test]
+fn physical_commands_drive_the_car() {
+    struct Forces;
+    impl Sut for Forces {
+        fn name(&self) -> String {
+            "forces".into()
+        }
+        fn reset(&mut self, _: &SutInfo) -> Result<(), SutError> {
+            Ok(())
+        }
+        fn step(&mut self, obs: &Observation) -> Result<SutCommand, SutError> {
+            let t = obs.tick as f64 * 0.02;
+            let (drive_force_n, brake_force_n, steering_wheel_angle_rad) = if t < 2.0 {
+                (3000.0, 0.0, 0.0)
+            } else if t < 4.0 {
+                (0.0, 0.0, 0.5)
+            } else {
+                (0.0, 8000.0, 0.0)
+            };
+            Ok(SutCommand::Physical {
+                drive_force_n,
+                brake_force_n,
+                steering_wheel_angle_rad,
+            })
+        }
+    }
+    struct Make;
+    impl SutFactory for Make {
+        fn name(&self) -> String {
+            "forces".into()
+        }
+        fn create(&self) -> Result<Box<dyn Sut>, SutError> {
+            Ok(Box::new(Forces))
+        }
+    }
+    let r = go("cut_in", SutChoice::External(Arc::new(Make)));
+    let car = track(&r, "sut.car");
+    let at = |t: f64| ((t / 0.02).round() as usize).min(car.state.speed.len() - 1);
+    let (v, yaw) = (&car.state.speed, &car.state.yaw);
+    assert!(
+        v[at(2.0)] > v[at(0.0)] + 1.0,
+        "{} {}",
+        v[at(0.0)],
+        v[at(2.0)]
+    );
+    assert!(
+        yaw[at(4.0)] > yaw[at(2.0)] + 0.05,
+        "{} {}",
+        yaw[at(2.0)],
+        yaw[at(4.0)]
+    );
+    assert!(*v.last().unwrap() < 0.1, "{}", v.last().unwrap());
 }
 
 #[test]
