@@ -394,6 +394,53 @@ fn physical_commands_drive_the_car() {
     assert!(*v.last().unwrap() < 0.1, "{}", v.last().unwrap());
 }
 
+/// A SUT that steers off the road fails the run, the verdict naming
+/// sut.car and the time it left the road.
+#[test]
+fn a_sut_that_leaves_the_road_fails_the_run() {
+    struct Swerve;
+    impl Sut for Swerve {
+        fn name(&self) -> String {
+            "swerve".into()
+        }
+        fn reset(&mut self, _: &SutInfo) -> Result<(), SutError> {
+            Ok(())
+        }
+        fn step(&mut self, _: &Observation) -> Result<SutCommand, SutError> {
+            Ok(SutCommand::Accel {
+                acceleration: 0.0,
+                curvature: -0.05,
+            })
+        }
+    }
+    struct Make;
+    impl SutFactory for Make {
+        fn name(&self) -> String {
+            "swerve".into()
+        }
+        fn create(&self) -> Result<Box<dyn Sut>, SutError> {
+            Ok(Box::new(Swerve))
+        }
+    }
+    let r = go("cut_in", SutChoice::External(Arc::new(Make)));
+    assert!(!r.summary.pass);
+    let left = r
+        .summary
+        .actors
+        .iter()
+        .find(|a| a.id == "sut.car")
+        .and_then(|a| a.off_road_at)
+        .expect("sut.car leaves the road");
+    assert!(
+        r.summary
+            .failures
+            .iter()
+            .any(|f| f == &format!("sut.car off the road at {left:.2} s")),
+        "{:?}",
+        r.summary.failures
+    );
+}
+
 #[test]
 fn observations_carry_the_object_list_route_and_road() {
     struct Probe(
