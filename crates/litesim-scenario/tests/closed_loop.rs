@@ -219,6 +219,11 @@ impl Sut for Bad {
                 acceleration: f64::NAN,
                 curvature: 0.0,
             }),
+            "inf" if obs.tick >= 5 => Ok(SutCommand::Physical {
+                drive_force_n: f64::INFINITY,
+                brake_force_n: 0.0,
+                steering_wheel_angle_rad: 0.0,
+            }),
             "range" => Ok(SutCommand::Pedals {
                 throttle: 2.0,
                 brake: 0.0,
@@ -255,6 +260,10 @@ fn a_sut_that_fails_ends_the_run_with_a_sut_error_verdict() {
         (
             "nan",
             "sut error at t=0.20 s: it returned a bad command: acceleration is NaN",
+        ),
+        (
+            "inf",
+            "sut error at t=0.10 s: it returned a bad command: drive_force_n is inf, expected a finite number",
         ),
         (
             "range",
