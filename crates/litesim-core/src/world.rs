@@ -485,6 +485,16 @@ impl World {
         Ok(())
     }
 
+    /// Replaces an actor's vehicle model (its parameters: a gear change, a
+    /// new limit); the state carries on from where it is.
+    pub fn set_model(&mut self, id: &str, model: VehicleModelKind) -> Result<(), WorldError> {
+        let i = self.index_of(id)?;
+        self.actors[i].model = Some(model);
+        // Its compiled command was made with the old model's parameters.
+        self.batch.changed(i);
+        Ok(())
+    }
+
     /// Changes how an actor is moved. A trajectory replaces the remainder of
     /// a trajectory already held from its own start time on.
     pub fn set_mode(&mut self, id: &str, mode: ControlMode) -> Result<(), WorldError> {

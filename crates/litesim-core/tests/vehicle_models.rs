@@ -212,3 +212,54 @@ fn crossed_or_nan_limits_do_not_panic() {
         s.step(&mut st, &input, 0.02);
     }
 }
+
+/// Reverse gear: the speed runs from 0 down to −max_speed; a Direct
+/// acceleration is the rate of change of the signed speed (speeding up
+/// backwards at most `max_acceleration`, slowing down at most
+/// `max_deceleration`); pedals push backwards; a stop is a stop — the
+/// vehicle never rolls forwards in reverse nor backwards in drive.
+#[test]
+fn bicycle_reverses_in_reverse_gear_and_stops_at_zero() {
+    let direct = |acceleration: f64, steering_angle: f64| VehicleInput::Direct {
+        acceleration,
+        steering_angle,
+    };
+    let mut m = KinematicBicycle::new(3.0);
+    m.max_speed = 2.0;
+    m.reverse = true;
+    let dt = 0.01;
+    let mut st = VehicleState::default();
+    // 1 s at −1 m/s² straight back: v = −1, x = −½ (exact up to the
+    // explicit Euler step: x += v·dt with v before the update).
+    for _ in 0..100 {
+        m.step(&mut st, &direct(-1.0, 0.0), dt);
+    }
+    assert!((st.v + 1.0).abs() < 1e-9, "{}", st.v);
+    assert!((st.x + 0.495).abs() < 1e-9, "{}", st.x);
+    assert_eq!(st.y, 0.0);
+    // Faster than the engine allows is cut to max_acceleration; the speed
+    // is capped at −max_speed.
+    for _ in 0..300 {
+        m.step(&mut st, &direct(-50.0, 0.0), dt);
+    }
+    assert_eq!(st.v, -2.0);
+    // Braking (a > 0) ends at rest, never forwards.
+    for _ in 0..300 {
+        m.step(&mut st, &direct(8.0, 0.0), dt);
+    }
+    assert_eq!(st.v, 0.0);
+    // Throttle pushes backwards; steering left while reversing turns the
+    // heading the other way than driving forwards does.
+    for _ in 0..100 {
+        m.step(&mut st, &pedals(0.2, 0.0, 0.5), dt);
+    }
+    assert!(st.v < 0.0 && st.yaw < 0.0, "v {} yaw {}", st.v, st.yaw);
+    // In drive the same braking stops at zero from the other side.
+    let mut fwd = KinematicBicycle::new(3.0);
+    let mut st = VehicleState::default();
+    for _ in 0..100 {
+        fwd.step(&mut st, &direct(-5.0, 0.0), dt);
+    }
+    assert_eq!(st.v, 0.0);
+    assert_eq!(st.x, 0.0);
+}

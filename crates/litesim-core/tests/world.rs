@@ -138,3 +138,70 @@ fn a_negative_speed_limit_is_left_to_the_model() {
     bike.step(&mut s, &input, 0.02);
     assert!((s.yaw - before).abs() > 0.1, "{before} → {}", s.yaw);
 }
+
+/// A gear change through `set_model`: the state carries on, the standing
+/// command is recompiled with the new model (reversing is stepped one by
+/// one, driving forwards by the batch loops), and batching changes no bit.
+#[test]
+fn a_model_swapped_mid_run_changes_gear_and_keeps_the_state() {
+    let run = |batching: bool| {
+        let mut w = World::with_step_ms(20).unwrap();
+        w.set_batching(batching);
+        let bike = KinematicBicycle::new(2.7);
+        w.add_actor(Actor::new(
+            "car",
+            ActorDescription::car("t"),
+            ActorState::at_rest(Pose::planar(0.0, 0.0, 0.0)),
+            Some(VehicleModelKind::Bicycle(bike.clone())),
+        ))
+        .unwrap();
+        let drive = |w: &mut World, acceleration: f64| {
+            w.set_mode(
+                "car",
+                ControlMode::Dynamic {
+                    input: VehicleInput::Direct {
+                        acceleration,
+                        steering_angle: 0.1,
+                    },
+                    valid_until_tick: None,
+                },
+            )
+            .unwrap();
+        };
+        let mut trace = Vec::new();
+        drive(&mut w, 1.0);
+        for _ in 0..50 {
+            w.step();
+        }
+        drive(&mut w, -2.0);
+        for _ in 0..50 {
+            w.step();
+            trace.push(w.actor("car").unwrap().state());
+        }
+        // Stopped: the same braking command holds it at rest in drive.
+        assert_eq!(trace.last().unwrap().speed, 0.0);
+        let stopped = trace.last().unwrap().pose;
+        let mut reverse = bike.clone();
+        reverse.reverse = true;
+        w.set_model("car", VehicleModelKind::Bicycle(reverse))
+            .unwrap();
+        for _ in 0..50 {
+            w.step();
+            trace.push(w.actor("car").unwrap().state());
+        }
+        let end = trace.last().unwrap();
+        // Backwards now, 1 s at 2 m/s²: −2 m/s, about a metre behind.
+        assert!((end.speed + 2.0).abs() < 1e-9, "{}", end.speed);
+        let moved = end.pose.position.xy() - stopped.position.xy();
+        assert!(
+            moved.dot(Vec2::from_heading(stopped.yaw)) < -0.9,
+            "{moved:?}"
+        );
+        assert!(matches!(
+            w.set_model("nobody", VehicleModelKind::Bicycle(bike)),
+            Err(WorldError::UnknownActor(_))
+        ));
+        trace
+    };
+    assert_eq!(run(true), run(false));
+}

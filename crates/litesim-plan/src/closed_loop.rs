@@ -400,6 +400,8 @@ pub enum PathPlanner {
         radius: f64,
         /// Poses it expanded.
         expansions: usize,
+        /// Changes of direction on its path (0: forwards all the way).
+        cusps: usize,
         /// Why FMT*'s path was not used.
         fmt_failure: String,
     },
@@ -414,11 +416,17 @@ impl std::fmt::Display for PathPlanner {
             Self::Hybrid {
                 radius,
                 expansions,
+                cusps,
                 fmt_failure,
-            } => write!(
-                f,
-                "hybrid A*, turns ≥ {radius:.2} m, {expansions} poses; FMT*'s path was not drivable: {fmt_failure}"
-            ),
+            } => {
+                write!(f, "hybrid A*, turns ≥ {radius:.2} m, {expansions} poses")?;
+                match cusps {
+                    0 => {}
+                    1 => write!(f, ", reversing once")?,
+                    n => write!(f, ", {n} changes of direction")?,
+                }
+                write!(f, "; FMT*'s path was not drivable: {fmt_failure}")
+            }
         }
     }
 }
@@ -460,10 +468,172 @@ pub struct ClosedLoopResult {
     /// Which planner made the path (the log's `planner` meta says the
     /// same).
     pub planner: PathPlanner,
-    /// The corridor.
+    /// The corridor: the legs joined, for display (the one leg itself
+    /// when the path never reverses).
     pub corridor: Corridor,
+    /// The path's legs, each driven in one direction, in order.
+    pub legs: Vec<Leg>,
     /// The planning grid.
     pub grid: PlanningGrid,
+}
+
+/// A stretch of the path driven in one direction: its corridor, built and
+/// tracked in the direction of travel (for a reversing leg the body is
+/// mirrored, [`PlanningGrid::reversed`], and the controller drives the
+/// vehicle turned around: heading + π, speed, acceleration and steering
+/// negated — the kinematic bicycle's equations are the same).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Leg {
+    /// The reference along the leg, in the direction of travel.
+    pub corridor: Corridor,
+    /// Driven backwards.
+    pub reverse: bool,
+    /// What the corridor was built with (the leg is rebuilt from where
+    /// the vehicle actually stopped before it).
+    limits: SpeedLimits,
+    end_heading: Option<f64>,
+}
+
+impl Leg {
+    /// A forward leg (the whole path of a run that never reverses).
+    fn forward(corridor: Corridor, limits: &SpeedLimits) -> Self {
+        Self {
+            corridor,
+            reverse: false,
+            limits: *limits,
+            end_heading: None,
+        }
+    }
+
+    /// The leg started again from where the vehicle stands (`at`) and the
+    /// way it faces (`travel`: its direction of travel on this leg), if
+    /// its body fits along the result: the vehicle stops a centimetre or
+    /// two off the cusp and turned by a hundredth of a radian, which a leg
+    /// that starts slowly would otherwise carry for metres.
+    fn restarted_at(
+        &self,
+        at: Vec2,
+        travel: f64,
+        grid: &PlanningGrid,
+        ds: f64,
+    ) -> Option<Corridor> {
+        let mut raw = self.corridor.raw.clone();
+        *raw.first_mut()? = at;
+        let limits = SpeedLimits {
+            start_heading: Some(travel),
+            ..self.limits
+        };
+        let c = Corridor::along_to(&raw, grid, ds, &limits, self.end_heading);
+        c.first_blocked(grid).is_none().then_some(c)
+    }
+}
+
+/// A leg is driven when the vehicle is this close to its end (m) …
+const LEG_END: f64 = 0.1;
+/// … and this slow (m/s).
+const LEG_STOP: f64 = 0.1;
+
+/// Top speed driving backwards (m/s): a walking pace and a half, as
+/// drivers reverse (and what keeps a long body's swing small).
+pub const REVERSE_SPEED_MAX: f64 = 2.0;
+
+/// The legs of a path with changes of direction: each leg's corridor leaves
+/// in the direction the vehicle is in at its start (the start heading, then
+/// the previous leg's end turned around) and starts at rest.
+fn legs_along(
+    segments: &[crate::hybrid::PathSegment],
+    grid: &PlanningGrid,
+    rgrid: &PlanningGrid,
+    ds: f64,
+    limits: &SpeedLimits,
+) -> Vec<Leg> {
+    let mut legs: Vec<Leg> = Vec::with_capacity(segments.len());
+    for (k, seg) in segments.iter().enumerate() {
+        let turn = if seg.reverse {
+            std::f64::consts::PI
+        } else {
+            0.0
+        };
+        // The direction of travel at a cusp, from the search's arcs (points
+        // 0.1 m apart): the leg arrives along it and the next one leaves
+        // against it — the vehicle's heading is continuous.
+        let leaving = |pts: &[Vec2]| match pts {
+            [a, b, ..] => Some((*b - *a).heading()),
+            _ => None,
+        };
+        let arriving = |pts: &[Vec2]| match pts {
+            [.., a, b] => Some((*b - *a).heading()),
+            _ => None,
+        };
+        let start_heading = if k == 0 {
+            limits.start_heading.map(|h| wrap_angle(h + turn))
+        } else {
+            leaving(&seg.points)
+        };
+        let end_heading = if k + 1 < segments.len() {
+            arriving(&seg.points)
+        } else {
+            None
+        };
+        let lim = SpeedLimits {
+            start_heading,
+            v_max: if seg.reverse {
+                limits.v_max.min(REVERSE_SPEED_MAX)
+            } else {
+                limits.v_max
+            },
+            // After a cusp the vehicle starts from rest.
+            v_start: if k == 0 { limits.v_start } else { 0.0 },
+            ..*limits
+        };
+        let g = if seg.reverse { rgrid } else { grid };
+        legs.push(Leg {
+            corridor: Corridor::along_to(&seg.points, g, ds, &lim, end_heading),
+            reverse: seg.reverse,
+            limits: lim,
+            end_heading,
+        });
+    }
+    legs
+}
+
+/// The legs as one corridor to look at: points, arc length and time run
+/// on; headings are the vehicle's (the direction of travel + π on a
+/// reversing leg) and speeds negative there. One forward leg is itself.
+fn joined(legs: &[Leg]) -> Corridor {
+    match legs {
+        [one] if !one.reverse => one.corridor.clone(),
+        _ => {
+            let mut out = Corridor {
+                smoothed: true,
+                jerk_limited: true,
+                ..Corridor::default()
+            };
+            for leg in legs {
+                let c = &leg.corridor;
+                let (s0, t0) = (out.length(), out.duration());
+                let (turn, sign) = if leg.reverse {
+                    (std::f64::consts::PI, -1.0)
+                } else {
+                    (0.0, 1.0)
+                };
+                out.raw.extend(&c.raw);
+                out.shortcut.extend(&c.shortcut);
+                out.points.extend(&c.points);
+                out.s.extend(c.s.iter().map(|s| s0 + s));
+                out.time.extend(c.time.iter().map(|t| t0 + t));
+                out.heading
+                    .extend(c.heading.iter().map(|h| wrap_angle(h + turn)));
+                out.curvature.extend(&c.curvature);
+                out.speed.extend(c.speed.iter().map(|v| sign * v));
+                out.left_bound.extend(&c.left_bound);
+                out.right_bound.extend(&c.right_bound);
+                out.smoothed &= c.smoothed;
+                out.jerk_limited &= c.jerk_limited;
+            }
+            out
+        }
+    }
 }
 
 /// Footprint sample points of a rear-axle-referenced vehicle.
@@ -583,7 +753,7 @@ pub fn run_closed_loop_timed(
     };
     // A path the vehicle cannot drive is refused before it is driven: too
     // tight a turn, or a body that does not fit where the path goes.
-    let drivable = |corridor: &Corridor| -> Result<(), PlanError> {
+    let drivable = |corridor: &Corridor, pgrid: &PlanningGrid| -> Result<(), PlanError> {
         let turn = corridor.turn_curvature(1.0);
         if let Some(i) = (0..turn.len())
             .filter(|&i| turn[i].abs() > kappa_max * 1.02)
@@ -601,7 +771,7 @@ pub fn run_closed_loop_timed(
                 veh.max_steer.to_degrees()
             )));
         }
-        if let Some(p) = corridor.first_blocked(&pgrid) {
+        if let Some(p) = corridor.first_blocked(pgrid) {
             return Err(PlanError::Infeasible(format!(
                 "the {} m × {} m body does not fit along the path at ({:.1}, {:.1}) with a {} m margin",
                 veh.length, veh.width, p.x, p.y, pl.margin
@@ -626,16 +796,20 @@ pub fn run_closed_loop_timed(
     .map_err(PlanError::from)
     .and_then(|fmt| {
         let corridor = Corridor::build(&fmt.path, &pgrid, pl.corridor_ds, &limits);
-        drivable(&corridor)?;
+        drivable(&corridor, &pgrid)?;
         Ok((fmt, corridor))
     });
-    let (fmt, corridor, planner) = match by_fmt {
+    // The body mirrored, for stretches driven backwards (made only when a
+    // search may reverse).
+    let rgrid = std::cell::OnceCell::new();
+    let (fmt, mut legs, planner) = match by_fmt {
         Ok((fmt, corridor)) => {
             let used = PathPlanner::Fmt {
                 samples: fmt.samples.len() - 2,
                 radius: fmt.radius,
             };
-            (fmt, corridor, used)
+            let legs = vec![Leg::forward(corridor, &limits)];
+            (fmt, legs, used)
         }
         Err(first @ (PlanError::Infeasible(_) | PlanError::Plan(FmtError::NoPath { .. }))) => {
             // Curves at 80 % of the limit, so that the controller keeps a
@@ -649,10 +823,20 @@ pub fn run_closed_loop_timed(
             // ending 0.31 m from the goal of the S-bend).
             let half = 0.5 * cfg.goal.tolerance;
             let wide = cfg.goal.tolerance - 0.1;
-            let attempt = |share: f64, end_within: f64| {
+            let attempt = |share: f64, end_within: f64, reverse: bool| {
+                let base = HybridConfig::new(share * kappa_max, pgrid.grid.resolution);
                 let hcfg = HybridConfig {
                     goal_tolerance: end_within,
-                    ..HybridConfig::new(share * kappa_max, pgrid.grid.resolution)
+                    reverse,
+                    // Reversing doubles the states, and a manoeuvre with
+                    // several cusps lies deeper in them (the truck in the
+                    // warehouse's aisles: 242,313 poses, seven cusps).
+                    max_expansions: if reverse {
+                        2 * base.max_expansions
+                    } else {
+                        base.max_expansions
+                    },
+                    ..base
                 };
                 // The error, whether it is the start (which no other
                 // turning limit changes), and how close the search came.
@@ -669,16 +853,32 @@ pub fn run_closed_loop_timed(
                         )
                     })
                     .and_then(|h| {
-                        let corridor = Corridor::along(&h.points, &pgrid, pl.corridor_ds, &limits);
-                        drivable(&corridor).map_err(|e| (false, None, e.to_string()))?;
-                        Ok((h, corridor, hcfg))
+                        let legs = if h.segments.iter().all(|s| !s.reverse) {
+                            let corridor =
+                                Corridor::along(&h.points, &pgrid, pl.corridor_ds, &limits);
+                            drivable(&corridor, &pgrid)
+                                .map_err(|e| (false, None, e.to_string()))?;
+                            vec![Leg::forward(corridor, &limits)]
+                        } else {
+                            let rgrid = rgrid.get_or_init(|| pgrid.reversed());
+                            legs_along(&h.segments, &pgrid, rgrid, pl.corridor_ds, &limits)
+                                .iter()
+                                .try_fold(Vec::new(), |mut out, leg| {
+                                    let g = if leg.reverse { rgrid } else { &pgrid };
+                                    drivable(&leg.corridor, g)?;
+                                    out.push(leg.clone());
+                                    Ok::<_, PlanError>(out)
+                                })
+                                .map_err(|e| (false, None, e.to_string()))?
+                        };
+                        Ok((h, legs, hcfg))
                     })
             };
             let mut tries = vec![(0.95, half)];
             if wide > half {
                 tries.extend([(0.8, wide), (0.95, wide)]);
             }
-            let mut found = attempt(0.8, half);
+            let mut found = attempt(0.8, half, false);
             // How close each curvature's first search came. A search with a
             // wider end expands the same poses in the same order and stops
             // at the first within its end, so it can only succeed where one
@@ -700,14 +900,36 @@ pub fn run_closed_loop_timed(
                 if hopeless {
                     continue;
                 }
-                found = attempt(share, end_within);
+                found = attempt(share, end_within, false);
                 if end_within <= half {
                     came.push((share, closest_of(&found)));
                 }
             }
+            // No forward path: the same searches, now also reversing
+            // (a manoeuvre with cusps: into a dead end and back out, a
+            // turn in three moves, backing into the goal).
+            let mut came_back: Vec<(f64, Option<f64>)> = Vec::new();
+            let mut tries = vec![(0.8, half), (0.95, half)];
+            if wide > half {
+                tries.extend([(0.8, wide), (0.95, wide)]);
+            }
+            for (share, end_within) in tries {
+                let Err((false, _, _)) = found else { break };
+                let hopeless = end_within > half
+                    && came_back
+                        .iter()
+                        .any(|&(s, c)| s == share && c.is_some_and(|c| c > end_within));
+                if hopeless {
+                    continue;
+                }
+                found = attempt(share, end_within, true);
+                if end_within <= half {
+                    came_back.push((share, closest_of(&found)));
+                }
+            }
             let found = found.map_err(|(_, _, e)| e);
             match found {
-                Ok((h, corridor, hcfg)) => {
+                Ok((h, legs, hcfg)) => {
                     // The search's tree in the planner views: its expanded
                     // positions after start and goal, its edges in
                     // expansion order (the exploration GIF replays them).
@@ -729,9 +951,10 @@ pub fn run_closed_loop_timed(
                     let used = PathPlanner::Hybrid {
                         radius: 1.0 / hcfg.kappa,
                         expansions: h.expansions,
+                        cusps: h.segments.len().saturating_sub(1),
                         fmt_failure: first.to_string(),
                     };
-                    (fmt, corridor, used)
+                    (fmt, legs, used)
                 }
                 Err(second) => {
                     let first = match first {
@@ -755,6 +978,7 @@ pub fn run_closed_loop_timed(
     bike.max_acceleration = veh.max_accel;
     bike.max_deceleration = veh.max_decel;
     bike.max_speed = veh.max_speed;
+    bike.reverse = legs.first().is_some_and(|l| l.reverse);
     let desc = ActorDescription {
         kind: ActorKind::Vehicle(VehicleCategory::Car),
         actor_type: "Ego".into(),
@@ -772,7 +996,7 @@ pub fn run_closed_loop_timed(
             "ego",
             desc,
             st,
-            Some(VehicleModelKind::Bicycle(bike)),
+            Some(VehicleModelKind::Bicycle(bike.clone())),
         ))
         .map_err(|e| PlanError::Config(e.to_string()))?;
 
@@ -793,6 +1017,14 @@ pub fn run_closed_loop_timed(
     rec.record_world(&world);
     let mut tracking = TrackingColumns::default();
     let mut hint = 0usize;
+    // The leg being driven, the arc length of the legs before it, and
+    // the controller's steps spent stopped near its end.
+    let mut leg = 0usize;
+    let mut before = 0.0;
+    let mut stalled = 0u32;
+    // Time the reference still waits at a leg's start (s): the wheels
+    // turn at standstill to the leg's first curvature before it moves.
+    let mut dwell = 0.0f64;
     let mut prev_cmd = [0.0, 0.0];
     let mut mpc_error: Option<MpcError> = None;
     let mut collided = false;
@@ -826,19 +1058,74 @@ pub fn run_closed_loop_timed(
         let Some(a) = w.actor("ego") else { return };
         let st = a.state();
         let p = st.pose;
-        let z0 = [p.position.x, p.position.y, p.yaw, st.speed];
-        let (s, lat, i) = corridor.project(p.position.xy(), hint);
+        let pos = p.position.xy();
+        // The next leg once this one is driven: the vehicle stopped at its
+        // end (or stalled within half a metre of it for a second). The
+        // gear changes with it.
+        let (mut s, mut lat, mut i) = legs[leg].corridor.project(pos, hint);
+        while leg + 1 < legs.len() {
+            let left = legs[leg].corridor.length() - s;
+            if left <= LEG_END && st.speed.abs() <= LEG_STOP {
+                stalled = 0;
+            } else if left <= 0.5 && st.speed.abs() <= LEG_STOP {
+                stalled += 1;
+                if stalled < 10 {
+                    break;
+                }
+                stalled = 0;
+            } else {
+                break;
+            }
+            before += legs[leg].corridor.length();
+            leg += 1;
+            hint = 0;
+            let mut geared = bike.clone();
+            geared.reverse = legs[leg].reverse;
+            let _ = w.set_model("ego", VehicleModelKind::Bicycle(geared));
+            let (g, turn) = match (legs[leg].reverse, rgrid.get()) {
+                (true, Some(r)) => (r, std::f64::consts::PI),
+                _ => (&pgrid, 0.0),
+            };
+            if let Some(c) =
+                legs[leg].restarted_at(pos, wrap_angle(p.yaw + turn), g, pl.corridor_ds)
+            {
+                legs[leg].corridor = c;
+            }
+            (s, lat, i) = legs[leg].corridor.project(pos, hint);
+            let k0 = legs[leg].corridor.curvature.first().copied().unwrap_or(0.0);
+            let sign = if legs[leg].reverse { -1.0 } else { 1.0 };
+            let need = sign
+                * (veh.wheelbase * k0)
+                    .atan()
+                    .clamp(-veh.max_steer, veh.max_steer);
+            dwell = (need - prev_cmd[1]).abs() / veh.max_steer_rate + tdt;
+        }
         hint = i;
+        let Leg {
+            corridor, reverse, ..
+        } = &legs[leg];
+        // Backwards: the vehicle turned around (heading + π, speed and
+        // commands negated) drives the leg forwards.
+        let flip = if *reverse { -1.0 } else { 1.0 };
+        let turn = if *reverse { std::f64::consts::PI } else { 0.0 };
+        let yaw = if *reverse {
+            wrap_angle(p.yaw + turn)
+        } else {
+            p.yaw
+        };
+        let z0 = [p.position.x, p.position.y, yaw, flip * st.speed];
         let t0 = corridor.time_at_s(s);
         let refs: Vec<RefState> = (0..=n_h)
-            .map(|k| corridor.at_time(t0 + k as f64 * tdt))
+            .map(|k| corridor.at_time(t0 + k as f64 * tdt - dwell))
             .collect();
+        dwell = (dwell - tdt).max(0.0);
         let t_mpc = clock();
-        let solved = mpc.solve(z0, &refs, prev_cmd);
+        let solved = mpc.solve(z0, &refs, [flip * prev_cmd[0], flip * prev_cmd[1]]);
         timings.mpc_s.push(clock() - t_mpc);
         match solved {
             Ok(sol) => {
-                prev_cmd = [sol.acceleration, sol.steering];
+                let (acceleration, steering) = (flip * sol.acceleration, flip * sol.steering);
+                prev_cmd = [acceleration, steering];
                 if let Some(why) = &sol.fallback {
                     tracking.fallback.push((w.tick(), why.clone()));
                 }
@@ -846,17 +1133,25 @@ pub fn run_closed_loop_timed(
                 tracking.lateral_error.push(lat);
                 tracking
                     .heading_error
-                    .push(wrap_angle(p.yaw - corridor.heading_at_s(s)));
-                tracking.progress.push(s);
-                tracking.cmd_acceleration.push(sol.acceleration);
-                tracking.cmd_steering.push(sol.steering);
-                tracking.predictions.push(sol.predicted.clone());
+                    .push(wrap_angle(yaw - corridor.heading_at_s(s)));
+                tracking.progress.push(before + s);
+                tracking.cmd_acceleration.push(acceleration);
+                tracking.cmd_steering.push(steering);
+                let predicted = if *reverse {
+                    sol.predicted
+                        .iter()
+                        .map(|&[x, y, h, v]| [x, y, wrap_angle(h + turn), -v])
+                        .collect()
+                } else {
+                    sol.predicted.clone()
+                };
+                tracking.predictions.push(predicted);
                 let _ = w.set_mode(
                     "ego",
                     ControlMode::Dynamic {
                         input: VehicleInput::Direct {
-                            acceleration: sol.acceleration,
-                            steering_angle: sol.steering,
+                            acceleration,
+                            steering_angle: steering,
                         },
                         valid_until_tick: None,
                     },
@@ -917,6 +1212,7 @@ pub fn run_closed_loop_timed(
         })
         .collect();
     let mut log = rec.finish();
+    let corridor = joined(&legs);
     log.plan = Some(PlanRecord {
         samples: fmt.samples.iter().map(|p| [p.x, p.y]).collect(),
         edges: fmt.edges.iter().map(|&(a, b)| [a, b]).collect(),
@@ -953,6 +1249,7 @@ pub fn run_closed_loop_timed(
         log,
         fmt,
         corridor,
+        legs,
         grid: pgrid,
         planner,
     };

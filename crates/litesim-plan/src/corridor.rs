@@ -191,7 +191,7 @@ fn resample(dense: &[Vec2], ds: f64) -> Vec<Vec2> {
 /// equation on positions — would leave a kink at the clamped second point
 /// and shrink every turn; the fourth-order flow does neither.)
 fn relax(pts: &mut [Vec2], grid: &PlanningGrid, start_heading: Option<f64>, ds: f64) {
-    relax_sweeps(pts, grid, start_heading, relax_length(ds));
+    relax_sweeps(pts, grid, start_heading, None, relax_length(ds));
 }
 
 /// Sweeps of a full relaxation at spacing `ds`: the length scale is about
@@ -200,35 +200,55 @@ fn relax_length(ds: f64) -> usize {
     (2.5 / ds).powi(4).round().clamp(16.0, 2000.0) as usize
 }
 
-/// [`relax`] with a given number of sweeps.
-fn relax_sweeps(pts: &mut [Vec2], grid: &PlanningGrid, start_heading: Option<f64>, sweeps: usize) {
+/// [`relax`] with a given number of sweeps; with `end_heading` the curve
+/// also arrives along that heading (its last two points fixed, as the
+/// first two are with a start heading).
+fn relax_sweeps(
+    pts: &mut [Vec2],
+    grid: &PlanningGrid,
+    start_heading: Option<f64>,
+    end_heading: Option<f64>,
+    sweeps: usize,
+) {
     let n = pts.len();
     if n < 6 {
         return;
     }
     let d = pts[0].distance(pts[1]);
     clamp_start(pts, grid, start_heading, d);
+    let mut fixed_end = 1;
+    if let Some(h) = end_heading {
+        let d = pts[n - 2].distance(pts[n - 1]);
+        let q = pts[n - 1] - Vec2::from_heading(h) * d;
+        if grid.pose_free(q, h) {
+            pts[n - 2] = q;
+            fixed_end = 2;
+        }
+    }
     let mut next = pts.to_vec();
     let ok = |prev: Vec2, q: Vec2, nxt: Vec2| grid.pose_free(q, (nxt - prev).heading());
-    biharmonic(pts, &mut next, sweeps, &ok);
+    biharmonic(pts, &mut next, sweeps, &ok, fixed_end);
 }
 
-/// Sweeps of the bi-Laplacian flow over `pts[2..n−1]`: the first two
-/// points are clamped (start position and heading), the last is fixed and
-/// its tangent free (a ghost point continues the curve straight), so the
-/// end has no kink either.
+/// Sweeps of the bi-Laplacian flow over `pts[2..n−fixed_end]`: the first
+/// two points are clamped (start position and heading); the last is fixed
+/// and its tangent free (a ghost point continues the curve straight), so
+/// the end has no kink either — or with `fixed_end` = 2 the last two are
+/// clamped too (end position and heading).
 fn biharmonic(
     pts: &mut [Vec2],
     next: &mut [Vec2],
     sweeps: usize,
     ok: &dyn Fn(Vec2, Vec2, Vec2) -> bool,
+    fixed_end: usize,
 ) {
     let n = pts.len();
-    if n < 5 {
+    if n < 4 + fixed_end {
         return;
     }
+    let end = n - fixed_end;
     for _ in 0..sweeps {
-        for i in 2..n - 1 {
+        for i in 2..end {
             let after = if i + 2 < n {
                 pts[i + 2]
             } else {
@@ -242,7 +262,7 @@ fn biharmonic(
                 pts[i]
             };
         }
-        pts[2..n - 1].copy_from_slice(&next[2..n - 1]);
+        pts[2..end].copy_from_slice(&next[2..end]);
     }
 }
 
@@ -312,12 +332,12 @@ fn shape_coarse(
             })
     };
     // At least a 6 m length scale (81 sweeps), more while too tight.
-    biharmonic(&mut pts, &mut next, 81, &ok);
+    biharmonic(&mut pts, &mut next, 81, &ok, 1);
     for _round in 0..20 {
         if max_curvature(&pts) <= kappa_target {
             break;
         }
-        biharmonic(&mut pts, &mut next, 100, &ok);
+        biharmonic(&mut pts, &mut next, 100, &ok, 1);
     }
     pts
 }
@@ -427,6 +447,57 @@ fn footprint_free(pts: &[Vec2], grid: &PlanningGrid) -> bool {
     })
 }
 
+/// Arc length and heading (as [`Corridor::from_points`] takes them) of
+/// resampled points.
+fn arc_and_heading(points: &[Vec2]) -> (Vec<f64>, Vec<f64>) {
+    let n = points.len();
+    let mut s = vec![0.0; n];
+    for i in 1..n {
+        s[i] = s[i - 1] + points[i - 1].distance(points[i]);
+    }
+    let heading = (0..n)
+        .map(|i| {
+            let (a, b) = (points[i.saturating_sub(1)], points[(i + 1).min(n - 1)]);
+            (b - a).heading()
+        })
+        .collect();
+    (s, heading)
+}
+
+/// [`Corridor::turn_curvature`] of points with arc length `s` and
+/// headings `heading`.
+fn turn_curvature(s: &[f64], heading: &[f64], half: f64) -> Vec<f64> {
+    let n = s.len().min(heading.len());
+    (0..n)
+        .map(|i| {
+            let lo = s.partition_point(|x| *x < s[i] - half).min(i);
+            let hi = (s.partition_point(|x| *x <= s[i] + half)).clamp(i + 1, n) - 1;
+            let ds = s[hi] - s[lo];
+            if hi > lo && ds > 1e-9 {
+                let mut turn = 0.0;
+                for k in lo..hi {
+                    turn += wrap_angle(heading[k + 1] - heading[k]);
+                }
+                turn / ds
+            } else {
+                0.0
+            }
+        })
+        .collect()
+}
+
+/// The points turn no tighter than `kappa_max` as a vehicle drives them
+/// (over ±1 m, 2 % for rounding: the closed loop's own test).
+fn turns_within(points: &[Vec2], kappa_max: f64) -> bool {
+    if !kappa_max.is_finite() {
+        return true;
+    }
+    let (s, heading) = arc_and_heading(points);
+    turn_curvature(&s, &heading, 1.0)
+        .iter()
+        .all(|k| k.abs() <= kappa_max * 1.02)
+}
+
 fn free_distance(grid: &PlanningGrid, p: Vec2, dir: Vec2) -> f64 {
     let step = 0.5 * grid.grid.resolution;
     let mut d = 0.0;
@@ -527,6 +598,20 @@ impl Corridor {
     /// (the arcs' joints are curvature jumps), with no shortcut — a
     /// shortcut would cut the arcs back into corners.
     pub fn along(path: &[Vec2], grid: &PlanningGrid, ds: f64, limits: &SpeedLimits) -> Self {
+        Self::along_to(path, grid, ds, limits, None)
+    }
+
+    /// [`Self::along`], arriving along `end_heading` (rad) when given: a leg
+    /// that ends at a change of direction ends in the heading the next one
+    /// leaves in, so the vehicle turns its wheels at standstill and no
+    /// kink is left at the cusp.
+    pub fn along_to(
+        path: &[Vec2],
+        grid: &PlanningGrid,
+        ds: f64,
+        limits: &SpeedLimits,
+        end_heading: Option<f64>,
+    ) -> Self {
         let ds = if ds.is_finite() && ds > 0.0 { ds } else { 0.5 };
         let start_heading = limits.start_heading.filter(|h| h.is_finite());
         let plain = resample(path, ds);
@@ -534,14 +619,18 @@ impl Corridor {
         // are checked one at a time, against headings that later moves
         // change, so a long relaxation can end against a wall): the full
         // length scale, then ½, ¼, … of it (a sixteenth of the sweeps
-        // halves the scale); else the path as planned.
+        // halves the scale); else the path as planned. With a heading at
+        // both ends (a leg between cusps) the curve must also stay within
+        // the turning limit: a short leg clamped at both ends can be bent
+        // tighter than its arcs.
         let mut chosen = None;
         let mut sweeps = relax_length(ds);
         while sweeps >= 4 {
             let mut relaxed = plain.clone();
-            relax_sweeps(&mut relaxed, grid, start_heading, sweeps);
+            relax_sweeps(&mut relaxed, grid, start_heading, end_heading, sweeps);
             let relaxed = resample(&relaxed, ds);
-            if footprint_free(&relaxed, grid) {
+            let turns_ok = end_heading.is_none() || turns_within(&relaxed, limits.kappa_max);
+            if turns_ok && footprint_free(&relaxed, grid) {
                 chosen = Some(relaxed);
                 break;
             }
@@ -770,23 +859,7 @@ impl Corridor {
     /// and a body metres long drives over it; a real turn keeps its
     /// curvature.
     pub fn turn_curvature(&self, half: f64) -> Vec<f64> {
-        let n = self.points.len();
-        (0..n)
-            .map(|i| {
-                let lo = self.s.partition_point(|x| *x < self.s[i] - half).min(i);
-                let hi = (self.s.partition_point(|x| *x <= self.s[i] + half)).clamp(i + 1, n) - 1;
-                let ds = self.s[hi] - self.s[lo];
-                if hi > lo && ds > 1e-9 {
-                    let mut turn = 0.0;
-                    for k in lo..hi {
-                        turn += wrap_angle(self.heading[k + 1] - self.heading[k]);
-                    }
-                    turn / ds
-                } else {
-                    0.0
-                }
-            })
-            .collect()
+        turn_curvature(&self.s, &self.heading, half)
     }
 
     /// The first point whose footprint (heading along the corridor) is not

@@ -216,6 +216,19 @@ impl PlanningGrid {
         g
     }
 
+    /// The same grid for the vehicle driven backwards: its body mirrored
+    /// about the reference point, so that a pose's heading is the
+    /// direction of travel (the body's heading + π). A path driven in
+    /// reverse is then checked, smoothed and profiled like a forward one.
+    pub fn reversed(&self) -> Self {
+        let mut g = self.clone();
+        g.footprint = self.footprint.iter().rev().map(|o| -o).collect();
+        g.body = self
+            .body
+            .map(|[length, width, rear]| [length, width, length - rear]);
+        g
+    }
+
     /// The covering circles' offsets ahead of the reference point (a
     /// single 0 for a disc vehicle).
     fn offsets(&self) -> &[f64] {

@@ -1,6 +1,8 @@
 //! Curvature-bounded search: hybrid A* (Dolgov, Thrun, Montemerlo and
 //! Diebel, "Path planning for autonomous vehicles in unknown semi-structured
-//! environments", IJRR 2010), forward driving only.
+//! environments", IJRR 2010), forward and — when asked — reversing
+//! (Reeds–Shepp's car: arcs driven either way, a cusp where the direction
+//! changes).
 //!
 //! FMT* connects samples with straight edges; a long vehicle cannot follow
 //! their corners, and the smoother can only round a corner as far as the
@@ -37,6 +39,15 @@ pub struct HybridConfig {
     /// A pose this close to the goal (m) ends the path there when no shot
     /// reaches the goal itself (0: only shots end it).
     pub goal_tolerance: f64,
+    /// Reversing allowed: arcs are also driven backwards (and shots
+    /// finish backwards). Off, the search is the forward-only one.
+    pub reverse: bool,
+    /// A reversing arc's cost per metre, against 1 forward: drivers (and
+    /// trackers) prefer to see where they go.
+    pub reverse_factor: f64,
+    /// The cost of a change of direction (m of forward driving): the
+    /// vehicle stops, steers at standstill and starts again.
+    pub switch_cost: f64,
 }
 
 impl HybridConfig {
@@ -54,6 +65,9 @@ impl HybridConfig {
             check: 0.5 * resolution,
             max_expansions: 200_000,
             goal_tolerance: 0.0,
+            reverse: false,
+            reverse_factor: 2.0,
+            switch_cost: 10.0,
         }
     }
 }
@@ -87,11 +101,14 @@ pub enum HybridError {
         /// What that clearance is made of.
         rule: &'static str,
     },
-    /// No forward path within the turning limit.
+    /// No path within the turning limit.
     #[error(
-        "no forward path with turns no tighter than {radius:.2} m: {expansions} poses searched, the closest came within {closest:.2} m of the goal at ({at_x:.1}, {at_y:.1})"
+        "no {} path with turns no tighter than {radius:.2} m: {expansions} poses searched, the closest came within {closest:.2} m of the goal at ({at_x:.1}, {at_y:.1})",
+        if *reverse { "forward-or-reversing" } else { "forward" }
     )]
     NoPath {
+        /// Whether reversing was allowed.
+        reverse: bool,
         /// Tightest turn radius planned (m).
         radius: f64,
         /// Poses expanded.
@@ -105,11 +122,25 @@ pub enum HybridError {
     },
 }
 
+/// A stretch of a path driven in one direction.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathSegment {
+    /// Points every ≤ `check` m in the order driven; a segment's last
+    /// point is the next one's first (the cusp).
+    pub points: Vec<Vec2>,
+    /// Driven backwards: the vehicle's heading is opposite to the
+    /// direction from one point to the next.
+    pub reverse: bool,
+}
+
 /// A path found by the search.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HybridPath {
     /// Points along the path every ≤ `check` m, start to goal.
     pub points: Vec<Vec2>,
+    /// The same path cut at its changes of direction (one forward segment
+    /// when it has none).
+    pub segments: Vec<PathSegment>,
     /// Its length (m).
     pub length: f64,
     /// Poses expanded.
@@ -155,7 +186,8 @@ fn arc_free(
     check: f64,
     exact: bool,
 ) -> bool {
-    let m = (len / check).ceil().max(1.0) as usize;
+    // `len` < 0: driven backwards (the heading still the body's).
+    let m = (len.abs() / check).ceil().max(1.0) as usize;
     let ds = len / m as f64;
     let turn = k * ds;
     // One sub-step in the frame of its start: ahead, to the left.
@@ -182,15 +214,18 @@ fn arc_free(
     true
 }
 
-/// Appends points every ≤ `check` m along an arc (excluding its start).
+/// Appends points every ≤ `check` m along an arc (excluding its start;
+/// `len` < 0 backwards).
 fn arc_points(out: &mut Vec<Vec2>, p: Vec2, yaw: f64, k: f64, len: f64, check: f64) {
-    let m = (len / check).ceil().max(1.0) as usize;
+    let m = (len.abs() / check).ceil().max(1.0) as usize;
     out.extend((1..=m).map(|j| arc(p, yaw, k, len * j as f64 / m as f64).0));
 }
 
 /// The analytic finish from `(p, yaw)`: an arc of curvature ±`kappa` until
-/// the heading points at `goal`, then straight to it. Returns (curvature,
-/// arc length, straight length) of the shorter free one.
+/// the direction of travel points at `goal`, then straight to it — driven
+/// forwards (`dir` = 1) or backwards (`dir` = −1). Returns (curvature,
+/// arc length, straight length) of the shorter free one, lengths signed
+/// as driven (negative backwards).
 fn shot(
     grid: &PlanningGrid,
     p: Vec2,
@@ -198,12 +233,21 @@ fn shot(
     goal: Vec2,
     kappa: f64,
     check: f64,
+    dir: f64,
 ) -> Option<(f64, f64, f64)> {
     let r = 1.0 / kappa;
+    // Backwards is forwards for a vehicle turned around (heading + π)
+    // steering the other way: the geometry below is the forward one on
+    // the direction of travel, the checks on the body's own heading.
+    let travel = if dir < 0.0 {
+        yaw + std::f64::consts::PI
+    } else {
+        yaw
+    };
     let mut best: Option<(f64, f64, f64)> = None;
     for side in [1.0, -1.0] {
         // Centre of the turning circle on this side.
-        let c = p + Vec2::new(-yaw.sin(), yaw.cos()) * (side * r);
+        let c = p + Vec2::new(-travel.sin(), travel.cos()) * (side * r);
         let v = goal - c;
         let dist = v.norm();
         if dist < r * (1.0 + 1e-9) {
@@ -221,15 +265,16 @@ fn shot(
         }
         let turn = phi * r;
         let total = turn + straight;
-        if best.is_some_and(|b| b.1 + b.2 <= total) {
+        if best.is_some_and(|b| (b.1 + b.2).abs() <= total) {
             continue;
         }
-        let k = side * kappa;
+        let k = dir * side * kappa;
+        let (turn, straight) = (dir * turn, dir * straight);
         if !arc_free(grid, p, yaw, k, turn, check, false) {
             continue;
         }
         let (q, h) = arc(p, yaw, k, turn);
-        if straight > 0.0 && !arc_free(grid, q, h, 0.0, straight, check, false) {
+        if straight != 0.0 && !arc_free(grid, q, h, 0.0, straight, check, false) {
             continue;
         }
         best = Some((k, turn, straight));
@@ -304,13 +349,15 @@ struct Node {
     parent: u32,
     /// Curvature level of the arc that led here.
     level: usize,
+    /// Direction of the arc that led here: 1 forwards, −1 backwards.
+    dir: f64,
     /// Index in the tree kept for display (u32::MAX: not in it).
     shown: u32,
 }
 
-/// Plans a forward path from `(start, yaw)` to `goal` (any final heading)
-/// whose curvature never exceeds `cfg.kappa`, with the grid's footprint
-/// free all along.
+/// Plans a path from `(start, yaw)` to `goal` (any final heading) whose
+/// curvature never exceeds `cfg.kappa`, with the grid's footprint free all
+/// along: forwards only, or with `cfg.reverse` forwards and backwards.
 pub fn hybrid_astar(
     grid: &PlanningGrid,
     start: Vec2,
@@ -326,6 +373,9 @@ pub fn hybrid_astar(
         check,
         max_expansions,
         goal_tolerance,
+        reverse,
+        reverse_factor,
+        switch_cost,
     } = *cfg;
     if !(kappa.is_finite() && kappa > 0.0) {
         return Err(HybridError::BadConfig(format!(
@@ -336,6 +386,16 @@ pub fn hybrid_astar(
         if !(v.is_finite() && v > 0.0) {
             return Err(HybridError::BadConfig(format!(
                 "{name} must be positive, got {v}"
+            )));
+        }
+    }
+    for (name, v) in [
+        ("reverse_factor", reverse_factor),
+        ("switch_cost", switch_cost),
+    ] {
+        if reverse && !(v.is_finite() && v >= 0.0) {
+            return Err(HybridError::BadConfig(format!(
+                "{name} must be a number ≥ 0, got {v}"
             )));
         }
     }
@@ -361,6 +421,7 @@ pub fn hybrid_astar(
     }
     let radius = 1.0 / kappa;
     let exhausted = |expansions: usize, closest: (f64, Vec2)| HybridError::NoPath {
+        reverse,
         radius,
         expansions,
         closest: closest.0,
@@ -391,7 +452,10 @@ pub fn hybrid_astar(
     // part of the state.
     let ks = [-kappa, -0.5 * kappa, 0.0, 0.5 * kappa, kappa];
     let levels = ks.len();
-    let key = |p: Vec2, yaw: f64, level: usize| -> Option<usize> {
+    // Reversing doubles the states: a pose reached backwards is not one
+    // reached forwards (a change of direction costs).
+    let dirs = if reverse { 2 } else { 1 };
+    let key = |p: Vec2, yaw: f64, level: usize, dir: f64| -> Option<usize> {
         let u = (p.x - g.origin.x) / cell;
         let v = (p.y - g.origin.y) / cell;
         if !(u >= 0.0 && v >= 0.0) {
@@ -403,9 +467,10 @@ pub fn hybrid_astar(
         }
         let t = yaw.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU;
         let b = ((t * headings as f64) as usize).min(headings - 1);
-        Some(((j * nx + i) * headings + b) * levels + level)
+        let d = usize::from(dir < 0.0);
+        Some((((j * nx + i) * headings + b) * levels + level) * dirs + d)
     };
-    let states = nx * ny * headings * levels;
+    let states = nx * ny * headings * levels * dirs;
     let mut best = vec![f64::INFINITY; states];
     let mut closed = vec![false; states];
     // The vehicle starts with its wheels straight.
@@ -415,6 +480,7 @@ pub fn hybrid_astar(
         g: 0.0,
         parent: u32::MAX,
         level: 2,
+        dir: 1.0,
         shown: u32::MAX,
     }];
     let mut explored: Vec<Vec2> = Vec::new();
@@ -433,11 +499,13 @@ pub fn hybrid_astar(
     // How far from its start the body is checked exactly: a body length.
     let leave = grid.body.map_or(0.0, |[length, ..]| length);
     while let Some(Cheapest(_, id)) = heap.pop() {
-        let (p, yaw, gc, lc) = {
+        let (p, yaw, gc, lc, dc) = {
             let n = &nodes[id as usize];
-            (n.p, n.yaw, n.g, n.level)
+            (n.p, n.yaw, n.g, n.level, n.dir)
         };
-        let Some(kk) = key(p, yaw, lc) else { continue };
+        let Some(kk) = key(p, yaw, lc, dc) else {
+            continue;
+        };
         if closed[kk] || gc > best[kk] {
             continue;
         }
@@ -461,8 +529,16 @@ pub fn hybrid_astar(
         if d < closest.0 {
             closest = (d, p);
         }
-        if d < near || expansions.is_multiple_of(16) {
-            let found = shot(grid, p, yaw, goal, kappa, check);
+        // A reversing search also shoots from its start: a goal straight
+        // behind is reached backwards, not after a few metres forwards.
+        let first = reverse && expansions == 1;
+        if d < near || expansions.is_multiple_of(16) || first {
+            // Forwards first; reversing, also backwards (a shot against
+            // the direction the pose was reached in adds a cusp there).
+            let mut found = shot(grid, p, yaw, goal, kappa, check, 1.0);
+            if found.is_none() && reverse {
+                found = shot(grid, p, yaw, goal, kappa, check, -1.0);
+            }
             if let Some((k, turn, straight)) = found {
                 return Ok(HybridPath {
                     explored,
@@ -487,24 +563,39 @@ pub fn hybrid_astar(
             });
         }
         let lo = lc.saturating_sub(1);
-        for (level, &k) in ks.iter().enumerate().skip(lo).take(lc + 2 - lo) {
+        let same = (lo..(lc + 2).min(levels)).map(|l| (l, dc));
+        // A change of direction happens at standstill, where the wheels
+        // may be turned to any angle: every level.
+        let flip = (0..levels).filter(|_| reverse).map(|l| (l, -dc));
+        for (level, dir) in same.chain(flip) {
+            let k = ks[level];
+            let len = dir * step;
             // A start the circles do not fit (a long body near a wall or
             // the map's edge) is left with the body checked exactly; the
             // rest of the search keeps the circles' room.
-            if !arc_free(grid, p, yaw, k, step, check, gc < leave) {
+            if !arc_free(grid, p, yaw, k, len, check, gc < leave) {
                 continue;
             }
-            let (q, qy) = arc(p, yaw, k, step);
-            let Some(qk) = key(q, qy, level) else {
+            let (q, qy) = arc(p, yaw, k, len);
+            let Some(qk) = key(q, qy, level, dir) else {
                 continue;
             };
             if closed[qk] {
                 continue;
             }
             // Length, a little more for turning and for changing the
-            // turn (smoother paths are cheaper to track).
-            let cost =
-                step * (1.0 + 0.05 * k.abs() / kappa) + 0.1 * step * (level.abs_diff(lc) as f64);
+            // turn (smoother paths are cheaper to track); backwards
+            // `reverse_factor` times that, and a change of direction
+            // `switch_cost`.
+            let mut cost = step * (1.0 + 0.05 * k.abs() / kappa);
+            if dir == dc {
+                cost += 0.1 * step * (level.abs_diff(lc) as f64);
+            } else {
+                cost += switch_cost;
+            }
+            if dir < 0.0 {
+                cost *= reverse_factor;
+            }
             let ng = gc + cost;
             if ng >= best[qk] {
                 continue;
@@ -520,6 +611,7 @@ pub fn hybrid_astar(
                 g: ng,
                 parent: id,
                 level,
+                dir,
                 shown: u32::MAX,
             });
             heap.push(Cheapest(ng + h, (nodes.len() - 1) as u32));
@@ -550,27 +642,57 @@ fn reconstruct(
     chain.reverse();
     let first = &nodes[chain[0] as usize];
     let mut points = vec![first.p];
+    // The direction each point after the first was reached in.
+    let mut backwards = vec![false];
+    let mut follow = |points: &mut Vec<Vec2>, p: Vec2, yaw: f64, k: f64, len: f64| {
+        arc_points(points, p, yaw, k, len, check);
+        backwards.resize(points.len(), len < 0.0);
+    };
     for w in chain.windows(2) {
         let (a, b) = (&nodes[w[0] as usize], &nodes[w[1] as usize]);
-        arc_points(&mut points, a.p, a.yaw, ks[b.level], step, check);
+        follow(&mut points, a.p, a.yaw, ks[b.level], b.dir * step);
     }
     if let Some((k, turn, straight, goal)) = shot {
         let end = &nodes[id as usize];
-        if turn > 0.0 {
-            arc_points(&mut points, end.p, end.yaw, k, turn, check);
+        if turn != 0.0 {
+            follow(&mut points, end.p, end.yaw, k, turn);
         }
         let (q, h) = arc(end.p, end.yaw, k, turn);
-        if straight > 0.0 {
-            arc_points(&mut points, q, h, 0.0, straight, check);
+        if straight != 0.0 {
+            follow(&mut points, q, h, 0.0, straight);
         }
         // The last point is the goal up to rounding: make it the goal.
         if let Some(last) = points.last_mut() {
             *last = goal;
         }
     }
+    if backwards.len() > 1 {
+        backwards[0] = backwards[1];
+    }
+    // Cut at each change of direction; the cusp ends one segment and
+    // starts the next.
+    let mut segments: Vec<PathSegment> = Vec::new();
+    for (i, &p) in points.iter().enumerate() {
+        let reverse = backwards[i];
+        match segments.last_mut() {
+            Some(s) if s.reverse == reverse => s.points.push(p),
+            Some(s) => {
+                let cusp = *s.points.last().unwrap_or(&p);
+                segments.push(PathSegment {
+                    points: vec![cusp, p],
+                    reverse,
+                });
+            }
+            None => segments.push(PathSegment {
+                points: vec![p],
+                reverse,
+            }),
+        }
+    }
     let length = points.windows(2).map(|w| w[0].distance(w[1])).sum();
     HybridPath {
         points,
+        segments,
         length,
         expansions,
         explored: Vec::new(),
@@ -709,6 +831,129 @@ mod tests {
                 Err(e) => assert!(!e.to_string().is_empty()),
             }
         }
+    }
+
+    /// A dead-end street 6 m wide (closed at x = 44), open to the left:
+    /// a car facing the dead end cannot turn round.
+    fn dead_end() -> PlanningGrid {
+        yard(&[
+            Obstacle::Rect {
+                min: [0.0, 0.0],
+                max: [60.0, 12.0],
+            },
+            Obstacle::Rect {
+                min: [0.0, 18.0],
+                max: [60.0, 30.0],
+            },
+            Obstacle::Rect {
+                min: [44.0, 12.0],
+                max: [60.0, 18.0],
+            },
+        ])
+    }
+
+    /// Every point of every segment is a free pose of the body: heading
+    /// along the segment, turned around on a reversing one.
+    fn body_fits_along(grid: &PlanningGrid, path: &HybridPath) {
+        for seg in &path.segments {
+            for w in seg.points.windows(2) {
+                let travel = (w[1] - w[0]).heading();
+                let heading = if seg.reverse {
+                    travel + std::f64::consts::PI
+                } else {
+                    travel
+                };
+                assert!(
+                    grid.pose_free(w[1], heading),
+                    "{:?} reverse {}",
+                    w[1],
+                    seg.reverse
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_bus_through_a_gap_backs_into_its_goal() {
+        // The narrow-passage example: a wall across the yard with a 5 m
+        // gap; a 12 m bus (wheelbase 6 m, 40°) at 80 % of its curvature.
+        let g = OccupancyGrid::from_obstacles(
+            Vec2::new(0.0, 0.0),
+            (60.0, 30.0),
+            0.2,
+            &[
+                Obstacle::Rect {
+                    min: [29.0, 0.0],
+                    max: [31.0, 12.5],
+                },
+                Obstacle::Rect {
+                    min: [29.0, 17.5],
+                    max: [31.0, 30.0],
+                },
+            ],
+        )
+        .unwrap();
+        let grid = PlanningGrid::with_footprint(g, 12.0, 2.55, 3.0, 0.3);
+        let kappa = 0.8 * 40f64.to_radians().tan() / 6.0;
+        let (start, goal) = (Vec2::new(5.0, 5.0), Vec2::new(55.0, 25.0));
+        let forward = HybridConfig {
+            goal_tolerance: 0.25,
+            max_expansions: 50_000,
+            ..HybridConfig::new(kappa, 0.2)
+        };
+        let e = hybrid_astar(&grid, start, 0.0, goal, &forward).unwrap_err();
+        assert!(e.to_string().starts_with("no forward path"), "{e}");
+        let cfg = HybridConfig {
+            reverse: true,
+            ..forward
+        };
+        let a = hybrid_astar(&grid, start, 0.0, goal, &cfg).unwrap();
+        assert_eq!(a, hybrid_astar(&grid, start, 0.0, goal, &cfg).unwrap());
+        assert_eq!(a.points[0], start);
+        assert!(a.points.last().unwrap().distance(goal) <= 0.25);
+        // Forwards through the gap, then backwards into the goal corner:
+        // segments alternate, share their cusps, and make up the path.
+        assert!(a.segments.len() >= 2, "{}", a.segments.len());
+        assert!(!a.segments[0].reverse && a.segments.iter().any(|s| s.reverse));
+        for w in a.segments.windows(2) {
+            assert_ne!(w[0].reverse, w[1].reverse);
+            assert_eq!(w[0].points.last(), w[1].points.first());
+        }
+        let joined: usize = a.segments.iter().map(|s| s.points.len() - 1).sum();
+        assert_eq!(joined + 1, a.points.len());
+        for s in &a.segments {
+            assert!(crate::corridor::max_curvature(&s.points) <= cfg.kappa * 1.01);
+            for w in s.points.windows(2) {
+                assert!(w[0].distance(w[1]) <= cfg.check + 1e-9);
+            }
+        }
+        body_fits_along(&grid, &a);
+        // Bad reversing settings are refused, not searched.
+        let bad = HybridConfig {
+            switch_cost: f64::NAN,
+            ..cfg
+        };
+        let e = hybrid_astar(&grid, start, 0.0, goal, &bad).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid search settings: switch_cost must be a number ≥ 0, got NaN"
+        );
+    }
+
+    #[test]
+    fn a_goal_straight_behind_is_reached_backwards() {
+        let grid = dead_end();
+        let cfg = HybridConfig {
+            reverse: true,
+            max_expansions: 100_000,
+            ..HybridConfig::new(0.2, 0.2)
+        };
+        let (start, goal) = (Vec2::new(35.0, 15.0), Vec2::new(8.0, 15.0));
+        let a = hybrid_astar(&grid, start, 0.0, goal, &cfg).unwrap();
+        assert_eq!(a.segments.len(), 1, "{:?}", a.segments);
+        assert!(a.segments[0].reverse);
+        assert!((a.length - 27.0).abs() < 0.5, "{}", a.length);
+        body_fits_along(&grid, &a);
     }
 
     #[test]

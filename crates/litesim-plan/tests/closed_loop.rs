@@ -406,3 +406,96 @@ fn bad_configurations_are_clear_errors() {
         .to_string();
     assert!(e.contains("start (5.00, 20.00) is in collision"), "{e}");
 }
+
+/// A goal behind a car in a street too narrow to turn round in: no
+/// forward path, so the search reverses, and the vehicle — in reverse gear
+/// from the start — backs onto it, its path tracked as tightly as a
+/// forward one.
+#[test]
+fn a_goal_behind_in_a_narrow_street_is_reached_backwards() {
+    let cfg = parse_config(
+        r#"
+[map]
+size = [60.0, 20.0]
+resolution = 0.2
+obstacles = [
+  { shape = "rect", min = [0.0, 0.0], max = [60.0, 7.0] },
+  { shape = "rect", min = [0.0, 13.0], max = [60.0, 20.0] },
+]
+[start]
+x = 40.0
+y = 10.0
+[goal]
+x = 12.0
+y = 10.0
+[vehicle]
+preset = "compact"
+[planner]
+margin = 0.3
+[tracker]
+dt = 0.1
+[simulation]
+dt = 0.05
+horizon = 60.0
+"#,
+    )
+    .unwrap();
+    let r = run_closed_loop(&cfg, grid_of(&cfg)).unwrap();
+    assert!(
+        r.reached_goal,
+        "{:.3} m, {:.3} m/s",
+        r.goal_distance, r.final_speed
+    );
+    assert!(!r.collided);
+    assert_eq!(r.legs.len(), 1);
+    assert!(r.legs[0].reverse);
+    assert!(
+        r.max_cross_track <= 0.03 && r.mean_cross_track <= 0.02,
+        "{} {}",
+        r.max_cross_track,
+        r.mean_cross_track
+    );
+    // Backwards the whole way: the speed never positive, the heading kept.
+    let ego = &r.log.tracks[0];
+    assert!(ego.state.speed.iter().all(|v| *v <= 0.0));
+    assert!(ego.state.speed.iter().any(|v| *v < -1.0));
+    assert!(ego.state.yaw.iter().all(|y| y.abs() < 0.05));
+    assert!(matches!(r.planner, PathPlanner::Hybrid { cusps: 0, .. }));
+}
+
+/// The narrow passage with a bus: through the gap forwards, then backing
+/// into the goal's corner — two legs, the gear changed at the cusp where
+/// the bus stands still, the corridor shown with both (speeds negative on
+/// the reversing leg), and the planner saying so.
+#[test]
+fn a_bus_changes_gear_at_a_cusp_and_arrives_on_its_path() {
+    let mut cfg = example("narrow_passage.toml");
+    cfg.vehicle.preset = "bus".into();
+    let r = run_closed_loop(&cfg, grid_of(&cfg)).unwrap();
+    assert!(r.reached_goal && !r.collided, "{:.3} m", r.goal_distance);
+    assert!(r.max_cross_track <= 0.03 && r.mean_cross_track <= 0.02);
+    assert_eq!(
+        r.legs.iter().map(|l| l.reverse).collect::<Vec<_>>(),
+        [false, true]
+    );
+    let text = r.planner.to_string();
+    assert!(text.contains(", reversing once; "), "{text}");
+    assert_eq!(r.log.meta.get("planner"), Some(&text));
+    let ego = &r.log.tracks[0];
+    let (fwd, back) = (
+        ego.state.speed.iter().cloned().fold(0.0, f64::max),
+        ego.state.speed.iter().cloned().fold(0.0, f64::min),
+    );
+    assert!(fwd > 1.0 && back < -1.0, "{fwd} {back}");
+    // Stopped at the cusp: no step goes from forwards to backwards
+    // without standing still in between.
+    for w in ego.state.speed.windows(2) {
+        assert!(!(w[0] > 0.0 && w[1] < 0.0), "{w:?}");
+    }
+    let c = &r.corridor;
+    let n0 = r.legs[0].corridor.points.len();
+    assert_eq!(c.points.len(), n0 + r.legs[1].corridor.points.len());
+    assert!(c.speed[..n0].iter().all(|v| *v >= 0.0));
+    assert!(c.speed[n0..].iter().all(|v| *v <= 0.0));
+    assert!(c.s.windows(2).all(|w| w[1] >= w[0]));
+}

@@ -274,6 +274,10 @@ impl KinematicBicycle {
         state: &VehicleState,
         dt: f64,
     ) -> Option<Compiled> {
+        // The loops drive forwards only; reversing is stepped one by one.
+        if self.reverse {
+            return None;
+        }
         let (a, delta) = self.saturate(input);
         let (curvature, beta, cos_beta) = self.steer_terms(delta);
         let finite = [a, delta, curvature, beta, cos_beta, self.max_speed, dt]

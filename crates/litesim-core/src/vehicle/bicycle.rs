@@ -49,8 +49,16 @@ pub struct KinematicBicycle {
     pub max_acceleration: f64,
     /// Deceleration limit (m/s², positive).
     pub max_deceleration: f64,
-    /// Speed limit (m/s).
+    /// Speed limit (m/s), either way.
     pub max_speed: f64,
+    /// Reverse gear: the vehicle drives backwards, its speed between
+    /// −`max_speed` and 0. A `Direct` acceleration stays the rate of change
+    /// of the (signed) speed, limited to `max_acceleration` speeding up
+    /// (negative) and `max_deceleration` slowing down; pedals push
+    /// backwards. Off (the default), the speed stays between 0 and
+    /// `max_speed`: braking stops the vehicle, it never rolls back.
+    #[serde(default)]
+    pub reverse: bool,
     // (heading argument, sin, cos) of the last step: straight driving keeps
     // the heading, and recomputing identical trig is the model's main cost.
     // Bit-identical with or without it.
@@ -76,6 +84,7 @@ impl KinematicBicycle {
             max_acceleration: 3.0,
             max_deceleration: 8.0,
             max_speed: 60.0,
+            reverse: false,
             trig_cache: SinCosCache::default(),
             steer_cache: None,
         }
@@ -99,9 +108,22 @@ impl KinematicBicycle {
                 steering_angle,
             } => (acceleration, steering_angle),
         };
+        let d = math::clamp(d, -self.max_steering_angle, self.max_steering_angle);
+        if self.reverse {
+            // Pedals act backwards; speeding up backwards is the engine's
+            // limit, slowing down the brakes'.
+            let a = match input {
+                VehicleInput::Pedals(_) => -a,
+                _ => a,
+            };
+            return (
+                math::clamp(a, -self.max_acceleration, self.max_deceleration),
+                d,
+            );
+        }
         (
             math::clamp(a, -self.max_deceleration, self.max_acceleration),
-            math::clamp(d, -self.max_steering_angle, self.max_steering_angle),
+            d,
         )
     }
 
@@ -141,15 +163,29 @@ impl KinematicBicycle {
         let (s, c) = self.trig_cache.get(st.yaw + beta);
         st.x += v * c * dt;
         st.y += v * s * dt;
-        let (yaw_rate, yaw, v_new, applied) = bicycle_advance(
-            v,
-            st.yaw,
-            a,
-            (cos_beta, curvature),
-            self.max_speed,
-            dt,
-            wrap_angle,
-        );
+        let (yaw_rate, yaw, v_new, applied) = if self.reverse {
+            // Backwards: the speed stays in [−max_speed, 0] (a stop is a
+            // stop, the gear does not flip by itself).
+            let yaw_rate = v * cos_beta * curvature;
+            let v_free = v + a * dt;
+            let v_new = math::clamp(v_free, -self.max_speed, 0.0);
+            (
+                yaw_rate,
+                wrap_angle(st.yaw + yaw_rate * dt),
+                v_new,
+                applied_acceleration(a, v, v_free, v_new, dt),
+            )
+        } else {
+            bicycle_advance(
+                v,
+                st.yaw,
+                a,
+                (cos_beta, curvature),
+                self.max_speed,
+                dt,
+                wrap_angle,
+            )
+        };
         st.yaw = yaw;
         st.v = v_new;
         st.yaw_rate = yaw_rate;
