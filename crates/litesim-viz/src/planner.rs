@@ -107,15 +107,21 @@ pub fn render_rgb(log: &SimulationLog, style: &Style) -> Result<(Vec<u8>, u32, u
             " (corridor not smoothed)"
         };
         // A path from the curvature-bounded search: the title names that
-        // planner (the log's `planner` meta, up to its reason); the tree
-        // drawn is its first expanded poses.
+        // planner (the log's `planner` meta, up to its reason — FMT*'s
+        // path was not drivable); the tree drawn is its first expanded
+        // poses, said when that is not all of them (the title must fit
+        // the picture's width).
         let title = match hybrid_planner(log) {
             Some(m) => {
                 let short = m.split(';').next().unwrap_or(m);
-                format!(
-                    "{short} (FMT*'s path was not drivable; {} poses shown){unsmoothed}",
-                    p.samples.len().saturating_sub(2)
-                )
+                let shown = p.samples.len().saturating_sub(2);
+                let all = short.contains(&format!(", {shown} poses"));
+                let tree = if all {
+                    String::new()
+                } else {
+                    format!(" ({shown} shown)")
+                };
+                format!("{short}{tree}{unsmoothed}")
             }
             _ => format!(
                 "FMT*: {} samples, {} edges, r = {:.2} m{unsmoothed}",
