@@ -823,10 +823,19 @@ mod tests {
                 };
             }
             let (start, goal) = (Vec2::new(v[0], v[1] * 0.5), Vec2::new(v[2], v[3] * 0.5));
+            // Forwards only, and reversing (every other case).
+            let cfg = HybridConfig {
+                reverse: k % 2 == 1,
+                ..cfg
+            };
             match hybrid_astar(&grid, start, v[4], goal, &cfg) {
                 Ok(p) => {
                     assert!(p.points.iter().all(|q| q.is_finite()));
                     assert!(p.length.is_finite());
+                    // The segments are the path, cut at its cusps.
+                    let n: usize = p.segments.iter().map(|s| s.points.len() - 1).sum();
+                    assert_eq!(n + 1, p.points.len());
+                    assert!(cfg.reverse || p.segments.iter().all(|s| !s.reverse));
                 }
                 Err(e) => assert!(!e.to_string().is_empty()),
             }
