@@ -874,11 +874,10 @@ pub fn run_closed_loop_timed(
                         Ok((h, legs, hcfg))
                     })
             };
-            let mut tries = vec![(0.95, half)];
+            let mut tries = vec![(0.8, half), (0.95, half)];
             if wide > half {
                 tries.extend([(0.8, wide), (0.95, wide)]);
             }
-            let mut found = attempt(0.8, half, false);
             // How close each curvature's first search came. A search with a
             // wider end expands the same poses in the same order and stops
             // at the first within its end, so it can only succeed where one
@@ -888,43 +887,28 @@ pub fn run_closed_loop_timed(
                 Err((_, c, _)) => *c,
                 Ok(_) => None,
             };
-            let mut came: Vec<(f64, Option<f64>)> = vec![(0.8, closest_of(&found))];
-            for (share, end_within) in tries {
-                // A start the body does not fit ends the search: no other
-                // turning limit or end changes it.
-                let Err((false, _, _)) = found else { break };
-                let hopeless = end_within > half
-                    && came
-                        .iter()
-                        .any(|&(s, c)| s == share && c.is_some_and(|c| c > end_within));
-                if hopeless {
-                    continue;
-                }
-                found = attempt(share, end_within, false);
-                if end_within <= half {
-                    came.push((share, closest_of(&found)));
-                }
-            }
-            // No forward path: the same searches, now also reversing
-            // (a manoeuvre with cusps: into a dead end and back out, a
-            // turn in three moves, backing into the goal).
-            let mut came_back: Vec<(f64, Option<f64>)> = Vec::new();
-            let mut tries = vec![(0.8, half), (0.95, half)];
-            if wide > half {
-                tries.extend([(0.8, wide), (0.95, wide)]);
-            }
-            for (share, end_within) in tries {
-                let Err((false, _, _)) = found else { break };
-                let hopeless = end_within > half
-                    && came_back
-                        .iter()
-                        .any(|&(s, c)| s == share && c.is_some_and(|c| c > end_within));
-                if hopeless {
-                    continue;
-                }
-                found = attempt(share, end_within, true);
-                if end_within <= half {
-                    came_back.push((share, closest_of(&found)));
+            let mut found = Err((false, None, String::new()));
+            // Forwards; where no forward search finds a path, the same
+            // searches also reversing (a manoeuvre with cusps: into a dead
+            // end and back out, a turn in three moves, backing into the
+            // goal).
+            for reverse in [false, true] {
+                let mut came: Vec<(f64, Option<f64>)> = Vec::new();
+                for &(share, end_within) in &tries {
+                    // A start the body does not fit ends the search: no
+                    // other turning limit or end changes it.
+                    let Err((false, _, _)) = found else { break };
+                    let hopeless = end_within > half
+                        && came
+                            .iter()
+                            .any(|&(s, c)| s == share && c.is_some_and(|c| c > end_within));
+                    if hopeless {
+                        continue;
+                    }
+                    found = attempt(share, end_within, reverse);
+                    if end_within <= half {
+                        came.push((share, closest_of(&found)));
+                    }
                 }
             }
             let found = found.map_err(|(_, _, e)| e);
