@@ -517,8 +517,22 @@ impl Leg {
         grid: &PlanningGrid,
         ds: f64,
     ) -> Option<Corridor> {
-        let mut raw = self.corridor.raw.clone();
-        *raw.first_mut()? = at;
+        // From where it stands on along the planned points it has not
+        // passed: those after the nearest of the first few metres (a
+        // vehicle that stalled short of the cusp stands past the next
+        // leg's first points).
+        let planned = &self.corridor.raw;
+        let nearest = planned
+            .iter()
+            .take(60)
+            .enumerate()
+            .min_by(|a, b| a.1.distance(at).total_cmp(&b.1.distance(at)))?
+            .0;
+        let mut raw = vec![at];
+        raw.extend_from_slice(planned.get(nearest + 1..)?);
+        if raw.len() < 2 {
+            return None;
+        }
         let limits = SpeedLimits {
             start_heading: Some(travel),
             ..self.limits
