@@ -277,6 +277,30 @@ fn seg_distance(p: Vec2, a: Vec2, b: Vec2) -> f64 {
     ((p.x - fx).powi(2) + (p.y - fy).powi(2)).sqrt()
 }
 
+/// The piece of `r` from `s` to its next breakpoint (geometry, offset and
+/// width records included) is straight: a line of the plan view, a lane
+/// offset and every lane width of `sec` constant there (their records'
+/// b = c = d = 0; border records are not looked into).
+fn straight_between(r: &Road, sec: &crate::model::LaneSection, s: f64) -> bool {
+    let at = |v: &[crate::model::Cubic], x: f64| v.partition_point(|c| c.s <= x).max(1) - 1;
+    let flat = |c: &crate::model::Cubic| c.b == 0.0 && c.c == 0.0 && c.d == 0.0;
+    let line = !r.plan_view.is_empty()
+        && matches!(
+            r.plan_view[at_geometry(r, s)].shape,
+            crate::geometry::Shape::Line
+        );
+    let offset = r.lane_offsets.is_empty() || flat(&r.lane_offsets[at(&r.lane_offsets, s)]);
+    let widths = sec.left.iter().chain(&sec.right).all(|l| {
+        l.borders.is_empty() && (l.widths.is_empty() || flat(&l.widths[at(&l.widths, s - sec.s)]))
+    });
+    line && offset && widths
+}
+
+/// Index of the plan-view geometry that holds `s`.
+fn at_geometry(r: &Road, s: f64) -> usize {
+    r.plan_view.partition_point(|g| g.s <= s).max(1) - 1
+}
+
 fn step_for(k: f64, tol: f64, max: f64) -> f64 {
     if k.abs() < 1e-9 {
         max
@@ -820,6 +844,11 @@ impl RoadNetwork {
                     let (a, b) = (w[0], w[1]);
                     let mut s = a;
                     fine.push(a);
+                    // A straight reference with constant widths and offset:
+                    // every border is a straight line, its two ends exact.
+                    if straight_between(r, sec, a) {
+                        continue;
+                    }
                     while s < b - 1e-9 {
                         let k = r.reference(s).curvature.abs();
                         let next = (s + step_for(k, tol, 5.0)).min(b);

@@ -115,3 +115,25 @@ fn an_absurd_lane_width_costs_bounded_work() {
         }
     }
 }
+
+/// A straight road with constant lane widths: every lane line is a
+/// straight segment, exported with its two ends (and a point where a road
+/// mark starts) rather than a sample every few metres — the 500 m road of
+/// the README's example was ~100 points per line, 48 KB of MCAP map.
+#[test]
+fn a_straight_road_with_constant_widths_exports_its_ends() {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/maps/straight.xodr");
+    let net = RoadNetwork::load(&p).unwrap();
+    let lines = net.all_lane_polylines(0.05);
+    assert!(!lines.is_empty());
+    for l in &lines {
+        assert!(
+            (2..=3).contains(&l.outer.len()),
+            "lane {}: {} points",
+            l.lane,
+            l.outer.len()
+        );
+        assert_eq!(l.inner.len(), l.outer.len());
+        assert_eq!(l.center.len(), l.outer.len());
+    }
+}
