@@ -1072,6 +1072,7 @@ pub fn run_closed_loop_timed(
                 }
                 stalled = 0;
             } else {
+                stalled = 0;
                 break;
             }
             before += legs[leg].corridor.length();
