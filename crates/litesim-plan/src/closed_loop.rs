@@ -8,7 +8,7 @@
 //! integration. The MPC's model uses the tracker's dt and the vehicle's
 //! wheelbase — both named in the configuration, never guessed.
 
-use crate::corridor::{Corridor, RefState, SpeedLimits};
+use crate::corridor::{Corridor, RefState, SpeedLimits, TURN_HALF_ARC, TURN_SLACK};
 use crate::fmt::{FmtConfig, FmtError, FmtResult, Radius, fmt_star};
 use crate::grid::{Layer, PlanningGrid};
 use crate::hybrid::{HybridConfig, HybridError, hybrid_astar};
@@ -542,6 +542,17 @@ impl Leg {
     }
 }
 
+/// How the vehicle turned around drives a leg: (sign of its speed,
+/// acceleration and steering; what its heading gains) — (−1, π) on a
+/// reversing leg, (1, 0) on a forward one.
+fn turned_around(reverse: bool) -> (f64, f64) {
+    if reverse {
+        (-1.0, std::f64::consts::PI)
+    } else {
+        (1.0, 0.0)
+    }
+}
+
 /// A leg is driven when the vehicle is this close to its end (m) …
 const LEG_END: f64 = 0.1;
 /// … and this slow (m/s).
@@ -551,38 +562,36 @@ const LEG_STOP: f64 = 0.1;
 /// drivers reverse (and what keeps a long body's swing small).
 pub const REVERSE_SPEED_MAX: f64 = 2.0;
 
-/// The legs of a path with changes of direction: each leg's corridor leaves
-/// in the direction the vehicle is in at its start (the start heading, then
-/// the previous leg's end turned around) and starts at rest.
-fn legs_along(
+/// The legs of a path, one per direction (a path that never reverses is
+/// one forward leg along it): each leg's corridor leaves in the direction
+/// the vehicle is in at its start (the start heading, then the previous
+/// leg's end turned around), a leg after a cusp from rest; `grid_for`
+/// gives the grid of a direction (reversing: the body mirrored).
+fn legs_along<'g>(
     segments: &[crate::hybrid::PathSegment],
-    grid: &PlanningGrid,
-    rgrid: &PlanningGrid,
+    grid_for: &dyn Fn(bool) -> &'g PlanningGrid,
     ds: f64,
     limits: &SpeedLimits,
 ) -> Vec<Leg> {
+    // The direction of travel at a cusp, from the search's arcs (points
+    // 0.1 m apart): the leg arrives along it and the next one leaves
+    // against it — the vehicle's heading is continuous.
+    let leaving = |pts: &[Vec2]| match pts {
+        [a, b, ..] => Some((*b - *a).heading()),
+        _ => None,
+    };
+    let arriving = |pts: &[Vec2]| match pts {
+        [.., a, b] => Some((*b - *a).heading()),
+        _ => None,
+    };
     let mut legs: Vec<Leg> = Vec::with_capacity(segments.len());
     for (k, seg) in segments.iter().enumerate() {
-        let turn = if seg.reverse {
-            std::f64::consts::PI
-        } else {
-            0.0
-        };
-        // The direction of travel at a cusp, from the search's arcs (points
-        // 0.1 m apart): the leg arrives along it and the next one leaves
-        // against it — the vehicle's heading is continuous.
-        let leaving = |pts: &[Vec2]| match pts {
-            [a, b, ..] => Some((*b - *a).heading()),
-            _ => None,
-        };
-        let arriving = |pts: &[Vec2]| match pts {
-            [.., a, b] => Some((*b - *a).heading()),
-            _ => None,
-        };
-        let start_heading = if k == 0 {
-            limits.start_heading.map(|h| wrap_angle(h + turn))
-        } else {
-            leaving(&seg.points)
+        let start_heading = match (k, seg.reverse) {
+            (0, false) => limits.start_heading,
+            (0, true) => limits
+                .start_heading
+                .map(|h| wrap_angle(h + turned_around(true).1)),
+            _ => leaving(&seg.points),
         };
         let end_heading = if k + 1 < segments.len() {
             arriving(&seg.points)
@@ -600,9 +609,8 @@ fn legs_along(
             v_start: if k == 0 { limits.v_start } else { 0.0 },
             ..*limits
         };
-        let g = if seg.reverse { rgrid } else { grid };
         legs.push(Leg {
-            corridor: Corridor::along_to(&seg.points, g, ds, &lim, end_heading),
+            corridor: Corridor::along_to(&seg.points, grid_for(seg.reverse), ds, &lim, end_heading),
             reverse: seg.reverse,
             limits: lim,
             end_heading,
@@ -626,11 +634,7 @@ fn joined(legs: &[Leg]) -> Corridor {
             for leg in legs {
                 let c = &leg.corridor;
                 let (s0, t0) = (out.length(), out.duration());
-                let (turn, sign) = if leg.reverse {
-                    (std::f64::consts::PI, -1.0)
-                } else {
-                    (0.0, 1.0)
-                };
+                let (sign, turn) = turned_around(leg.reverse);
                 out.raw.extend(&c.raw);
                 out.shortcut.extend(&c.shortcut);
                 out.points.extend(&c.points);
@@ -768,9 +772,9 @@ pub fn run_closed_loop_timed(
     // A path the vehicle cannot drive is refused before it is driven: too
     // tight a turn, or a body that does not fit where the path goes.
     let drivable = |corridor: &Corridor, pgrid: &PlanningGrid| -> Result<(), PlanError> {
-        let turn = corridor.turn_curvature(1.0);
+        let turn = corridor.turn_curvature(TURN_HALF_ARC);
         if let Some(i) = (0..turn.len())
-            .filter(|&i| turn[i].abs() > kappa_max * 1.02)
+            .filter(|&i| turn[i].abs() > kappa_max * TURN_SLACK)
             .max_by(|&a, &b| turn[a].abs().total_cmp(&turn[b].abs()))
         {
             let p = corridor.points[i];
@@ -814,8 +818,15 @@ pub fn run_closed_loop_timed(
         Ok((fmt, corridor))
     });
     // The body mirrored, for stretches driven backwards (made only when a
-    // search may reverse).
+    // path reverses).
     let rgrid = std::cell::OnceCell::new();
+    let grid_for = |reverse: bool| {
+        if reverse {
+            rgrid.get_or_init(|| pgrid.reversed())
+        } else {
+            &pgrid
+        }
+    };
     let (fmt, mut legs, planner) = match by_fmt {
         Ok((fmt, corridor)) => {
             let used = PathPlanner::Fmt {
@@ -867,24 +878,11 @@ pub fn run_closed_loop_timed(
                         )
                     })
                     .and_then(|h| {
-                        let legs = if h.segments.iter().all(|s| !s.reverse) {
-                            let corridor =
-                                Corridor::along(&h.points, &pgrid, pl.corridor_ds, &limits);
-                            drivable(&corridor, &pgrid)
+                        let legs = legs_along(&h.segments, &grid_for, pl.corridor_ds, &limits);
+                        for leg in &legs {
+                            drivable(&leg.corridor, grid_for(leg.reverse))
                                 .map_err(|e| (false, None, e.to_string()))?;
-                            vec![Leg::forward(corridor, &limits)]
-                        } else {
-                            let rgrid = rgrid.get_or_init(|| pgrid.reversed());
-                            legs_along(&h.segments, &pgrid, rgrid, pl.corridor_ds, &limits)
-                                .iter()
-                                .try_fold(Vec::new(), |mut out, leg| {
-                                    let g = if leg.reverse { rgrid } else { &pgrid };
-                                    drivable(&leg.corridor, g)?;
-                                    out.push(leg.clone());
-                                    Ok::<_, PlanError>(out)
-                                })
-                                .map_err(|e| (false, None, e.to_string()))?
-                        };
+                        }
                         Ok((h, legs, hcfg))
                     })
             };
@@ -1081,10 +1079,8 @@ pub fn run_closed_loop_timed(
             let mut geared = bike.clone();
             geared.reverse = legs[leg].reverse;
             let _ = w.set_model("ego", VehicleModelKind::Bicycle(geared));
-            let (g, turn) = match (legs[leg].reverse, rgrid.get()) {
-                (true, Some(r)) => (r, std::f64::consts::PI),
-                _ => (&pgrid, 0.0),
-            };
+            let (sign, turn) = turned_around(legs[leg].reverse);
+            let g = grid_for(legs[leg].reverse);
             if let Some(c) =
                 legs[leg].restarted_at(pos, wrap_angle(p.yaw + turn), g, pl.corridor_ds)
             {
@@ -1092,7 +1088,6 @@ pub fn run_closed_loop_timed(
             }
             (s, lat, i) = legs[leg].corridor.project(pos, hint);
             let k0 = legs[leg].corridor.curvature.first().copied().unwrap_or(0.0);
-            let sign = if legs[leg].reverse { -1.0 } else { 1.0 };
             let need = sign
                 * (veh.wheelbase * k0)
                     .atan()
@@ -1105,8 +1100,7 @@ pub fn run_closed_loop_timed(
         } = &legs[leg];
         // Backwards: the vehicle turned around (heading + π, speed and
         // commands negated) drives the leg forwards.
-        let flip = if *reverse { -1.0 } else { 1.0 };
-        let turn = if *reverse { std::f64::consts::PI } else { 0.0 };
+        let (flip, turn) = turned_around(*reverse);
         let yaw = if *reverse {
             wrap_angle(p.yaw + turn)
         } else {

@@ -486,16 +486,23 @@ fn turn_curvature(s: &[f64], heading: &[f64], half: f64) -> Vec<f64> {
         .collect()
 }
 
+/// Half the arc (m) over which a path's turn is measured as a vehicle
+/// drives it ([`Corridor::turn_curvature`]) when its turning limit is
+/// checked …
+pub(crate) const TURN_HALF_ARC: f64 = 1.0;
+/// … and the share of the limit allowed (2 % for rounding).
+pub(crate) const TURN_SLACK: f64 = 1.02;
+
 /// The points turn no tighter than `kappa_max` as a vehicle drives them
-/// (over ±1 m, 2 % for rounding: the closed loop's own test).
+/// (the closed loop's own test of a path).
 fn turns_within(points: &[Vec2], kappa_max: f64) -> bool {
     if !kappa_max.is_finite() {
         return true;
     }
     let (s, heading) = arc_and_heading(points);
-    turn_curvature(&s, &heading, 1.0)
+    turn_curvature(&s, &heading, TURN_HALF_ARC)
         .iter()
-        .all(|k| k.abs() <= kappa_max * 1.02)
+        .all(|k| k.abs() <= kappa_max * TURN_SLACK)
 }
 
 fn free_distance(grid: &PlanningGrid, p: Vec2, dir: Vec2) -> f64 {
@@ -654,16 +661,7 @@ impl Corridor {
         limits: &SpeedLimits,
     ) -> Self {
         let n = points.len();
-        let mut s = vec![0.0; n];
-        for i in 1..n {
-            s[i] = s[i - 1] + points[i - 1].distance(points[i]);
-        }
-        let heading: Vec<f64> = (0..n)
-            .map(|i| {
-                let (a, b) = (points[i.saturating_sub(1)], points[(i + 1).min(n - 1)]);
-                (b - a).heading()
-            })
-            .collect();
+        let (s, heading) = arc_and_heading(&points);
         let mut curvature: Vec<f64> = (0..n)
             .map(|i| {
                 if i == 0 || i + 1 >= n {

@@ -45,8 +45,9 @@ pub struct HybridConfig {
     /// A reversing arc's cost per metre, against 1 forward: drivers (and
     /// trackers) prefer to see where they go.
     pub reverse_factor: f64,
-    /// The cost of a change of direction (m of forward driving): the
-    /// vehicle stops, steers at standstill and starts again.
+    /// The cost of a change of direction (m of forward driving; into
+    /// reverse, times `reverse_factor` like the arc it starts): the vehicle
+    /// stops, steers at standstill and starts again.
     pub switch_cost: f64,
 }
 
@@ -584,9 +585,10 @@ pub fn hybrid_astar(
                 continue;
             }
             // Length, a little more for turning and for changing the
-            // turn (smoother paths are cheaper to track); backwards
-            // `reverse_factor` times that, and a change of direction
-            // `switch_cost`.
+            // turn (smoother paths are cheaper to track), or `switch_cost`
+            // for a change of direction; a backwards arc costs
+            // `reverse_factor` times all that (a change into reverse
+            // included).
             let mut cost = step * (1.0 + 0.05 * k.abs() / kappa);
             if dir == dc {
                 cost += 0.1 * step * (level.abs_diff(lc) as f64);
