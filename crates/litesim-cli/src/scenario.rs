@@ -248,11 +248,12 @@ pub fn run(
     let style = crate::viz::load_style(style)?;
     let sut = common.sut()?;
     let sut_timeout = common.sut_timeout()?;
-    // The MCAP writer starts first, on the other core: header, schemas and
-    // the map's content as soon as the test has loaded and the run's folder
-    // is ready, then the ticks in
-    // pieces as the run records them. A run that fails before
-    // it has a log leaves no file (the streamer's drop waits for that).
+    // The MCAP writer starts first, on the other core (a thread started
+    // later, beside the planning, costs the run more: BENCHMARKS.md):
+    // header, schemas and the map's content once the test has loaded and
+    // the run's stamp is written, then the ticks in pieces as the run
+    // records them. A run that fails before it has a log leaves no file
+    // (the streamer's drop waits for that).
     let streamer = match mcap {
         Some(m) if !plan_only => Some(McapStreamer::start(m)?),
         _ => None,
@@ -299,12 +300,6 @@ pub fn run(
     let out = out.unwrap_or_else(|| PathBuf::from("runs").join(format!("{stem}-seed{run_seed}")));
     std::fs::create_dir_all(&out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
     batch::clean_temporaries(&out);
-    // Only now may the writer make its temporary file: cleaning the folder
-    // above removes what a killed run left, and would take a temporary
-    // file the writer had already made in it (`--mcap OUT/run.mcap`).
-    if let Some(st) = &streamer {
-        st.map(prep.net.clone());
-    }
     let stamp = serde_json::json!({
         "litesim": env!("CARGO_PKG_VERSION"),
         "test": test.display().to_string(),
@@ -325,7 +320,14 @@ pub fn run(
         _ => {}
     }
     batch::atomic(&out.join("run.json"), &stamp)?;
+    // Only now may the writer make its temporary file: cleaning the folder
+    // above removes what a killed run left, and would take a temporary
+    // file the writer had already made in it (`--mcap OUT/run.mcap`). And
+    // not before run.json is on disk: a new file in the folder while
+    // run.json is synced makes that sync wait for it (−0.2 ms a run,
+    // BENCHMARKS.md).
     if let Some(st) = &streamer {
+        st.map(prep.net.clone());
         st.extra(vec![
             ("test".to_string(), test.display().to_string()),
             ("run".to_string(), run_hash.clone()),
@@ -758,7 +760,8 @@ pub fn calibrate_cmd(profile: &str, out: Option<PathBuf>) -> Result<()> {
 }
 
 /// The MCAP file of `litesim run`, written on its own thread from the
-/// moment the test has loaded ([`McapStreamer::map`] hands it the map):
+/// moment the test has loaded and the run's stamp is on disk
+/// ([`McapStreamer::map`] hands it the map):
 /// header, schemas and the map's content, then the ticks — every 50 from the
 /// run's observer, the rest when the run is over ([`McapStreamer::end`]). A
 /// run that ends without a log (an error) leaves no file: dropping the
