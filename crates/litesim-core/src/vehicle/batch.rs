@@ -621,7 +621,7 @@ fn bicycle_loop(
         y[i] += v0 * s * dt;
         let steer = (cos_beta[i], curvature[i]);
         let (w, h, v_new, applied) =
-            bicycle_advance(v0, yaw[i], acc[i], steer, vmax[i], dt, wrap_once);
+            bicycle_advance(v0, yaw[i], acc[i], steer, (0.0, vmax[i]), dt, wrap_once);
         yaw[i] = h;
         v[i] = v_new;
         yaw_rate[i] = w;

@@ -163,29 +163,15 @@ impl KinematicBicycle {
         let (s, c) = self.trig_cache.get(st.yaw + beta);
         st.x += v * c * dt;
         st.y += v * s * dt;
-        let (yaw_rate, yaw, v_new, applied) = if self.reverse {
-            // Backwards: the speed stays in [−max_speed, 0] (a stop is a
-            // stop, the gear does not flip by itself).
-            let yaw_rate = v * cos_beta * curvature;
-            let v_free = v + a * dt;
-            let v_new = math::clamp(v_free, -self.max_speed, 0.0);
-            (
-                yaw_rate,
-                wrap_angle(st.yaw + yaw_rate * dt),
-                v_new,
-                applied_acceleration(a, v, v_free, v_new, dt),
-            )
+        // Backwards the speed stays in [−max_speed, 0] (a stop is a stop,
+        // the gear does not flip by itself).
+        let speeds = if self.reverse {
+            (-self.max_speed, 0.0)
         } else {
-            bicycle_advance(
-                v,
-                st.yaw,
-                a,
-                (cos_beta, curvature),
-                self.max_speed,
-                dt,
-                wrap_angle,
-            )
+            (0.0, self.max_speed)
         };
+        let (yaw_rate, yaw, v_new, applied) =
+            bicycle_advance(v, st.yaw, a, (cos_beta, curvature), speeds, dt, wrap_angle);
         st.yaw = yaw;
         st.v = v_new;
         st.yaw_rate = yaw_rate;
@@ -197,8 +183,9 @@ impl KinematicBicycle {
 }
 
 /// One step's heading and speed from speed `v` and heading `yaw` under
-/// acceleration `a`, with `(cos β, κ)` of the steering: `(yaw rate, heading,
-/// v_new, applied acceleration)`. `wrap` is `wrap_angle`, or in the batch
+/// acceleration `a`, with `(cos β, κ)` of the steering and the speed kept
+/// within `(v_min, v_max)`: `(yaw rate, heading, v_new, applied
+/// acceleration)`. `wrap` is `wrap_angle`, or in the batch
 /// loops its one-correction form (exactly `wrap_angle` for the headings they
 /// accept); one body for both, so they cannot drift apart.
 #[inline(always)]
@@ -207,7 +194,7 @@ pub(crate) fn bicycle_advance(
     yaw: f64,
     a: f64,
     (cos_beta, curvature): (f64, f64),
-    v_max: f64,
+    (v_min, v_max): (f64, f64),
     dt: f64,
     wrap: impl Fn(f64) -> f64,
 ) -> (f64, f64, f64, f64) {
@@ -215,7 +202,7 @@ pub(crate) fn bicycle_advance(
     // instead of a division per step; cos β = 1 for the rear axle.
     let yaw_rate = v * cos_beta * curvature;
     let v_free = v + a * dt;
-    let v_new = math::clamp(v_free, 0.0, v_max);
+    let v_new = math::clamp(v_free, v_min, v_max);
     (
         yaw_rate,
         wrap(yaw + yaw_rate * dt),
