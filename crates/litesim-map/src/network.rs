@@ -286,7 +286,7 @@ fn straight_between(r: &Road, sec: &crate::model::LaneSection, s: f64) -> bool {
     let flat = |c: &crate::model::Cubic| c.b == 0.0 && c.c == 0.0 && c.d == 0.0;
     let line = !r.plan_view.is_empty()
         && matches!(
-            r.plan_view[at_geometry(r, s)].shape,
+            r.plan_view[r.geometry_index(s)].shape,
             crate::geometry::Shape::Line
         );
     let offset = r.lane_offsets.is_empty() || flat(&r.lane_offsets[at(&r.lane_offsets, s)]);
@@ -294,11 +294,6 @@ fn straight_between(r: &Road, sec: &crate::model::LaneSection, s: f64) -> bool {
         l.borders.is_empty() && (l.widths.is_empty() || flat(&l.widths[at(&l.widths, s - sec.s)]))
     });
     line && offset && widths
-}
-
-/// Index of the plan-view geometry that holds `s`.
-fn at_geometry(r: &Road, s: f64) -> usize {
-    r.plan_view.partition_point(|g| g.s <= s).max(1) - 1
 }
 
 fn step_for(k: f64, tol: f64, max: f64) -> f64 {

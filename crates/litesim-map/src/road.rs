@@ -51,9 +51,14 @@ impl Road {
     /// Reference-line point at `s` (clamped to the road).
     pub fn reference(&self, s: f64) -> RefPoint {
         let s = s.clamp(0.0, self.length);
-        let i = self.plan_view.partition_point(|g| g.s <= s).max(1) - 1;
-        let g = &self.plan_view[i];
+        let g = &self.plan_view[self.geometry_index(s)];
         g.eval(s - g.s)
+    }
+
+    /// Index of the plan-view geometry in force at `s` (the first before
+    /// its start).
+    pub fn geometry_index(&self, s: f64) -> usize {
+        self.plan_view.partition_point(|g| g.s <= s).max(1) - 1
     }
 
     /// Lane offset of the centre lane and its slope at `s`.
