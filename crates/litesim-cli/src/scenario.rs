@@ -809,6 +809,7 @@ impl McapStreamer {
     fn start(path: &Path) -> Result<McapStreamer> {
         let (tx, rx) = std::sync::mpsc::channel::<ToWriter>();
         let path = path.to_path_buf();
+        let threads = placement::threads();
         let job = std::thread::Builder::new()
             .name("mcap".into())
             .spawn(move || {
@@ -831,6 +832,7 @@ impl McapStreamer {
                 Ok(())
             })
             .map_err(|e| anyhow!("starting the MCAP writer: {e}"))?;
+        let _ = placement::off_this_cpu(&threads);
         let state = StreamState {
             tx: Some(tx),
             sent: 0,
@@ -897,6 +899,61 @@ impl Drop for McapStreamer {
     }
 }
 
+/// Where the MCAP writer runs: on a CPU other than the run's.
+///
+/// Left to itself, the scheduler queues a new thread on the CPU of the
+/// thread that made it, and wakes it there again each time the run hands
+/// it a piece: on a two-CPU machine the writer then starts only when the
+/// run first waits for the disk (delaying that very wait by its start-up)
+/// and later preempts the run while the other CPU idles (traced with `perf
+/// sched`: the run waited 0.3–2 ms a run with a CPU idle; BENCHMARKS.md,
+/// seventeenth session). So the writer is kept off the CPU the run is on
+/// when it starts; with one CPU allowed nothing changes.
+#[cfg(target_os = "linux")]
+mod placement {
+    /// This process's threads (their ids).
+    pub(super) fn threads() -> Vec<i32> {
+        std::fs::read_dir("/proc/self/task")
+            .map(|rd| {
+                rd.flatten()
+                    .filter_map(|e| e.file_name().to_str()?.parse().ok())
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// Keeps the threads started since `before` off the calling thread's
+    /// CPU, which it returns (`None`: the calling thread may use no other
+    /// CPU, and nothing changed). Best effort: a placement that cannot be
+    /// set is left as it was.
+    pub(super) fn off_this_cpu(before: &[i32]) -> Option<usize> {
+        use rustix::thread::{Pid, sched_getaffinity, sched_getcpu, sched_setaffinity};
+        let mut set = sched_getaffinity(None).ok()?;
+        let cpu = sched_getcpu();
+        set.unset(cpu);
+        if set.count() == 0 {
+            return None;
+        }
+        for tid in threads().into_iter().filter(|t| !before.contains(t)) {
+            if let Some(pid) = Pid::from_raw(tid) {
+                let _ = sched_setaffinity(Some(pid), &set);
+            }
+        }
+        Some(cpu)
+    }
+}
+
+/// Elsewhere the scheduler places the writer.
+#[cfg(not(target_os = "linux"))]
+mod placement {
+    pub(super) fn threads() -> Vec<i32> {
+        Vec::new()
+    }
+    pub(super) fn off_this_cpu(_before: &[i32]) -> Option<usize> {
+        None
+    }
+}
+
 /// The MCAP writer finishing its file.
 struct StreamJob(Option<std::thread::JoinHandle<Result<(), litesim_mcap::McapError>>>);
 
@@ -935,6 +992,46 @@ fn stream_pieces<W: std::io::Write + std::io::Seek>(
             Ok(ToWriter::Piece(piece)) => stream.push(&piece)?,
             Ok(ToWriter::Done) => return stream.finish().map(|_| ()),
             Ok(ToWriter::Map(_)) | Err(_) => return Err(stopped()),
+        }
+    }
+}
+
+#[cfg(all(test, target_os = "linux"))]
+mod tests {
+    use rustix::thread::{gettid, sched_getaffinity};
+
+    #[test]
+    fn a_thread_started_for_the_writer_keeps_off_the_cpu_it_was_started_from() {
+        let mine = sched_getaffinity(None).unwrap();
+        let before = super::placement::threads();
+        assert!(before.contains(&gettid().as_raw_nonzero().get()));
+        // The thread reports where it may run once it has been placed.
+        let (go_tx, go_rx) = std::sync::mpsc::channel::<()>();
+        let (tx, rx) = std::sync::mpsc::channel();
+        let worker = std::thread::spawn(move || {
+            let _ = go_rx.recv();
+            tx.send(sched_getaffinity(None).unwrap()).unwrap();
+        });
+        let kept_off = super::placement::off_this_cpu(&before);
+        go_tx.send(()).unwrap();
+        let theirs = rx.recv().unwrap();
+        worker.join().unwrap();
+        // The caller's own placement never changes.
+        assert_eq!(sched_getaffinity(None).unwrap(), mine);
+        match kept_off {
+            // One CPU allowed: nothing moves.
+            None => {
+                assert_eq!(mine.count(), 1);
+                assert_eq!(theirs, mine);
+            }
+            Some(cpu) => {
+                assert!(mine.is_set(cpu) && mine.count() >= 2);
+                assert!(
+                    !theirs.is_set(cpu),
+                    "the new thread may still run on CPU {cpu}"
+                );
+                assert_eq!(theirs.count(), mine.count() - 1);
+            }
         }
     }
 }
