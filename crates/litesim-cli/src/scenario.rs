@@ -809,7 +809,6 @@ impl McapStreamer {
     fn start(path: &Path) -> Result<McapStreamer> {
         let (tx, rx) = std::sync::mpsc::channel::<ToWriter>();
         let path = path.to_path_buf();
-        let threads = placement::threads();
         let job = std::thread::Builder::new()
             .name("mcap".into())
             .spawn(move || {
@@ -832,7 +831,7 @@ impl McapStreamer {
                 Ok(())
             })
             .map_err(|e| anyhow!("starting the MCAP writer: {e}"))?;
-        let _ = placement::off_this_cpu(&threads);
+        let _ = placement::others_off_this_cpu();
         let state = StreamState {
             tx: Some(tx),
             sent: 0,
@@ -911,31 +910,26 @@ impl Drop for McapStreamer {
 /// when it starts; with one CPU allowed nothing changes.
 #[cfg(target_os = "linux")]
 mod placement {
-    /// This process's threads (their ids).
-    pub(super) fn threads() -> Vec<i32> {
-        std::fs::read_dir("/proc/self/task")
-            .map(|rd| {
-                rd.flatten()
-                    .filter_map(|e| e.file_name().to_str()?.parse().ok())
-                    .collect()
-            })
-            .unwrap_or_default()
-    }
-
-    /// Keeps the threads started since `before` off the calling thread's
-    /// CPU, which it returns (`None`: the calling thread may use no other
-    /// CPU, and nothing changed). Best effort: a placement that cannot be
-    /// set is left as it was.
-    pub(super) fn off_this_cpu(before: &[i32]) -> Option<usize> {
-        use rustix::thread::{Pid, sched_getaffinity, sched_getcpu, sched_setaffinity};
+    /// Keeps every other thread of this process off the calling thread's
+    /// CPU, which it returns (`None`: the caller may use no other CPU, and
+    /// nothing changed). Called as the MCAP writer starts, when it is the
+    /// run's only other thread (a SUT client's helper, were there one, is
+    /// as well kept apart). Best effort: a placement that cannot be read
+    /// or set is left as it was.
+    pub(super) fn others_off_this_cpu() -> Option<usize> {
+        use rustix::thread::{Pid, gettid, sched_getaffinity, sched_getcpu, sched_setaffinity};
         let mut set = sched_getaffinity(None).ok()?;
         let cpu = sched_getcpu();
         set.unset(cpu);
         if set.count() == 0 {
             return None;
         }
-        for tid in threads().into_iter().filter(|t| !before.contains(t)) {
-            if let Some(pid) = Pid::from_raw(tid) {
+        // The thread ids, from the kernel's list: std cannot say which
+        // system thread a `JoinHandle` is before that thread has run.
+        let me = gettid();
+        for e in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
+            let tid = e.file_name().to_str().and_then(|n| n.parse().ok());
+            if let Some(pid) = tid.and_then(Pid::from_raw).filter(|&p| p != me) {
                 let _ = sched_setaffinity(Some(pid), &set);
             }
         }
@@ -946,10 +940,7 @@ mod placement {
 /// Elsewhere the scheduler places the writer.
 #[cfg(not(target_os = "linux"))]
 mod placement {
-    pub(super) fn threads() -> Vec<i32> {
-        Vec::new()
-    }
-    pub(super) fn off_this_cpu(_before: &[i32]) -> Option<usize> {
+    pub(super) fn others_off_this_cpu() -> Option<usize> {
         None
     }
 }
@@ -998,13 +989,11 @@ fn stream_pieces<W: std::io::Write + std::io::Seek>(
 
 #[cfg(all(test, target_os = "linux"))]
 mod tests {
-    use rustix::thread::{gettid, sched_getaffinity};
+    use rustix::thread::sched_getaffinity;
 
     #[test]
     fn a_thread_started_for_the_writer_keeps_off_the_cpu_it_was_started_from() {
         let mine = sched_getaffinity(None).unwrap();
-        let before = super::placement::threads();
-        assert!(before.contains(&gettid().as_raw_nonzero().get()));
         // The thread reports where it may run once it has been placed.
         let (go_tx, go_rx) = std::sync::mpsc::channel::<()>();
         let (tx, rx) = std::sync::mpsc::channel();
@@ -1012,7 +1001,7 @@ mod tests {
             let _ = go_rx.recv();
             tx.send(sched_getaffinity(None).unwrap()).unwrap();
         });
-        let kept_off = super::placement::off_this_cpu(&before);
+        let kept_off = super::placement::others_off_this_cpu();
         go_tx.send(()).unwrap();
         let theirs = rx.recv().unwrap();
         worker.join().unwrap();
