@@ -853,7 +853,7 @@ impl McapStreamer {
                 let _ = done.send(write());
             })
             .map_err(|e| anyhow!("starting the MCAP writer: {e}"))?;
-        let _ = placement::others_off_this_cpu();
+        let _ = placement::keep_off_this_cpu(&placement::others());
         let state = StreamState {
             tx: Some(tx),
             sent: 0,
@@ -932,28 +932,41 @@ impl Drop for McapStreamer {
 /// when it starts; with one CPU allowed nothing changes.
 #[cfg(target_os = "linux")]
 mod placement {
-    /// Keeps every other thread of this process off the calling thread's
-    /// CPU, which it returns (`None`: the caller may use no other CPU, and
-    /// nothing changed). Called as the MCAP writer starts, when it is the
-    /// run's only other thread (a SUT client's helper, were there one, is
-    /// as well kept apart). Best effort: a placement that cannot be read
-    /// or set is left as it was.
-    pub(super) fn others_off_this_cpu() -> Option<usize> {
-        use rustix::thread::{Pid, gettid, sched_getaffinity, sched_getcpu, sched_setaffinity};
+    use rustix::thread::{Pid, gettid, sched_getaffinity, sched_getcpu, sched_setaffinity};
+
+    /// This process's threads, from the kernel's list: std cannot say
+    /// which system thread a `JoinHandle` is before that thread has run.
+    pub(super) fn threads() -> Vec<Pid> {
+        std::fs::read_dir("/proc/self/task")
+            .map(|rd| {
+                rd.flatten()
+                    .filter_map(|e| e.file_name().to_str()?.parse().ok())
+                    .filter_map(Pid::from_raw)
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// Every thread of this process but the caller: as the MCAP writer
+    /// starts, the writer alone (a SUT client's helper, were there one,
+    /// is as well kept apart from the run).
+    pub(super) fn others() -> Vec<Pid> {
+        let me = gettid();
+        threads().into_iter().filter(|&p| p != me).collect()
+    }
+
+    /// Keeps `others` off the calling thread's CPU, which it returns
+    /// (`None`: the caller may use no other CPU; nothing changed). Best
+    /// effort: a placement that cannot be set is left as it was.
+    pub(super) fn keep_off_this_cpu(others: &[Pid]) -> Option<usize> {
         let mut set = sched_getaffinity(None).ok()?;
         let cpu = sched_getcpu();
         set.unset(cpu);
         if set.count() == 0 {
             return None;
         }
-        // The thread ids, from the kernel's list: std cannot say which
-        // system thread a `JoinHandle` is before that thread has run.
-        let me = gettid();
-        for e in std::fs::read_dir("/proc/self/task").ok()?.flatten() {
-            let tid = e.file_name().to_str().and_then(|n| n.parse().ok());
-            if let Some(pid) = tid.and_then(Pid::from_raw).filter(|&p| p != me) {
-                let _ = sched_setaffinity(Some(pid), &set);
-            }
+        for &p in others {
+            let _ = sched_setaffinity(Some(p), &set);
         }
         Some(cpu)
     }
@@ -962,7 +975,11 @@ mod placement {
 /// Elsewhere the scheduler places the writer.
 #[cfg(not(target_os = "linux"))]
 mod placement {
-    pub(super) fn others_off_this_cpu() -> Option<usize> {
+    pub(super) fn others() -> Vec<u32> {
+        Vec::new()
+    }
+
+    pub(super) fn keep_off_this_cpu(_others: &[u32]) -> Option<usize> {
         None
     }
 }
@@ -1013,11 +1030,17 @@ mod tests {
         // The thread reports where it may run once it has been placed.
         let (go_tx, go_rx) = std::sync::mpsc::channel::<()>();
         let (tx, rx) = std::sync::mpsc::channel();
+        let before = super::placement::threads();
         let worker = std::thread::spawn(move || {
             let _ = go_rx.recv();
             tx.send(sched_getaffinity(None).unwrap()).unwrap();
         });
-        let kept_off = super::placement::others_off_this_cpu();
+        // Only the threads started since (other tests run beside this one).
+        let new: Vec<_> = super::placement::threads()
+            .into_iter()
+            .filter(|p| !before.contains(p))
+            .collect();
+        let kept_off = super::placement::keep_off_this_cpu(&new);
         go_tx.send(()).unwrap();
         let theirs = rx.recv().unwrap();
         worker.join().unwrap();
