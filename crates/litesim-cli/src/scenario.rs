@@ -787,6 +787,16 @@ struct StreamJob {
     outcome: std::sync::mpsc::Receiver<Result<(), litesim_mcap::McapError>>,
 }
 
+impl StreamJob {
+    /// Waits until the file is in place (or given up) and says how it went;
+    /// the thread is left to wind down on its own.
+    fn wait(self) -> Result<(), litesim_mcap::McapError> {
+        self.outcome
+            .recv()
+            .unwrap_or_else(|_| Err(litesim_mcap::McapError::Stopped("it panicked".into())))
+    }
+}
+
 /// What the writer thread is handed, in this order: the map, pieces of
 /// ticks, the end.
 enum ToWriter {
@@ -981,16 +991,6 @@ mod placement {
 
     pub(super) fn keep_off_this_cpu(_others: &[u32]) -> Option<usize> {
         None
-    }
-}
-
-impl StreamJob {
-    /// Waits until the file is in place (or given up) and says how it went;
-    /// the thread is left to wind down on its own.
-    fn wait(self) -> Result<(), litesim_mcap::McapError> {
-        self.outcome
-            .recv()
-            .unwrap_or_else(|_| Err(litesim_mcap::McapError::Stopped("it panicked".into())))
     }
 }
 
