@@ -173,7 +173,7 @@ impl<W: Write> Container<W> {
             counts: Vec::new(),
             bounds: None,
             // Room for the record that crosses the limit (a tick's
-            // messages are a few KB; the schemas, in the first chunk, 60).
+            // messages are a few KB; the schemas, in the first chunk, ~60 KB).
             chunk: Vec::with_capacity(CHUNK_LIMIT + 64 * 1024),
             chunk_bounds: None,
             chunk_messages: Vec::new(),
