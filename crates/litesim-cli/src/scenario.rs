@@ -248,16 +248,6 @@ pub fn run(
     let style = crate::viz::load_style(style)?;
     let sut = common.sut()?;
     let sut_timeout = common.sut_timeout()?;
-    // The MCAP writer starts first, on the other core (a thread started
-    // later, beside the planning, costs the run more: BENCHMARKS.md):
-    // header, schemas and the map's content once the test has loaded and
-    // the run's stamp is written, then the ticks in pieces as the run
-    // records them. A run that fails before it has a log leaves no file
-    // (the streamer's drop waits for that).
-    let streamer = match mcap {
-        Some(m) if !plan_only => Some(McapStreamer::start(m)?),
-        _ => None,
-    };
     let prep = litesim_scenario::prepare(test, &common.load())?;
     let calibration = match calibration {
         Some(p) => Some(
@@ -320,12 +310,24 @@ pub fn run(
         _ => {}
     }
     batch::atomic(&out.join("run.json"), &stamp)?;
-    // Only now may the writer make its temporary file: cleaning the folder
-    // above removes what a killed run left, and would take a temporary
-    // file the writer had already made in it (`--mcap OUT/run.mcap`). And
-    // not before run.json is on disk: a new file in the folder while
-    // run.json is synced makes that sync wait for it (−0.2 ms a run,
-    // BENCHMARKS.md).
+    // The MCAP writer starts now, on the other core: header, schemas and
+    // the map's content while the run is planned, then the ticks in pieces
+    // as the run records them; a run that fails before it has a log leaves
+    // no file (the streamer's drop waits for that). Not earlier:
+    // - cleaning the folder above removes what a killed run left, and
+    //   would take a temporary file the writer had already made in it
+    //   (`--mcap OUT/run.mcap`);
+    // - a new file in the folder while run.json is synced makes that sync
+    //   wait for it (−0.2 ms a run);
+    // - the run has just come back from that sync with a fresh time
+    //   slice, so the new thread waits to be placed instead of preempting
+    //   the run. Started before the test was loaded it preempted the run
+    //   in 23 runs of 40 and ran its start-up on the run's CPU (traced;
+    //   BENCHMARKS.md, eighteenth session).
+    let streamer = match mcap {
+        Some(m) if !plan_only => Some(McapStreamer::start(m)?),
+        _ => None,
+    };
     if let Some(st) = &streamer {
         st.map(prep.net.clone());
         st.extra(vec![
@@ -836,11 +838,11 @@ impl McapStreamer {
         let (done, outcome) = std::sync::mpsc::channel();
         let path = path.to_path_buf();
         let write = move || -> Result<(), litesim_mcap::McapError> {
-            // The file is made once the test has loaded (a test that
-            // does not load leaves nothing, not even a folder).
+            // The file is made once the run has its map (the streamer
+            // dropped before that leaves nothing, not even a folder).
             let Ok(ToWriter::Map(net)) = rx.recv() else {
                 return Err(litesim_mcap::McapError::Stopped(
-                    "the test did not load".into(),
+                    "the run ended before it had a map".into(),
                 ));
             };
             let mut made = Ok(());
