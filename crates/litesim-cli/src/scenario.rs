@@ -325,16 +325,16 @@ pub fn run(
     //   in 23 runs of 40 and ran its start-up on the run's CPU (traced;
     //   BENCHMARKS.md, eighteenth session).
     let streamer = match mcap {
-        Some(m) if !plan_only => Some(McapStreamer::start(m)?),
+        Some(m) if !plan_only => Some(McapStreamer::start(
+            m,
+            prep.net.clone(),
+            vec![
+                ("test".to_string(), test.display().to_string()),
+                ("run".to_string(), run_hash.clone()),
+            ],
+        )?),
         _ => None,
     };
-    if let Some(st) = &streamer {
-        st.map(prep.net.clone());
-        st.extra(vec![
-            ("test".to_string(), test.display().to_string()),
-            ("run".to_string(), run_hash.clone()),
-        ]);
-    }
     let opts = RunOptions {
         observer: streamer.as_ref().map(McapStreamer::observer),
         ..opts
@@ -799,10 +799,9 @@ impl StreamJob {
     }
 }
 
-/// What the writer thread is handed, in this order: the map, pieces of
-/// ticks, the end.
+/// What the writer thread is handed, in this order: pieces of ticks, the
+/// end.
 enum ToWriter {
-    Map(Option<std::sync::Arc<litesim_map::RoadNetwork>>),
     Piece(Box<litesim_log::SimulationLog>),
     Done,
 }
@@ -833,18 +832,18 @@ impl StreamState {
 const STREAM_PIECE: usize = 50;
 
 impl McapStreamer {
-    fn start(path: &Path) -> Result<McapStreamer> {
+    /// Starts the writer of `path` for a run on `net` (`None`: without a
+    /// map) whose log carries `extra` in its metadata (test, run): every
+    /// piece gets the same.
+    fn start(
+        path: &Path,
+        net: Option<std::sync::Arc<litesim_map::RoadNetwork>>,
+        extra: Vec<(String, String)>,
+    ) -> Result<McapStreamer> {
         let (tx, rx) = std::sync::mpsc::channel::<ToWriter>();
         let (done, outcome) = std::sync::mpsc::channel();
         let path = path.to_path_buf();
         let write = move || -> Result<(), litesim_mcap::McapError> {
-            // The file is made once the run has its map (the streamer
-            // dropped before that leaves nothing, not even a folder).
-            let Ok(ToWriter::Map(net)) = rx.recv() else {
-                return Err(litesim_mcap::McapError::Stopped(
-                    "the run ended before it had a map".into(),
-                ));
-            };
             let mut made = Ok(());
             let written = litesim_log::write_atomic_seekable(&path, |w| {
                 made = stream_pieces(&mut *w, net, &rx);
@@ -869,7 +868,7 @@ impl McapStreamer {
         let state = StreamState {
             tx: Some(tx),
             sent: 0,
-            extra: Vec::new(),
+            extra,
         };
         Ok(McapStreamer {
             state: std::sync::Arc::new(std::sync::Mutex::new(state)),
@@ -879,18 +878,6 @@ impl McapStreamer {
 
     fn lock(&self) -> std::sync::MutexGuard<'_, StreamState> {
         self.state.lock().unwrap_or_else(|e| e.into_inner())
-    }
-
-    /// The run's map (`None`: it has none); before the first tick.
-    fn map(&self, net: Option<std::sync::Arc<litesim_map::RoadNetwork>>) {
-        if let Some(tx) = &self.lock().tx {
-            let _ = tx.send(ToWriter::Map(net));
-        }
-    }
-
-    /// Metadata added to every piece (the run's log gets the same).
-    fn extra(&self, extra: Vec<(String, String)>) {
-        self.lock().extra = extra;
     }
 
     /// The run's observer: a piece every [`STREAM_PIECE`] ticks.
@@ -1017,7 +1004,7 @@ fn stream_pieces<W: std::io::Write + std::io::Seek>(
         match rx.recv() {
             Ok(ToWriter::Piece(piece)) => stream.push(&piece)?,
             Ok(ToWriter::Done) => return stream.finish().map(|_| ()),
-            Ok(ToWriter::Map(_)) | Err(_) => return Err(stopped()),
+            Err(_) => return Err(stopped()),
         }
     }
 }
