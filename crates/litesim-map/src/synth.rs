@@ -657,3 +657,61 @@ mod tests {
         assert!(gaps.is_empty(), "{gaps:#?}");
     }
 }
+
+/// What [`highway`] builds: a straight one-way road.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HighwaySpec {
+    /// Length (m).
+    pub length: f64,
+    /// Driving lanes (right side, ids −1 … −lanes).
+    pub lanes: u32,
+    /// Lane width (m).
+    pub lane_width: f64,
+    /// Where the outermost lane ends (a lane drop: a second lane section
+    /// with one lane fewer from there on); `None`: no drop.
+    pub drop_at: Option<f64>,
+}
+
+/// A straight one-way multi-lane road (right-hand traffic along +x), with
+/// an optional lane drop: the map of the traffic engine's tests and
+/// benchmarks (a 6 km three-lane road is a few hundred bytes).
+pub fn highway(spec: &HighwaySpec) -> String {
+    let HighwaySpec {
+        length,
+        lanes,
+        lane_width,
+        drop_at,
+    } = *spec;
+    let mut out = String::new();
+    let _ = writeln!(
+        out,
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<OpenDRIVE>\n  <header revMajor=\"1\" revMinor=\"6\" name=\"highway\" vendor=\"litesim\"/>\n  <road id=\"1\" name=\"highway\" length=\"{length}\" junction=\"-1\" rule=\"RHT\">\n    <link></link>\n    <type s=\"0\" type=\"motorway\"><speed max=\"130\" unit=\"km/h\"/></type>\n    <planView>\n      <geometry s=\"0.0\" x=\"0.0\" y=\"0.0\" hdg=\"0.0\" length=\"{length}\"><line/></geometry>\n    </planView>\n    <lanes>"
+    );
+    let mut section = |s: f64, n: u32, linked: bool| {
+        let _ = writeln!(
+            out,
+            "      <laneSection s=\"{s}\">\n        <center><lane id=\"0\" type=\"none\" level=\"false\"/></center>\n        <right>"
+        );
+        for k in 1..=n {
+            let link = if linked && k < lanes {
+                format!("<link><successor id=\"-{k}\"/></link>")
+            } else {
+                String::new()
+            };
+            let _ = writeln!(
+                out,
+                "          <lane id=\"-{k}\" type=\"driving\" level=\"false\">{link}<width sOffset=\"0\" a=\"{lane_width}\" b=\"0\" c=\"0\" d=\"0\"/><roadMark sOffset=\"0\" type=\"broken\" color=\"standard\" width=\"0.12\"/></lane>"
+            );
+        }
+        let _ = writeln!(out, "        </right>\n      </laneSection>");
+    };
+    match drop_at {
+        Some(at) if at > 0.0 && at < length && lanes > 1 => {
+            section(0.0, lanes, true);
+            section(at, lanes - 1, false);
+        }
+        _ => section(0.0, lanes, false),
+    }
+    let _ = writeln!(out, "    </lanes>\n  </road>\n</OpenDRIVE>");
+    out
+}

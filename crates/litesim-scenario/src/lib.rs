@@ -28,6 +28,7 @@ pub mod plan;
 pub mod postplan;
 pub mod reactive;
 pub mod realtime;
+pub mod runtime;
 pub mod solve;
 pub mod sut;
 

@@ -123,6 +123,16 @@ pub fn asin(x: f64) -> f64 {
 pub fn atan(x: f64) -> f64 {
     libm::atan(x)
 }
+/// `x` raised to the power `y` (the driver model's IIDM exponents).
+#[inline]
+pub fn pow(x: f64, y: f64) -> f64 {
+    libm::pow(x, y)
+}
+/// Hyperbolic tangent (the ACC model's blend of IIDM and CAH).
+#[inline]
+pub fn tanh(x: f64) -> f64 {
+    libm::tanh(x)
+}
 /// Four-quadrant arc tangent of `y / x`.
 #[inline]
 pub fn atan2(y: f64, x: f64) -> f64 {

@@ -1,0 +1,729 @@
+//! Driver-controlled vehicles on the map's lane graph: car-following,
+//! MOBIL lane changes, stop lines and dead ends, in lane coordinates.
+//!
+//! A step has the two phases SUMO and highway-env use, in the shape of
+//! rapier's pipeline: [`Traffic::step`] first builds the lane index (every
+//! lane's occupants sorted by `u`, built once per step from the last
+//! step's order, so the sort is linear), then every driver decides from
+//! that frozen snapshot (its acceleration and maybe a lane change, written
+//! into its own slot of the scratch columns), then one pass commits every
+//! decision and integrates (ballistic update, Treiber & Kanagaraj 2015).
+//! The order in which drivers decide cannot change a result; lane changes
+//! that two drivers chose into the same gap are resolved in slot order.
+//! A lane change's effect on the followers in the target lane shows from
+//! the next step on, as in SUMO.
+//!
+//! Actors the engine does not drive (sut.car, the scenario's planned
+//! actors) enter each step as [`Obstacle`]s: drivers follow and yield to
+//! them like to anyone else.
+
+pub mod lanes;
+pub mod spawn;
+
+use super::driver::{self, DriverParams, LaneChangeCase, Leader};
+pub use lanes::{LaneGraph, LaneInfo};
+
+/// How long a lane change takes from lane to lane (s).
+pub const LANE_CHANGE_S: f64 = 3.0;
+/// How often a driver weighs a lane change (s), staggered over drivers
+/// (highway-env's `LANE_CHANGE_DELAY`).
+pub const DECISION_PERIOD_S: f64 = 1.0;
+/// How far ahead a driver looks for a leader, a stop line or a dead end (m).
+pub const LOOKAHEAD_M: f64 = 250.0;
+/// From how far ahead a lane's dead end pushes its drivers out of it (m).
+pub const DEAD_END_NOTICE_M: f64 = 400.0;
+const NONE: u32 = u32::MAX;
+/// Marks an index entry as an [`Obstacle`].
+const OBSTACLE: u32 = 1 << 31;
+
+/// A vehicle the engine drives.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Vehicle {
+    /// Lane index in the [`LaneGraph`].
+    pub lane: u32,
+    /// Position of the vehicle's centre along the lane (m).
+    pub u: f64,
+    /// Speed (m/s), never negative.
+    pub v: f64,
+    /// Acceleration of the last step (m/s²).
+    pub a: f64,
+    /// Offset of the centre to the left of the lane centre (m): nonzero
+    /// during a lane change, shrinking to 0.
+    pub lat: f64,
+    /// The lane being left during a change (it still occupies it).
+    pub from: Option<u32>,
+    /// Length and width (m).
+    pub length: f64,
+    /// Width (m).
+    pub width: f64,
+    /// The driver's parameters.
+    pub params: DriverParams,
+    /// Picks the successor at each fork (a seeded value per vehicle).
+    pub route: u64,
+    /// Stopped at a lane's dead end (reported once).
+    pub at_dead_end: bool,
+    /// Lane changes made.
+    pub lane_changes: u32,
+    /// On the map: `false` once it left at the map's edge (it takes no
+    /// part in steps until the caller places it again).
+    pub active: bool,
+}
+
+/// An actor the engine does not drive, as it stands this step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Obstacle {
+    /// Lane index.
+    pub lane: u32,
+    /// Centre along the lane (m).
+    pub u: f64,
+    /// Speed along the lane (m/s).
+    pub v: f64,
+    /// Acceleration (m/s²).
+    pub a: f64,
+    /// Length (m).
+    pub length: f64,
+}
+
+/// A stop line: where a lane's traffic light stands, and whether it shows
+/// red (or yellow) now.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StopLine {
+    /// Lane index.
+    pub lane: u32,
+    /// Along the lane (m).
+    pub u: f64,
+    /// Drivers stop here while it is set.
+    pub red: bool,
+}
+
+/// Contact between a driven vehicle and what is ahead of it in its lane.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub struct Contact {
+    /// The step it was first seen at.
+    pub tick: u64,
+    /// The driven vehicle behind.
+    pub vehicle: u32,
+    /// What it touched: a vehicle's slot, or `Err(obstacle index)`.
+    pub other: Result<u32, u32>,
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    u: f64,
+    v: f64,
+    a: f64,
+    half: f64,
+    who: u32,
+}
+
+/// The index of lane occupants (CSR: `starts[lane] .. starts[lane + 1]`
+/// of `entries`, each lane sorted by `u`).
+#[derive(Clone, Debug, Default)]
+struct LaneIndex {
+    starts: Vec<u32>,
+    entries: Vec<Entry>,
+}
+
+impl LaneIndex {
+    fn lane(&self, lane: u32) -> &[Entry] {
+        let (a, b) = (self.starts[lane as usize], self.starts[lane as usize + 1]);
+        &self.entries[a as usize..b as usize]
+    }
+}
+
+/// The engine: vehicles, their lanes, and the scratch a step reuses.
+#[derive(Clone, Debug)]
+pub struct Traffic {
+    /// The vehicles, by slot.
+    pub vehicles: Vec<Vehicle>,
+    /// Stop lines (set by the caller from the lights' states).
+    pub stop_lines: Vec<StopLine>,
+    /// Contacts seen so far (each pair once per contact episode).
+    pub contacts: Vec<Contact>,
+    tick: u64,
+    dt: f64,
+    index: LaneIndex,
+    order: Vec<u32>,
+    cursor: Vec<u32>,
+    /// Decided this step: acceleration and lane change (−1 right, +1 left).
+    decided: Vec<(f64, i8)>,
+    touching: std::collections::BTreeSet<(u32, u32)>,
+    stops_by_lane: Vec<(u32, u32)>,
+}
+
+/// splitmix64: the successor a vehicle takes at a fork, from its route
+/// value and the lane (no state: the same choice however often asked).
+fn mix(x: u64) -> u64 {
+    let mut z = x.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+impl Traffic {
+    /// An engine stepping every `dt` seconds.
+    pub fn new(dt: f64) -> Self {
+        Traffic {
+            vehicles: Vec::new(),
+            stop_lines: Vec::new(),
+            contacts: Vec::new(),
+            tick: 0,
+            dt,
+            index: LaneIndex::default(),
+            order: Vec::new(),
+            cursor: Vec::new(),
+            decided: Vec::new(),
+            touching: Default::default(),
+            stops_by_lane: Vec::new(),
+        }
+    }
+
+    /// Steps taken.
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+
+    /// Adds a vehicle; returns its slot.
+    pub fn add(&mut self, v: Vehicle) -> u32 {
+        self.vehicles.push(v);
+        let slot = self.vehicles.len() as u32 - 1;
+        self.order.push(slot);
+        slot
+    }
+
+    /// The successor of `lane` that vehicle `route` takes (`None`: dead end).
+    fn next_lane(g: &LaneGraph, lane: u32, route: u64) -> Option<u32> {
+        let next = &g.lanes[lane as usize].next;
+        match next.len() {
+            0 => None,
+            1 => Some(next[0]),
+            n => Some(next[(mix(route ^ u64::from(lane)) % n as u64) as usize]),
+        }
+    }
+
+    /// One step: index, decide, commit. `obstacles` are this step's actors
+    /// the engine does not drive.
+    pub fn step(&mut self, g: &LaneGraph, obstacles: &[Obstacle]) {
+        self.build_index(g, obstacles);
+        self.decide(g);
+        self.commit(g);
+        self.tick += 1;
+    }
+
+    fn build_index(&mut self, g: &LaneGraph, obstacles: &[Obstacle]) {
+        let n_lanes = g.lanes.len();
+        let ix = &mut self.index;
+        ix.starts.clear();
+        ix.starts.resize(n_lanes + 1, 0);
+        for v in self.vehicles.iter().filter(|v| v.active) {
+            ix.starts[v.lane as usize + 1] += 1;
+            if let Some(f) = v.from {
+                ix.starts[f as usize + 1] += 1;
+            }
+        }
+        for o in obstacles {
+            ix.starts[o.lane as usize + 1] += 1;
+        }
+        for i in 0..n_lanes {
+            ix.starts[i + 1] += ix.starts[i];
+        }
+        self.cursor.clear();
+        self.cursor.extend_from_slice(&ix.starts[..n_lanes]);
+        let total = ix.starts[n_lanes] as usize;
+        ix.entries.clear();
+        ix.entries.resize(
+            total,
+            Entry {
+                u: 0.0,
+                v: 0.0,
+                a: 0.0,
+                half: 0.0,
+                who: NONE,
+            },
+        );
+        // Filled in last step's order: each lane comes out almost sorted.
+        for &slot in &self.order {
+            let v = &self.vehicles[slot as usize];
+            if !v.active {
+                continue;
+            }
+            let e = Entry {
+                u: v.u,
+                v: v.v,
+                a: v.a,
+                half: 0.5 * v.length,
+                who: slot,
+            };
+            for lane in [Some(v.lane), v.from].into_iter().flatten() {
+                let c = &mut self.cursor[lane as usize];
+                ix.entries[*c as usize] = e;
+                *c += 1;
+            }
+        }
+        for (k, o) in obstacles.iter().enumerate() {
+            let c = &mut self.cursor[o.lane as usize];
+            ix.entries[*c as usize] = Entry {
+                u: o.u,
+                v: o.v,
+                a: o.a,
+                half: 0.5 * o.length,
+                who: OBSTACLE | k as u32,
+            };
+            *c += 1;
+        }
+        for lane in 0..n_lanes {
+            let (a, b) = (ix.starts[lane] as usize, ix.starts[lane + 1] as usize);
+            insertion_sort(&mut ix.entries[a..b]);
+        }
+        // The next step's fill order: every vehicle once, in lane order.
+        self.order.clear();
+        for lane in 0..n_lanes {
+            for e in ix.lane(lane as u32) {
+                if e.who & OBSTACLE == 0 && self.vehicles[e.who as usize].lane == lane as u32 {
+                    self.order.push(e.who);
+                }
+            }
+        }
+        self.order
+            .extend((0..self.vehicles.len() as u32).filter(|&i| !self.vehicles[i as usize].active));
+        // Stop lines by lane, for the look-ahead.
+        self.stops_by_lane.clear();
+        for (k, s) in self.stop_lines.iter().enumerate() {
+            if s.red {
+                self.stops_by_lane.push((s.lane, k as u32));
+            }
+        }
+        self.stops_by_lane.sort_unstable();
+    }
+
+    /// The nearest constraint ahead of a vehicle at `u` in `lane`
+    /// (`half` its half length, `me` its slot): the vehicle in front, or
+    /// a red stop line it can still stop at, or a dead end — whichever
+    /// asks for the lowest acceleration — within [`LOOKAHEAD_M`].
+    fn leader(&self, g: &LaneGraph, me: u32, lane: u32, u: f64, half: f64) -> Leader {
+        let veh = &self.vehicles[me as usize];
+        let p = &veh.params;
+        // The constraint that asks for the lowest acceleration wins.
+        let mut best = (
+            Leader {
+                gap: f64::INFINITY,
+                speed: veh.v,
+                accel: 0.0,
+            },
+            f64::INFINITY,
+        );
+        let mut consider = |l: Leader| {
+            let a = driver::acceleration(p, veh.v, Some(l));
+            if a < best.1 {
+                best = (l, a);
+            }
+        };
+        let mut lane = lane;
+        let mut from = u;
+        let mut ahead = 0.0;
+        loop {
+            let entries = self.index.lane(lane);
+            let start = entries.partition_point(|e| e.u < from);
+            let found = entries[start..].iter().find(|e| e.who != me);
+            if let Some(e) = found {
+                consider(Leader {
+                    gap: ahead + e.u - from - e.half - half,
+                    speed: e.v,
+                    accel: e.a,
+                });
+            }
+            if let Some(line) = self.red_line(lane, from) {
+                let gap = ahead + line - from - half;
+                // Past the point of stopping at half its emergency
+                // deceleration it goes through (the dilemma zone).
+                if gap > 0.0 && veh.v * veh.v / (2.0 * gap) <= p.emergency_decel * 0.5 {
+                    consider(Leader {
+                        gap,
+                        speed: 0.0,
+                        accel: 0.0,
+                    });
+                }
+            }
+            if found.is_some() {
+                break;
+            }
+            let info = &g.lanes[lane as usize];
+            ahead += info.length - from;
+            if ahead > LOOKAHEAD_M {
+                break;
+            }
+            match Self::next_lane(g, lane, veh.route) {
+                Some(n) => {
+                    lane = n;
+                    from = 0.0;
+                }
+                None if info.exit => break,
+                None => {
+                    consider(Leader {
+                        gap: ahead - half,
+                        speed: 0.0,
+                        accel: 0.0,
+                    });
+                    break;
+                }
+            }
+        }
+        best.0
+    }
+
+    /// The first red stop line of `lane` at or after `u`.
+    fn red_line(&self, lane: u32, u: f64) -> Option<f64> {
+        let s = self.stops_by_lane.partition_point(|&(l, _)| l < lane);
+        self.stops_by_lane[s..]
+            .iter()
+            .take_while(|&&(l, _)| l == lane)
+            .map(|&(_, k)| self.stop_lines[k as usize].u)
+            .filter(|&x| x >= u)
+            .reduce(f64::min)
+    }
+
+    /// Distance from `u` in `lane` to where the vehicle's route ends
+    /// (infinite when farther than [`DEAD_END_NOTICE_M`]).
+    fn dead_end_in(g: &LaneGraph, mut lane: u32, u: f64, route: u64) -> f64 {
+        let mut d = g.lanes[lane as usize].length - u;
+        while d < DEAD_END_NOTICE_M {
+            match Self::next_lane(g, lane, route) {
+                Some(n) => {
+                    lane = n;
+                    d += g.lanes[n as usize].length;
+                }
+                None if g.lanes[lane as usize].exit => return f64::INFINITY,
+                None => return d,
+            }
+        }
+        f64::INFINITY
+    }
+
+    fn accel_with(&self, who: u32, v: f64, l: Option<Leader>) -> f64 {
+        // Obstacles (sut.car, planned actors) are judged as careful cars.
+        let p = if who & OBSTACLE == 0 {
+            self.vehicles[who as usize].params
+        } else {
+            DriverParams::for_category("car", v.max(1.0))
+        };
+        driver::acceleration(&p, v, l)
+    }
+
+    fn decide(&mut self, g: &LaneGraph) {
+        let n = self.vehicles.len();
+        let mut decided = std::mem::take(&mut self.decided);
+        decided.clear();
+        decided.resize(n, (0.0, 0));
+        let period = ((DECISION_PERIOD_S / self.dt).round() as u64).max(1);
+        let mut touching = Vec::new();
+        for (slot, out) in decided.iter_mut().enumerate() {
+            let me = slot as u32;
+            let v = &self.vehicles[slot];
+            if !v.active {
+                continue;
+            }
+            let half = 0.5 * v.length;
+            let l = self.leader(g, me, v.lane, v.u, half);
+            if l.gap <= 0.0 {
+                touching.push((me, v.lane, v.u));
+            }
+            let mut a = driver::acceleration(&v.params, v.v, Some(l));
+            if let Some(f) = v.from {
+                // Mid-change: the slower of both lanes (highway-env).
+                let lo = self.leader(g, me, f, v.u, half);
+                a = a.min(driver::acceleration(&v.params, v.v, Some(lo)));
+            }
+            a = a.min(self.courtesy(g, me));
+            let mut change = 0;
+            // In a lane that ends, drivers look for a gap five times as
+            // often, standing or not; elsewhere standing drivers stay.
+            let ending = Self::dead_end_in(g, v.lane, v.u, v.route).is_finite();
+            let every = if ending { (period / 5).max(1) } else { period };
+            if v.from.is_none()
+                && !v.at_dead_end
+                && (v.v > 1.0 || ending)
+                && (self.tick + slot as u64).is_multiple_of(every)
+            {
+                change = self.mobil(g, me, a, l);
+            }
+            *out = (a, change);
+        }
+        self.decided = decided;
+        for (me, lane, u) in touching {
+            self.note_contact(me, lane, u);
+        }
+    }
+
+    /// Courtesy at a lane drop (zip merging): a driver whose lane goes on
+    /// makes room for the first vehicle ahead in a neighbouring lane that
+    /// ends, when it can do so braking at most comfortably. Returns that
+    /// acceleration, or +∞ when there is no one to let in.
+    fn courtesy(&self, g: &LaneGraph, me: u32) -> f64 {
+        let v = &self.vehicles[me as usize];
+        let info = &g.lanes[v.lane as usize];
+        let mut a = f64::INFINITY;
+        for side in [info.left, info.right].into_iter().flatten() {
+            if Self::dead_end_in(g, side, v.u, v.route).is_infinite()
+                || Self::dead_end_in(g, v.lane, v.u, v.route).is_finite()
+            {
+                continue;
+            }
+            let entries = self.index.lane(side);
+            let j = entries.partition_point(|e| e.u < v.u);
+            let Some(e) = entries[j..].iter().find(|e| e.who != me) else {
+                continue;
+            };
+            let gap = e.u - e.half - v.u - 0.5 * v.length;
+            if gap <= 0.0 {
+                continue;
+            }
+            let l = Leader {
+                gap,
+                speed: e.v,
+                accel: e.a,
+            };
+            let yield_a = driver::acceleration(&v.params, v.v, Some(l));
+            if yield_a >= -v.params.comfort_decel {
+                a = a.min(yield_a);
+            }
+        }
+        a
+    }
+
+    fn note_contact(&mut self, me: u32, lane: u32, u: f64) {
+        let entries = self.index.lane(lane);
+        let i = entries.partition_point(|e| e.u < u);
+        let v = &self.vehicles[me as usize];
+        let other = entries
+            .iter()
+            .skip(i.saturating_sub(2))
+            .find(|e| e.who != me && e.u >= u && e.u - e.half <= u + 0.5 * v.length);
+        if let Some(o) = other {
+            let key = (me, o.who);
+            if self.touching.insert(key) {
+                self.contacts.push(Contact {
+                    tick: self.tick,
+                    vehicle: me,
+                    other: if o.who & OBSTACLE == 0 {
+                        Ok(o.who)
+                    } else {
+                        Err(o.who & !OBSTACLE)
+                    },
+                });
+            }
+        }
+    }
+
+    /// MOBIL over both neighbours: −1 (right), +1 (left) or 0.
+    fn mobil(&self, g: &LaneGraph, me: u32, a_now: f64, lead_now: Leader) -> i8 {
+        let v = &self.vehicles[me as usize];
+        let info = &g.lanes[v.lane as usize];
+        let half = 0.5 * v.length;
+        let here_ends = Self::dead_end_in(g, v.lane, v.u, v.route);
+        // The old follower: the last occupant behind in this lane.
+        let own = self.index.lane(v.lane);
+        let i = own.partition_point(|e| e.u < v.u);
+        let old_follower = own[..i].iter().rev().find(|e| e.who != me).map(|o| {
+            let gap_me = v.u - half - o.u - o.half;
+            let now = self.accel_with(
+                o.who,
+                o.v,
+                Some(Leader {
+                    gap: gap_me,
+                    speed: v.v,
+                    accel: v.a,
+                }),
+            );
+            let after = self.accel_with(
+                o.who,
+                o.v,
+                Some(Leader {
+                    gap: gap_me + lead_now.gap + v.length,
+                    speed: lead_now.speed,
+                    accel: lead_now.accel,
+                }),
+            );
+            (now, after)
+        });
+        // Out of a lane that ends, half the jam gap suffices (a zip merge
+        // behind a driver who made room, see `courtesy`).
+        let need = if here_ends.is_finite() {
+            0.5 * v.params.min_gap
+        } else {
+            v.params.min_gap
+        };
+        let mut best = (0i8, f64::NEG_INFINITY);
+        for (side, target) in [(1i8, info.left), (-1i8, info.right)] {
+            let Some(t) = target else { continue };
+            let there_ends = Self::dead_end_in(g, t, v.u, v.route);
+            if there_ends < here_ends {
+                continue;
+            }
+            let entries = self.index.lane(t);
+            let j = entries.partition_point(|e| e.u < v.u);
+            let follower = entries[..j].iter().rev().find(|e| e.who != me);
+            let lead_gap_in_lane = entries[j..]
+                .iter()
+                .find(|e| e.who != me)
+                .map(|e| e.u - e.half - v.u - half);
+            if lead_gap_in_lane.is_some_and(|gap| gap < need) {
+                continue;
+            }
+            let lead_there = self.leader(g, me, t, v.u, half);
+            if lead_there.gap < need {
+                continue;
+            }
+            let new_follower = match follower {
+                Some(f) => {
+                    let gap = v.u - half - f.u - f.half;
+                    if gap < need {
+                        continue;
+                    }
+                    let now = self.accel_with(
+                        f.who,
+                        f.v,
+                        Some(Leader {
+                            gap: gap + v.length + lead_there.gap,
+                            speed: lead_there.speed,
+                            accel: lead_there.accel,
+                        }),
+                    );
+                    let after = self.accel_with(
+                        f.who,
+                        f.v,
+                        Some(Leader {
+                            gap,
+                            speed: v.v,
+                            accel: a_now,
+                        }),
+                    );
+                    Some((now, after))
+                }
+                None => None,
+            };
+            let strategic = if here_ends.is_finite() && there_ends.is_infinite() {
+                // A lane that ends ahead: leaving it outweighs any gain
+                // (more so the closer the end), within safety.
+                2.0 * v.params.max_accel * (1.0 - here_ends / DEAD_END_NOTICE_M).max(0.25)
+            } else {
+                0.0
+            };
+            let case = LaneChangeCase {
+                me: (
+                    a_now,
+                    driver::acceleration(&v.params, v.v, Some(lead_there)),
+                ),
+                new_follower,
+                old_follower,
+                towards_slow_side: (side < 0) == info.right_hand,
+                strategic,
+            };
+            if driver::mobil(&v.params, &case) {
+                let gain = case.me.1 - case.me.0 + strategic;
+                if gain > best.1 {
+                    best = (side, gain);
+                }
+            }
+        }
+        best.0
+    }
+
+    fn commit(&mut self, g: &LaneGraph) {
+        let dt = self.dt;
+        // Changes accepted this step, by target lane and u: a second driver
+        // aiming at the same gap from the other side waits (slot order).
+        let mut claimed: Vec<(u32, f64, f64)> = Vec::new();
+        for (slot, &(a, change)) in self.decided.iter().enumerate() {
+            let v = &mut self.vehicles[slot];
+            if !v.active {
+                continue;
+            }
+            if change != 0 {
+                let info = &g.lanes[v.lane as usize];
+                let target = if change > 0 { info.left } else { info.right };
+                if let Some(t) = target {
+                    let reach = v.length + v.params.min_gap;
+                    let free = claimed
+                        .iter()
+                        .all(|&(l, u, r)| l != t || (u - v.u).abs() > 0.5 * (reach + r));
+                    if free {
+                        claimed.push((t, v.u, reach));
+                        let w = 0.5 * (info.width + g.lanes[t as usize].width);
+                        v.lat += if change > 0 { -w } else { w };
+                        v.from = Some(v.lane);
+                        v.lane = t;
+                        v.lane_changes += 1;
+                    }
+                }
+            }
+            // Ballistic update; a stop inside the step stops there.
+            let (du, v_new) = if v.v + a * dt < 0.0 {
+                (-v.v * v.v / (2.0 * a), 0.0)
+            } else {
+                (v.v * dt + 0.5 * a * dt * dt, v.v + a * dt)
+            };
+            v.a = a;
+            v.u += du;
+            v.v = v_new;
+            if v.lat != 0.0 {
+                let w = g.lanes[v.lane as usize].width;
+                let step = w / LANE_CHANGE_S * dt;
+                v.lat = if v.lat.abs() <= step {
+                    0.0
+                } else {
+                    v.lat - step * v.lat.signum()
+                };
+                if v.lat == 0.0 {
+                    v.from = None;
+                }
+            }
+            while v.u > g.lanes[v.lane as usize].length {
+                match Self::next_lane(g, v.lane, v.route) {
+                    Some(n) => {
+                        v.u -= g.lanes[v.lane as usize].length;
+                        v.lane = n;
+                        v.from = None;
+                    }
+                    None if g.lanes[v.lane as usize].exit => {
+                        // The map's edge: it leaves.
+                        v.u = g.lanes[v.lane as usize].length;
+                        v.active = false;
+                        v.from = None;
+                        break;
+                    }
+                    None => {
+                        // A dead end: it stops at the lane's end, on the road.
+                        v.u = g.lanes[v.lane as usize].length;
+                        v.v = 0.0;
+                        v.a = 0.0;
+                        v.at_dead_end = true;
+                    }
+                }
+            }
+        }
+        // Contacts end when the pair is apart again.
+        let touching = std::mem::take(&mut self.touching);
+        self.touching = touching
+            .into_iter()
+            .filter(|&(me, other)| {
+                other & OBSTACLE != 0 || {
+                    let (a, b) = (&self.vehicles[me as usize], &self.vehicles[other as usize]);
+                    a.active
+                        && b.active
+                        && a.lane == b.lane
+                        && (a.u - b.u).abs() < 0.5 * (a.length + b.length)
+                }
+            })
+            .collect();
+    }
+}
+
+fn insertion_sort(e: &mut [Entry]) {
+    for i in 1..e.len() {
+        let mut j = i;
+        while j > 0 && e[j - 1].u > e[j].u {
+            e.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+}
