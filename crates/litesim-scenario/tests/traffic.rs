@@ -105,7 +105,7 @@ fn a_lane_drop_merges_by_mobil_and_nobody_leaves_the_road() {
         .unwrap();
         let in_outer = t.vehicles.iter().filter(|v| v.lane == outer).count();
         assert!(in_outer > 5);
-        for _ in 0..(90 * 50) {
+        for _ in 0..(150 * 50) {
             t.step(&g, &[]);
         }
         assert!(t.contacts.is_empty(), "seed {seed}: {:?}", t.contacts);

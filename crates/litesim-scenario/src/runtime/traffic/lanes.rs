@@ -26,6 +26,8 @@ pub struct LaneInfo {
     pub width: f64,
     /// Lanes reachable at this lane's end, in the map's order.
     pub next: Vec<u32>,
+    /// Lanes that lead into this one.
+    pub prev: Vec<u32>,
     /// The neighbour on the left of the direction of travel.
     pub left: Option<u32>,
     /// The neighbour on the right of the direction of travel.
@@ -83,6 +85,7 @@ impl LaneGraph {
                         length: s1 - s0,
                         width: road.lane_span(mid, l.id).map_or(3.5, |s| s.width()),
                         next: Vec::new(),
+                        prev: Vec::new(),
                         left: None,
                         right: None,
                         right_hand: road.rule == litesim_map::model::Rule::Rht,
@@ -121,6 +124,12 @@ impl LaneGraph {
             l.next = next;
             l.left = left;
             l.right = right;
+        }
+        for i in 0..g.lanes.len() {
+            for k in 0..g.lanes[i].next.len() {
+                let n = g.lanes[i].next[k] as usize;
+                g.lanes[n].prev.push(i as u32);
+            }
         }
         g
     }

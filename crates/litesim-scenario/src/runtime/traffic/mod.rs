@@ -454,6 +454,26 @@ impl Traffic {
         }
     }
 
+    /// The nearest occupant behind `u` in `lane` (other than `me`), or at
+    /// the end of a lane leading into it, with the distance between their
+    /// centres along the lanes.
+    fn follower(&self, g: &LaneGraph, me: u32, lane: u32, u: f64) -> Option<(Entry, f64)> {
+        let entries = self.index.lane(lane);
+        let j = entries.partition_point(|e| e.u < u);
+        if let Some(e) = entries[..j].iter().rev().find(|e| e.who != me) {
+            return Some((*e, u - e.u));
+        }
+        g.lanes[lane as usize]
+            .prev
+            .iter()
+            .filter_map(|&p| {
+                let len = g.lanes[p as usize].length;
+                let e = self.index.lane(p).iter().rev().find(|e| e.who != me)?;
+                Some((*e, u + len - e.u))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+    }
+
     /// Courtesy at a lane drop (zip merging): a driver whose lane goes on
     /// makes room for the first vehicle ahead in a neighbouring lane that
     /// ends, when it can do so braking at most comfortably. Returns that
@@ -520,11 +540,8 @@ impl Traffic {
         let info = &g.lanes[v.lane as usize];
         let half = 0.5 * v.length;
         let here_ends = Self::dead_end_in(g, v.lane, v.u, v.route);
-        // The old follower: the last occupant behind in this lane.
-        let own = self.index.lane(v.lane);
-        let i = own.partition_point(|e| e.u < v.u);
-        let old_follower = own[..i].iter().rev().find(|e| e.who != me).map(|o| {
-            let gap_me = v.u - half - o.u - o.half;
+        let old_follower = self.follower(g, me, v.lane, v.u).map(|(o, d)| {
+            let gap_me = d - half - o.half;
             let now = self.accel_with(
                 o.who,
                 o.v,
@@ -561,7 +578,7 @@ impl Traffic {
             }
             let entries = self.index.lane(t);
             let j = entries.partition_point(|e| e.u < v.u);
-            let follower = entries[..j].iter().rev().find(|e| e.who != me);
+            let follower = self.follower(g, me, t, v.u);
             let lead_gap_in_lane = entries[j..]
                 .iter()
                 .find(|e| e.who != me)
@@ -574,8 +591,8 @@ impl Traffic {
                 continue;
             }
             let new_follower = match follower {
-                Some(f) => {
-                    let gap = v.u - half - f.u - f.half;
+                Some((f, d)) => {
+                    let gap = d - half - f.half;
                     if gap < need {
                         continue;
                     }
