@@ -300,7 +300,7 @@ impl Traffic {
     /// (`half` its half length, `me` its slot): the vehicle in front, or
     /// a red stop line it can still stop at, or a dead end — whichever
     /// asks for the lowest acceleration — within [`LOOKAHEAD_M`].
-    fn leader(&self, g: &LaneGraph, me: u32, lane: u32, u: f64, half: f64) -> Leader {
+    fn leader(&self, g: &LaneGraph, me: u32, lane: u32, u: f64, half: f64) -> (Leader, f64) {
         let veh = &self.vehicles[me as usize];
         let p = &veh.params;
         // The constraint that asks for the lowest acceleration wins.
@@ -368,7 +368,11 @@ impl Traffic {
                 }
             }
         }
-        best.0
+        if best.1.is_infinite() {
+            // Nothing ahead within sight: the free road.
+            best.1 = driver::acceleration(p, veh.v, None);
+        }
+        best
     }
 
     /// The first red stop line of `lane` at or after `u`.
@@ -416,22 +420,22 @@ impl Traffic {
         decided.resize(n, (0.0, 0));
         let period = ((DECISION_PERIOD_S / self.dt).round() as u64).max(1);
         let mut touching = Vec::new();
-        for (slot, out) in decided.iter_mut().enumerate() {
-            let me = slot as u32;
+        // In lane order: neighbours' index entries are next to each other
+        // in memory (the result is per slot, the same in any order).
+        for &me in &self.order {
+            let slot = me as usize;
             let v = &self.vehicles[slot];
             if !v.active {
                 continue;
             }
             let half = 0.5 * v.length;
-            let l = self.leader(g, me, v.lane, v.u, half);
+            let (l, mut a) = self.leader(g, me, v.lane, v.u, half);
             if l.gap <= 0.0 {
                 touching.push((me, v.lane, v.u));
             }
-            let mut a = driver::acceleration(&v.params, v.v, Some(l));
             if let Some(f) = v.from {
                 // Mid-change: the slower of both lanes (highway-env).
-                let lo = self.leader(g, me, f, v.u, half);
-                a = a.min(driver::acceleration(&v.params, v.v, Some(lo)));
+                a = a.min(self.leader(g, me, f, v.u, half).1);
             }
             a = a.min(self.courtesy(g, me));
             let mut change = 0;
@@ -446,7 +450,7 @@ impl Traffic {
             {
                 change = self.mobil(g, me, a, l);
             }
-            *out = (a, change);
+            decided[slot] = (a, change);
         }
         self.decided = decided;
         for (me, lane, u) in touching {
@@ -586,7 +590,7 @@ impl Traffic {
             if lead_gap_in_lane.is_some_and(|gap| gap < need) {
                 continue;
             }
-            let lead_there = self.leader(g, me, t, v.u, half);
+            let (lead_there, a_there) = self.leader(g, me, t, v.u, half);
             if lead_there.gap < need {
                 continue;
             }
