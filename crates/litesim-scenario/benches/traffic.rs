@@ -3,13 +3,14 @@
 //! 100, 1,000 and 10,000 vehicles, and the driver model's own cost per
 //! call. Figures in BENCHMARKS.md, beside SUMO's on the same machine.
 
-use criterion::{BenchmarkId, Criterion, black_box, criterion_group, criterion_main};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use litesim_core::rng::Rng;
 use litesim_map::RoadNetwork;
 use litesim_map::synth::{HighwaySpec, highway};
 use litesim_scenario::runtime::driver::{DriverParams, Leader, acceleration};
 use litesim_scenario::runtime::traffic::spawn::{Density, fill};
 use litesim_scenario::runtime::traffic::{LaneGraph, Traffic};
+use std::hint::black_box;
 
 /// A run: `n` vehicles spread over a three-lane road of `n` · 6 m (6 km
 /// for 1,000: 18 m apart, one per 55 m per lane … as the test),

@@ -304,7 +304,7 @@ mod tests {
         assert_eq!(acceleration(&p, 30.0, None), 0.0);
         // Above v0 the IIDM brakes by at most b.
         let over = acceleration(&p, 45.0, None);
-        assert!(over < 0.0 && over >= -2.0, "{over}");
+        assert!((-2.0..0.0).contains(&over), "{over}");
     }
 
     #[test]
@@ -329,7 +329,7 @@ mod tests {
         };
         let a = acceleration(&p, 20.0, Some(l));
         // v²/(2s) = 6.7 m/s² is needed: more than comfort, within the cap.
-        assert!(a <= -6.0 && a >= -9.0, "{a}");
+        assert!((-9.0..=-6.0).contains(&a), "{a}");
         let touching = Leader { gap: 0.0, ..l };
         assert_eq!(acceleration(&p, 20.0, Some(touching)), -9.0);
     }

@@ -630,10 +630,7 @@ impl Traffic {
                 0.0
             };
             let case = LaneChangeCase {
-                me: (
-                    a_now,
-                    driver::acceleration(&v.params, v.v, Some(lead_there)),
-                ),
+                me: (a_now, a_there),
                 new_follower,
                 old_follower,
                 towards_slow_side: (side < 0) == info.right_hand,
