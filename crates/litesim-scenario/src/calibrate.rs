@@ -236,7 +236,7 @@ pub fn errors(
             covers: Vec::new(),
             values: Default::default(),
         };
-        let ex = execute(&mut ssp, &plan, None, &cfg, None, None)?;
+        let ex = execute(&mut ssp, &plan, None, &cfg, None, None, None)?;
         let a = &ex.kpis.actors[0];
         sq_p += a.rms_path_error.powi(2);
         sq_v += a.rms_speed_error.powi(2);

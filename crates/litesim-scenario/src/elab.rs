@@ -240,6 +240,76 @@ pub struct RunConfig {
     pub dynamic: bool,
     /// Pass/fail thresholds on the system under test.
     pub thresholds: Thresholds,
+    /// Ambient traffic around sut.car (`traffic_density` > 0).
+    pub traffic: Option<TrafficDecl>,
+}
+
+/// Ambient traffic as a test declares it (`extend test_config: set
+/// traffic_density = 15`, …), checked when the test is elaborated.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TrafficDecl {
+    /// Vehicles per km per lane.
+    pub density: f64,
+    /// Desired speeds (m/s), drawn uniformly.
+    pub speed: (f64, f64),
+    /// Vehicles are kept within this distance of sut.car (m).
+    pub radius: f64,
+    /// The drivers' desired time gap (s).
+    pub time_gap: f64,
+    /// The drivers' MOBIL politeness.
+    pub politeness: f64,
+    /// Where the declaration is (file:line:col of `traffic_density`).
+    pub at: String,
+}
+
+/// The most vehicles per km per lane a declaration may ask for: above
+/// jam density (one 4.5 m car and its 2 m gap every 6.5 m ≈ 154/km).
+pub const MAX_TRAFFIC_DENSITY: f64 = 150.0;
+/// The largest radius of ambient traffic (m).
+pub const MAX_TRAFFIC_RADIUS: f64 = 5000.0;
+
+impl TrafficDecl {
+    /// The declaration's values from `test_config`, checked; the error
+    /// names the field, its value and the range it must be in.
+    fn check(self) -> Result<Self, String> {
+        let field = |name: &str, v: f64, lo: f64, hi: f64, unit: &str| {
+            if v.is_finite() && (lo..=hi).contains(&v) {
+                Ok(())
+            } else {
+                Err(format!(
+                    "test_config.{name} = {v}{unit} is out of range (expected {lo}{unit} ..= {hi}{unit})"
+                ))
+            }
+        };
+        field(
+            "traffic_density",
+            self.density,
+            0.0,
+            MAX_TRAFFIC_DENSITY,
+            " per km per lane",
+        )?;
+        if self.radius <= 0.0 || !self.radius.is_finite() {
+            return Err(format!(
+                "test_config.traffic_radius = {} m: ambient traffic needs a radius above 0 m",
+                self.radius
+            ));
+        }
+        field("traffic_radius", self.radius, 0.0, MAX_TRAFFIC_RADIUS, " m")?;
+        field("traffic_min_speed", self.speed.0, 0.0, 70.0, " m/s")?;
+        field("traffic_max_speed", self.speed.1, 0.0, 70.0, " m/s")?;
+        if self.speed.0 > self.speed.1 {
+            return Err(format!(
+                "test_config.traffic_min_speed ({} m/s) is above traffic_max_speed ({} m/s)",
+                self.speed.0, self.speed.1
+            ));
+        }
+        let mut p = crate::runtime::driver::DriverParams::for_category("car", self.speed.1);
+        p.time_gap = self.time_gap;
+        p.politeness = self.politeness;
+        p.validate()
+            .map_err(|e| format!("{e} (test_config.traffic_time_gap / traffic_politeness)"))?;
+        Ok(self)
+    }
 }
 
 /// Thresholds a test sets on the system under test (`extend test_config:
@@ -344,6 +414,9 @@ struct Elab<'a> {
     actor_ids: BTreeMap<String, String>,
     counter: usize,
     depth: usize,
+    /// Traffic settings met so far (in any `extend test_config`), with
+    /// the span of the one that names the density (else the first).
+    traffic: Option<(TrafficDecl, Span)>,
 }
 
 /// Elaborates `top.main` of a program that loaded without errors.
@@ -359,6 +432,7 @@ pub fn elaborate(prog: &Program) -> Result<Test, ScenarioError> {
         actor_ids: BTreeMap::new(),
         counter: 0,
         depth: 0,
+        traffic: None,
     };
     // The ego: `sut.car`.
     e.test.actors.push(ActorDef {
@@ -384,6 +458,7 @@ pub fn elaborate(prog: &Program) -> Result<Test, ScenarioError> {
             }
         }
     }
+    e.traffic()?;
     let scope = Scope {
         ns: "top".into(),
         ..Scope::default()
@@ -436,8 +511,55 @@ impl Elab<'_> {
                         };
                         *slot = (x > 0.0).then_some(x);
                     }
+                    "traffic_density" | "traffic_min_speed" | "traffic_max_speed"
+                    | "traffic_radius" | "traffic_time_gap" | "traffic_politeness" => {
+                        let x = v.num().ok_or_else(bad)?;
+                        let (t, at) = self.traffic.get_or_insert_with(|| {
+                            (
+                                TrafficDecl {
+                                    density: 0.0,
+                                    speed: (80.0 / 3.6, 120.0 / 3.6),
+                                    radius: 300.0,
+                                    time_gap: 1.5,
+                                    politeness: 0.3,
+                                    at: String::new(),
+                                },
+                                *span,
+                            )
+                        });
+                        match name.as_str() {
+                            "traffic_density" => {
+                                t.density = x;
+                                *at = *span;
+                            }
+                            "traffic_min_speed" => t.speed.0 = x,
+                            "traffic_max_speed" => t.speed.1 = x,
+                            "traffic_radius" => t.radius = x,
+                            "traffic_time_gap" => t.time_gap = x,
+                            _ => t.politeness = x,
+                        }
+                    }
                     _ => {}
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks the traffic settings of every `extend test_config` together.
+    fn traffic(&mut self) -> Result<(), ScenarioError> {
+        if let Some((mut t, span)) = self.traffic.take() {
+            t.at = self.lib.at(span);
+            let at = t.at.clone();
+            let t = t
+                .check()
+                .map_err(|e| ScenarioError::Elaboration(format!("{at}: {e}")))?;
+            if t.density > 0.0 {
+                self.test.config.traffic = Some(t);
+            } else {
+                self.test.notes.push(format!(
+                    "{at}: traffic settings without a traffic_density above 0: no ambient traffic"
+                ));
             }
         }
         Ok(())

@@ -105,6 +105,9 @@ pub struct Prepared {
     /// SHA-256 of the test's source texts (the file and its imports, in
     /// loading order): what a batch manifest records of the test.
     pub source_hash: String,
+    /// The map's lanes as drivers see them, when the test has ambient
+    /// traffic (built once, shared by every run of a batch).
+    pub lane_graph: Option<Arc<runtime::traffic::LaneGraph>>,
 }
 
 /// Loads, checks and elaborates a test; loads its map.
@@ -185,7 +188,12 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
             .iter()
             .any(|r| r.signals.iter().any(|s| s.dynamic))
     });
+    let lane_graph = match (&test.config.traffic, &net) {
+        (Some(_), Some(n)) => Some(Arc::new(runtime::traffic::LaneGraph::new(n))),
+        _ => None,
+    };
     Ok(Prepared {
+        lane_graph,
         has_lights,
         source_hash,
         path: path.to_path_buf(),
@@ -600,8 +608,34 @@ fn run_here(
             name: opts.sut.name(),
             source,
         })?;
-    let replan =
-        |fixed: &BTreeMap<String, f64>| plan_test_with(prep, seed, step_ms, fixed).map(|(_, p)| p);
+    // Ambient traffic joins the plan's actors (at their start) and is
+    // driven by the traffic engine during the run.
+    let mut plan = plan;
+    let mut ambient = None;
+    let mut traffic_actors = Vec::new();
+    if let (Some(decl), Some(graph), Some(net)) = (
+        &prep.test.config.traffic,
+        &prep.lane_graph,
+        prep.net.as_deref(),
+    ) {
+        let (amb, actors) = runtime::traffic::ambient::Ambient::place(
+            decl,
+            graph.clone(),
+            net,
+            &plan,
+            f64::from(step_ms) / 1000.0,
+            seed,
+        )?;
+        plan.actors.extend(actors.iter().cloned());
+        traffic_actors = actors;
+        ambient = Some(amb);
+    }
+    let replan = |fixed: &BTreeMap<String, f64>| {
+        plan_test_with(prep, seed, step_ms, fixed).map(|(_, mut p)| {
+            p.actors.extend(traffic_actors.iter().cloned());
+            p
+        })
+    };
     let mut ex = exec::execute(
         ssp,
         &plan,
@@ -609,7 +643,17 @@ fn run_here(
         &cfg,
         sut.as_deref_mut(),
         Some(&replan),
+        ambient.as_mut(),
     )?;
+    if let Some(a) = &ambient {
+        let contacts = a.traffic.contacts.len();
+        notes.push(format!(
+            "ambient traffic: {} vehicles (traffic.0 …), {} re-entries around sut.car, {} lane changes, {contacts} contacts seen by the drivers",
+            a.traffic.vehicles.len(),
+            a.recycled,
+            a.traffic.vehicles.iter().map(|v| u64::from(v.lane_changes)).sum::<u64>(),
+        ));
+    }
     // Conditions that held at other times than planned made a new plan.
     let plan = ex.plan.take().unwrap_or(plan);
     let ego_id = plan.actors.iter().find(|a| a.ego).map(|a| a.id.clone());

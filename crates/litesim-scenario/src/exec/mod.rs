@@ -419,7 +419,11 @@ pub fn execute(
     cfg: &ExecConfig,
     mut sut: Option<&mut (dyn Sut + '_)>,
     replan: Option<&Replan<'_>>,
+    mut ambient: Option<&mut crate::runtime::traffic::ambient::Ambient>,
 ) -> Result<Executed, ScenarioError> {
+    // Ambient traffic's actors come last in the plan; they are moved by
+    // the traffic engine, not by their (one-sample) plan.
+    let driven_from = plan.actors.len() - ambient.as_ref().map_or(0, |a| a.traffic.vehicles.len());
     // The plan in force: replaced when a condition holds live at another
     // time than planned (closed loop only).
     let mut plan: Cow<Plan> = Cow::Borrowed(plan);
@@ -519,6 +523,7 @@ pub fn execute(
         });
         let closed_ego = ego_i == Some(dims.len());
         let dynamic = !closed_ego
+            && dims.len() < driven_from
             && cfg.mode == DriveMode::Dynamic
             && a.kind == crate::elab::ActorKind::Vehicle
             && a.samples.iter().any(|s| s.v > 0.0);
@@ -608,7 +613,7 @@ pub fn execute(
     // 100-vehicle test 1.25× slower: a chunk's ~4.6 MB of states pushed
     // the checkers' tables out of the cache; 2,000 re-sends too much
     // overlap — BENCHMARKS.md, eleventh session).
-    let open_loop = drivers.iter().all(Option::is_none) && ego_i.is_none();
+    let open_loop = drivers.iter().all(Option::is_none) && ego_i.is_none() && ambient.is_none();
     // Paced to the wall clock: one step per call, each released on time.
     let mut pacer = cfg
         .realtime
@@ -648,6 +653,9 @@ pub fn execute(
             .collect(),
         _ => Vec::new(),
     };
+    if let (Some(amb), Some(l), Some(n)) = (ambient.as_deref_mut(), lights.as_ref(), net) {
+        amb.set_lights(n, &l.boxes, &box_roads);
+    }
     let mut warps = vec![Warp::new(); ids.len()];
     // Per actor: the planned (x, y, v) of the trajectory last sent on the
     // plain plan clock (no lag, rate 1), from which time, and its offset —
@@ -954,7 +962,33 @@ pub fn execute(
                 .map(|((a, w), keep)| Some(plan_trajectory(a, w, clock, keep)))
                 .collect_into_vec(&mut made);
         }
-        for (i, a) in plan.actors.iter().enumerate() {
+        if let (Some(amb), Some(n)) = (ambient.as_deref_mut(), net) {
+            // Every other actor as it stands after the last step (at the
+            // start: as planned), seen by the drivers from one snapshot.
+            let others: Vec<(litesim_core::Vec2, f64, f64, f64)> = (0..driven_from)
+                .map(|i| match rb.boxes.get(i) {
+                    Some(b) => (
+                        litesim_core::Vec2::new(b.x, b.y),
+                        b.yaw,
+                        rb.speeds[i],
+                        b.length,
+                    ),
+                    None => {
+                        let p = plan.actors[i].samples[0];
+                        (litesim_core::Vec2::new(p.x, p.y), p.yaw, p.v, dims[i].0)
+                    }
+                })
+                .collect();
+            let ego_xy = ego_index.and_then(|e| others.get(e)).map(|o| o.0);
+            amb.step(n, &others, &red, now_ms, step_ms, ego_xy, |k, mut traj| {
+                let id = &plan.actors[driven_from + k as usize].id;
+                if mirror {
+                    traj.points = traj.points.into_iter().map(|c| to_sim(c, true)).collect();
+                }
+                ssp.set_xy_trajectory(id, traj).map_err(ssp_err)
+            })?;
+        }
+        for (i, a) in plan.actors.iter().enumerate().take(driven_from) {
             if Some(i) == ego_i {
                 continue;
             }
@@ -1068,6 +1102,7 @@ pub fn execute(
             goal_actors: &goal_actors,
             warps: &warps,
             sent: &sent,
+            driven_from,
         };
         // The next chunk's clock as the loop's head will make it: from
         // here to the end or the next light switch.

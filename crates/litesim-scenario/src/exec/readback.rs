@@ -54,6 +54,9 @@ pub(super) struct ReadEnv<'e, 'c> {
     pub warps: &'e [Warp],
     /// The trajectories sent for the steps being read.
     pub sent: &'e [Sent],
+    /// Actors from this index on are driven by the traffic engine: no plan
+    /// to track (their planned point is where they are).
+    pub driven_from: usize,
 }
 
 /// What reading steps back changes: the checks, the log, the last states.
@@ -157,6 +160,7 @@ impl Readback {
             goal_actors,
             warps,
             sent,
+            driven_from,
         } = *env;
         let Readback {
             boxes,
@@ -213,6 +217,7 @@ impl Readback {
                 let st = &step[slots[i]];
                 let w = &warps[i];
                 let p = match sent[i].planned(info.sim_time_ms, step_ms, w) {
+                    _ if i >= driven_from => (st.pose.position.x, st.pose.position.y, st.speed),
                     Some(p) => p,
                     None => {
                         let p = shifted(a.at(w.tau(t), plan.dt), w.offset);

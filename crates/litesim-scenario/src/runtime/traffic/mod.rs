@@ -17,6 +17,7 @@
 //! actors) enter each step as [`Obstacle`]s: drivers follow and yield to
 //! them like to anyone else.
 
+pub mod ambient;
 pub mod lanes;
 pub mod spawn;
 
