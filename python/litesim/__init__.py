@@ -126,6 +126,7 @@ def run(
     sut_timeout: Optional[float] = None,
     dialect: Optional[str] = None,
     map_dir: Optional[PathLike] = None,
+    npc: str = "driver",
 ) -> Result:
     """Runs an OpenSCENARIO DSL test once.
 
@@ -145,12 +146,17 @@ def run(
             docs/carla.md); default: detected.
         map_dir: folder of OpenDRIVE maps for a CARLA scenario's
             ``path.set_map("Town04")`` (``Town04.xodr``).
+        npc: what drives the other vehicles: ``"driver"`` (a driver each,
+            the default) or ``"planned"`` (each replays its plan), as
+            ``litesim run --npc``.
 
     Raises:
         TypeError / ValueError: a parameter of the wrong type or value (named).
         LitesimError: the test could not be read or run (litesim's message).
     """
     test = _path("test", test)
+    if npc not in ("driver", "planned"):
+        raise ValueError(f"npc: expected 'driver' or 'planned', got {npc!r}")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
         raise TypeError(f"seed: expected an int, got {type(seed).__name__}")
     if seed is not None and seed < 0:
@@ -167,5 +173,5 @@ def run(
         raise ValueError(f"dialect: expected 'litesim', 'carla' or None, got {dialect!r}")
     md = None if map_dir is None else _path("map_dir", map_dir)
     return Result(
-        _native.run(test, seed, sut, mode, record, m, inc, sut_timeout, dialect, md)
+        _native.run(test, seed, sut, mode, record, m, inc, sut_timeout, dialect, md, npc)
     )

@@ -490,7 +490,7 @@ impl NativeRun {
 
 /// Runs one test (see `litesim.run` for the parameters).
 #[pyfunction]
-#[pyo3(signature = (test, seed=None, sut=None, mode=None, record=true, map=None, include=Vec::new(), sut_timeout=None, dialect=None, map_dir=None))]
+#[pyo3(signature = (test, seed=None, sut=None, mode=None, record=true, map=None, include=Vec::new(), sut_timeout=None, dialect=None, map_dir=None, npc="driver"))]
 #[allow(clippy::too_many_arguments)]
 fn run(
     py: Python<'_>,
@@ -504,7 +504,11 @@ fn run(
     sut_timeout: Option<f64>,
     dialect: Option<&str>,
     map_dir: Option<PathBuf>,
+    npc: &str,
 ) -> PyResult<NativeRun> {
+    let npc = litesim_scenario::Npc::parse(npc).ok_or_else(|| {
+        PyValueError::new_err(format!("npc: expected 'driver' or 'planned', got '{npc}'"))
+    })?;
     let dialect = dialect
         .map(|d| d.parse::<litesim_osc::Dialect>())
         .transpose()
@@ -530,6 +534,7 @@ fn run(
         mode,
         record,
         sut,
+        npc,
         sut_timeout,
         calibration_near_test: true,
         ..RunOptions::default()
@@ -811,6 +816,7 @@ fn write_batch(
         load: LoadOptions::default(),
         calibration_dir: None,
         sut,
+        npc: litesim_scenario::Npc::default(),
         sut_timeout: None,
         save_failed: false,
         save_failed_mcap: false,

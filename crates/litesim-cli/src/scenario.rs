@@ -60,6 +60,12 @@ pub struct Common {
     /// external process serving litesim.sut.v1).
     #[arg(long, default_value = "planned", value_name = "NAME")]
     pub sut: String,
+    /// What drives the other vehicles: driver (default: a driver each —
+    /// car-following, the plan's lanes and speeds as goals, gap goals
+    /// pursued until their phase ends) or planned (each replays its plan
+    /// exactly, as before drivers).
+    #[arg(long, default_value = "driver", value_name = "NAME", value_parser = ["driver", "planned"])]
+    pub npc: String,
     /// Seconds an external SUT may take per call (default: the test's
     /// `sut_timeout`, else 1).
     #[arg(long, value_name = "S")]
@@ -80,6 +86,10 @@ impl Common {
             dialect: dialect_choice(&self.dialect),
             map_dir: self.map_dir.clone(),
         }
+    }
+    /// The `--npc` choice.
+    pub fn npc(&self) -> litesim_scenario::Npc {
+        litesim_scenario::Npc::parse(&self.npc).unwrap_or_default()
     }
     /// The `--sut` choice; an unknown name lists the valid ones.
     pub fn sut(&self) -> Result<SutChoice> {
@@ -189,6 +199,11 @@ fn ray_batch(
             "--ray: -I, --map and --sut-timeout are not passed to Ray workers yet; run without --ray"
         );
     }
+    if common.npc() != litesim_scenario::Npc::Driver {
+        bail!(
+            "--ray: --npc planned is not passed to Ray workers yet (they run drivers); run without --ray"
+        );
+    }
     common.sut()?;
     let mut cmd = std::process::Command::new("python3");
     cmd.args(["-m", "litesim.ray", "--ray", address, "--seeds"])
@@ -268,6 +283,7 @@ pub fn run(
         calibration_dir: common.calibration_dir.clone(),
         calibration_near_test: true,
         sut,
+        npc: common.npc(),
         sut_timeout,
         ..RunOptions::default()
     };
@@ -662,6 +678,7 @@ pub fn batch(
         load: common.load(),
         calibration_dir: common.calibration_dir.clone(),
         sut: common.sut()?,
+        npc: common.npc(),
         sut_timeout: common.sut_timeout()?,
         save_failed,
         save_failed_mcap,

@@ -102,6 +102,9 @@ fn batch_save_failed_writes_failed_runs_as_mcap() {
         .args([
             "batch",
             "examples/scenarios/cut_in_coverage.osc",
+            // Its planned cutting car collides on some seeds.
+            "--npc",
+            "planned",
             "--seeds",
             "1..12",
             "-q",
@@ -251,12 +254,15 @@ fn view(target: &Path) -> Viewer {
     Viewer { child, url }
 }
 
-/// A failing run (a collision at 7.84 s: a failure marker on the timeline).
+/// A failing run (a collision at 7.84 s: a failure marker on the timeline;
+/// the cutting car replays its plan, as a driver would not collide).
 fn failing_run(dir: &Path) -> std::path::PathBuf {
     let out = dir.join("run");
     let o = run(
         &[
             "examples/scenarios/cut_in_coverage.osc",
+            "--npc",
+            "planned",
             "--seed",
             "6",
             "--no-pictures",

@@ -37,6 +37,9 @@ pub struct Manifest {
     pub mode: String,
     /// What drove sut.car.
     pub sut: String,
+    /// What drove the other vehicles (`driver`, `planned`).
+    #[serde(default)]
+    pub npc: String,
     /// The SUT's timeout option (s), if given.
     pub sut_timeout: Option<f64>,
     /// Seeds, `A..B`.
@@ -76,6 +79,7 @@ impl Manifest {
         cmp("litesim", self.litesim.clone(), other.litesim.clone());
         cmp("mode", self.mode.clone(), other.mode.clone());
         cmp("sut", self.sut.clone(), other.sut.clone());
+        cmp("npc", self.npc.clone(), other.npc.clone());
         cmp(
             "sut timeout",
             format!("{:?}", self.sut_timeout),
@@ -234,6 +238,8 @@ pub struct BatchSpec {
     pub calibration_dir: Option<PathBuf>,
     /// What drives sut.car.
     pub sut: crate::sut::SutChoice,
+    /// What drives the other vehicles.
+    pub npc: crate::Npc,
     /// Time the SUT may take per call (s); `None`: the test's, else 1 s.
     pub sut_timeout: Option<f64>,
     /// Keep the log of every failed run as `OUT/failed/TEST-seedN.json`
@@ -571,6 +577,7 @@ pub fn run_batch(
         calibration_dir: spec.calibration_dir.clone(),
         calibration_near_test: true,
         sut: spec.sut.clone(),
+        npc: spec.npc,
         sut_timeout: spec.sut_timeout,
         ..RunOptions::default()
     };
@@ -597,6 +604,7 @@ pub fn run_batch(
         }
         .into(),
         sut: spec.sut.name(),
+        npc: spec.npc.name().into(),
         sut_timeout: spec.sut_timeout,
         seeds: format!("{}..{}", spec.seed_from, spec.seed_to),
         shard: format!("{si}/{sn}"),

@@ -1,8 +1,9 @@
 //! The verdict: what the run's KPIs say about the system under test.
 //!
 //! Always: collisions (any pair; those with sut.car first), vehicles off
-//! the road, red lights run, a SUT that failed to answer, strict gap goals
-//! missed. With `--sut planned` (the scenario player), every actor must
+//! the road, red lights run, a SUT that failed to answer, strict gap and
+//! lane goals missed by a planned actor (a driver's missed goal is the
+//! scenario not realised: a note, not the SUT's failure). With `--sut planned` (the scenario player), every actor must
 //! also follow its plan within the mode's tolerances. Thresholds the test
 //! sets in `test_config` ([`Thresholds`]) judge sut.car: minimum TTC and
 //! gap to any actor, maximum deceleration and jerk, reaching the goal.
@@ -94,7 +95,13 @@ pub fn verdict(
             crate::reactive::GAP_TOLERANCE,
             wanted_side
         );
-        if g.strict {
+        if ex.driven.contains(&g.actor) {
+            // A driver pursues its goals within its limits and never by
+            // force: a gap it could not reach (the SUT or the traffic
+            // would not let it) means the scenario did not happen, which
+            // is not the SUT's failure.
+            notes.push(format!("scenario not realised: {msg}"));
+        } else if g.strict {
             failures.push(msg);
         } else {
             notes.push(format!("best effort: {msg}"));
@@ -112,7 +119,13 @@ pub fn verdict(
             g.relation.name(),
             g.reference
         );
-        if g.strict {
+        if ex.driven.contains(&g.actor) {
+            // A driver pursues its goals within its limits and never by
+            // force: a gap it could not reach (the SUT or the traffic
+            // would not let it) means the scenario did not happen, which
+            // is not the SUT's failure.
+            notes.push(format!("scenario not realised: {msg}"));
+        } else if g.strict {
             failures.push(msg);
         } else {
             notes.push(format!("best effort: {msg}"));

@@ -287,12 +287,52 @@ pub struct RunOptions {
     pub plan_only: bool,
     /// What drives sut.car (`planned`: its plan).
     pub sut: sut::SutChoice,
+    /// What drives the other vehicles (`driver` by default; `planned`
+    /// replays their plans exactly, as litesim did before drivers).
+    pub npc: Npc,
     /// Time the SUT may take per call (s); `None`: the test's
     /// `sut_timeout`, else 1 s.
     pub sut_timeout: Option<f64>,
     /// Pace the steps to the wall clock (hardware in the loop), with this
     /// policy for late steps; `None`: as fast as possible.
     pub realtime: Option<realtime::Policy>,
+}
+
+/// What drives the scenario's vehicles other than sut.car (`--npc`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Npc {
+    /// A driver each (ACC car-following, the plan's lanes and speeds as
+    /// goals, gap goals pursued within its limits until the phase ends).
+    #[default]
+    Driver,
+    /// Each replays its plan exactly (re-timed for gap goals in a closed
+    /// loop): the player litesim was before drivers.
+    Planned,
+}
+
+impl Npc {
+    /// Planned replay (what a summary leaves unsaid).
+    pub fn is_planned(&self) -> bool {
+        *self == Npc::Planned
+    }
+
+    /// `driver` or `planned`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Npc::Driver => "driver",
+            Npc::Planned => "planned",
+        }
+    }
+
+    /// From its name.
+    pub fn parse(name: &str) -> Option<Self> {
+        match name {
+            "driver" => Some(Npc::Driver),
+            "planned" => Some(Npc::Planned),
+            _ => None,
+        }
+    }
 }
 
 /// The run summary: deterministic (no wall-clock fields).
@@ -316,6 +356,10 @@ pub struct Summary {
     pub mode: DriveMode,
     /// What drove sut.car (`planned`, `acc`, `fmt-mpc`, `grpc://…`).
     pub sut: String,
+    /// What drove the other vehicles (absent: `planned`, their plans
+    /// replayed, as summaries before drivers had it).
+    #[serde(skip_serializing_if = "Npc::is_planned")]
+    pub npc: Npc,
     /// Planned duration (s).
     pub duration: f64,
     /// Steps executed.
@@ -555,6 +599,7 @@ fn run_here(
                 model,
                 mode,
                 sut: opts.sut.name(),
+                npc: opts.npc,
                 duration: plan.duration,
                 steps: 0,
                 roads: sol.roads.clone(),
@@ -608,19 +653,23 @@ fn run_here(
             name: opts.sut.name(),
             source,
         })?;
-    // Ambient traffic joins the plan's actors (at their start) and is
-    // driven by the traffic engine during the run.
+    // Drivers take over the scenario's other vehicles (`--npc driver`)
+    // and the ambient traffic, which joins the plan's actors at its start.
     let mut plan = plan;
-    let mut ambient = None;
+    let mut drivers = None;
     let mut traffic_actors = Vec::new();
-    if let (Some(decl), Some(graph), Some(net)) = (
-        &prep.test.config.traffic,
-        &prep.lane_graph,
-        prep.net.as_deref(),
-    ) {
-        let (amb, actors) = runtime::traffic::ambient::Ambient::place(
-            decl,
-            graph.clone(),
+    let npc = opts.npc == Npc::Driver;
+    if let Some(net) = prep.net.as_deref()
+        && (npc || prep.test.config.traffic.is_some())
+    {
+        let graph = match &prep.lane_graph {
+            Some(g) => g.clone(),
+            None => Arc::new(runtime::traffic::LaneGraph::new(net)),
+        };
+        let (d, actors) = runtime::traffic::driven::Driven::place(
+            prep.test.config.traffic.as_ref(),
+            npc,
+            graph,
             net,
             &plan,
             f64::from(step_ms) / 1000.0,
@@ -628,7 +677,10 @@ fn run_here(
         )?;
         plan.actors.extend(actors.iter().cloned());
         traffic_actors = actors;
-        ambient = Some(amb);
+        notes.extend(d.notes.iter().cloned());
+        if !d.traffic.vehicles.is_empty() {
+            drivers = Some(d);
+        }
     }
     let replan = |fixed: &BTreeMap<String, f64>| {
         plan_test_with(prep, seed, step_ms, fixed).map(|(_, mut p)| {
@@ -643,15 +695,37 @@ fn run_here(
         &cfg,
         sut.as_deref_mut(),
         Some(&replan),
-        ambient.as_mut(),
+        drivers.as_mut(),
     )?;
-    if let Some(a) = &ambient {
-        let contacts = a.traffic.contacts.len();
+    if let Some(d) = &drivers {
+        let ids = |slots: &[(usize, u32)]| {
+            slots
+                .iter()
+                .map(|&(i, _)| plan.actors[i].id.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        if !d.npcs.is_empty() {
+            notes.push(format!(
+                "driven by drivers (--npc driver): {}",
+                ids(&d.npcs)
+            ));
+        }
+        if d.decl.is_some() {
+            notes.push(format!(
+                "ambient traffic: {} vehicles (traffic.0 …), {} re-entries around sut.car",
+                d.traffic.vehicles.len() - d.npcs.len(),
+                d.recycled,
+            ));
+        }
         notes.push(format!(
-            "ambient traffic: {} vehicles (traffic.0 …), {} re-entries around sut.car, {} lane changes, {contacts} contacts seen by the drivers",
-            a.traffic.vehicles.len(),
-            a.recycled,
-            a.traffic.vehicles.iter().map(|v| u64::from(v.lane_changes)).sum::<u64>(),
+            "drivers: {} lane changes, {} contacts seen by the drivers",
+            d.traffic
+                .vehicles
+                .iter()
+                .map(|v| u64::from(v.lane_changes))
+                .sum::<u64>(),
+            d.traffic.contacts.len(),
         ));
     }
     // Conditions that held at other times than planned made a new plan.
@@ -682,6 +756,7 @@ fn run_here(
             model: ex.model,
             mode,
             sut: opts.sut.name(),
+            npc: opts.npc,
             duration: plan.duration,
             steps: ex.steps,
             roads: sol.roads,

@@ -994,10 +994,13 @@ fn plan_once(
         t1: f64,
         at: String,
         mods: Vec<Intent>,
+        /// Where each of `mods` is written (`file:line:col`).
+        mod_at: Vec<String>,
     }
     let mut rleaves = Vec::new();
     for l in &leaves {
         let mut mods = Vec::new();
+        let mut mod_at = Vec::new();
         for m in &l.mods {
             let mut vals = BTreeMap::new();
             let mut refs = BTreeMap::new();
@@ -1008,7 +1011,10 @@ fn plan_once(
                     vals.insert(k.clone(), v);
                 }
             }
-            mods.extend(Intent::decode(&m.name, &at_kind(m), &vals, &refs));
+            if let Some(i) = Intent::decode(&m.name, &at_kind(m), &vals, &refs) {
+                mods.push(i);
+                mod_at.push(m.at.clone());
+            }
         }
         rleaves.push(RLeaf {
             actor: l.actor.clone(),
@@ -1018,6 +1024,7 @@ fn plan_once(
             t1: l.t1,
             at: l.at.clone(),
             mods,
+            mod_at,
         });
     }
 
@@ -1121,7 +1128,7 @@ fn plan_once(
                 &index,
                 rng,
                 &roads_ok,
-                &leaf.at,
+                (&leaf.at, &leaf.mod_at),
             )?;
             placed.insert(id, m);
         }
@@ -1572,9 +1579,10 @@ fn place(
     index: &BTreeMap<String, usize>,
     rng: &mut Rng,
     roads_ok: &[usize],
-    at: &str,
+    (at, mod_at): (&str, &[String]),
 ) -> Result<Motion, ScenarioError> {
     let me = &plans[i];
+    check_start_combination(net, me, mods, mod_at, placed)?;
     // The modifiers that shape the start (`at: end` ones are goals).
     let starting = || mods.iter().filter(|m| m.at() != At::End);
     let mut mo = Motion {
@@ -1616,6 +1624,20 @@ fn place(
         && let Some(om) = placed.get(o)
     {
         mo.pos = om.pos;
+        // `lane(n)` beside a position relative to `o`: lane n of o's road
+        // in o's direction of travel (d along o's lane, below).
+        if let Some((Some(n), None)) = &lane_mod {
+            let fwd = net.travels_forward(om.pos);
+            let lanes = net.lanes_same_way(om.pos.road, om.pos.s, fwd);
+            mo.pos.lane = *lanes.get(lane_index(lanes.len(), *n)).ok_or_else(|| {
+                ScenarioError::Plan(format!(
+                    "{at}: lane {n} asked for {} beside {o}, but road {} has {} lane(s) that way",
+                    me.id,
+                    net.roads()[om.pos.road].id,
+                    lanes.len()
+                ))
+            })?;
+        }
     } else {
         let road = match &along_road {
             Some(id) => net.road_index(id).ok_or_else(|| {
@@ -1767,6 +1789,62 @@ fn place(
         },
     };
     Ok(mo)
+}
+
+/// Refuses start modifiers that cannot all hold, naming each: two that
+/// both fix the lane, or `along(r)` with a position relative to an actor
+/// on another road. (`lane(n)` with `position(…, ahead_of: x)` holds: the
+/// actor stands in lane n, d along x's lane.)
+fn check_start_combination(
+    net: &RoadNetwork,
+    me: &ActorPlan,
+    mods: &[Intent],
+    mod_at: &[String],
+    placed: &BTreeMap<String, Motion>,
+) -> Result<(), ScenarioError> {
+    let starting: Vec<(usize, &Intent)> = mods
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.at() != At::End)
+        .collect();
+    let where_ = |k: usize| mod_at.get(k).map_or("?", String::as_str);
+    let lanes: Vec<usize> = starting
+        .iter()
+        .filter(|(_, m)| matches!(m, Intent::Lane { .. }))
+        .map(|(k, _)| *k)
+        .collect();
+    if lanes.len() > 1 {
+        return Err(ScenarioError::Plan(format!(
+            "{}: lane(…) and {}: lane(…) both set {}'s lane at the start; only one can hold",
+            where_(lanes[0]),
+            where_(lanes[1]),
+            me.id
+        )));
+    }
+    let along = starting.iter().find_map(|(k, m)| match m {
+        Intent::Along { road: Some(r), .. } => Some((*k, r.clone())),
+        _ => None,
+    });
+    let position = starting.iter().find_map(|(k, m)| match m {
+        Intent::Position {
+            reference: Some((_, o)),
+            ..
+        } => Some((*k, o.clone())),
+        _ => None,
+    });
+    if let (Some((ka, road)), Some((kp, o))) = (along, position)
+        && let Some(om) = placed.get(&o)
+        && net.road_index(&road).is_some_and(|r| r != om.pos.road)
+    {
+        return Err(ScenarioError::Plan(format!(
+            "{}: along({road}) and {}: position(…, {o}) cannot both hold for {}: {o} starts on road {}",
+            where_(ka),
+            where_(kp),
+            me.id,
+            net.roads()[om.pos.road].id
+        )));
+    }
+    Ok(())
 }
 
 /// The index in a right-to-left list of `len` lanes of lane number `n`

@@ -16,6 +16,7 @@ fn carla(name: &str) -> PathBuf {
 fn go(test: &Path, sut: &str) -> litesim_scenario::RunResult {
     let prep = prepare(test, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
     let opts = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         record: true,
         sut: litesim_scenario::sut::SutChoice::builtin(sut).unwrap(),
         ..RunOptions::default()
@@ -66,6 +67,7 @@ fn path_over_junction_picks_a_road_that_reaches_the_junction() {
     let net = prep.net.as_ref().unwrap();
     for seed in 1..=8 {
         let opts = RunOptions {
+            npc: litesim_scenario::Npc::Planned,
             seed: Some(seed),
             plan_only: true,
             ..RunOptions::default()

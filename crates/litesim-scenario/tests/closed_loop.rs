@@ -1,5 +1,7 @@
 //! The closed loop: a system under test drives sut.car and the scenario
-//! reacts. Each acceptance case of the closed-loop issue, in-process.
+//! reacts. Each acceptance case of the closed-loop issue, in-process, with
+//! the other actors replaying their plans (`--npc planned`: re-timed for
+//! gap goals, shifted for lane goals); drivers are `tests/drivers.rs`'.
 
 use litesim_scenario::sut::{
     Observation, Sut, SutChoice, SutCommand, SutError, SutFactory, SutInfo,
@@ -12,6 +14,7 @@ use common::{example, example_file};
 
 fn go_with(name: &str, sut: SutChoice, mode: DriveMode) -> RunResult {
     let opts = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         seed: Some(1),
         record: true,
         sut,
@@ -320,6 +323,7 @@ fn a_gap_goal_missed_fails_a_strict_run_and_is_a_note_in_best_effort() {
     let f = example_file(&text);
     let p = prepare(f.path(), &LoadOptions::default()).unwrap();
     let opts = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         sut: sprint(),
         ..RunOptions::default()
     };
@@ -514,6 +518,7 @@ fn every_threshold_names_time_actors_and_value() {
     );
     let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
     let opts = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         seed: Some(1),
         sut: SutChoice::Acc,
         ..RunOptions::default()
@@ -704,6 +709,7 @@ fn lane_goals_chain_through_other_actors_and_side_of_follows_the_sut() {
     let f = example_file(FOLLOWERS);
     let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
     let opts = |sut| RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         seed: Some(1),
         record: true,
         sut,
@@ -835,6 +841,7 @@ fn a_realtime_overrun_fails_the_run_under_the_fail_policy() {
     let f = example_file(THREE_SECONDS);
     let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
     let opts = |policy| RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         sut: SutChoice::External(Arc::new(SlowFactory)),
         realtime: Some(policy),
         ..RunOptions::default()

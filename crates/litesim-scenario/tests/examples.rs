@@ -15,6 +15,7 @@ use common::{example, example_file, root};
 fn go(name: &str, seed: u64, mode: DriveMode) -> RunResult {
     let prep = example(name);
     let opts = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         seed: Some(seed),
         mode: Some(mode),
         record: true,
@@ -479,6 +480,7 @@ fn the_seed_smoke_test_runs_with_only_ftx_and_is_bit_stable() {
     // Kinematic, as the golden always was (the configuration's default,
     // dynamic, has its own golden below).
     let opts = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         record: true,
         mode: Some(DriveMode::Kinematic),
         ..RunOptions::default()
@@ -525,6 +527,7 @@ const GOLDEN_SMOKE_LOG: u64 = 0xef02_e064_66f6_8ed9;
 fn the_dummy_configuration_drives_dynamically_with_readable_commands() {
     let prep = smoke();
     let opts = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         record: true,
         ..RunOptions::default()
     };
@@ -560,6 +563,7 @@ fn the_dummy_configuration_drives_dynamically_with_readable_commands() {
         "dynamic smoke log digest changed: {d:#018x}"
     );
     let kinematic = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         mode: Some(DriveMode::Kinematic),
         ..RunOptions::default()
     };
@@ -583,6 +587,7 @@ fn in_process_and_grpc_runs_are_identical() {
         let prep = example(name);
         let mut remote = litesim_grpc::RemoteSsp::connect(&addr.to_string()).unwrap();
         let opts = RunOptions {
+            npc: litesim_scenario::Npc::Planned,
             seed: Some(3),
             mode: Some(mode),
             record: true,
@@ -617,6 +622,7 @@ fn batch_spec(
         load: LoadOptions::default(),
         calibration_dir: None,
         sut: Default::default(),
+        npc: litesim_scenario::Npc::Planned,
         sut_timeout: None,
         save_failed: false,
         save_failed_mcap: false,
@@ -748,6 +754,7 @@ fn every_profile_and_model_config_runs_the_smoke_shape() {
         let (_f, prep) = beside_smoke(config, PAIR);
         for mode in [DriveMode::Kinematic, DriveMode::Dynamic] {
             let opts = RunOptions {
+                npc: litesim_scenario::Npc::Planned,
                 mode: Some(mode),
                 ..RunOptions::default()
             };
@@ -798,6 +805,7 @@ fn a_left_handed_profile_sees_the_world_mirrored_like_its_map() {
     let mut session = litesim_scenario::in_process();
     // Kinematic: the dummy configuration it imports would drive dynamically.
     let kinematic = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         mode: Some(DriveMode::Kinematic),
         ..RunOptions::default()
     };
@@ -1123,6 +1131,7 @@ fn an_observed_run_streams_the_same_mcap_as_its_finished_log() {
         let pieces: Arc<Mutex<(usize, Vec<litesim_log::SimulationLog>)>> = Arc::default();
         let seen = Arc::clone(&pieces);
         let opts = RunOptions {
+            npc: litesim_scenario::Npc::Planned,
             record: true,
             observer: Some(litesim_scenario::TickObserver(Arc::new(Mutex::new(
                 move |log: &litesim_log::SimulationLog| {

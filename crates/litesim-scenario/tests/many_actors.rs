@@ -17,6 +17,7 @@ fn prepared() -> (tempfile::NamedTempFile, Prepared) {
 
 fn opts() -> RunOptions {
     RunOptions {
+        npc: litesim_scenario::Npc::Planned,
         seed: Some(1),
         record: true,
         ..RunOptions::default()
@@ -132,6 +133,7 @@ fn many_actors_run_on_a_pool_thread_and_the_rest_where_called() {
         let threads: Arc<Mutex<std::collections::BTreeSet<Option<usize>>>> = Arc::default();
         let seen = Arc::clone(&threads);
         let opts = RunOptions {
+            npc: litesim_scenario::Npc::Planned,
             sut,
             record: true,
             observer: Some(litesim_scenario::TickObserver(Arc::new(Mutex::new(

@@ -188,6 +188,7 @@ fn a_faster_car_overtakes_a_truck_on_the_left_and_returns_right() {
         at_dead_end: false,
         lane_changes: 0,
         active: true,
+        goals: Default::default(),
     };
     t.add(vehicle(
         300.0,

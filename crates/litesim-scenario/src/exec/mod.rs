@@ -110,6 +110,9 @@ pub struct Executed {
     pub coverage: Vec<crate::coverage::Sample>,
     /// A real-time run under the `fail` policy overran: the first overrun.
     pub realtime_failure: Option<String>,
+    /// The actors drivers drove (their missed goals are the scenario's,
+    /// not the SUT's).
+    pub driven: std::collections::BTreeSet<String>,
 }
 
 /// Plans the test again with the given condition times fixed.
@@ -419,11 +422,15 @@ pub fn execute(
     cfg: &ExecConfig,
     mut sut: Option<&mut (dyn Sut + '_)>,
     replan: Option<&Replan<'_>>,
-    mut ambient: Option<&mut crate::runtime::traffic::ambient::Ambient>,
+    mut drivers_of: Option<&mut crate::runtime::traffic::driven::Driven>,
 ) -> Result<Executed, ScenarioError> {
-    // Ambient traffic's actors come last in the plan; they are moved by
-    // the traffic engine, not by their (one-sample) plan.
-    let driven_from = plan.actors.len() - ambient.as_ref().map_or(0, |a| a.traffic.vehicles.len());
+    // The actors drivers drive (the scenario's vehicles under `--npc
+    // driver`, ambient traffic) are moved by the traffic engine, not by
+    // their plans.
+    let driven: Vec<bool> = match drivers_of.as_ref() {
+        Some(d) => d.driven.iter().map(Option::is_some).collect(),
+        None => vec![false; plan.actors.len()],
+    };
     // The plan in force: replaced when a condition holds live at another
     // time than planned (closed loop only).
     let mut plan: Cow<Plan> = Cow::Borrowed(plan);
@@ -523,7 +530,7 @@ pub fn execute(
         });
         let closed_ego = ego_i == Some(dims.len());
         let dynamic = !closed_ego
-            && dims.len() < driven_from
+            && !driven[dims.len()]
             && cfg.mode == DriveMode::Dynamic
             && a.kind == crate::elab::ActorKind::Vehicle
             && a.samples.iter().any(|s| s.v > 0.0);
@@ -613,7 +620,7 @@ pub fn execute(
     // 100-vehicle test 1.25× slower: a chunk's ~4.6 MB of states pushed
     // the checkers' tables out of the cache; 2,000 re-sends too much
     // overlap — BENCHMARKS.md, eleventh session).
-    let open_loop = drivers.iter().all(Option::is_none) && ego_i.is_none() && ambient.is_none();
+    let open_loop = drivers.iter().all(Option::is_none) && ego_i.is_none() && drivers_of.is_none();
     // Paced to the wall clock: one step per call, each released on time.
     let mut pacer = cfg
         .realtime
@@ -653,7 +660,7 @@ pub fn execute(
             .collect(),
         _ => Vec::new(),
     };
-    if let (Some(amb), Some(l), Some(n)) = (ambient.as_deref_mut(), lights.as_ref(), net) {
+    if let (Some(amb), Some(l), Some(n)) = (drivers_of.as_deref_mut(), lights.as_ref(), net) {
         amb.set_lights(n, &l.boxes, &box_roads);
     }
     let mut warps = vec![Warp::new(); ids.len()];
@@ -962,10 +969,10 @@ pub fn execute(
                 .map(|((a, w), keep)| Some(plan_trajectory(a, w, clock, keep)))
                 .collect_into_vec(&mut made);
         }
-        if let (Some(amb), Some(n)) = (ambient.as_deref_mut(), net) {
-            // Every other actor as it stands after the last step (at the
-            // start: as planned), seen by the drivers from one snapshot.
-            let others: Vec<(litesim_core::Vec2, f64, f64, f64)> = (0..driven_from)
+        if let (Some(amb), Some(n)) = (drivers_of.as_deref_mut(), net) {
+            // Every actor as it stands after the last step (at the start:
+            // as planned), seen by the drivers from one snapshot.
+            let states: Vec<(litesim_core::Vec2, f64, f64, f64)> = (0..plan.actors.len())
                 .map(|i| match rb.boxes.get(i) {
                     Some(b) => (
                         litesim_core::Vec2::new(b.x, b.y),
@@ -979,17 +986,26 @@ pub fn execute(
                     }
                 })
                 .collect();
-            let ego_xy = ego_index.and_then(|e| others.get(e)).map(|o| o.0);
-            amb.step(n, &others, &red, now_ms, step_ms, ego_xy, |k, mut traj| {
-                let id = &plan.actors[driven_from + k as usize].id;
-                if mirror {
-                    traj.points = traj.points.into_iter().map(|c| to_sim(c, true)).collect();
-                }
-                ssp.set_xy_trajectory(id, traj).map_err(ssp_err)
-            })?;
+            let ego_xy = ego_index.map(|e| states[e].0);
+            amb.step(
+                n,
+                &plan,
+                &states,
+                &red,
+                now_ms,
+                step_ms,
+                ego_xy,
+                |i, mut traj| {
+                    if mirror {
+                        traj.points = traj.points.into_iter().map(|c| to_sim(c, true)).collect();
+                    }
+                    ssp.set_xy_trajectory(&plan.actors[i].id, traj)
+                        .map_err(ssp_err)
+                },
+            )?;
         }
-        for (i, a) in plan.actors.iter().enumerate().take(driven_from) {
-            if Some(i) == ego_i {
+        for (i, a) in plan.actors.iter().enumerate() {
+            if Some(i) == ego_i || driven[i] {
                 continue;
             }
             match drivers[i].as_mut() {
@@ -1102,7 +1118,7 @@ pub fn execute(
             goal_actors: &goal_actors,
             warps: &warps,
             sent: &sent,
-            driven_from,
+            driven: &driven,
         };
         // The next chunk's clock as the loop's head will make it: from
         // here to the end or the next light switch.
@@ -1193,6 +1209,13 @@ pub fn execute(
         }
         log
     });
+    let driven_ids = plan
+        .actors
+        .iter()
+        .zip(&driven)
+        .filter(|(_, d)| **d)
+        .map(|(a, _)| a.id.clone())
+        .collect();
     let replanned = match plan {
         Cow::Owned(p) => Some(p),
         Cow::Borrowed(_) => None,
@@ -1212,6 +1235,7 @@ pub fn execute(
         realtime: pacer.as_ref().map(crate::realtime::Pacer::stats),
         realtime_failure,
         coverage: samples.into_iter().flatten().collect(),
+        driven: driven_ids,
     })
 }
 

@@ -54,9 +54,9 @@ pub(super) struct ReadEnv<'e, 'c> {
     pub warps: &'e [Warp],
     /// The trajectories sent for the steps being read.
     pub sent: &'e [Sent],
-    /// Actors from this index on are driven by the traffic engine: no plan
-    /// to track (their planned point is where they are).
-    pub driven_from: usize,
+    /// Per actor: driven by a driver (no plan to track: its planned point
+    /// is where it is).
+    pub driven: &'e [bool],
 }
 
 /// What reading steps back changes: the checks, the log, the last states.
@@ -160,7 +160,7 @@ impl Readback {
             goal_actors,
             warps,
             sent,
-            driven_from,
+            driven,
         } = *env;
         let Readback {
             boxes,
@@ -217,7 +217,7 @@ impl Readback {
                 let st = &step[slots[i]];
                 let w = &warps[i];
                 let p = match sent[i].planned(info.sim_time_ms, step_ms, w) {
-                    _ if i >= driven_from => (st.pose.position.x, st.pose.position.y, st.speed),
+                    _ if driven[i] => (st.pose.position.x, st.pose.position.y, st.speed),
                     Some(p) => p,
                     None => {
                         let p = shifted(a.at(w.tau(t), plan.dt), w.offset);

@@ -17,7 +17,7 @@
 //! actors) enter each step as [`Obstacle`]s: drivers follow and yield to
 //! them like to anyone else.
 
-pub mod ambient;
+pub mod driven;
 pub mod lanes;
 pub mod spawn;
 
@@ -68,6 +68,59 @@ pub struct Vehicle {
     /// On the map: `false` once it left at the map's edge (it takes no
     /// part in steps until the caller places it again).
     pub active: bool,
+    /// Goals the scenario gives this step (a scenario's own vehicle);
+    /// `Goals::default()` for ambient traffic.
+    pub goals: Goals,
+}
+
+impl Vehicle {
+    /// The parameters its car-following runs with: with a speed goal the
+    /// desired speed does not limit (the goal's tracking does, see
+    /// [`Vehicle::track`]).
+    fn follow_params(&self) -> DriverParams {
+        match self.goals.speed {
+            Some(goal) => DriverParams {
+                desired_speed: 1.0 + 1.2 * goal.max(self.v),
+                ..self.params
+            },
+            None => self.params,
+        }
+    }
+
+    /// The acceleration that tracks the speed goal (a proportional law
+    /// with a 0.5 s time constant) within the driver's comfort limits (its
+    /// safe deceleration for a gap goal).
+    fn track(&self) -> f64 {
+        let brake = if self.goals.firm {
+            self.params.safe_decel.max(self.params.comfort_decel)
+        } else {
+            self.params.comfort_decel
+        };
+        match self.goals.speed {
+            Some(goal) => (2.0 * (goal - self.v)).clamp(-brake, self.params.max_accel),
+            None => f64::INFINITY,
+        }
+    }
+}
+
+/// What the scenario asks of a driver now: the runtime updates them each
+/// step from the plan (a phase's speed, its lane, a gap to another actor)
+/// and releases them when the phase ends. A driver pursues them within
+/// its own limits and never by driving into anyone.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Goals {
+    /// Track this speed (m/s) instead of cruising at the desired speed.
+    pub speed: Option<f64>,
+    /// Move to this lane (one lane at a time, as soon as the gap there is
+    /// physically free, whether or not MOBIL would); MOBIL is off while set.
+    pub lane: Option<u32>,
+    /// The lanes of the planned route, in order: at a fork, the successor
+    /// among them is taken.
+    pub route: Vec<u32>,
+    /// The speed goal keeps a gap to another actor: it is tracked braking
+    /// up to the driver's safe deceleration (`b_safe`, what it may also
+    /// impose on others), not only its comfortable one.
+    pub firm: bool,
 }
 
 /// An actor the engine does not drive, as it stands this step.
@@ -193,12 +246,18 @@ impl Traffic {
     }
 
     /// The successor of `lane` that vehicle `route` takes (`None`: dead end).
-    fn next_lane(g: &LaneGraph, lane: u32, route: u64) -> Option<u32> {
+    fn next_lane(g: &LaneGraph, lane: u32, v: &Vehicle) -> Option<u32> {
         let next = &g.lanes[lane as usize].next;
         match next.len() {
             0 => None,
             1 => Some(next[0]),
-            n => Some(next[(mix(route ^ u64::from(lane)) % n as u64) as usize]),
+            n => next
+                .iter()
+                .copied()
+                .find(|l| v.goals.route.contains(l))
+                .or(Some(
+                    next[(mix(v.route ^ u64::from(lane)) % n as u64) as usize],
+                )),
         }
     }
 
@@ -303,7 +362,7 @@ impl Traffic {
     /// asks for the lowest acceleration — within [`LOOKAHEAD_M`].
     fn leader(&self, g: &LaneGraph, me: u32, lane: u32, u: f64, half: f64) -> (Leader, f64) {
         let veh = &self.vehicles[me as usize];
-        let p = &veh.params;
+        let p = &veh.follow_params();
         // The constraint that asks for the lowest acceleration wins.
         let mut best = (
             Leader {
@@ -353,7 +412,7 @@ impl Traffic {
             if ahead > LOOKAHEAD_M {
                 break;
             }
-            match Self::next_lane(g, lane, veh.route) {
+            match Self::next_lane(g, lane, veh) {
                 Some(n) => {
                     lane = n;
                     from = 0.0;
@@ -389,10 +448,10 @@ impl Traffic {
 
     /// Distance from `u` in `lane` to where the vehicle's route ends
     /// (infinite when farther than [`DEAD_END_NOTICE_M`]).
-    fn dead_end_in(g: &LaneGraph, mut lane: u32, u: f64, route: u64) -> f64 {
+    fn dead_end_in(g: &LaneGraph, mut lane: u32, u: f64, v: &Vehicle) -> f64 {
         let mut d = g.lanes[lane as usize].length - u;
         while d < DEAD_END_NOTICE_M {
-            match Self::next_lane(g, lane, route) {
+            match Self::next_lane(g, lane, v) {
                 Some(n) => {
                     lane = n;
                     d += g.lanes[n as usize].length;
@@ -438,13 +497,20 @@ impl Traffic {
                 // Mid-change: the slower of both lanes (highway-env).
                 a = a.min(self.leader(g, me, f, v.u, half).1);
             }
-            a = a.min(self.courtesy(g, me));
+            a = a.min(self.courtesy(g, me)).min(v.track());
             let mut change = 0;
+            if let Some(target) = v.goals.lane
+                && v.from.is_none()
+                && target != v.lane
+            {
+                change = self.forced_change(g, me, target);
+            }
             // In a lane that ends, drivers look for a gap five times as
             // often, standing or not; elsewhere standing drivers stay.
-            let ending = Self::dead_end_in(g, v.lane, v.u, v.route).is_finite();
+            let ending = Self::dead_end_in(g, v.lane, v.u, v).is_finite();
             let every = if ending { (period / 5).max(1) } else { period };
             if v.from.is_none()
+                && v.goals.lane.is_none()
                 && !v.at_dead_end
                 && (v.v > 1.0 || ending)
                 && (self.tick + slot as u64).is_multiple_of(every)
@@ -488,8 +554,8 @@ impl Traffic {
         let info = &g.lanes[v.lane as usize];
         let mut a = f64::INFINITY;
         for side in [info.left, info.right].into_iter().flatten() {
-            if Self::dead_end_in(g, side, v.u, v.route).is_infinite()
-                || Self::dead_end_in(g, v.lane, v.u, v.route).is_finite()
+            if Self::dead_end_in(g, side, v.u, v).is_infinite()
+                || Self::dead_end_in(g, v.lane, v.u, v).is_finite()
             {
                 continue;
             }
@@ -539,12 +605,63 @@ impl Traffic {
         }
     }
 
+    /// A change the scenario asks for: one lane towards `target` (a lane
+    /// of the same section to the left or right) as soon as the gap there
+    /// is physically free — no one within a metre ahead or behind, and the
+    /// new follower able to stay behind at its emergency deceleration —
+    /// whether or not MOBIL would change; −1, +1, or 0 (not yet).
+    fn forced_change(&self, g: &LaneGraph, me: u32, target: u32) -> i8 {
+        let v = &self.vehicles[me as usize];
+        let chain = |mut l: u32, left: bool| {
+            while let Some(n) = if left {
+                g.lanes[l as usize].left
+            } else {
+                g.lanes[l as usize].right
+            } {
+                if n == target {
+                    return true;
+                }
+                l = n;
+            }
+            false
+        };
+        let (side, next) = if chain(v.lane, true) {
+            (1, g.lanes[v.lane as usize].left)
+        } else if chain(v.lane, false) {
+            (-1, g.lanes[v.lane as usize].right)
+        } else {
+            return 0;
+        };
+        let Some(t) = next else { return 0 };
+        let half = 0.5 * v.length;
+        let (lead, _) = self.leader(g, me, t, v.u, half);
+        if lead.gap < 1.0 {
+            return 0;
+        }
+        if let Some((f, d)) = self.follower(g, me, t, v.u) {
+            let gap = d - half - f.half;
+            let after = self.accel_with(
+                f.who,
+                f.v,
+                Some(Leader {
+                    gap,
+                    speed: v.v,
+                    accel: v.a,
+                }),
+            );
+            if gap < 1.0 || after <= -9.0 {
+                return 0;
+            }
+        }
+        side
+    }
+
     /// MOBIL over both neighbours: −1 (right), +1 (left) or 0.
     fn mobil(&self, g: &LaneGraph, me: u32, a_now: f64, lead_now: Leader) -> i8 {
         let v = &self.vehicles[me as usize];
         let info = &g.lanes[v.lane as usize];
         let half = 0.5 * v.length;
-        let here_ends = Self::dead_end_in(g, v.lane, v.u, v.route);
+        let here_ends = Self::dead_end_in(g, v.lane, v.u, v);
         let old_follower = self.follower(g, me, v.lane, v.u).map(|(o, d)| {
             let gap_me = d - half - o.half;
             let now = self.accel_with(
@@ -577,7 +694,7 @@ impl Traffic {
         let mut best = (0i8, f64::NEG_INFINITY);
         for (side, target) in [(1i8, info.left), (-1i8, info.right)] {
             let Some(t) = target else { continue };
-            let there_ends = Self::dead_end_in(g, t, v.u, v.route);
+            let there_ends = Self::dead_end_in(g, t, v.u, v);
             if there_ends < here_ends {
                 continue;
             }
@@ -697,7 +814,7 @@ impl Traffic {
                 }
             }
             while v.u > g.lanes[v.lane as usize].length {
-                match Self::next_lane(g, v.lane, v.route) {
+                match Self::next_lane(g, v.lane, v) {
                     Some(n) => {
                         v.u -= g.lanes[v.lane as usize].length;
                         v.lane = n;

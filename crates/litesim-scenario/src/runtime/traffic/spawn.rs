@@ -91,6 +91,7 @@ pub fn fill(
             at_dead_end: false,
             lane_changes: 0,
             active: true,
+            goals: Default::default(),
         }));
     }
     Ok(slots)

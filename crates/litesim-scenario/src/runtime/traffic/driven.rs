@@ -1,0 +1,642 @@
+//! The actors of a run that drivers drive, stepped by the [`Traffic`]
+//! engine each step beside the actors it does not drive (sut.car, planned
+//! actors), which they follow and yield to as [`Obstacle`]s:
+//!
+//! - the scenario's own vehicles under `--npc driver`: each pursues the
+//!   goals its plan gives at the time (the phase's speed, its lane, a gap
+//!   to another actor until the phase ends) within its own limits, and
+//!   takes the plan's lanes at forks;
+//! - ambient traffic around sut.car: vehicles `traffic.N` placed at the
+//!   test's seed within the declared radius and kept around sut.car as it
+//!   moves — a vehicle that falls out of range or leaves the map is taken
+//!   off the road and placed again in a free spot at the far side of the
+//!   range, ahead of or behind sut.car (same id: the simulator's actor
+//!   list stays fixed during a run; the summary counts these re-entries).
+
+use super::spawn::{Density, fill};
+use super::{LaneGraph, Obstacle, StopLine, Traffic};
+use crate::elab::{ActorKind, TrafficDecl};
+use crate::error::ScenarioError;
+use crate::plan::{ActorPlan, Plan, PlanSample};
+use crate::reactive::{Body, gap};
+use litesim_core::Vec2;
+use litesim_core::geometry::Pose;
+use litesim_core::rng::Rng;
+use litesim_map::{Located, RoadNetwork};
+use litesim_ssp::api::{Coord6, XyTrajectory};
+use std::sync::Arc;
+
+/// Length and width of an ambient vehicle (m): a mid-size car.
+pub const SIZE: (f64, f64) = (4.5, 1.8);
+/// How often vehicles out of range are placed again (steps of 20 ms: 0.5 s).
+const RECYCLE_EVERY_S: f64 = 0.5;
+/// A vehicle farther than this many radii from sut.car is out of range.
+const OUT_OF_RANGE: f64 = 1.2;
+
+/// How far ahead on its plan a scenario vehicle looks for the lane it
+/// should be in (s): half a lane change, so that its change is centred
+/// where the plan's is.
+const LANE_LOOKAHEAD_S: f64 = 1.5;
+
+/// The driven actors of one run.
+#[derive(Debug)]
+pub struct Driven {
+    /// The map's lanes.
+    pub graph: Arc<LaneGraph>,
+    /// The engine and its vehicles: the scenario's driven vehicles first,
+    /// then ambient traffic (`traffic.K` for slot `npcs.len() + K`).
+    pub traffic: Traffic,
+    /// The ambient traffic's declaration (`None`: no ambient traffic).
+    pub decl: Option<TrafficDecl>,
+    /// The scenario's driven vehicles: (plan actor, slot).
+    pub npcs: Vec<(usize, u32)>,
+    /// Each plan actor's slot, when driven (ambient traffic included).
+    pub driven: Vec<Option<u32>>,
+    /// Each slot's plan actor.
+    actor_of: Vec<usize>,
+    /// Notes for the summary (vehicles that keep their plans, and why).
+    pub notes: Vec<String>,
+    /// Vehicles placed again after leaving the range or the map.
+    pub recycled: u64,
+    /// Where each traffic-light box's stop lines are: (lane, u).
+    box_lines: Vec<Vec<(u32, f64)>>,
+    /// Each plan actor's last map location (a hint for the next).
+    hints: Vec<Option<Located>>,
+    rng: Rng,
+    poses: Vec<Pose>,
+}
+
+impl Driven {
+    /// The driven actors of a run of `plan`: its vehicles (with `npc`)
+    /// that start on a driving lane and move, and the declared ambient
+    /// traffic placed around sut.car's start, avoiding the scenario's
+    /// actors. Returns them and one plan entry per ambient vehicle (its
+    /// start), to be appended to the plan's actors.
+    pub fn place(
+        decl: Option<&TrafficDecl>,
+        npc: bool,
+        graph: Arc<LaneGraph>,
+        net: &RoadNetwork,
+        plan: &Plan,
+        dt: f64,
+        seed: u64,
+    ) -> Result<(Self, Vec<ActorPlan>), ScenarioError> {
+        let mut me = Driven {
+            graph: graph.clone(),
+            traffic: Traffic::new(dt),
+            decl: decl.cloned(),
+            npcs: Vec::new(),
+            driven: vec![None; plan.actors.len()],
+            actor_of: Vec::new(),
+            notes: Vec::new(),
+            recycled: 0,
+            box_lines: Vec::new(),
+            hints: vec![None; plan.actors.len()],
+            rng: Rng::new(0),
+            poses: Vec::new(),
+        };
+        if npc {
+            me.place_npcs(net, plan);
+        }
+        let Some(decl) = decl else {
+            return Ok((me, Vec::new()));
+        };
+        let at = &decl.at;
+        if graph.is_empty() {
+            return Err(ScenarioError::Elaboration(format!(
+                "{at}: ambient traffic needs driving lanes, and the map has none"
+            )));
+        }
+        let ego = plan.actors.iter().find(|a| a.ego).ok_or_else(|| {
+            ScenarioError::Elaboration(format!(
+                "{at}: ambient traffic surrounds sut.car, which takes part in no phase"
+            ))
+        })?;
+        let centre = Vec2::new(ego.samples[0].x, ego.samples[0].y);
+        // Its own stream: the scenario's draws stay as they were.
+        let mut rng = Rng::new(seed ^ 0x7472_6166_6669_6300);
+        let start: Vec<(Vec2, f64, f64, f64)> = plan
+            .actors
+            .iter()
+            .map(|a| {
+                let s = a.samples[0];
+                (Vec2::new(s.x, s.y), s.yaw, s.v, a.length)
+            })
+            .collect();
+        let mut obstacles = me.obstacles(net, &start);
+        // The scenario's driven vehicles stand where they start, too.
+        for &(_, k) in &me.npcs {
+            let v = &me.traffic.vehicles[k as usize];
+            obstacles.push(Obstacle {
+                lane: v.lane,
+                u: v.u,
+                v: v.v,
+                a: 0.0,
+                length: v.length,
+            });
+        }
+        let d = Density {
+            per_km_per_lane: decl.density,
+            speed: decl.speed,
+            size: SIZE,
+        };
+        let r2 = decl.radius * decl.radius;
+        let slots = fill(
+            &mut me.traffic,
+            &graph,
+            &d,
+            &mut rng,
+            &obstacles,
+            |lane, u| {
+                graph.pose(net, lane, u, 0.0).is_some_and(|p| {
+                    let d = p.position.xy() - centre;
+                    d.dot(d) <= r2
+                })
+            },
+        )
+        .map_err(|e| ScenarioError::Elaboration(format!("{at}: {e}")))?;
+        let mut actors = Vec::with_capacity(slots.len());
+        for (n, &k) in slots.iter().enumerate() {
+            let v = &mut me.traffic.vehicles[k as usize];
+            v.params.time_gap = decl.time_gap;
+            v.params.politeness = decl.politeness;
+            let p = graph
+                .pose(net, v.lane, v.u, 0.0)
+                .unwrap_or(Pose::planar(0.0, 0.0, 0.0));
+            me.poses.push(p);
+            me.driven.push(Some(k));
+            me.actor_of.push(plan.actors.len() + n);
+            actors.push(ActorPlan {
+                id: format!("traffic.{n}"),
+                kind: ActorKind::Vehicle,
+                ego: false,
+                category: "car".into(),
+                model: None,
+                length: SIZE.0,
+                width: SIZE.1,
+                samples: vec![PlanSample {
+                    t: 0.0,
+                    x: p.position.x,
+                    y: p.position.y,
+                    yaw: p.yaw,
+                    v: v.v,
+                    a: 0.0,
+                }],
+                heading_trig: Default::default(),
+            });
+        }
+        me.hints.resize(plan.actors.len() + actors.len(), None);
+        me.rng = rng;
+        Ok((me, actors))
+    }
+
+    /// The scenario's vehicles that drivers take over: every vehicle but
+    /// sut.car whose plan moves and starts on a driving lane (the others
+    /// keep their plans, with a note).
+    fn place_npcs(&mut self, net: &RoadNetwork, plan: &Plan) {
+        for (i, a) in plan.actors.iter().enumerate() {
+            if a.ego || a.kind != ActorKind::Vehicle || a.samples.iter().all(|s| s.v <= 0.0) {
+                continue;
+            }
+            let s0 = a.samples[0];
+            let start = net
+                .locate(Vec2::new(s0.x, s0.y))
+                .and_then(|p| self.graph.locate(net, &p));
+            let Some((lane, u, lat)) =
+                start.filter(|&(l, _, lat)| lat.abs() < 0.5 * self.graph.lanes[l as usize].width)
+            else {
+                self.notes.push(format!(
+                    "{} keeps its plan: it does not start on a driving lane",
+                    a.id
+                ));
+                continue;
+            };
+            let _ = lat;
+            // The lanes its plan passes through, in order (for forks).
+            let mut route: Vec<u32> = Vec::new();
+            let mut hint = None;
+            for s in a.samples.iter().step_by(5) {
+                let here = net.locate_near(Vec2::new(s.x, s.y), hint);
+                hint = here;
+                if let Some((l, _, _)) = here.and_then(|p| self.graph.locate(net, &p))
+                    && route.last() != Some(&l)
+                {
+                    route.push(l);
+                }
+            }
+            let top = a.samples.iter().map(|s| s.v).fold(0.0, f64::max);
+            let slot = self.traffic.add(super::Vehicle {
+                lane,
+                u,
+                v: s0.v,
+                a: 0.0,
+                lat: 0.0,
+                from: None,
+                length: a.length,
+                width: a.width,
+                params: crate::runtime::driver::DriverParams::for_category(&a.category, top),
+                route: i as u64,
+                at_dead_end: false,
+                lane_changes: 0,
+                active: true,
+                goals: super::Goals {
+                    speed: Some(s0.v),
+                    lane: Some(lane),
+                    route,
+                    firm: false,
+                },
+            });
+            self.npcs.push((i, slot));
+            self.driven[i] = Some(slot);
+            self.actor_of.push(i);
+            self.poses.push(Pose::planar(s0.x, s0.y, s0.yaw));
+        }
+    }
+
+    /// The goals of the scenario's driven vehicles at time `t`: the plan's
+    /// speed (or the speed that closes a gap goal by the phase's end, while
+    /// the phase lasts) and the lane the plan is in a little ahead.
+    fn update_goals(
+        &mut self,
+        net: &RoadNetwork,
+        plan: &Plan,
+        states: &[(Vec2, f64, f64, f64)],
+        t: f64,
+    ) {
+        for &(i, k) in &self.npcs {
+            let a = &plan.actors[i];
+            let mut speed = a.at(t, plan.dt).v;
+            let mut firm = false;
+            for g in &plan.goals {
+                if g.actor != a.id || t < g.t0 - 1e-9 || t >= g.t1 - 1e-9 {
+                    continue;
+                }
+                let Some(r) = plan.actors.iter().position(|x| x.id == g.reference) else {
+                    continue;
+                };
+                let body = |j: usize| {
+                    let (xy, yaw, speed, length) = states[j];
+                    Body {
+                        x: xy.x,
+                        y: xy.y,
+                        yaw,
+                        speed,
+                        length,
+                    }
+                };
+                let (me, reference) = (body(i), body(r));
+                let now = gap(g, &me, &reference);
+                // The plan's gap and how it changes, with the error fed back
+                // over a second (less as the phase ends): the driver moves
+                // relative to where the reference actually is as the plan
+                // moved relative to where it planned it.
+                let planned = |at: f64| {
+                    let pb = |j: usize| {
+                        let p = plan.actors[j].at(at, plan.dt);
+                        Body {
+                            x: p.x,
+                            y: p.y,
+                            yaw: p.yaw,
+                            speed: p.v,
+                            length: plan.actors[j].length,
+                        }
+                    };
+                    gap(g, &pb(i), &pb(r))
+                };
+                let dt = 0.2;
+                let rate = (planned(t + dt) - planned(t)) / dt;
+                let tau = (g.t1 - t).clamp(0.3, 1.0);
+                let wanted_rate = rate + (planned(t) - now) / tau;
+                speed = (reference.speed + g.sign * wanted_rate).max(0.0);
+                firm = true;
+            }
+            let ahead = a.at(t + LANE_LOOKAHEAD_S, plan.dt);
+            let hint = self.hints[i];
+            let found = net.locate_near(Vec2::new(ahead.x, ahead.y), hint);
+            self.hints[i] = found;
+            let mut lane = found.and_then(|p| self.graph.locate(net, &p)).map(|x| x.0);
+            if let Some(l) = self.relative_lane(net, plan, states, i, t) {
+                lane = Some(l);
+            }
+            let v = &mut self.traffic.vehicles[k as usize];
+            v.goals.speed = Some(speed);
+            v.goals.firm = firm;
+            if let Some(l) = lane {
+                v.goals.lane = Some(l);
+            }
+        }
+    }
+
+    /// The lane a phase asks of actor `i` relative to another actor's real
+    /// lane at time `t`: a lane goal (`lane(same_as | left_of | right_of:
+    /// x, at: end)`) or a phase beside it (`lateral(d, side_of: x)`: the
+    /// plan's sideways offset from x, applied where x really is).
+    fn relative_lane(
+        &self,
+        net: &RoadNetwork,
+        plan: &Plan,
+        states: &[(Vec2, f64, f64, f64)],
+        i: usize,
+        t: f64,
+    ) -> Option<u32> {
+        let id = &plan.actors[i].id;
+        let active = |t0: f64, t1: f64| t >= t0 - 1e-9 && t < t1 - 1e-9;
+        let index = |r: &str| plan.actors.iter().position(|x| x.id == r);
+        let lane_at = |xy: Vec2, r: usize| {
+            net.locate_near(xy, self.hints.get(r).copied().flatten())
+                .and_then(|p| self.graph.locate(net, &p))
+                .map(|x| x.0)
+        };
+        let plan_lane = |at: f64| {
+            let p = plan.actors[i].at(at, plan.dt);
+            net.locate(Vec2::new(p.x, p.y))
+                .and_then(|p| self.graph.locate(net, &p))
+                .map(|x| x.0)
+        };
+        for g in plan.lane_goals.iter().filter(|g| &g.actor == id && active(g.t0, g.t1)) {
+            // Not before the plan's own change is due: the reference may
+            // still move, and a change once begun is finished.
+            if plan_lane(t + LANE_LOOKAHEAD_S) == plan_lane(g.t0) {
+                return None;
+            }
+            let r = index(&g.reference)?;
+            let l = lane_at(states[r].0, r)?;
+            let info = &self.graph.lanes[l as usize];
+            return match g.relation {
+                crate::intent::LaneRelation::SameAs => Some(l),
+                crate::intent::LaneRelation::LeftOf => info.left,
+                crate::intent::LaneRelation::RightOf => info.right,
+            };
+        }
+        for f in plan.side_follows.iter().filter(|f| &f.actor == id && active(f.t0, f.t1)) {
+            let r = index(&f.reference)?;
+            let (pm, pr) = (plan.actors[i].at(t, plan.dt), plan.actors[r].at(t, plan.dt));
+            let (s, c) = litesim_core::math::sin_cos(pr.yaw);
+            let offset = -(pm.x - pr.x) * s + (pm.y - pr.y) * c;
+            let (xy, yaw, _, _) = states[r];
+            let (s, c) = litesim_core::math::sin_cos(yaw);
+            return lane_at(Vec2::new(xy.x - offset * s, xy.y + offset * c), r);
+        }
+        None
+    }
+
+    /// The stop lines of the simulator's traffic-light boxes (`road` is
+    /// each box's road index): one per lane the box controls, where it
+    /// stands along the lane.
+    pub fn set_lights(
+        &mut self,
+        net: &RoadNetwork,
+        boxes: &[litesim_ssp::traffic::TrafficLightBox],
+        roads: &[Option<usize>],
+    ) {
+        self.box_lines = boxes
+            .iter()
+            .zip(roads)
+            .map(|(b, road)| {
+                let Some(road) = *road else {
+                    return Vec::new();
+                };
+                let r = &net.roads()[road];
+                let sec = r.section_index(b.s);
+                let ids: Vec<i32> = if b.valid_lanes.is_empty() {
+                    let s = &r.sections[sec];
+                    s.left.iter().chain(&s.right).map(|l| l.id).collect()
+                } else {
+                    b.valid_lanes.clone()
+                };
+                ids.into_iter()
+                    .filter_map(|id| self.graph.at_road_s(net, road, id, b.s))
+                    .collect()
+            })
+            .collect();
+    }
+
+    /// Where the actors the engine does not drive stand, in lanes: each
+    /// (position, heading, speed, length); one straddling two lanes counts
+    /// in both.
+    fn obstacles(&mut self, net: &RoadNetwork, actors: &[(Vec2, f64, f64, f64)]) -> Vec<Obstacle> {
+        let mut out = Vec::with_capacity(actors.len());
+        for (i, &(xy, _yaw, speed, length)) in actors.iter().enumerate() {
+            if xy.x.is_nan() {
+                // A driven actor: the engine has it already.
+                continue;
+            }
+            let hint = self.hints.get(i).copied().flatten();
+            let found = net.locate_near(xy, hint);
+            if let Some(h) = self.hints.get_mut(i) {
+                *h = found;
+            }
+            let Some((lane, u, lat)) = found.and_then(|p| self.graph.locate(net, &p)) else {
+                continue;
+            };
+            let o = Obstacle {
+                lane,
+                u,
+                v: speed.max(0.0),
+                a: 0.0,
+                length,
+            };
+            out.push(o);
+            let info = &self.graph.lanes[lane as usize];
+            let beside = if lat > 0.25 * info.width {
+                info.left
+            } else if lat < -0.25 * info.width {
+                info.right
+            } else {
+                None
+            };
+            if let Some(b) = beside {
+                out.push(Obstacle { lane: b, ..o });
+            }
+        }
+        out
+    }
+
+    /// One step: every plan actor as it stands (`states[i]`: position,
+    /// heading, speed, length), the lights' red flags per box, then every
+    /// driven actor's trajectory for the coming step from `now_ms` (in the
+    /// map's frame; `send` gets the plan actor's index and the trajectory).
+    #[allow(clippy::too_many_arguments)]
+    pub fn step(
+        &mut self,
+        net: &RoadNetwork,
+        plan: &Plan,
+        states: &[(Vec2, f64, f64, f64)],
+        red: &[bool],
+        now_ms: u64,
+        step_ms: u64,
+        ego: Option<Vec2>,
+        mut send: impl FnMut(usize, XyTrajectory) -> Result<(), ScenarioError>,
+    ) -> Result<(), ScenarioError> {
+        let t = now_ms as f64 / 1000.0;
+        self.update_goals(net, plan, states, t);
+        let others: Vec<(Vec2, f64, f64, f64)> = states
+            .iter()
+            .zip(&self.driven)
+            .map(|(s, d)| {
+                if d.is_some() {
+                    (Vec2::new(f64::NAN, f64::NAN), 0.0, 0.0, 0.0)
+                } else {
+                    *s
+                }
+            })
+            .collect();
+        let obstacles = self.obstacles(net, &others);
+        self.traffic.stop_lines.clear();
+        for (lines, &is_red) in self.box_lines.iter().zip(red) {
+            for &(lane, u) in lines {
+                self.traffic.stop_lines.push(StopLine {
+                    lane,
+                    u,
+                    red: is_red,
+                });
+            }
+        }
+        let every = ((RECYCLE_EVERY_S * 1000.0) as u64 / step_ms.max(1)).max(1);
+        let mut jumped = vec![false; self.traffic.vehicles.len()];
+        if let Some(c) = ego
+            && self.decl.is_some()
+            && self.traffic.tick().is_multiple_of(every)
+        {
+            self.recycle(net, c, &obstacles, &mut jumped);
+        }
+        self.traffic.step(&self.graph, &obstacles);
+        for (k, v) in self.traffic.vehicles.iter().enumerate() {
+            let before = self.poses[k];
+            let after = if v.active {
+                self.graph.pose(net, v.lane, v.u, v.lat).unwrap_or(before)
+            } else {
+                before
+            };
+            self.poses[k] = after;
+            let from = if jumped[k] { after } else { before };
+            let pt = |p: Pose| Coord6::xy_yaw(p.position.x, p.position.y, p.yaw);
+            send(
+                self.actor_of[k],
+                XyTrajectory {
+                    start_time_ms: now_ms,
+                    end_time_ms: now_ms + step_ms,
+                    points: vec![pt(from), pt(after)],
+                    point_times_ms: vec![now_ms, now_ms + step_ms],
+                    speeds: vec![v.v, v.v],
+                },
+            )?;
+        }
+        Ok(())
+    }
+
+    /// Vehicles out of range of sut.car (or off the map) go back on the
+    /// road at a free spot 0.6 … 1 radius ahead of or behind it.
+    fn recycle(
+        &mut self,
+        net: &RoadNetwork,
+        centre: Vec2,
+        obstacles: &[Obstacle],
+        jumped: &mut [bool],
+    ) {
+        let Some(decl) = self.decl.clone() else {
+            return;
+        };
+        let r = decl.radius;
+        let far2 = (OUT_OF_RANGE * r) * (OUT_OF_RANGE * r);
+        let Some(here) = net.locate(centre).and_then(|p| self.graph.locate(net, &p)) else {
+            return;
+        };
+        for k in self.npcs.len()..self.traffic.vehicles.len() {
+            let out = {
+                let v = &self.traffic.vehicles[k];
+                let d = self.poses[k].position.xy() - centre;
+                !v.active || d.dot(d) > far2
+            };
+            if !out {
+                continue;
+            }
+            // A few tries at a random spot; none free: it waits a round.
+            for _ in 0..4 {
+                let ahead = self.rng.unit() < 0.5;
+                let d = r * (0.6 + 0.4 * self.rng.unit());
+                let Some((lane, u)) = self.walk(here.0, here.1, if ahead { d } else { -d }) else {
+                    continue;
+                };
+                let lane = self.side_lane(lane);
+                if self.free(lane, u, obstacles) {
+                    let v0 = decl.speed.0 + self.rng.unit() * (decl.speed.1 - decl.speed.0);
+                    let v = &mut self.traffic.vehicles[k];
+                    v.lane = lane;
+                    v.u = u;
+                    v.v = v0;
+                    v.a = 0.0;
+                    v.lat = 0.0;
+                    v.from = None;
+                    v.active = true;
+                    v.at_dead_end = false;
+                    v.params.desired_speed = v0;
+                    self.poses[k] = self.graph.pose(net, lane, u, 0.0).unwrap_or(self.poses[k]);
+                    jumped[k] = true;
+                    self.recycled += 1;
+                    break;
+                }
+            }
+        }
+    }
+
+    /// The lane and `u` `d` metres along the lanes from (`lane`, `u`),
+    /// forwards (d > 0, first successors) or backwards (first predecessors).
+    fn walk(&self, mut lane: u32, mut u: f64, d: f64) -> Option<(u32, f64)> {
+        let g = &self.graph;
+        u += d;
+        for _ in 0..64 {
+            let len = g.lanes[lane as usize].length;
+            if u > len {
+                u -= len;
+                lane = *g.lanes[lane as usize].next.first()?;
+            } else if u < 0.0 {
+                lane = *g.lanes[lane as usize].prev.first()?;
+                u += g.lanes[lane as usize].length;
+            } else {
+                return Some((lane, u));
+            }
+        }
+        None
+    }
+
+    /// A seeded pick among `lane` and its neighbours to both sides.
+    fn side_lane(&mut self, lane: u32) -> u32 {
+        let g = &self.graph;
+        let mut all = vec![lane];
+        let mut l = lane;
+        while let Some(n) = g.lanes[l as usize].left {
+            all.push(n);
+            l = n;
+        }
+        l = lane;
+        while let Some(n) = g.lanes[l as usize].right {
+            all.push(n);
+            l = n;
+        }
+        all[(self.rng.next_u64() % all.len() as u64) as usize]
+    }
+
+    /// Nobody (vehicle or obstacle) within a safe distance of `u` in `lane`.
+    fn free(&self, lane: u32, u: f64, obstacles: &[Obstacle]) -> bool {
+        let room = self
+            .decl
+            .as_ref()
+            .map_or(50.0, |d| 2.0 * (SIZE.0 + 2.0) + d.speed.1 * d.time_gap);
+        let vehicles = self
+            .traffic
+            .vehicles
+            .iter()
+            .filter(|v| v.active)
+            .flat_map(|v| {
+                [Some(v.lane), v.from]
+                    .into_iter()
+                    .flatten()
+                    .map(move |l| (l, v.u))
+            });
+        let others = obstacles.iter().map(|o| (o.lane, o.u));
+        vehicles
+            .chain(others)
+            .all(|(l, x)| l != lane || (x - u).abs() > room)
+    }
+}
