@@ -105,9 +105,21 @@ pub struct Prepared {
     /// SHA-256 of the test's source texts (the file and its imports, in
     /// loading order): what a batch manifest records of the test.
     pub source_hash: String,
-    /// The map's lanes as drivers see them, when the test has ambient
-    /// traffic (built once, shared by every run of a batch).
-    pub lane_graph: Option<Arc<runtime::traffic::LaneGraph>>,
+    /// The map's lanes as drivers see them: built on first use (the first
+    /// run with drivers), then shared by every run of a batch.
+    pub lanes: Arc<std::sync::OnceLock<Arc<runtime::traffic::LaneGraph>>>,
+}
+
+impl Prepared {
+    /// The map's lanes as drivers see them (`None` without a map).
+    pub fn lane_graph(&self) -> Option<Arc<runtime::traffic::LaneGraph>> {
+        let net = self.net.as_deref()?;
+        Some(
+            self.lanes
+                .get_or_init(|| Arc::new(runtime::traffic::LaneGraph::new(net)))
+                .clone(),
+        )
+    }
 }
 
 /// Loads, checks and elaborates a test; loads its map.
@@ -188,12 +200,8 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
             .iter()
             .any(|r| r.signals.iter().any(|s| s.dynamic))
     });
-    let lane_graph = match (&test.config.traffic, &net) {
-        (Some(_), Some(n)) => Some(Arc::new(runtime::traffic::LaneGraph::new(n))),
-        _ => None,
-    };
     Ok(Prepared {
-        lane_graph,
+        lanes: Default::default(),
         has_lights,
         source_hash,
         path: path.to_path_buf(),
@@ -662,10 +670,9 @@ fn run_here(
     if let Some(net) = prep.net.as_deref()
         && (npc || prep.test.config.traffic.is_some())
     {
-        let graph = match &prep.lane_graph {
-            Some(g) => g.clone(),
-            None => Arc::new(runtime::traffic::LaneGraph::new(net)),
-        };
+        let graph = prep
+            .lane_graph()
+            .unwrap_or_else(|| Arc::new(runtime::traffic::LaneGraph::new(net)));
         let (d, actors) = runtime::traffic::driven::Driven::place(
             prep.test.config.traffic.as_ref(),
             npc,

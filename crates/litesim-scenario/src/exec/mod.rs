@@ -987,11 +987,20 @@ pub fn execute(
                 })
                 .collect();
             let ego_xy = ego_index.map(|e| states[e].0);
+            let yellow: Vec<bool> = lights
+                .as_ref()
+                .map(|l| {
+                    l.boxes
+                        .iter()
+                        .map(|b| shows(b, BulbColor::Yellow))
+                        .collect()
+                })
+                .unwrap_or_default();
             amb.step(
                 n,
                 &plan,
                 &states,
-                &red,
+                (&red, &yellow),
                 now_ms,
                 step_ms,
                 ego_xy,

@@ -353,7 +353,11 @@ impl Driven {
                 .and_then(|p| self.graph.locate(net, &p))
                 .map(|x| x.0)
         };
-        for g in plan.lane_goals.iter().filter(|g| &g.actor == id && active(g.t0, g.t1)) {
+        for g in plan
+            .lane_goals
+            .iter()
+            .filter(|g| &g.actor == id && active(g.t0, g.t1))
+        {
             // Not before the plan's own change is due: the reference may
             // still move, and a change once begun is finished.
             if plan_lane(t + LANE_LOOKAHEAD_S) == plan_lane(g.t0) {
@@ -368,7 +372,11 @@ impl Driven {
                 crate::intent::LaneRelation::RightOf => info.right,
             };
         }
-        for f in plan.side_follows.iter().filter(|f| &f.actor == id && active(f.t0, f.t1)) {
+        for f in plan
+            .side_follows
+            .iter()
+            .filter(|f| &f.actor == id && active(f.t0, f.t1))
+        {
             let r = index(&f.reference)?;
             let (pm, pr) = (plan.actors[i].at(t, plan.dt), plan.actors[r].at(t, plan.dt));
             let (s, c) = litesim_core::math::sin_cos(pr.yaw);
@@ -453,7 +461,8 @@ impl Driven {
     }
 
     /// One step: every plan actor as it stands (`states[i]`: position,
-    /// heading, speed, length), the lights' red flags per box, then every
+    /// heading, speed, length), the lights' red and yellow flags per box,
+    /// then every
     /// driven actor's trajectory for the coming step from `now_ms` (in the
     /// map's frame; `send` gets the plan actor's index and the trajectory).
     #[allow(clippy::too_many_arguments)]
@@ -462,7 +471,7 @@ impl Driven {
         net: &RoadNetwork,
         plan: &Plan,
         states: &[(Vec2, f64, f64, f64)],
-        red: &[bool],
+        (red, yellow): (&[bool], &[bool]),
         now_ms: u64,
         step_ms: u64,
         ego: Option<Vec2>,
@@ -483,14 +492,22 @@ impl Driven {
             .collect();
         let obstacles = self.obstacles(net, &others);
         self.traffic.stop_lines.clear();
-        for (lines, &is_red) in self.box_lines.iter().zip(red) {
+        for ((lines, &is_red), &is_yellow) in self.box_lines.iter().zip(red).zip(yellow) {
             for &(lane, u) in lines {
                 self.traffic.stop_lines.push(StopLine {
                     lane,
                     u,
                     red: is_red,
+                    yellow: is_yellow,
                 });
             }
+        }
+        if self.traffic.tick() == 0 {
+            // Ambient vehicles start able to stop comfortably for what is
+            // ahead as the run starts (lights included).
+            let ambient: Vec<u32> =
+                (self.npcs.len() as u32..self.traffic.vehicles.len() as u32).collect();
+            self.traffic.settle(&self.graph, &obstacles, &ambient);
         }
         let every = ((RECYCLE_EVERY_S * 1000.0) as u64 / step_ms.max(1)).max(1);
         let mut jumped = vec![false; self.traffic.vehicles.len()];
@@ -499,6 +516,12 @@ impl Driven {
             && self.traffic.tick().is_multiple_of(every)
         {
             self.recycle(net, c, &obstacles, &mut jumped);
+            let placed: Vec<u32> = (0..jumped.len() as u32)
+                .filter(|&k| jumped[k as usize])
+                .collect();
+            if !placed.is_empty() {
+                self.traffic.settle(&self.graph, &obstacles, &placed);
+            }
         }
         self.traffic.step(&self.graph, &obstacles);
         for (k, v) in self.traffic.vehicles.iter().enumerate() {
@@ -546,7 +569,9 @@ impl Driven {
             let out = {
                 let v = &self.traffic.vehicles[k];
                 let d = self.poses[k].position.xy() - centre;
-                !v.active || d.dot(d) > far2
+                // Out of range, or stopped where its lane leaves the map.
+                let at_edge = v.at_dead_end && self.graph.lanes[v.lane as usize].exit;
+                !v.active || at_edge || d.dot(d) > far2
             };
             if !out {
                 continue;
@@ -559,7 +584,7 @@ impl Driven {
                     continue;
                 };
                 let lane = self.side_lane(lane);
-                if self.free(lane, u, obstacles) {
+                if !self.graph.lanes[lane as usize].junction && self.free(lane, u, obstacles) {
                     let v0 = decl.speed.0 + self.rng.unit() * (decl.speed.1 - decl.speed.0);
                     let v = &mut self.traffic.vehicles[k];
                     v.lane = lane;

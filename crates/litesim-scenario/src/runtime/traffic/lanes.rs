@@ -38,6 +38,24 @@ pub struct LaneInfo {
     /// to nothing there): a driver leaves the map here. A lane without
     /// successors whose road goes on is a dead end (a lane drop) instead.
     pub exit: bool,
+    /// A lane of a junction's connecting road.
+    pub junction: bool,
+    /// Lanes of the same junction whose paths meet this one's, and how.
+    pub conflicts: Vec<(u32, Conflict)>,
+}
+
+/// How the paths of two lanes of one junction meet.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Conflict {
+    /// They leave the same lane: a vehicle ahead on the other is followed
+    /// until the paths part.
+    Diverge,
+    /// They enter the same lane: who enters first goes (as at a
+    /// crossing), and inside the one nearer the end leads.
+    Merge,
+    /// They cross: who enters first (by arrival, then by slot) goes; the
+    /// other waits at its lane's start.
+    Cross,
 }
 
 /// Every drivable lane, indexed by `u32` (what drivers hold).
@@ -89,6 +107,8 @@ impl LaneGraph {
                         left: None,
                         right: None,
                         right_hand: road.rule == litesim_map::model::Rule::Rht,
+                        junction: road.junction.is_some(),
+                        conflicts: Vec::new(),
                         exit: if forward {
                             si + 1 == road.sections.len() && road.successor.is_none()
                         } else {
@@ -131,7 +151,63 @@ impl LaneGraph {
                 g.lanes[n].prev.push(i as u32);
             }
         }
+        g.find_conflicts(net);
         g
+    }
+
+    /// Pairs of lanes of one junction whose centre lines come closer than
+    /// 90 % of half their widths summed: diverging (a common predecessor),
+    /// merging (a common successor) or crossing.
+    fn find_conflicts(&mut self, net: &RoadNetwork) {
+        let mut by_junction: BTreeMap<&str, Vec<u32>> = BTreeMap::new();
+        for (i, l) in self.lanes.iter().enumerate() {
+            if let Some(j) = &net.roads()[l.node.road].junction {
+                by_junction.entry(j.as_str()).or_default().push(i as u32);
+            }
+        }
+        let points: BTreeMap<u32, Vec<litesim_core::Vec2>> = by_junction
+            .values()
+            .flatten()
+            .map(|&i| {
+                let len = self.lanes[i as usize].length;
+                let n = (len / 1.0).ceil().max(1.0) as usize;
+                let pts = (0..=n)
+                    .filter_map(|k| self.pose(net, i, len * k as f64 / n as f64, 0.0))
+                    .map(|p| p.position.xy())
+                    .collect();
+                (i, pts)
+            })
+            .collect();
+        let mut found: Vec<(u32, u32, Conflict)> = Vec::new();
+        for lanes in by_junction.values() {
+            for (k, &a) in lanes.iter().enumerate() {
+                for &b in &lanes[k + 1..] {
+                    let (la, lb) = (&self.lanes[a as usize], &self.lanes[b as usize]);
+                    let kind = if la.prev.iter().any(|p| lb.prev.contains(p)) {
+                        Conflict::Diverge
+                    } else if la.next.iter().any(|n| lb.next.contains(n)) {
+                        Conflict::Merge
+                    } else {
+                        let reach = 0.45 * (la.width + lb.width);
+                        let near = points[&a].iter().any(|p| {
+                            points[&b].iter().any(|q| {
+                                let d = *p - *q;
+                                d.dot(d) < reach * reach
+                            })
+                        });
+                        if !near {
+                            continue;
+                        }
+                        Conflict::Cross
+                    };
+                    found.push((a, b, kind));
+                }
+            }
+        }
+        for (a, b, kind) in found {
+            self.lanes[a as usize].conflicts.push((b, kind));
+            self.lanes[b as usize].conflicts.push((a, kind));
+        }
     }
 
     /// The lane index of a routing-graph node.

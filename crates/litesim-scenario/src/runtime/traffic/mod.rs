@@ -22,7 +22,7 @@ pub mod lanes;
 pub mod spawn;
 
 use super::driver::{self, DriverParams, LaneChangeCase, Leader};
-pub use lanes::{LaneGraph, LaneInfo};
+pub use lanes::{Conflict, LaneGraph, LaneInfo};
 
 /// How long a lane change takes from lane to lane (s).
 pub const LANE_CHANGE_S: f64 = 3.0;
@@ -31,6 +31,9 @@ pub const LANE_CHANGE_S: f64 = 3.0;
 pub const DECISION_PERIOD_S: f64 = 1.0;
 /// How far ahead a driver looks for a leader, a stop line or a dead end (m).
 pub const LOOKAHEAD_M: f64 = 250.0;
+/// From how far before a junction a driver claims its way through it (m;
+/// or three seconds at its speed, whichever is more).
+pub const CLAIM_M: f64 = 30.0;
 /// From how far ahead a lane's dead end pushes its drivers out of it (m).
 pub const DEAD_END_NOTICE_M: f64 = 400.0;
 const NONE: u32 = u32::MAX;
@@ -146,8 +149,12 @@ pub struct StopLine {
     pub lane: u32,
     /// Along the lane (m).
     pub u: f64,
-    /// Drivers stop here while it is set.
+    /// Drivers stop here while it is set, unless they cannot stop at
+    /// their emergency deceleration any more.
     pub red: bool,
+    /// Yellow: drivers stop here when they can at their safe deceleration
+    /// (`b_safe`), and go on otherwise.
+    pub yellow: bool,
 }
 
 /// Contact between a driven vehicle and what is ahead of it in its lane.
@@ -203,6 +210,11 @@ pub struct Traffic {
     decided: Vec<(f64, i8)>,
     touching: std::collections::BTreeSet<(u32, u32)>,
     stops_by_lane: Vec<(u32, u32)>,
+    /// Per junction lane: the earliest arrival (s) and slot of a vehicle
+    /// about to enter it, from this step's snapshot.
+    claims: Vec<Option<(f64, u32)>>,
+    /// [`Traffic::settle`] is looking: every stop counts, reachable or not.
+    settling: bool,
 }
 
 /// splitmix64: the successor a vehicle takes at a fork, from its route
@@ -229,6 +241,8 @@ impl Traffic {
             decided: Vec::new(),
             touching: Default::default(),
             stops_by_lane: Vec::new(),
+            claims: Vec::new(),
+            settling: false,
         }
     }
 
@@ -243,6 +257,30 @@ impl Traffic {
         let slot = self.vehicles.len() as u32 - 1;
         self.order.push(slot);
         slot
+    }
+
+    /// Slows the vehicles `slots` (just placed) to what lets
+    /// them stop comfortably behind what is ahead of them — a slower
+    /// vehicle or obstacle, a red light, a crossing they must yield at —
+    /// so that nothing starts on a course it could not brake out of.
+    pub fn settle(&mut self, g: &LaneGraph, obstacles: &[Obstacle], slots: &[u32]) {
+        self.build_index(g, obstacles);
+        self.settling = true;
+        for &slot in slots {
+            let slot = slot as usize;
+            let v = &self.vehicles[slot];
+            if !v.active {
+                continue;
+            }
+            let (l, _) = self.leader(g, slot as u32, v.lane, v.u, 0.5 * v.length);
+            if l.gap.is_finite() && l.speed < v.v {
+                let b = v.params.comfort_decel;
+                let room = (l.gap - v.params.min_gap).max(0.0);
+                let most = (l.speed * l.speed + 2.0 * b * room).sqrt();
+                self.vehicles[slot].v = v.v.min(most);
+            }
+        }
+        self.settling = false;
     }
 
     /// The successor of `lane` that vehicle `route` takes (`None`: dead end).
@@ -346,10 +384,32 @@ impl Traffic {
         }
         self.order
             .extend((0..self.vehicles.len() as u32).filter(|&i| !self.vehicles[i as usize].active));
+        // Claims on junction lanes by vehicles about to enter them.
+        self.claims.clear();
+        self.claims.resize(n_lanes, None);
+        for (slot, v) in self.vehicles.iter().enumerate() {
+            let info = &g.lanes[v.lane as usize];
+            if !v.active || info.junction {
+                continue;
+            }
+            let to_end = info.length - v.u;
+            if to_end > CLAIM_M.max(3.0 * v.v) {
+                continue;
+            }
+            if let Some(n) = Self::next_lane(g, v.lane, v)
+                && g.lanes[n as usize].junction
+            {
+                let claim = (to_end / v.v.max(0.1), slot as u32);
+                let c = &mut self.claims[n as usize];
+                if c.is_none_or(|old| claim < old) {
+                    *c = Some(claim);
+                }
+            }
+        }
         // Stop lines by lane, for the look-ahead.
         self.stops_by_lane.clear();
         for (k, s) in self.stop_lines.iter().enumerate() {
-            if s.red {
+            if s.red || s.yellow {
                 self.stops_by_lane.push((s.lane, k as u32));
             }
         }
@@ -378,10 +438,31 @@ impl Traffic {
                 best = (l, a);
             }
         };
+        let first = lane;
         let mut lane = lane;
         let mut from = u;
         let mut ahead = 0.0;
         loop {
+            let info = &g.lanes[lane as usize];
+            if info.junction {
+                if lane != first && self.must_wait(g, me, lane, ahead) {
+                    // Another has the crossing: wait at this lane's start
+                    // (unless it is too late to stop: then it goes).
+                    let gap = ahead - half - 0.5;
+                    if gap > 0.0
+                        && (self.settling || veh.v * veh.v / (2.0 * gap) <= p.emergency_decel)
+                    {
+                        consider(Leader {
+                            gap,
+                            speed: 0.0,
+                            accel: 0.0,
+                        });
+                    }
+                }
+                for l in self.junction_leaders(g, me, lane, from, ahead, half) {
+                    consider(l);
+                }
+            }
             let entries = self.index.lane(lane);
             let start = entries.partition_point(|e| e.u < from);
             let found = entries[start..].iter().find(|e| e.who != me);
@@ -392,11 +473,13 @@ impl Traffic {
                     accel: e.a,
                 });
             }
-            if let Some(line) = self.red_line(lane, from) {
-                let gap = ahead + line - from - half;
-                // Past the point of stopping at half its emergency
-                // deceleration it goes through (the dilemma zone).
-                if gap > 0.0 && veh.v * veh.v / (2.0 * gap) <= p.emergency_decel * 0.5 {
+            if let Some((line, red)) = self.red_line(lane, from - half) {
+                // A front already over the line, the centre not: it stays.
+                let gap = (ahead + line - from - half).max(0.01);
+                // Past the point of stopping (at its emergency deceleration
+                // on red, its safe one on yellow) it goes through.
+                let can = if red { p.emergency_decel } else { p.safe_decel };
+                if gap > 0.0 && (self.settling || veh.v * veh.v / (2.0 * gap) <= can) {
                     consider(Leader {
                         gap,
                         speed: 0.0,
@@ -417,7 +500,6 @@ impl Traffic {
                     lane = n;
                     from = 0.0;
                 }
-                None if info.exit => break,
                 None => {
                     consider(Leader {
                         gap: ahead - half,
@@ -435,15 +517,80 @@ impl Traffic {
         best
     }
 
-    /// The first red stop line of `lane` at or after `u`.
-    fn red_line(&self, lane: u32, u: f64) -> Option<f64> {
+    /// Whether vehicle `me`, `ahead` metres before junction lane `lane`,
+    /// must let another go first: a crossing or merging lane is occupied,
+    /// or claimed by one that arrives sooner (then by slot).
+    fn must_wait(&self, g: &LaneGraph, me: u32, lane: u32, ahead: f64) -> bool {
+        let v = self.vehicles[me as usize].v.max(0.1);
+        let mine = (ahead / v, me);
+        g.lanes[lane as usize]
+            .conflicts
+            .iter()
+            .filter(|(_, k)| *k != Conflict::Diverge)
+            .any(|&(c, _)| {
+                self.index.lane(c).iter().any(|e| e.who != me)
+                    || self.claims[c as usize]
+                        .is_some_and(|(eta, who)| who != me && (eta, who) < mine)
+            })
+    }
+
+    /// Vehicles on junction lanes that share `lane`'s start (ahead of
+    /// `from` on theirs) or its end (nearer to it than this one), as
+    /// leaders: paths that part or join are followed like one lane.
+    fn junction_leaders(
+        &self,
+        g: &LaneGraph,
+        me: u32,
+        lane: u32,
+        from: f64,
+        ahead: f64,
+        half: f64,
+    ) -> Vec<Leader> {
+        let mut out = Vec::new();
+        let len = g.lanes[lane as usize].length;
+        for &(c, kind) in &g.lanes[lane as usize].conflicts {
+            let entries = self.index.lane(c);
+            let e = match kind {
+                Conflict::Diverge => {
+                    let k = entries.partition_point(|e| e.u < from);
+                    entries[k..]
+                        .iter()
+                        .find(|e| e.who != me)
+                        .map(|e| (ahead + e.u - from - e.half - half, e))
+                }
+                Conflict::Merge => {
+                    let to_end = ahead + len - from;
+                    let len_c = g.lanes[c as usize].length;
+                    let k = entries.partition_point(|e| e.u <= len_c - to_end);
+                    entries[k..]
+                        .iter()
+                        .find(|e| e.who != me)
+                        .map(|e| (to_end - (len_c - e.u) - e.half - half, e))
+                }
+                Conflict::Cross => None,
+            };
+            if let Some((gap, e)) = e {
+                out.push(Leader {
+                    gap,
+                    speed: e.v,
+                    accel: e.a,
+                });
+            }
+        }
+        out
+    }
+
+    /// The first red or yellow stop line of `lane` at or after `u`: where
+    /// it is, and whether it is red.
+    fn red_line(&self, lane: u32, u: f64) -> Option<(f64, bool)> {
         let s = self.stops_by_lane.partition_point(|&(l, _)| l < lane);
         self.stops_by_lane[s..]
             .iter()
             .take_while(|&&(l, _)| l == lane)
-            .map(|&(_, k)| self.stop_lines[k as usize].u)
-            .filter(|&x| x >= u)
-            .reduce(f64::min)
+            .map(|&(_, k)| &self.stop_lines[k as usize])
+            .filter(|x| x.u >= u)
+            .min_by(|a, b| a.u.total_cmp(&b.u))
+            .map(|x| (x.u, x.red))
     }
 
     /// Distance from `u` in `lane` to where the vehicle's route ends
@@ -819,13 +966,6 @@ impl Traffic {
                         v.u -= g.lanes[v.lane as usize].length;
                         v.lane = n;
                         v.from = None;
-                    }
-                    None if g.lanes[v.lane as usize].exit => {
-                        // The map's edge: it leaves.
-                        v.u = g.lanes[v.lane as usize].length;
-                        v.active = false;
-                        v.from = None;
-                        break;
                     }
                     None => {
                         // A dead end: it stops at the lane's end, on the road.

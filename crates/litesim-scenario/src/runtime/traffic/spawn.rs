@@ -39,12 +39,23 @@ pub fn fill(
     let mut placed: Vec<(u32, f64, f64)> = Vec::new();
     for (lane, info) in g.lanes.iter().enumerate() {
         let lane = lane as u32;
+        // Not inside junctions: their lanes overlap one another.
+        if info.junction {
+            continue;
+        }
         let mut u = rng.unit() * spacing + 0.5 * len;
         while u < info.length - 0.5 * len {
-            let clear = obstacles
-                .iter()
-                .filter(|o| o.lane == lane)
-                .all(|o| (o.u - u).abs() > 0.5 * (o.length + len) + 4.0);
+            // Clear of every obstacle, and ahead of one by at least the gap
+            // it keeps at its speed (a jam gap plus 1.5 s), so that nothing
+            // starts on a collision course with a faster actor behind.
+            let clear = obstacles.iter().filter(|o| o.lane == lane).all(|o| {
+                let apart = (o.u - u).abs() - 0.5 * (o.length + len);
+                if u > o.u {
+                    apart > 2.0 + 1.5 * o.v
+                } else {
+                    apart > 4.0
+                }
+            });
             if clear && keep(lane, u) {
                 let v0 = d.speed.0 + rng.unit() * (d.speed.1 - d.speed.0);
                 placed.push((lane, u, v0));
