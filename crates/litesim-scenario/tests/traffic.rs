@@ -141,6 +141,7 @@ fn drivers_stop_on_red_and_go_on_green() {
             lane,
             u: line,
             red: true,
+            yellow: false,
         })
         .collect();
     for _ in 0..(60 * 50) {
@@ -237,4 +238,17 @@ fn the_same_seed_gives_the_same_bits() {
         litesim_scenario::sha256_hex(&bytes)
     };
     assert_eq!(run(), run());
+}
+
+#[test]
+fn more_than_the_documented_bound_of_vehicles_is_an_error() {
+    let (_net, g) = road(100_000.0, 3, None);
+    let mut t = Traffic::new(0.02);
+    let d = Density {
+        per_km_per_lane: 100.0,
+        speed: (20.0, 30.0),
+        size: (4.5, 1.8),
+    };
+    let e = fill(&mut t, &g, &d, &mut Rng::new(1), &[], |_, _| true).unwrap_err();
+    assert!(e.contains("more than 20000 vehicles"), "{e}");
 }

@@ -353,10 +353,10 @@ impl Driven {
                 .and_then(|p| self.graph.locate(net, &p))
                 .map(|x| x.0)
         };
-        for g in plan
+        if let Some(g) = plan
             .lane_goals
             .iter()
-            .filter(|g| &g.actor == id && active(g.t0, g.t1))
+            .find(|g| &g.actor == id && active(g.t0, g.t1))
         {
             // Not before the plan's own change is due: the reference may
             // still move, and a change once begun is finished.
@@ -372,10 +372,10 @@ impl Driven {
                 crate::intent::LaneRelation::RightOf => info.right,
             };
         }
-        for f in plan
+        if let Some(f) = plan
             .side_follows
             .iter()
-            .filter(|f| &f.actor == id && active(f.t0, f.t1))
+            .find(|f| &f.actor == id && active(f.t0, f.t1))
         {
             let r = index(&f.reference)?;
             let (pm, pr) = (plan.actors[i].at(t, plan.dt), plan.actors[r].at(t, plan.dt));
@@ -565,6 +565,7 @@ impl Driven {
         let Some(here) = net.locate(centre).and_then(|p| self.graph.locate(net, &p)) else {
             return;
         };
+        #[allow(clippy::needless_range_loop)] // k indexes poses, jumped and vehicles alike
         for k in self.npcs.len()..self.traffic.vehicles.len() {
             let out = {
                 let v = &self.traffic.vehicles[k];

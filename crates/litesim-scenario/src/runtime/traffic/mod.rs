@@ -796,11 +796,34 @@ impl Traffic {
                     accel: v.a,
                 }),
             );
-            if gap < 1.0 || after <= -9.0 {
+            if gap < 1.0 || after <= -9.0 || !self.clear_of_obstacle(&f, gap, v.v) {
                 return 0;
             }
         }
+        if !self.clear_of_obstacles_behind(me, t, v.u, half, v.v) {
+            return 0;
+        }
         side
+    }
+
+    /// Whether a lane change may go in front of `f`, `gap` behind: an
+    /// actor the engine does not drive (sut.car, a planned actor) may not
+    /// brake for it at all, so it must not close the gap within the change.
+    fn clear_of_obstacle(&self, f: &Entry, gap: f64, v: f64) -> bool {
+        f.who & OBSTACLE == 0 || gap >= 2.0 + (f.v - v).max(0.0) * LANE_CHANGE_S
+    }
+
+    /// Every such actor behind `u` in `lane` within 150 m (not only the
+    /// nearest occupant: one may come up behind a car that is leaving).
+    fn clear_of_obstacles_behind(&self, me: u32, lane: u32, u: f64, half: f64, v: f64) -> bool {
+        let entries = self.index.lane(lane);
+        let j = entries.partition_point(|e| e.u < u);
+        entries[..j]
+            .iter()
+            .rev()
+            .take_while(|e| u - e.u < 150.0)
+            .filter(|e| e.who != me && e.who & OBSTACLE != 0)
+            .all(|e| self.clear_of_obstacle(e, u - half - e.u - e.half, v))
     }
 
     /// MOBIL over both neighbours: −1 (right), +1 (left) or 0.
@@ -856,13 +879,13 @@ impl Traffic {
                 continue;
             }
             let (lead_there, a_there) = self.leader(g, me, t, v.u, half);
-            if lead_there.gap < need {
+            if lead_there.gap < need || !self.clear_of_obstacles_behind(me, t, v.u, half, v.v) {
                 continue;
             }
             let new_follower = match follower {
                 Some((f, d)) => {
                     let gap = d - half - f.half;
-                    if gap < need {
+                    if gap < need || !self.clear_of_obstacle(&f, gap, v.v) {
                         continue;
                     }
                     let now = self.accel_with(

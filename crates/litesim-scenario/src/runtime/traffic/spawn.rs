@@ -87,7 +87,14 @@ pub fn fill(
             (Some(a), Some(b)) => a.min(b),
             (a, b) => a.or(b).unwrap_or(f64::INFINITY),
         };
-        let v = v0.min(((gap - params.min_gap) / params.time_gap).max(0.0));
+        let mut v = v0.min(((gap - params.min_gap) / params.time_gap).max(0.0));
+        // Before a lane's end that goes nowhere (a dead end, the map's
+        // edge): no faster than it can stop there comfortably.
+        let info = &g.lanes[lane as usize];
+        if info.next.is_empty() {
+            let room = (info.length - u - 0.5 * len).max(0.0);
+            v = v.min((2.0 * params.comfort_decel * room).sqrt());
+        }
         slots.push(traffic.add(Vehicle {
             lane,
             u,

@@ -1,0 +1,374 @@
+//! Actors that drive (`--npc driver`, ambient traffic): each acceptance
+//! case of the issue as a user would try it, on the bundled examples.
+
+use litesim_scenario::sut::SutChoice;
+use litesim_scenario::{LoadOptions, Npc, RunOptions, RunResult, prepare, run};
+use rayon::prelude::*;
+
+mod common;
+use common::{example, example_file};
+
+fn go(name: &str, seed: u64, sut: SutChoice, record: bool) -> RunResult {
+    let opts = RunOptions {
+        seed: Some(seed),
+        record,
+        sut,
+        ..RunOptions::default()
+    };
+    run(&example(name), &mut litesim_scenario::in_process(), &opts)
+        .unwrap_or_else(|e| panic!("{name} seed {seed}: {e}"))
+}
+
+/// Collisions in a summary between two actors that are not sut.car.
+fn collisions_without_the_sut(r: &RunResult) -> Vec<String> {
+    r.summary
+        .pairs
+        .iter()
+        .filter(|p| p.collision_at.is_some() && p.a != "sut.car" && p.b != "sut.car")
+        .map(|p| format!("{} and {} at {:?}", p.a, p.b, p.collision_at))
+        .collect()
+}
+
+#[test]
+fn a_thousand_seeds_of_dense_traffic_under_acc_have_no_collision_between_vehicles_that_are_not_the_sut()
+ {
+    let prep = example("dense_traffic");
+    let bad: Vec<String> = (1..=1000u64)
+        .into_par_iter()
+        .flat_map_iter(|seed| {
+            let opts = RunOptions {
+                seed: Some(seed),
+                sut: SutChoice::Acc,
+                ..RunOptions::default()
+            };
+            let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+            assert!(
+                r.summary.actors.len() > 40,
+                "seed {seed}: only {} actors",
+                r.summary.actors.len()
+            );
+            collisions_without_the_sut(&r)
+                .into_iter()
+                .map(move |c| format!("seed {seed}: {c}"))
+        })
+        .collect();
+    assert!(
+        bad.is_empty(),
+        "{} collisions: {:?}",
+        bad.len(),
+        &bad[..bad.len().min(10)]
+    );
+}
+
+#[test]
+fn under_a_planned_sut_collisions_with_it_are_its_own_rear_end_runs() {
+    // The planned sut.car drives 90 km/h through traffic it ignores: it
+    // runs into slower cars ahead. The drivers never run into it: at every
+    // collision the other car is ahead of sut.car along its heading.
+    let mut seen = 0;
+    for seed in 1..=40 {
+        let r = go("dense_traffic", seed, SutChoice::Planned, true);
+        assert!(collisions_without_the_sut(&r).is_empty(), "seed {seed}");
+        let log = r.log.as_ref().unwrap();
+        let dt = log.dt;
+        for p in r.summary.pairs.iter().filter(|p| p.collision_at.is_some()) {
+            seen += 1;
+            let other = if p.a == "sut.car" { &p.b } else { &p.a };
+            let k = (p.collision_at.unwrap() / dt).round() as usize;
+            let (e, o) = (log.track("sut.car").unwrap(), log.track(other).unwrap());
+            let at = |t: &litesim_log::ActorTrack| {
+                let i = t.tick.iter().position(|&x| x as usize >= k).unwrap();
+                (t.state.x[i], t.state.y[i], t.state.yaw[i])
+            };
+            let ((ex, ey, eyaw), (ox, oy, _)) = (at(e), at(o));
+            let along = (ox - ex) * eyaw.cos() + (oy - ey) * eyaw.sin();
+            let across = -(ox - ex) * eyaw.sin() + (oy - ey) * eyaw.cos();
+            assert!(
+                along > 0.0,
+                "seed {seed}: {other} hit at {:?}: {along:.2} m ahead, {across:.2} m across",
+                p.collision_at
+            );
+        }
+    }
+    assert!(
+        seen > 10,
+        "the planned SUT should run into traffic ({seen})"
+    );
+}
+
+#[test]
+fn at_a_signalised_junction_drivers_stop_on_red_and_go_on_green() {
+    let mut stood = 0;
+    let mut went = 0;
+    for seed in 1..=60 {
+        let r = go("junction_traffic", seed, SutChoice::Acc, true);
+        assert!(collisions_without_the_sut(&r).is_empty(), "seed {seed}");
+        let ran: Vec<_> = r
+            .summary
+            .actors
+            .iter()
+            .filter(|a| a.id.starts_with("traffic.") && a.ran_red_light.is_some())
+            .map(|a| (&a.id, &a.ran_red_light))
+            .collect();
+        assert!(ran.is_empty(), "seed {seed}: {ran:?}");
+        let off: Vec<_> = r
+            .summary
+            .actors
+            .iter()
+            .filter(|a| a.off_road_at.is_some())
+            .collect();
+        assert!(off.is_empty(), "seed {seed}: off the road {off:?}");
+        let log = r.log.as_ref().unwrap();
+        for t in log.tracks.iter().filter(|t| t.id.starts_with("traffic.")) {
+            let v = &t.state.speed;
+            // Standing for a red light for at least two seconds, then
+            // driving again.
+            let still = v.windows(100).position(|w| w.iter().all(|s| *s < 0.05));
+            if let Some(i) = still {
+                stood += 1;
+                if v[i + 100..].iter().any(|s| *s > 5.0) {
+                    went += 1;
+                }
+            }
+        }
+    }
+    assert!(stood > 20 && went > 10, "stood {stood}, went on {went}");
+}
+
+#[test]
+fn cut_in_under_acc_is_driven_and_a_missed_gap_is_the_scenario_not_realised() {
+    let r = go("cut_in", 1, SutChoice::Acc, true);
+    let s = &r.summary;
+    assert!(
+        s.notes
+            .iter()
+            .any(|n| n == "driven by drivers (--npc driver): other"),
+        "{:?}",
+        s.notes
+    );
+    // No collision, whatever the gap came to.
+    assert!(s.pairs.iter().all(|p| p.collision_at.is_none()));
+    let g = &s.goals[0];
+    if g.met {
+        assert!(s.pass, "{:?}", s.failures);
+    } else {
+        // The cruise opened the gap: not the SUT's failure.
+        assert!(s.pass, "{:?}", s.failures);
+        assert!(
+            s.notes
+                .iter()
+                .any(|n| n.starts_with("scenario not realised: ") && n.contains("other ended")),
+            "{:?}",
+            s.notes
+        );
+    }
+    // Under the planned ego the driver meets its gap (5 m ± 1 m).
+    let p = go("cut_in", 1, SutChoice::Planned, false);
+    assert!(p.summary.goals[0].met, "{:?}", p.summary.goals);
+    assert!(p.summary.pass, "{:?}", p.summary.failures);
+}
+
+#[test]
+fn the_same_seed_gives_the_same_bytes_at_any_thread_count() {
+    let prep = example("highway_traffic");
+    let one = |seed: u64| {
+        let opts = RunOptions {
+            seed: Some(seed),
+            record: true,
+            sut: SutChoice::Acc,
+            ..RunOptions::default()
+        };
+        let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+        (
+            serde_json::to_string(&r.summary).unwrap(),
+            serde_json::to_string(r.log.as_ref().unwrap()).unwrap(),
+        )
+    };
+    let serial: Vec<_> = (1..=6).map(one).collect();
+    let parallel: Vec<_> = (1..=6u64).into_par_iter().map(one).collect();
+    assert_eq!(serial, parallel);
+    assert!(serial[0].1.contains("\"traffic.0\""));
+}
+
+#[test]
+fn planned_npcs_are_the_player_and_drivers_are_named_in_the_summary() {
+    let opts = |npc| RunOptions {
+        seed: Some(1),
+        npc,
+        ..RunOptions::default()
+    };
+    let prep = example("follow");
+    let d = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &opts(Npc::Driver),
+    )
+    .unwrap();
+    let p = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &opts(Npc::Planned),
+    )
+    .unwrap();
+    let json = |r: &RunResult| serde_json::to_string(&r.summary).unwrap();
+    assert!(json(&d).contains("\"npc\":\"driver\""));
+    assert!(
+        !json(&p).contains("\"npc\""),
+        "a planned summary is as before drivers"
+    );
+    assert!(d.summary.pass && p.summary.pass);
+}
+
+fn elaboration_error(config: &str) -> String {
+    let text = format!(
+        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/highway.xodr\"\n{config}\nextend top.main:\n    do sut.car.drive() with:\n        speed(20kph)\n        duration(2s)\n"
+    );
+    let f = example_file(&text);
+    let prep = prepare(f.path(), &LoadOptions::default());
+    let e = match prep {
+        Err(e) => e,
+        Ok(p) => run(
+            &p,
+            &mut litesim_scenario::in_process(),
+            &RunOptions::default(),
+        )
+        .expect_err("the run must be refused"),
+    };
+    let name = f.path().file_name().unwrap().to_string_lossy().to_string();
+    let text = e.to_string();
+    assert!(text.contains(&name), "no file named in: {text}");
+    text
+}
+
+#[test]
+fn bad_traffic_settings_are_errors_at_their_place() {
+    let cases: [(&str, &str); 6] = [
+        ("    set traffic_density = -1", "traffic_density = -1"),
+        ("    set traffic_density = 1000", "out of range"),
+        (
+            "    set traffic_density = 10\n    set traffic_radius = 0m",
+            "radius above 0 m",
+        ),
+        (
+            "    set traffic_density = 10\n    set traffic_min_speed = 120kph\n    set traffic_max_speed = 60kph",
+            "above traffic_max_speed",
+        ),
+        (
+            "    set traffic_density = 10\n    set traffic_time_gap = 0.01s",
+            "driver parameter time_gap = 0.01",
+        ),
+        (
+            "    set traffic_density = 10\n    set traffic_politeness = 9",
+            "politeness = 9",
+        ),
+    ];
+    for (config, want) in cases {
+        let e = elaboration_error(config);
+        assert!(e.contains(want), "{config}: {e}");
+        assert!(
+            e.contains(":4:"),
+            "{config}: the line of traffic_density: {e}"
+        );
+    }
+}
+
+#[test]
+fn traffic_on_a_map_without_driving_lanes_is_an_error() {
+    // A road of bidirectional lanes: sut.car can be placed on it, but no
+    // one-way lane is there for drivers.
+    let xodr = litesim_map::synth::highway(&litesim_map::synth::HighwaySpec {
+        length: 300.0,
+        lanes: 2,
+        lane_width: 3.5,
+        drop_at: None,
+    })
+    .replace("type=\"driving\"", "type=\"bidirectional\"");
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/maps");
+    let map = tempfile::Builder::new()
+        .suffix(".xodr")
+        .tempfile_in(&dir)
+        .unwrap();
+    std::fs::write(map.path(), xodr).unwrap();
+    let name = map
+        .path()
+        .file_name()
+        .unwrap()
+        .to_string_lossy()
+        .to_string();
+    let text = format!(
+        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/{name}\"\n    set traffic_density = 10\nextend top.main:\n    do sut.car.drive() with:\n        speed(20kph)\n        duration(2s)\n"
+    );
+    let f = example_file(&text);
+    let prep = prepare(f.path(), &LoadOptions::default());
+    let e = match prep {
+        Err(e) => e.to_string(),
+        Ok(p) => run(
+            &p,
+            &mut litesim_scenario::in_process(),
+            &RunOptions::default(),
+        )
+        .expect_err("refused")
+        .to_string(),
+    };
+    assert!(e.contains("driving") && e.contains(":4:"), "{e}");
+}
+
+#[test]
+fn lane_n_beside_a_position_relative_to_another_actor_is_honoured_and_clashes_are_errors() {
+    let test = |lanes: &str| {
+        format!(
+            "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/highway.xodr\"\nextend top.main:\n    do sut.two()\nscenario sut.two:\n    r: one_way_road\n    v1: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(80kph)\n            along(r, start_offset: 500m, at: start)\n            lane(1, at: start)\n        v1.drive() with:\n            speed(80kph)\n{lanes}            position(8m, ahead_of: sut.car, at: start)\n    with: duration(3s)\n"
+        )
+    };
+    let f = example_file(&test("            lane(2, at: start)\n"));
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let r = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap();
+    let start = |id: &str| {
+        let a = r.plan.actors.iter().find(|a| a.id == id).unwrap();
+        (a.samples[0].x, a.samples[0].y)
+    };
+    let ((ex, ey), (vx, vy)) = (start("sut.car"), start("v1"));
+    // Lane 2 is one lane (3.5 m) left of sut.car's lane 1, 8 m ahead
+    // bumper to bumper along it.
+    assert!(
+        (vy - ey - 3.5).abs() < 1e-6,
+        "v1 at y {vy}, sut.car at {ey}"
+    );
+    assert!(
+        (vx - ex - 8.0 - 4.6).abs() < 0.5,
+        "v1 at x {vx}, sut.car at {ex}"
+    );
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    // Two lanes asked at once: an error naming both.
+    let f = example_file(&test(
+        "            lane(2, at: start)\n            lane(3, at: start)\n",
+    ));
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let e = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains(":16:13: lane(…) and ") && e.contains(":17:13: lane(…)"),
+        "{e}"
+    );
+    // A lane the road does not have beside sut.car: an error.
+    let f = example_file(&test("            lane(5, at: start)\n"));
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let e = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("lane 5 asked for v1 beside sut.car"), "{e}");
+}
