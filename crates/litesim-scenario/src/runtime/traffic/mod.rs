@@ -39,6 +39,8 @@ pub const DEAD_END_NOTICE_M: f64 = 400.0;
 const NONE: u32 = u32::MAX;
 /// Marks an index entry as an [`Obstacle`].
 const OBSTACLE: u32 = 1 << 31;
+/// Marks an item of the fill order as a vehicle's ghost.
+const GHOST_ITEM: u32 = 1 << 30;
 
 /// A vehicle the engine drives.
 #[derive(Clone, Debug, PartialEq)]
@@ -175,6 +177,8 @@ struct Entry {
     a: f64,
     half: f64,
     who: u32,
+    /// A vehicle's entry in the lane it is leaving (mid-change).
+    ghost: bool,
 }
 
 /// The index of lane occupants (CSR: `starts[lane] .. starts[lane + 1]`
@@ -205,6 +209,7 @@ pub struct Traffic {
     dt: f64,
     index: LaneIndex,
     order: Vec<u32>,
+    ghost_done: Vec<bool>,
     cursor: Vec<u32>,
     /// Decided this step: acceleration and lane change (−1 right, +1 left).
     decided: Vec<(f64, i8)>,
@@ -237,6 +242,7 @@ impl Traffic {
             dt,
             index: LaneIndex::default(),
             order: Vec::new(),
+            ghost_done: Vec::new(),
             cursor: Vec::new(),
             decided: Vec::new(),
             touching: Default::default(),
@@ -337,10 +343,17 @@ impl Traffic {
                 a: 0.0,
                 half: 0.0,
                 who: NONE,
+                ghost: false,
             },
         );
-        // Filled in last step's order: each lane comes out almost sorted.
-        for &slot in &self.order {
+        // Filled in last step's order (each vehicle's entry and its ghost in
+        // the lane it is leaving where they were): every lane comes out
+        // almost sorted, and the insertion sort below is linear. A ghost
+        // not in that order (a change begun last step) comes last.
+        self.ghost_done.clear();
+        self.ghost_done.resize(self.vehicles.len(), false);
+        for &item in &self.order {
+            let slot = item & !GHOST_ITEM;
             let v = &self.vehicles[slot as usize];
             if !v.active {
                 continue;
@@ -351,10 +364,34 @@ impl Traffic {
                 a: v.a,
                 half: 0.5 * v.length,
                 who: slot,
+                ghost: false,
             };
-            for lane in [Some(v.lane), v.from].into_iter().flatten() {
-                let c = &mut self.cursor[lane as usize];
-                ix.entries[*c as usize] = e;
+            let lane = if item & GHOST_ITEM == 0 {
+                v.lane
+            } else if let Some(f) = v.from {
+                self.ghost_done[slot as usize] = true;
+                f
+            } else {
+                continue;
+            };
+            let c = &mut self.cursor[lane as usize];
+            ix.entries[*c as usize] = Entry {
+                ghost: item & GHOST_ITEM != 0,
+                ..e
+            };
+            *c += 1;
+        }
+        for (slot, v) in self.vehicles.iter().enumerate() {
+            if let (true, Some(f), false) = (v.active, v.from, self.ghost_done[slot]) {
+                let c = &mut self.cursor[f as usize];
+                ix.entries[*c as usize] = Entry {
+                    u: v.u,
+                    v: v.v,
+                    a: v.a,
+                    half: 0.5 * v.length,
+                    who: slot as u32,
+                    ghost: true,
+                };
                 *c += 1;
             }
         }
@@ -366,6 +403,7 @@ impl Traffic {
                 a: o.a,
                 half: 0.5 * o.length,
                 who: OBSTACLE | k as u32,
+                ghost: false,
             };
             *c += 1;
         }
@@ -375,21 +413,23 @@ impl Traffic {
         }
         // The next step's fill order: every vehicle once, in lane order.
         self.order.clear();
-        for lane in 0..n_lanes {
-            for e in ix.lane(lane as u32) {
-                if e.who & OBSTACLE == 0 && self.vehicles[e.who as usize].lane == lane as u32 {
-                    self.order.push(e.who);
-                }
-            }
-        }
-        self.order
-            .extend((0..self.vehicles.len() as u32).filter(|&i| !self.vehicles[i as usize].active));
-        // Claims on junction lanes by vehicles about to enter them.
+        self.order.extend(
+            ix.entries
+                .iter()
+                .filter(|e| e.who & OBSTACLE == 0)
+                .map(|e| if e.ghost { e.who | GHOST_ITEM } else { e.who }),
+        );
+        // Claims on junction lanes by vehicles about to enter them (and
+        // the vehicles off the road, last in the next fill order).
         self.claims.clear();
         self.claims.resize(n_lanes, None);
         for (slot, v) in self.vehicles.iter().enumerate() {
+            if !v.active {
+                self.order.push(slot as u32);
+                continue;
+            }
             let info = &g.lanes[v.lane as usize];
-            if !v.active || info.junction {
+            if info.junction {
                 continue;
             }
             let to_end = info.length - v.u;
@@ -629,7 +669,7 @@ impl Traffic {
         let mut touching = Vec::new();
         // In lane order: neighbours' index entries are next to each other
         // in memory (the result is per slot, the same in any order).
-        for &me in &self.order {
+        for &me in self.order.iter().filter(|&&item| item & GHOST_ITEM == 0) {
             let slot = me as usize;
             let v = &self.vehicles[slot];
             if !v.active {
