@@ -235,6 +235,7 @@ pub fn errors(
             realtime: None,
             covers: Vec::new(),
             values: Default::default(),
+            people_yield: false,
         };
         let ex = execute(&mut ssp, &plan, None, &cfg, None, None, None)?;
         let a = &ex.kpis.actors[0];

@@ -653,6 +653,7 @@ fn run_here(
         realtime: opts.realtime,
         covers: prep.test.covers.clone(),
         values: sol.values.clone(),
+        people_yield: opts.npc == Npc::Driver,
     };
     let mut sut = opts
         .sut

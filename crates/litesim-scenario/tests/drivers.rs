@@ -372,3 +372,39 @@ fn lane_n_beside_a_position_relative_to_another_actor_is_honoured_and_clashes_ar
     .to_string();
     assert!(e.contains("lane 5 asked for v1 beside sut.car"), "{e}");
 }
+
+/// A person that steps off the kerb into the side of a parked car.
+const INTO_A_PARKED_CAR: &str = "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.blocked()\nscenario sut.blocked:\n    r: two_way_road\n    parked: vehicle\n    ped: person\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(0kph)\n            along(r, at: start)\n            lane(1, at: start)\n        parked.drive() with:\n            speed(0kph)\n            lane(same_as: sut.car, at: start)\n            position(20m, ahead_of: sut.car, at: start)\n        ped.walk() with:\n            position(20m, ahead_of: sut.car, at: start)\n            lateral(3m, side_of: sut.car, side: right, at: start)\n            speed(5kph)\n    with: duration(8s)\n";
+
+#[test]
+fn a_person_stops_rather_than_walk_into_a_vehicle_in_its_way() {
+    let f = example_file(INTO_A_PARKED_CAR);
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let opts = |npc| RunOptions {
+        seed: Some(1),
+        npc,
+        ..RunOptions::default()
+    };
+    let planned = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &opts(Npc::Planned),
+    )
+    .unwrap();
+    assert!(
+        planned
+            .summary
+            .failures
+            .iter()
+            .any(|f| f.contains("collision between parked and ped")),
+        "the planned person walks into the car: {:?}",
+        planned.summary.failures
+    );
+    let driver = run(
+        &prep,
+        &mut litesim_scenario::in_process(),
+        &opts(Npc::Driver),
+    )
+    .unwrap();
+    assert!(driver.summary.pass, "{:?}", driver.summary.failures);
+}

@@ -77,6 +77,9 @@ pub struct ExecConfig<'a> {
     pub covers: Vec<crate::coverage::CoverItem>,
     /// The solved scenario parameters (what items may read).
     pub values: BTreeMap<String, crate::elab::Value>,
+    /// People, cyclists and animals hold their plans' clocks rather than
+    /// walk into a vehicle that stands in their way (`--npc driver`).
+    pub people_yield: bool,
 }
 
 /// What an execution produced.
@@ -620,7 +623,9 @@ pub fn execute(
     // 100-vehicle test 1.25× slower: a chunk's ~4.6 MB of states pushed
     // the checkers' tables out of the cache; 2,000 re-sends too much
     // overlap — BENCHMARKS.md, eleventh session).
-    let open_loop = drivers.iter().all(Option::is_none) && ego_i.is_none() && drivers_of.is_none();
+    let yielding = cfg.people_yield && plan.actors.iter().any(yields);
+    let open_loop =
+        drivers.iter().all(Option::is_none) && ego_i.is_none() && drivers_of.is_none() && !yielding;
     // Paced to the wall clock: one step per call, each released on time.
     let mut pacer = cfg
         .realtime
@@ -1013,6 +1018,16 @@ pub fn execute(
                 },
             )?;
         }
+        if yielding && !rb.boxes.is_empty() {
+            hold_people(
+                &plan,
+                &rb.boxes,
+                &driven,
+                now_ms as f64 / 1000.0,
+                dt,
+                &mut warps,
+            );
+        }
         for (i, a) in plan.actors.iter().enumerate() {
             if Some(i) == ego_i || driven[i] {
                 continue;
@@ -1246,6 +1261,54 @@ pub fn execute(
         coverage: samples.into_iter().flatten().collect(),
         driven: driven_ids,
     })
+}
+
+/// Walks on its plan and may yield: a person, cyclist or animal that moves.
+fn yields(a: &ActorPlan) -> bool {
+    use crate::elab::ActorKind;
+    matches!(
+        a.kind,
+        ActorKind::Person | ActorKind::Cyclist | ActorKind::Animal
+    ) && a.samples.iter().any(|s| s.v > 0.0)
+}
+
+/// People, cyclists and animals keep their planned paths but stop rather
+/// than walk into a vehicle: one whose position 0.6 s ahead on its plan
+/// lies within 0.6 m of a vehicle's box holds its plan clock this step.
+fn hold_people(
+    plan: &Plan,
+    boxes: &[BoxState],
+    driven: &[bool],
+    t: f64,
+    dt: f64,
+    warps: &mut [Warp],
+) {
+    const AHEAD_S: f64 = 0.6;
+    const MARGIN_M: f64 = 0.6;
+    for (i, a) in plan.actors.iter().enumerate() {
+        if !yields(a) || driven[i] {
+            continue;
+        }
+        let tau = warps[i].tau(t);
+        let (here, next) = (a.at(tau, plan.dt), a.at(tau + AHEAD_S, plan.dt));
+        let (dx, dy) = (next.x - here.x, next.y - here.y);
+        if dx * dx + dy * dy < 1e-4 {
+            continue;
+        }
+        let blocked = boxes.iter().enumerate().any(|(j, b)| {
+            if j == i || plan.actors[j].kind != crate::elab::ActorKind::Vehicle {
+                return false;
+            }
+            let (s, c) = math::sin_cos(b.yaw);
+            let (px, py) = (next.x - b.x, next.y - b.y);
+            let along = px * c + py * s;
+            let across = -px * s + py * c;
+            along.abs() <= 0.5 * b.length + MARGIN_M && across.abs() <= 0.5 * b.width + MARGIN_M
+        });
+        if blocked {
+            warps[i].lag -= dt;
+        }
+    }
 }
 
 /// The step's state as coverage items read it (lanes are looked up only
