@@ -726,6 +726,20 @@ fn run_here(
                 d.recycled,
             ));
         }
+        for (k, v) in d.traffic.vehicles.iter().enumerate() {
+            if v.at_dead_end {
+                let id = &plan.actors[d.actor_of(k)].id;
+                let info = &d.graph.lanes[v.lane as usize];
+                let road = prep
+                    .net
+                    .as_deref()
+                    .map_or(String::new(), |n| n.roads()[info.node.road].id.clone());
+                notes.push(format!(
+                    "{id} stopped where its lane ends (road {road} lane {}): a dead end or the map's edge",
+                    info.node.lane
+                ));
+            }
+        }
         notes.push(format!(
             "drivers: {} lane changes, {} contacts seen by the drivers",
             d.traffic

@@ -408,3 +408,32 @@ fn a_person_stops_rather_than_walk_into_a_vehicle_in_its_way() {
     .unwrap();
     assert!(driver.summary.pass, "{:?}", driver.summary.failures);
 }
+
+#[test]
+fn drivers_and_traffic_give_the_same_bytes_in_process_and_over_grpc() {
+    let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();
+    for name in ["highway_traffic", "cut_in", "junction_traffic"] {
+        let prep = example(name);
+        let opts = RunOptions {
+            seed: Some(4),
+            record: true,
+            sut: SutChoice::Acc,
+            ..RunOptions::default()
+        };
+        let local = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+        let mut remote = litesim_grpc::RemoteSsp::connect(&server.addr.to_string()).unwrap();
+        let over = run(&prep, &mut remote, &opts).unwrap();
+        drop(remote);
+        let bytes = |r: &RunResult| {
+            (
+                serde_json::to_string(&r.summary).unwrap(),
+                serde_json::to_string(r.log.as_ref().unwrap()).unwrap(),
+            )
+        };
+        assert!(
+            bytes(&local) == bytes(&over),
+            "{name}: in-process and gRPC differ"
+        );
+    }
+    server.stop().unwrap();
+}

@@ -388,6 +388,11 @@ impl Driven {
         None
     }
 
+    /// The plan actor of slot `k`.
+    pub fn actor_of(&self, k: usize) -> usize {
+        self.actor_of[k]
+    }
+
     /// The stop lines of the simulator's traffic-light boxes (`road` is
     /// each box's road index): one per lane the box controls, where it
     /// stands along the lane.
