@@ -98,9 +98,24 @@ impl Driven {
         if npc {
             me.place_npcs(net, plan);
         }
-        let Some(decl) = decl else {
-            return Ok((me, Vec::new()));
+        let actors = match decl {
+            Some(decl) => me.place_ambient(decl, net, plan, seed)?,
+            None => Vec::new(),
         };
+        Ok((me, actors))
+    }
+
+    /// Ambient traffic around sut.car's start, clear of the scenario's
+    /// actors (and of its driven vehicles); one plan entry per vehicle.
+    fn place_ambient(
+        &mut self,
+        decl: &TrafficDecl,
+        net: &RoadNetwork,
+        plan: &Plan,
+        seed: u64,
+    ) -> Result<Vec<ActorPlan>, ScenarioError> {
+        let me = self;
+        let graph = me.graph.clone();
         let at = &decl.at;
         if graph.is_empty() {
             return Err(ScenarioError::Elaboration(format!(
@@ -187,7 +202,7 @@ impl Driven {
         }
         me.hints.resize(plan.actors.len() + actors.len(), None);
         me.rng = rng;
-        Ok((me, actors))
+        Ok(actors)
     }
 
     /// The scenario's vehicles that drivers take over: every vehicle but

@@ -315,6 +315,16 @@ impl Traffic {
     }
 
     fn build_index(&mut self, g: &LaneGraph, obstacles: &[Obstacle]) {
+        self.count_lanes(g, obstacles);
+        self.fill_vehicles();
+        self.fill_obstacles_and_sort(g, obstacles);
+        self.claim_junctions(g);
+        self.index_stop_lines();
+    }
+
+    /// Each lane's share of the index (vehicles, their ghosts, obstacles),
+    /// and the entries sized for it.
+    fn count_lanes(&mut self, g: &LaneGraph, obstacles: &[Obstacle]) {
         let n_lanes = g.lanes.len();
         let ix = &mut self.index;
         ix.starts.clear();
@@ -346,6 +356,11 @@ impl Traffic {
                 ghost: false,
             },
         );
+    }
+
+    /// The vehicles' entries, in last step's order.
+    fn fill_vehicles(&mut self) {
+        let ix = &mut self.index;
         // Filled in last step's order (each vehicle's entry and its ghost in
         // the lane it is leaving where they were): every lane comes out
         // almost sorted, and the insertion sort below is linear. A ghost
@@ -395,6 +410,13 @@ impl Traffic {
                 *c += 1;
             }
         }
+    }
+
+    /// The obstacles' entries, every lane sorted by `u`, and the next
+    /// step's fill order.
+    fn fill_obstacles_and_sort(&mut self, g: &LaneGraph, obstacles: &[Obstacle]) {
+        let n_lanes = g.lanes.len();
+        let ix = &mut self.index;
         for (k, o) in obstacles.iter().enumerate() {
             let c = &mut self.cursor[o.lane as usize];
             ix.entries[*c as usize] = Entry {
@@ -419,6 +441,12 @@ impl Traffic {
                 .filter(|e| e.who & OBSTACLE == 0)
                 .map(|e| if e.ghost { e.who | GHOST_ITEM } else { e.who }),
         );
+    }
+
+    /// Claims on junction lanes, and the vehicles off the road appended
+    /// to the fill order.
+    fn claim_junctions(&mut self, g: &LaneGraph) {
+        let n_lanes = g.lanes.len();
         // Claims on junction lanes by vehicles about to enter them (and
         // the vehicles off the road, last in the next fill order).
         self.claims.clear();
@@ -446,6 +474,10 @@ impl Traffic {
                 }
             }
         }
+    }
+
+    /// Red and yellow stop lines by lane, for the look-ahead.
+    fn index_stop_lines(&mut self) {
         // Stop lines by lane, for the look-ahead.
         self.stops_by_lane.clear();
         for (k, s) in self.stop_lines.iter().enumerate() {
@@ -872,106 +904,113 @@ impl Traffic {
         let info = &g.lanes[v.lane as usize];
         let half = 0.5 * v.length;
         let here_ends = Self::dead_end_in(g, v.lane, v.u, v);
+        // The old follower: behind me now, behind my leader after.
         let old_follower = self.follower(g, me, v.lane, v.u).map(|(o, d)| {
             let gap_me = d - half - o.half;
-            let now = self.accel_with(
-                o.who,
-                o.v,
-                Some(Leader {
-                    gap: gap_me,
-                    speed: v.v,
-                    accel: v.a,
-                }),
-            );
-            let after = self.accel_with(
-                o.who,
-                o.v,
-                Some(Leader {
-                    gap: gap_me + lead_now.gap + v.length,
-                    speed: lead_now.speed,
-                    accel: lead_now.accel,
-                }),
-            );
-            (now, after)
+            let me_as_leader = Leader {
+                gap: gap_me,
+                speed: v.v,
+                accel: v.a,
+            };
+            let after = Leader {
+                gap: gap_me + lead_now.gap + v.length,
+                ..lead_now
+            };
+            self.before_and_after(&o, me_as_leader, after)
         });
+        let mut best = (0i8, f64::NEG_INFINITY);
+        for (side, target) in [(1i8, info.left), (-1i8, info.right)] {
+            let Some(t) = target else { continue };
+            let side_case = SideCase {
+                me,
+                target: t,
+                a_now,
+                here_ends,
+                old_follower,
+                towards_slow_side: (side < 0) == info.right_hand,
+            };
+            if let Some(gain) = self.weigh_side(g, &side_case)
+                && gain > best.1
+            {
+                best = (side, gain);
+            }
+        }
+        best.0
+    }
+
+    /// What `f` does now behind `now` and would do behind `after`.
+    fn before_and_after(&self, f: &Entry, now: Leader, after: Leader) -> (f64, f64) {
+        (
+            self.accel_with(f.who, f.v, Some(now)),
+            self.accel_with(f.who, f.v, Some(after)),
+        )
+    }
+
+    /// MOBIL for one neighbouring lane: `None` when the change is unsafe,
+    /// not physically free or not worth it; else its gain.
+    fn weigh_side(&self, g: &LaneGraph, c: &SideCase) -> Option<f64> {
+        let (me, t) = (c.me, c.target);
+        let v = &self.vehicles[me as usize];
+        let half = 0.5 * v.length;
+        let there_ends = Self::dead_end_in(g, t, v.u, v);
+        if there_ends < c.here_ends {
+            return None;
+        }
         // Out of a lane that ends, half the jam gap suffices (a zip merge
         // behind a driver who made room, see `courtesy`).
-        let need = if here_ends.is_finite() {
+        let need = if c.here_ends.is_finite() {
             0.5 * v.params.min_gap
         } else {
             v.params.min_gap
         };
-        let mut best = (0i8, f64::NEG_INFINITY);
-        for (side, target) in [(1i8, info.left), (-1i8, info.right)] {
-            let Some(t) = target else { continue };
-            let there_ends = Self::dead_end_in(g, t, v.u, v);
-            if there_ends < here_ends {
-                continue;
-            }
-            let entries = self.index.lane(t);
-            let j = entries.partition_point(|e| e.u < v.u);
-            let follower = self.follower(g, me, t, v.u);
-            let lead_gap_in_lane = entries[j..]
-                .iter()
-                .find(|e| e.who != me)
-                .map(|e| e.u - e.half - v.u - half);
-            if lead_gap_in_lane.is_some_and(|gap| gap < need) {
-                continue;
-            }
-            let (lead_there, a_there) = self.leader(g, me, t, v.u, half);
-            if lead_there.gap < need || !self.clear_of_obstacles_behind(me, t, v.u, half, v.v) {
-                continue;
-            }
-            let new_follower = match follower {
-                Some((f, d)) => {
-                    let gap = d - half - f.half;
-                    if gap < need || !self.clear_of_obstacle(&f, gap, v.v) {
-                        continue;
-                    }
-                    let now = self.accel_with(
-                        f.who,
-                        f.v,
-                        Some(Leader {
-                            gap: gap + v.length + lead_there.gap,
-                            speed: lead_there.speed,
-                            accel: lead_there.accel,
-                        }),
-                    );
-                    let after = self.accel_with(
-                        f.who,
-                        f.v,
-                        Some(Leader {
-                            gap,
-                            speed: v.v,
-                            accel: a_now,
-                        }),
-                    );
-                    Some((now, after))
-                }
-                None => None,
-            };
-            let strategic = if here_ends.is_finite() && there_ends.is_infinite() {
-                // A lane that ends ahead: leaving it outweighs any gain
-                // (more so the closer the end), within safety.
-                2.0 * v.params.max_accel * (1.0 - here_ends / DEAD_END_NOTICE_M).max(0.25)
-            } else {
-                0.0
-            };
-            let case = LaneChangeCase {
-                me: (a_now, a_there),
-                new_follower,
-                old_follower,
-                towards_slow_side: (side < 0) == info.right_hand,
-                strategic,
-            };
-            if driver::mobil(&v.params, &case) {
-                let gain = case.me.1 - case.me.0 + strategic;
-                if gain > best.1 {
-                    best = (side, gain);
-                }
-            }
+        let entries = self.index.lane(t);
+        let j = entries.partition_point(|e| e.u < v.u);
+        let lead_gap_in_lane = entries[j..]
+            .iter()
+            .find(|e| e.who != me)
+            .map(|e| e.u - e.half - v.u - half);
+        if lead_gap_in_lane.is_some_and(|gap| gap < need) {
+            return None;
         }
-        best.0
+        let (lead_there, a_there) = self.leader(g, me, t, v.u, half);
+        if lead_there.gap < need || !self.clear_of_obstacles_behind(me, t, v.u, half, v.v) {
+            return None;
+        }
+        // The new follower: behind my new leader now, behind me after.
+        let new_follower = match self.follower(g, me, t, v.u) {
+            Some((f, d)) => {
+                let gap = d - half - f.half;
+                if gap < need || !self.clear_of_obstacle(&f, gap, v.v) {
+                    return None;
+                }
+                let now = Leader {
+                    gap: gap + v.length + lead_there.gap,
+                    ..lead_there
+                };
+                let me_as_leader = Leader {
+                    gap,
+                    speed: v.v,
+                    accel: c.a_now,
+                };
+                Some(self.before_and_after(&f, now, me_as_leader))
+            }
+            None => None,
+        };
+        let strategic = if c.here_ends.is_finite() && there_ends.is_infinite() {
+            // A lane that ends ahead: leaving it outweighs any gain (more
+            // so the closer the end), within safety.
+            2.0 * v.params.max_accel * (1.0 - c.here_ends / DEAD_END_NOTICE_M).max(0.25)
+        } else {
+            0.0
+        };
+        let case = LaneChangeCase {
+            me: (c.a_now, a_there),
+            new_follower,
+            old_follower: c.old_follower,
+            towards_slow_side: c.towards_slow_side,
+            strategic,
+        };
+        driver::mobil(&v.params, &case).then_some(a_there - c.a_now + strategic)
     }
 
     fn commit(&mut self, g: &LaneGraph) {
@@ -1055,6 +1094,19 @@ impl Traffic {
             })
             .collect();
     }
+}
+
+/// One neighbouring lane MOBIL weighs for vehicle `me`.
+struct SideCase {
+    me: u32,
+    target: u32,
+    /// My acceleration now.
+    a_now: f64,
+    /// How far my own lane goes on (infinite: far enough).
+    here_ends: f64,
+    /// The old follower's acceleration now and after I leave.
+    old_follower: Option<(f64, f64)>,
+    towards_slow_side: bool,
 }
 
 fn insertion_sort(e: &mut [Entry]) {
