@@ -252,3 +252,97 @@ fn more_than_the_documented_bound_of_vehicles_is_an_error() {
     let e = fill(&mut t, &g, &d, &mut Rng::new(1), &[], |_, _| true).unwrap_err();
     assert!(e.contains("more than 20000 vehicles"), "{e}");
 }
+
+mod props {
+    use litesim_scenario::runtime::driver::{DriverParams, Leader, acceleration};
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Whatever the speeds, gaps and leader's acceleration (a stop
+        /// line, a leader far away, contact), a driver's acceleration is
+        /// finite and within its limits.
+        #[test]
+        fn acceleration_is_finite_and_bounded(
+            v in 0.0f64..80.0,
+            v0 in 0.0f64..70.0,
+            gap in prop_oneof![Just(f64::INFINITY), -5.0f64..500.0],
+            vl in 0.0f64..80.0,
+            al in -15.0f64..10.0,
+            truck in any::<bool>(),
+        ) {
+            let p = DriverParams::for_category(if truck { "truck" } else { "car" }, v0);
+            for leader in [None, Some(Leader { gap, speed: vl, accel: al })] {
+                let a = acceleration(&p, v, leader);
+                prop_assert!(a.is_finite(), "{a} for v {v} v0 {v0} {leader:?}");
+                prop_assert!(a >= -p.emergency_decel && a <= p.max_accel, "{a}");
+            }
+        }
+    }
+}
+
+mod engine_props {
+    use litesim_core::rng::Rng;
+    use litesim_map::RoadNetwork;
+    use litesim_scenario::runtime::driver::DriverParams;
+    use litesim_scenario::runtime::traffic::{LaneGraph, StopLine, Traffic, Vehicle};
+    use proptest::prelude::*;
+    use std::sync::OnceLock;
+
+    fn junction() -> &'static LaneGraph {
+        static G: OnceLock<LaneGraph> = OnceLock::new();
+        G.get_or_init(|| {
+            let p = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("../../examples/maps/junction.xodr");
+            LaneGraph::new(&RoadNetwork::load(&p).unwrap())
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Any placement on the junction map, any lights: stepping never
+        /// panics and every vehicle stays on a lane with a finite speed.
+        #[test]
+        fn any_start_steps_without_panic_and_stays_on_its_lanes(
+            seed in any::<u64>(),
+            n in 0usize..40,
+            red in any::<bool>(),
+        ) {
+            let g = junction();
+            prop_assert!(g.lanes.iter().any(|l| !l.conflicts.is_empty()));
+            let mut rng = Rng::new(seed);
+            let mut t = Traffic::new(0.02);
+            for _ in 0..n {
+                let lane = (rng.next_u64() % g.lanes.len() as u64) as u32;
+                let u = rng.unit() * g.lanes[lane as usize].length;
+                t.add(Vehicle {
+                    lane,
+                    u,
+                    v: rng.unit() * 20.0,
+                    a: 0.0,
+                    lat: 0.0,
+                    from: None,
+                    length: 4.5,
+                    width: 1.8,
+                    params: DriverParams::for_category("car", 5.0 + rng.unit() * 15.0),
+                    route: rng.next_u64(),
+                    at_dead_end: false,
+                    lane_changes: 0,
+                    active: true,
+                    goals: Default::default(),
+                });
+            }
+            t.stop_lines = (0..g.lanes.len() as u32)
+                .filter(|l| !g.lanes[*l as usize].junction)
+                .map(|lane| StopLine { lane, u: g.lanes[lane as usize].length - 1.0, red, yellow: false })
+                .collect();
+            for _ in 0..200 {
+                t.step(g, &[]);
+            }
+            for v in &t.vehicles {
+                let len = g.lanes[v.lane as usize].length;
+                prop_assert!(v.u.is_finite() && v.u >= 0.0 && v.u <= len + 1e-9, "{v:?}");
+                prop_assert!(v.v.is_finite() && v.v >= 0.0, "{v:?}");
+            }
+        }
+    }
+}
