@@ -128,6 +128,16 @@ pub fn atan(x: f64) -> f64 {
 pub fn pow(x: f64, y: f64) -> f64 {
     libm::pow(x, y)
 }
+/// e^x.
+#[inline]
+pub fn exp(x: f64) -> f64 {
+    libm::exp(x)
+}
+/// Natural logarithm.
+#[inline]
+pub fn ln(x: f64) -> f64 {
+    libm::log(x)
+}
 /// Hyperbolic tangent (the ACC model's blend of IIDM and CAH).
 #[inline]
 pub fn tanh(x: f64) -> f64 {

@@ -278,7 +278,7 @@ impl Traffic {
             if !v.active {
                 continue;
             }
-            let (l, _) = self.leader(g, slot as u32, v.lane, v.u, 0.5 * v.length);
+            let (l, _) = self.leader(g, slot as u32, (v.lane, None), v.u, 0.5 * v.length);
             if l.gap.is_finite() && l.speed < v.v {
                 let b = v.params.comfort_decel;
                 let room = (l.gap - v.params.min_gap).max(0.0);
@@ -492,7 +492,16 @@ impl Traffic {
     /// (`half` its half length, `me` its slot): the vehicle in front, or
     /// a red stop line it can still stop at, or a dead end — whichever
     /// asks for the lowest acceleration — within [`LOOKAHEAD_M`].
-    fn leader(&self, g: &LaneGraph, me: u32, lane: u32, u: f64, half: f64) -> (Leader, f64) {
+    /// `at`: where the vehicle's own entry is in `lane`'s part of the
+    /// index, when the caller knows it (no search then).
+    fn leader(
+        &self,
+        g: &LaneGraph,
+        me: u32,
+        (lane, at): (u32, Option<usize>),
+        u: f64,
+        half: f64,
+    ) -> (Leader, f64) {
         let veh = &self.vehicles[me as usize];
         let p = &veh.follow_params();
         // The constraint that asks for the lowest acceleration wins.
@@ -536,7 +545,10 @@ impl Traffic {
                 }
             }
             let entries = self.index.lane(lane);
-            let start = entries.partition_point(|e| e.u < from);
+            let start = match at {
+                Some(k) if lane == first && ahead == 0.0 => k,
+                _ => entries.partition_point(|e| e.u < from),
+            };
             let found = entries[start..].iter().find(|e| e.who != me);
             if let Some(e) = found {
                 consider(Leader {
@@ -699,22 +711,30 @@ impl Traffic {
         decided.resize(n, (0.0, 0));
         let period = ((DECISION_PERIOD_S / self.dt).round() as u64).max(1);
         let mut touching = Vec::new();
-        // In lane order: neighbours' index entries are next to each other
-        // in memory (the result is per slot, the same in any order).
-        for &me in self.order.iter().filter(|&&item| item & GHOST_ITEM == 0) {
+        // Lane by lane through the index: neighbours' entries are next to
+        // each other in memory, and each vehicle's own entry is known (the
+        // result is per slot, the same in any order).
+        let own = (0..self.index.entries.len()).filter(|&k| {
+            let e = &self.index.entries[k];
+            e.who & OBSTACLE == 0 && !e.ghost
+        });
+        for k in own {
+            let me = self.index.entries[k].who;
+            let lane_start = self.index.starts[self.vehicles[me as usize].lane as usize] as usize;
+            let at = k - lane_start;
             let slot = me as usize;
             let v = &self.vehicles[slot];
             if !v.active {
                 continue;
             }
             let half = 0.5 * v.length;
-            let (l, mut a) = self.leader(g, me, v.lane, v.u, half);
+            let (l, mut a) = self.leader(g, me, (v.lane, Some(at)), v.u, half);
             if l.gap <= 0.0 {
                 touching.push((me, v.lane, v.u));
             }
             if let Some(f) = v.from {
                 // Mid-change: the slower of both lanes (highway-env).
-                a = a.min(self.leader(g, me, f, v.u, half).1);
+                a = a.min(self.leader(g, me, (f, None), v.u, half).1);
             }
             a = a.min(self.courtesy(g, me)).min(v.track());
             let mut change = 0;
@@ -853,7 +873,7 @@ impl Traffic {
         };
         let Some(t) = next else { return 0 };
         let half = 0.5 * v.length;
-        let (lead, _) = self.leader(g, me, t, v.u, half);
+        let (lead, _) = self.leader(g, me, (t, None), v.u, half);
         if lead.gap < 1.0 {
             return 0;
         }
@@ -972,7 +992,7 @@ impl Traffic {
         if lead_gap_in_lane.is_some_and(|gap| gap < need) {
             return None;
         }
-        let (lead_there, a_there) = self.leader(g, me, t, v.u, half);
+        let (lead_there, a_there) = self.leader(g, me, (t, None), v.u, half);
         if lead_there.gap < need || !self.clear_of_obstacles_behind(me, t, v.u, half, v.v) {
             return None;
         }
