@@ -437,3 +437,41 @@ fn drivers_and_traffic_give_the_same_bytes_in_process_and_over_grpc() {
     }
     server.stop().unwrap();
 }
+
+/// `other`, 30 m ahead of sut.car in its lane, changes one lane left over a
+/// phase of `PHASE` seconds.
+fn lane_change_over(phase: f64) -> String {
+    format!(
+        "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.lc()\nscenario sut.lc:\n    r: two_way_road\n    other: vehicle\n    do serial():\n        parallel(overlap: equal):\n            sut.car.drive() with:\n                speed(50kph)\n                along(r, at: start)\n                lane(1, at: start)\n            other.drive() with:\n                speed(50kph)\n                lane(same_as: sut.car, at: start)\n                position(30m, ahead_of: sut.car, at: start)\n        with: duration(2s)\n        parallel(overlap: equal):\n            sut.car.drive() with:\n                speed(50kph)\n            other.drive() with:\n                change_lane(1, side: left)\n        with: duration({phase}s)\n        parallel(overlap: equal):\n            sut.car.drive() with:\n                speed(50kph)\n            other.drive() with:\n                speed(50kph)\n        with: duration(3s)\n"
+    )
+}
+
+#[test]
+fn a_driver_changes_lanes_over_the_duration_the_scenario_gives() {
+    for phase in [2.5, 5.5] {
+        let f = example_file(&lane_change_over(phase));
+        let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+        let opts = RunOptions {
+            seed: Some(1),
+            record: true,
+            ..RunOptions::default()
+        };
+        let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+        assert!(r.summary.pass, "{phase}: {:?}", r.summary.failures);
+        let log = r.log.as_ref().unwrap();
+        let t = log.track("other").unwrap();
+        let moving: Vec<f64> = t
+            .state
+            .y
+            .windows(2)
+            .zip(&t.tick)
+            .filter(|(w, _)| (w[1] - w[0]).abs() > 1e-6)
+            .map(|(_, k)| *k as f64 * log.dt)
+            .collect();
+        let took = moving.last().unwrap() - moving.first().unwrap();
+        assert!(
+            (took - phase).abs() < 0.2,
+            "phase {phase} s: the change took {took:.2} s"
+        );
+    }
+}

@@ -259,6 +259,7 @@ impl Driven {
                     lane: Some(lane),
                     route,
                     firm: false,
+                    change_s: None,
                 },
             });
             self.npcs.push((i, slot));
@@ -325,7 +326,15 @@ impl Driven {
                 speed = (reference.speed + g.sign * wanted_rate).max(0.0);
                 firm = true;
             }
-            let ahead = a.at(t + LANE_LOOKAHEAD_S, plan.dt);
+            // A change the scenario asks for takes its phase (the plan's
+            // convention: the whole phase, within 2–6 s) and is centred
+            // where the plan's is: the lane half that time ahead.
+            let change_s = plan
+                .phases
+                .iter()
+                .find(|p| p.actor == a.id && p.t0 <= t + 1e-9 && t < p.t1 - 1e-9)
+                .map(|p| (p.t1 - p.t0).clamp(2.0, 6.0));
+            let ahead = a.at(t + change_s.map_or(LANE_LOOKAHEAD_S, |s| 0.5 * s), plan.dt);
             let hint = self.hints[i];
             let found = net.locate_near(Vec2::new(ahead.x, ahead.y), hint);
             self.hints[i] = found;
@@ -336,6 +345,10 @@ impl Driven {
             let v = &mut self.traffic.vehicles[k as usize];
             v.goals.speed = Some(speed);
             v.goals.firm = firm;
+            // Only between changes: one under way keeps its pace.
+            if v.from.is_none() {
+                v.goals.change_s = change_s;
+            }
             if let Some(l) = lane {
                 v.goals.lane = Some(l);
             }

@@ -126,6 +126,16 @@ pub struct Goals {
     /// up to the driver's safe deceleration (`b_safe`, what it may also
     /// impose on others), not only its comfortable one.
     pub firm: bool,
+    /// How long its lane changes take (s): the phase's, for a change the
+    /// scenario asks; `None`: [`LANE_CHANGE_S`].
+    pub change_s: Option<f64>,
+}
+
+impl Vehicle {
+    /// How long this vehicle's lane change takes (s).
+    fn change_s(&self) -> f64 {
+        self.goals.change_s.unwrap_or(LANE_CHANGE_S)
+    }
 }
 
 /// An actor the engine does not drive, as it stands this step.
@@ -888,11 +898,11 @@ impl Traffic {
                     accel: v.a,
                 }),
             );
-            if gap < 1.0 || after <= -9.0 || !self.clear_of_obstacle(&f, gap, v.v) {
+            if gap < 1.0 || after <= -9.0 || !self.clear_of_obstacle(&f, gap, v) {
                 return 0;
             }
         }
-        if !self.clear_of_obstacles_behind(me, t, v.u, half, v.v) {
+        if !self.clear_of_obstacles_behind(me, t, v.u, half) {
             return 0;
         }
         side
@@ -901,13 +911,14 @@ impl Traffic {
     /// Whether a lane change may go in front of `f`, `gap` behind: an
     /// actor the engine does not drive (sut.car, a planned actor) may not
     /// brake for it at all, so it must not close the gap within the change.
-    fn clear_of_obstacle(&self, f: &Entry, gap: f64, v: f64) -> bool {
-        f.who & OBSTACLE == 0 || gap >= 2.0 + (f.v - v).max(0.0) * LANE_CHANGE_S
+    fn clear_of_obstacle(&self, f: &Entry, gap: f64, me: &Vehicle) -> bool {
+        f.who & OBSTACLE == 0 || gap >= 2.0 + (f.v - me.v).max(0.0) * me.change_s()
     }
 
     /// Every such actor behind `u` in `lane` within 150 m (not only the
     /// nearest occupant: one may come up behind a car that is leaving).
-    fn clear_of_obstacles_behind(&self, me: u32, lane: u32, u: f64, half: f64, v: f64) -> bool {
+    fn clear_of_obstacles_behind(&self, me: u32, lane: u32, u: f64, half: f64) -> bool {
+        let v = &self.vehicles[me as usize];
         let entries = self.index.lane(lane);
         let j = entries.partition_point(|e| e.u < u);
         entries[..j]
@@ -993,14 +1004,14 @@ impl Traffic {
             return None;
         }
         let (lead_there, a_there) = self.leader(g, me, (t, None), v.u, half);
-        if lead_there.gap < need || !self.clear_of_obstacles_behind(me, t, v.u, half, v.v) {
+        if lead_there.gap < need || !self.clear_of_obstacles_behind(me, t, v.u, half) {
             return None;
         }
         // The new follower: behind my new leader now, behind me after.
         let new_follower = match self.follower(g, me, t, v.u) {
             Some((f, d)) => {
                 let gap = d - half - f.half;
-                if gap < need || !self.clear_of_obstacle(&f, gap, v.v) {
+                if gap < need || !self.clear_of_obstacle(&f, gap, v) {
                     return None;
                 }
                 let now = Leader {
@@ -1072,7 +1083,7 @@ impl Traffic {
             v.v = v_new;
             if v.lat != 0.0 {
                 let w = g.lanes[v.lane as usize].width;
-                let step = w / LANE_CHANGE_S * dt;
+                let step = w / v.change_s() * dt;
                 v.lat = if v.lat.abs() <= step {
                     0.0
                 } else {
