@@ -975,48 +975,20 @@ pub fn execute(
                 .collect_into_vec(&mut made);
         }
         if let (Some(amb), Some(n)) = (drivers_of.as_deref_mut(), net) {
-            // Every actor as it stands after the last step (at the start:
-            // as planned), seen by the drivers from one snapshot.
-            let states: Vec<(litesim_core::Vec2, f64, f64, f64)> = (0..plan.actors.len())
-                .map(|i| match rb.boxes.get(i) {
-                    Some(b) => (
-                        litesim_core::Vec2::new(b.x, b.y),
-                        b.yaw,
-                        rb.speeds[i],
-                        b.length,
-                    ),
-                    None => {
-                        let p = plan.actors[i].samples[0];
-                        (litesim_core::Vec2::new(p.x, p.y), p.yaw, p.v, dims[i].0)
-                    }
-                })
-                .collect();
-            let ego_xy = ego_index.map(|e| states[e].0);
-            let yellow: Vec<bool> = lights
-                .as_ref()
-                .map(|l| {
-                    l.boxes
-                        .iter()
-                        .map(|b| shows(b, BulbColor::Yellow))
-                        .collect()
-                })
-                .unwrap_or_default();
-            amb.step(
-                n,
-                &plan,
-                &states,
-                (&red, &yellow),
+            let now = DrivenStep {
+                net: n,
+                plan: &plan,
+                boxes: &rb.boxes,
+                speeds: &rb.speeds,
+                dims: &dims,
+                lights: lights.as_ref(),
+                red: &red,
                 now_ms,
                 step_ms,
-                ego_xy,
-                |i, mut traj| {
-                    if mirror {
-                        traj.points = traj.points.into_iter().map(|c| to_sim(c, true)).collect();
-                    }
-                    ssp.set_xy_trajectory(&plan.actors[i].id, traj)
-                        .map_err(ssp_err)
-                },
-            )?;
+                ego_index,
+                mirror,
+            };
+            step_driven(amb, &now, ssp)?;
         }
         if yielding && !rb.boxes.is_empty() {
             hold_people(
@@ -1261,6 +1233,74 @@ pub fn execute(
         coverage: samples.into_iter().flatten().collect(),
         driven: driven_ids,
     })
+}
+
+/// What the driven actors' step reads of the run.
+struct DrivenStep<'a> {
+    net: &'a RoadNetwork,
+    plan: &'a Plan,
+    /// The last step's boxes and speeds (empty before the first step).
+    boxes: &'a [BoxState],
+    speeds: &'a [f64],
+    /// Per actor: length, width, mass.
+    dims: &'a [(f64, f64, f64)],
+    lights: Option<&'a TrafficLights>,
+    red: &'a [bool],
+    now_ms: u64,
+    step_ms: u64,
+    ego_index: Option<usize>,
+    mirror: bool,
+}
+
+/// One step of the actors drivers drive: every actor as it stands after
+/// the last step (at the start: as planned), seen from one snapshot; the
+/// lights' colours; each driven actor's trajectory for the coming step
+/// sent to the simulator.
+fn step_driven(
+    amb: &mut crate::runtime::traffic::driven::Driven,
+    s: &DrivenStep<'_>,
+    ssp: &mut dyn Ssp,
+) -> Result<(), ScenarioError> {
+    let states: Vec<(litesim_core::Vec2, f64, f64, f64)> = (0..s.plan.actors.len())
+        .map(|i| match s.boxes.get(i) {
+            Some(b) => (
+                litesim_core::Vec2::new(b.x, b.y),
+                b.yaw,
+                s.speeds[i],
+                b.length,
+            ),
+            None => {
+                let p = s.plan.actors[i].samples[0];
+                (litesim_core::Vec2::new(p.x, p.y), p.yaw, p.v, s.dims[i].0)
+            }
+        })
+        .collect();
+    let ego_xy = s.ego_index.map(|e| states[e].0);
+    let yellow: Vec<bool> = s
+        .lights
+        .map(|l| {
+            l.boxes
+                .iter()
+                .map(|b| shows(b, BulbColor::Yellow))
+                .collect()
+        })
+        .unwrap_or_default();
+    amb.step(
+        s.net,
+        s.plan,
+        &states,
+        (s.red, &yellow),
+        s.now_ms,
+        s.step_ms,
+        ego_xy,
+        |i, mut traj| {
+            if s.mirror {
+                traj.points = traj.points.into_iter().map(|c| to_sim(c, true)).collect();
+            }
+            ssp.set_xy_trajectory(&s.plan.actors[i].id, traj)
+                .map_err(ssp_err)
+        },
+    )
 }
 
 /// Walks on its plan and may yield: a person, cyclist or animal that moves.
