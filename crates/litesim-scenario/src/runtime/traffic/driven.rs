@@ -8,7 +8,7 @@
 //!   takes the plan's lanes at forks;
 //! - ambient traffic around sut.car: vehicles `traffic.N` placed at the
 //!   test's seed within the declared radius and kept around sut.car as it
-//!   moves — a vehicle that falls out of range or leaves the map is taken
+//!   moves — a vehicle that falls out of range or stops at the map's edge is taken
 //!   off the road and placed again in a free spot at the far side of the
 //!   range, ahead of or behind sut.car (same id: the simulator's actor
 //!   list stays fixed during a run; the summary counts these re-entries).

@@ -35,7 +35,8 @@ pub struct LaneInfo {
     /// Right-hand traffic: the right is the slow (keep-right) side.
     pub right_hand: bool,
     /// The lane ends at the map's edge (no successor, and its road links
-    /// to nothing there): a driver leaves the map here. A lane without
+    /// to nothing there): a driver stops here (ambient traffic is then
+    /// placed again around sut.car). A lane without
     /// successors whose road goes on is a dead end (a lane drop) instead.
     pub exit: bool,
     /// A lane of a junction's connecting road.

@@ -70,8 +70,9 @@ pub struct Vehicle {
     pub at_dead_end: bool,
     /// Lane changes made.
     pub lane_changes: u32,
-    /// On the map: `false` once it left at the map's edge (it takes no
-    /// part in steps until the caller places it again).
+    /// On the road: a vehicle the caller sets `false` takes no part in
+    /// steps until it is set `true` again (the engine itself never takes a
+    /// vehicle off: at a dead end or the map's edge it stops there).
     pub active: bool,
     /// Goals the scenario gives this step (a scenario's own vehicle);
     /// `Goals::default()` for ambient traffic.
