@@ -12,8 +12,8 @@
 
 use crate::ScenarioError;
 use crate::elab::ActorKind;
-use crate::exec::{DriveMode, ExecConfig, execute};
 use crate::plan::{ActorPlan, Plan, PlanSample};
+use crate::runtime::{DriveMode, ExecConfig, execute};
 use litesim_core::math;
 use litesim_ssp::profile::{Calibration, Profile};
 use serde::Serialize;

@@ -10,7 +10,7 @@
 //! Every failure names the time, the actors and the value.
 
 use crate::elab::Thresholds;
-use crate::exec::Executed;
+use crate::runtime::Executed;
 use crate::{DriveMode, tolerances};
 
 /// Failures and notes of one run.

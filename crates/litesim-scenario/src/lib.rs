@@ -5,8 +5,9 @@
 //! actors, variables, constraints and a behaviour tree; [`solve`] fixes
 //! every variable under a seed (roads from the OpenDRIVE map included);
 //! [`plan`] gives every actor a trajectory before anything runs;
-//! [`postplan`] checks it against the profile's limits; [`exec`] drives
-//! the actors through any SSP (in-process or remote) step by step and
+//! [`postplan`] checks it against the profile's limits; [`runtime`] drives
+//! every actor through its controller (the SUT, a driver or its plan)
+//! over any SSP (in-process or remote), step by step, and
 //! [`kpi`] checks the result; [`batch`] runs tests × seeds in parallel and
 //! in shards; [`calibrate`] tunes the drivers.
 //!
@@ -20,7 +21,6 @@ pub mod calibrate;
 pub mod coverage;
 pub mod elab;
 pub mod error;
-pub mod exec;
 pub mod intent;
 pub mod judge;
 pub mod kpi;
@@ -33,7 +33,7 @@ pub mod solve;
 pub mod sut;
 
 pub use error::ScenarioError;
-pub use exec::DriveMode;
+pub use runtime::DriveMode;
 
 use litesim_core::rng::Rng;
 use litesim_map::RoadNetwork;
@@ -386,7 +386,7 @@ pub struct Summary {
     pub lane_goals: Vec<reactive::LaneResult>,
     /// `wait`/`until` conditions as they held on the simulated state
     /// (closed loop), with the time the plan had for them.
-    pub conditions: Vec<exec::LiveEvent>,
+    pub conditions: Vec<runtime::LiveEvent>,
     /// Where the drivers' gains came from (`built-in` or a file).
     pub calibration: String,
     /// How well a paced run kept to the wall clock (`--realtime`).
@@ -626,7 +626,7 @@ fn run_here(
             log: None,
         });
     }
-    let cfg = exec::ExecConfig {
+    let cfg = runtime::ExecConfig {
         profile: profile.clone(),
         model: model.clone(),
         seed,
@@ -696,7 +696,7 @@ fn run_here(
             p
         })
     };
-    let mut ex = exec::execute(
+    let mut ex = runtime::execute(
         ssp,
         &plan,
         prep.net.as_deref(),

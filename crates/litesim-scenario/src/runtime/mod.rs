@@ -1,7 +1,28 @@
-//! The runtime's controllers for the actors litesim drives itself: the
-//! driver model ([`driver`]: ACC car-following and MOBIL lane changes) and
-//! the traffic engine that runs it on the map's lanes ([`traffic`]), for
-//! ambient traffic around sut.car.
+//! The runtime: one step loop (`run`) drives every actor through a
+//! controller (`controllers`) — observe, decide, command to the SSP — and
+//! reads each step back (`readback`) into the checks, the log and the
+//! world the controllers observe next.
+//!
+//! - `cast`: the simulator initialised, the actors created;
+//! - `observe`: the one picture of the world every controller reads;
+//! - `lights`: light control (the plan's switches, who shows red);
+//! - `live`: `wait`/`until` conditions on the simulated state;
+//! - `sample`: `cover`/`record` items sampled at their events;
+//! - [`driver`] and [`traffic`]: the driver model (ACC car-following, MOBIL
+//!   lane changes) and the traffic engine that runs it on the map's lanes.
 
+pub(crate) mod cast;
+pub mod config;
+pub(crate) mod controllers;
 pub mod driver;
+pub(crate) mod lights;
+pub(crate) mod live;
+pub(crate) mod observe;
+pub(crate) mod readback;
+pub(crate) mod run;
+pub(crate) mod sample;
 pub mod traffic;
+
+pub use config::{DriveMode, ExecConfig, Executed, LiveEvent, POSTPONE_S, Replan};
+pub use controllers::pid::HEADING_LEVER_M;
+pub use run::execute;

@@ -537,21 +537,7 @@ impl Traffic {
         loop {
             let info = &g.lanes[lane as usize];
             if info.junction {
-                if lane != first && self.must_wait(g, me, lane, ahead) {
-                    // Another has the crossing: wait at this lane's start
-                    // (unless it is too late to stop: then it goes).
-                    let gap = ahead - half - 0.5;
-                    if gap > 0.0
-                        && (self.settling || veh.v * veh.v / (2.0 * gap) <= p.emergency_decel)
-                    {
-                        consider(Leader {
-                            gap,
-                            speed: 0.0,
-                            accel: 0.0,
-                        });
-                    }
-                }
-                for l in self.junction_leaders(g, me, lane, from, ahead, half) {
+                for l in self.at_junction(g, me, (lane, lane != first), from, ahead, half) {
                     consider(l);
                 }
             }
@@ -610,6 +596,36 @@ impl Traffic {
             best.1 = driver::acceleration(p, veh.v, None);
         }
         best
+    }
+
+    /// What junction lane `lane` (`entered`: not the vehicle's own) asks of
+    /// vehicle `me`, `ahead` metres before it: waiting at its start while
+    /// another has the crossing (unless it is too late to stop: then it
+    /// goes), and the vehicles on lanes that cross or merge with it.
+    fn at_junction(
+        &self,
+        g: &LaneGraph,
+        me: u32,
+        (lane, entered): (u32, bool),
+        from: f64,
+        ahead: f64,
+        half: f64,
+    ) -> Vec<Leader> {
+        let veh = &self.vehicles[me as usize];
+        let p = veh.follow_params();
+        let mut out = Vec::new();
+        if entered && self.must_wait(g, me, lane, ahead) {
+            let gap = ahead - half - 0.5;
+            if gap > 0.0 && (self.settling || veh.v * veh.v / (2.0 * gap) <= p.emergency_decel) {
+                out.push(Leader {
+                    gap,
+                    speed: 0.0,
+                    accel: 0.0,
+                });
+            }
+        }
+        out.extend(self.junction_leaders(g, me, lane, from, ahead, half));
+        out
     }
 
     /// Whether vehicle `me`, `ahead` metres before junction lane `lane`,

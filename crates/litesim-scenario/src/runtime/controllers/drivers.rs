@@ -1,0 +1,60 @@
+//! The drivers' controller: the traffic engine ([`Driven`]) drives the
+//! scenario's other vehicles under `--npc driver` and the ambient traffic.
+//! Each step it reads every actor from the same world the SUT sees, the
+//! lights' colours, and sends each driven actor's trajectory for the coming
+//! step.
+
+use super::{Act, Controller, Flow, See, ssp_err, to_sim};
+use crate::error::ScenarioError;
+use crate::runtime::traffic::driven::Driven;
+use litesim_core::Vec2;
+use litesim_map::RoadNetwork;
+
+/// The traffic engine behind the controller trait.
+pub(crate) struct Drivers<'d> {
+    /// The engine and its vehicles.
+    pub driven: &'d mut Driven,
+    net: &'d RoadNetwork,
+}
+
+impl<'d> Drivers<'d> {
+    /// The engine on `net`, told where the lights' stop lines are.
+    pub fn new(driven: &'d mut Driven, net: &'d RoadNetwork, lights: &super::Lights) -> Self {
+        if let Some(l) = lights.info.as_ref() {
+            driven.set_lights(net, &l.boxes, &lights.box_roads);
+        }
+        Drivers { driven, net }
+    }
+}
+
+impl Controller for Drivers<'_> {
+    fn command(&mut self, see: &See<'_>, act: &mut Act<'_>) -> Result<Flow, ScenarioError> {
+        let states: Vec<(Vec2, f64, f64, f64)> = (0..see.plan.actors.len())
+            .map(|i| {
+                let o = see.world.get(i);
+                (Vec2::new(o.x, o.y), o.yaw, o.speed, o.length)
+            })
+            .collect();
+        let ego_xy = see.ego_index.map(|e| states[e].0);
+        let yellow = see.lights.yellow();
+        let (plan, mirror) = (see.plan, see.mirror);
+        let ssp = &mut *act.ssp;
+        self.driven.step(
+            self.net,
+            plan,
+            &states,
+            (&see.lights.red, &yellow),
+            see.now_ms(),
+            see.step_ms,
+            ego_xy,
+            |i, mut traj| {
+                if mirror {
+                    traj.points = traj.points.into_iter().map(|c| to_sim(c, true)).collect();
+                }
+                ssp.set_xy_trajectory(&plan.actors[i].id, traj)
+                    .map_err(ssp_err)
+            },
+        )?;
+        Ok(Flow::Go)
+    }
+}

@@ -1,0 +1,126 @@
+//! The SUT seam: the system under test (built in, a Python object or a
+//! process over gRPC) drives sut.car. It is told the vehicle and route once
+//! ([`SutSeam::reset`]), then sent the step's observation and its command
+//! goes to the SSP as a dynamic move.
+
+use super::pid::{Limits, pedals};
+use super::{Act, Controller, Flow, See, ssp_err};
+use crate::error::ScenarioError;
+use crate::sut::{Sut, SutCommand, SutInfo};
+use litesim_core::math;
+use litesim_log::ControlSample;
+use litesim_ssp::api::{DynamicMove, Ssp};
+
+/// The system under test behind the controller trait.
+pub(crate) struct SutSeam<'s> {
+    sut: &'s mut (dyn Sut + 's),
+    /// sut.car's plan index.
+    pub ego: usize,
+    /// sut.car's limits from the catalogue.
+    pub lim: Limits,
+    /// The simulator's model (its steering geometry).
+    model: String,
+    mirror: bool,
+}
+
+impl<'s> SutSeam<'s> {
+    /// The SUT driving actor `ego`.
+    pub fn new(
+        sut: &'s mut (dyn Sut + 's),
+        ego: usize,
+        lim: Limits,
+        model: &str,
+        mirror: bool,
+    ) -> Self {
+        SutSeam {
+            sut,
+            ego,
+            lim,
+            model: model.to_string(),
+            mirror,
+        }
+    }
+
+    /// Tells the SUT its vehicle and route; its failure as the run's stop
+    /// message.
+    pub fn reset(&mut self, info: &SutInfo) -> Option<String> {
+        self.sut
+            .reset(info)
+            .err()
+            .map(|err| format!("sut error at t=0.00 s (reset): {err}"))
+    }
+}
+
+impl Controller for SutSeam<'_> {
+    fn command(&mut self, see: &See<'_>, act: &mut Act<'_>) -> Result<Flow, ScenarioError> {
+        // The SUT sees every actor but itself: the observation's layout.
+        let answer = self.sut.step(&see.world.obs);
+        let cmd = answer.map_err(|err| err.0).and_then(|c| {
+            c.validate()
+                .map(|()| c)
+                .map_err(|m| format!("it returned a bad command: {m}"))
+        });
+        match cmd {
+            Ok(c) => {
+                let id = &see.plan.actors[self.ego].id;
+                let control = &mut act.controls[self.ego];
+                send_sut(act.ssp, id, c, self, control)?;
+                Ok(Flow::Go)
+            }
+            Err(m) => Ok(Flow::Stop(format!("sut error at t={:.2} s: {m}", see.t()))),
+        }
+    }
+}
+
+/// Sends the SUT's command to `sut.car` as a dynamic move.
+fn send_sut(
+    ssp: &mut dyn Ssp,
+    id: &str,
+    c: SutCommand,
+    seam: &SutSeam<'_>,
+    control: &mut ControlSample,
+) -> Result<(), ScenarioError> {
+    let (caps, mirror) = (&seam.lim, seam.mirror);
+    let m = if mirror { -1.0 } else { 1.0 };
+    let mv = match c {
+        SutCommand::Pedals {
+            throttle,
+            brake,
+            steering,
+        } => pedals(throttle, brake, steering, caps, mirror, control),
+        SutCommand::Physical {
+            drive_force_n,
+            brake_force_n,
+            steering_wheel_angle_rad,
+        } => DynamicMove::Physical {
+            drive_force_n,
+            brake_force_n,
+            steer: litesim_ssp::api::PhysicalSteer::SteeringWheelAngleRad(
+                m * steering_wheel_angle_rad,
+            ),
+        },
+        SutCommand::Accel {
+            acceleration,
+            curvature,
+        } => {
+            // The road-wheel angle giving that curvature in the model: the
+            // seed's Model SSP turns at sin δ / L, the bicycle at tan δ / L.
+            let lk = caps.wheelbase * curvature;
+            let delta = if seam.model == "dummy" || seam.model.is_empty() {
+                math::asin(lk.clamp(-1.0, 1.0))
+            } else {
+                math::atan(lk)
+            };
+            *control = ControlSample {
+                acceleration,
+                steering_angle: delta,
+                ..ControlSample::default()
+            };
+            DynamicMove::Direct {
+                acceleration,
+                steering_angle_rad: m * delta,
+            }
+        }
+    };
+    ssp.set_dynamic_move(id, mv, 0).map_err(ssp_err)
+}

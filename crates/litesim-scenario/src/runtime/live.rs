@@ -1,0 +1,99 @@
+//! Live conditions: the plan's `wait`/`until` conditions evaluated on the
+//! simulated state, step by step. One that holds at another time than
+//! planned (or that the plan has holding by now while the world does not)
+//! gets its time fixed, and the test is planned again around it.
+
+use super::observe::World;
+use super::{LiveEvent, POSTPONE_S};
+use crate::plan::Plan;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// What the runtime knows of the plan's conditions so far.
+pub(crate) struct Live {
+    /// Times fixed for the planner (condition key → s).
+    pub fixed: BTreeMap<String, f64>,
+    /// Conditions decided (held, or not something the state shows).
+    settled: BTreeSet<String>,
+    /// Each condition's last truth (for rise/fall).
+    last_truth: BTreeMap<String, bool>,
+    /// Conditions that held on the simulated state.
+    pub events: Vec<LiveEvent>,
+    /// What the first plan had for each condition (reported beside the
+    /// live time).
+    first_plan: BTreeMap<String, Option<f64>>,
+}
+
+impl Live {
+    /// Nothing seen yet of `plan`'s conditions.
+    pub fn new(plan: &Plan) -> Self {
+        Live {
+            fixed: BTreeMap::new(),
+            settled: BTreeSet::new(),
+            last_truth: BTreeMap::new(),
+            events: Vec::new(),
+            first_plan: plan
+                .conditions
+                .iter()
+                .map(|c| (c.key.clone(), c.at))
+                .collect(),
+        }
+    }
+
+    /// Evaluates the plan's conditions on the world at time `t`: one that
+    /// holds at another time than planned, or that the plan has holding by
+    /// now while the world does not, gets its time fixed (or postponed by
+    /// [`POSTPONE_S`]). Returns whether the plan must be made again.
+    pub fn check(&mut self, plan: &Plan, world: &World, t: f64) -> bool {
+        let sample = |id: &str, field: usize| {
+            let i = plan.actors.iter().position(|a| a.id == id)?;
+            let o = world.get(i);
+            Some([o.speed, o.acceleration, o.x, o.y][field])
+        };
+        let mut changed = false;
+        for c in &plan.conditions {
+            if self.settled.contains(&c.key) || t < c.t0 - 1e-9 {
+                continue;
+            }
+            let Some(now) = c.holds(&plan.ids, &sample) else {
+                // Not something the state shows: the plan's time stands.
+                self.settled.insert(c.key.clone());
+                continue;
+            };
+            let before = self.last_truth.insert(c.key.clone(), now);
+            let hit = match c.edge().0 {
+                "rise" => before == Some(false) && now,
+                "fall" => before == Some(true) && !now,
+                _ => now,
+            };
+            if hit {
+                self.settled.insert(c.key.clone());
+                self.events.push(LiveEvent {
+                    condition: describe(&c.cond),
+                    planned: self.first_plan.get(&c.key).copied().flatten(),
+                    live: t,
+                });
+                if c.at.is_none_or(|a| (a - t).abs() > 1e-6) {
+                    self.fixed.insert(c.key.clone(), t);
+                    changed = true;
+                }
+            } else if c.at.is_some_and(|a| a <= t + 1e-9) {
+                self.fixed.insert(c.key.clone(), t + POSTPONE_S);
+                changed = true;
+            }
+        }
+        changed
+    }
+}
+
+/// A condition as text, for summaries.
+fn describe(e: &crate::elab::CExpr) -> String {
+    use crate::elab::{CExpr, Value};
+    match e {
+        CExpr::Const(Value::Num(v)) => format!("{v}"),
+        CExpr::Const(v) => format!("{v:?}"),
+        CExpr::Var(p) => p.clone(),
+        CExpr::Unary(op, x) => format!("{op}({})", describe(x)),
+        CExpr::Binary(op, a, b) => format!("{} {op} {}", describe(a), describe(b)),
+        other => format!("{other:?}"),
+    }
+}

@@ -1,0 +1,156 @@
+//! Building observations: the one picture of the world every controller
+//! reads at a step — the SUT's [`Observation`], kept between steps.
+//!
+//! The object list holds every actor as the simulator last reported it
+//! (before the first step: as planned). With a SUT, sut.car is the
+//! observation's `ego` and the list holds the others, which is exactly what
+//! the SUT is sent; [`World::get`] hides the split from everyone else.
+
+use super::lights::Lights;
+use crate::plan::{ActorPlan, Plan};
+use crate::reactive::Body;
+use crate::sut::{ObjectState, Observation, RoadPos, Route};
+use litesim_core::math;
+use litesim_map::RoadNetwork;
+
+/// Every actor as last reported, in the SUT's layout.
+pub struct World {
+    /// The observation (with a SUT, `ego` is sut.car and `objects` the
+    /// others, in plan order).
+    pub obs: Observation,
+    /// sut.car's plan index when a SUT drives it.
+    ego: Option<usize>,
+}
+
+/// An actor as its plan starts it.
+fn start_state(a: &ActorPlan, length: f64, width: f64) -> ObjectState {
+    let p = a.samples[0];
+    let (sy, cy) = math::sin_cos(p.yaw);
+    ObjectState {
+        id: a.id.clone(),
+        kind: format!("{:?}", a.kind).to_lowercase(),
+        x: p.x,
+        y: p.y,
+        yaw: p.yaw,
+        speed: p.v,
+        vx: p.v * cy,
+        vy: p.v * sy,
+        acceleration: 0.0,
+        length,
+        width,
+    }
+}
+
+impl World {
+    /// No world: nobody observes it (open loop).
+    pub fn empty() -> Self {
+        World {
+            obs: Observation::default(),
+            ego: None,
+        }
+    }
+
+    /// The actors as planned at the start (`dims`: length, width, mass);
+    /// `ego`: the actor a SUT drives.
+    pub fn start(plan: &Plan, dims: &[(f64, f64, f64)], ego: Option<usize>) -> Self {
+        let mut objects: Vec<ObjectState> = plan
+            .actors
+            .iter()
+            .zip(dims)
+            .map(|(a, d)| start_state(a, d.0, d.1))
+            .collect();
+        let mut obs = Observation::default();
+        if let Some(e) = ego {
+            obs.ego = objects.remove(e);
+        }
+        obs.objects = objects;
+        World { obs, ego }
+    }
+
+    /// Actor `i` (plan order).
+    pub fn get(&self, i: usize) -> &ObjectState {
+        match self.ego {
+            Some(e) if i == e => &self.obs.ego,
+            Some(e) if i > e => &self.obs.objects[i - 1],
+            _ => &self.obs.objects[i],
+        }
+    }
+
+    /// Actor `i` (plan order), to update.
+    pub fn get_mut(&mut self, i: usize) -> &mut ObjectState {
+        match self.ego {
+            Some(e) if i == e => &mut self.obs.ego,
+            Some(e) if i > e => &mut self.obs.objects[i - 1],
+            _ => &mut self.obs.objects[i],
+        }
+    }
+
+    /// Actor `i` as the reactive gap reads it.
+    pub fn body(&self, i: usize) -> Body {
+        let o = self.get(i);
+        Body {
+            x: o.x,
+            y: o.y,
+            yaw: o.yaw,
+            speed: o.speed,
+            length: o.length,
+        }
+    }
+}
+
+/// What the SUT's observation adds to the object list: where sut.car
+/// stands on its route and road, what the scenario asks of it, the lights.
+pub(crate) struct Observer {
+    /// sut.car's route: its planned path.
+    pub route: Route,
+    /// The route segment last found (the search starts there).
+    hint: usize,
+}
+
+impl Observer {
+    /// sut.car's route from its plan.
+    pub fn new(ego: &ActorPlan) -> Self {
+        let pts: Vec<[f64; 2]> = ego.samples.iter().map(|p| [p.x, p.y]).collect();
+        let sp: Vec<f64> = ego.samples.iter().map(|p| p.v).collect();
+        Observer {
+            route: Route::new(&pts, &sp),
+            hint: 0,
+        }
+    }
+
+    /// Completes the observation of step `k` for sut.car (plan index `e`,
+    /// last located at `pos`); returns its sideways offset from its route
+    /// (what lane goals that follow sut.car follow).
+    #[allow(clippy::too_many_arguments)]
+    pub fn observe(
+        &mut self,
+        world: &mut World,
+        plan: &Plan,
+        (k, t): (u64, f64),
+        e: usize,
+        pos: Option<&litesim_map::Located>,
+        net: Option<&RoadNetwork>,
+        lights: &mut Lights,
+    ) -> Option<f64> {
+        let obs = &mut world.obs;
+        obs.tick = k;
+        obs.time = t;
+        let rp = self.route.project(obs.ego.x, obs.ego.y, self.hint);
+        if let Some(p) = rp {
+            self.hint = p.segment;
+        }
+        obs.distance_to_goal = rp.map_or(0.0, |p| self.route.length() - p.s);
+        obs.requested_speed = plan.actors[e].at(t, plan.dt).v;
+        obs.road = pos.zip(net).map(|(p, n)| RoadPos {
+            road: n.od.roads[p.road].id.clone(),
+            lane: p.lane,
+            s: p.s,
+            offset: p.offset,
+        });
+        if !lights.seen {
+            obs.lights = lights.states();
+            lights.seen = true;
+        }
+        rp.map(|p| p.lateral)
+    }
+}

@@ -1,0 +1,481 @@
+//! Reading steps back: each step's reported states become the checks'
+//! inputs (boxes, speeds, planned points, on-road flags), the log's samples,
+//! the world the controllers observe, coverage samples and the gap and lane
+//! goals judged at their phase ends.
+//!
+//! Everything the read-back changes lives in [`Readback`] (and the
+//! [`World`]); everything it only reads comes in a [`ReadEnv`], rebuilt for
+//! each chunk (in closed loop the plan, the lights and the actors' clocks
+//! change between chunks). A chunk's read-back depends only on its own
+//! states and on the read-backs before it, never on the simulator. (Reading
+//! one chunk back on a second core while the next was stepped was tried on
+//! this split and dropped: BENCHMARKS.md, twelfth session.)
+
+use super::ExecConfig;
+use super::controllers::planned::Sent;
+use super::lights::Lights;
+use super::observe::World;
+use super::sample::{due_time, live_state, sample_items};
+use crate::error::ScenarioError;
+use crate::intent::{LaneRelation, Order};
+use crate::kpi::{BoxState, EgoKpi, Kpis};
+use crate::plan::Plan;
+use crate::reactive::{Body, GoalResult, LaneResult, Warp, shifted};
+use litesim_core::geometry::wrap_angle;
+use litesim_core::math;
+use litesim_log::{ActorSample, ControlSample, LogRecorder};
+use litesim_map::RoadNetwork;
+use litesim_ssp::api::{KinematicSteps, Kinematics, StepInfo};
+
+/// What reading steps back only reads (fixed for a chunk; in open loop for
+/// the whole run).
+#[derive(Clone, Copy)]
+pub(crate) struct ReadEnv<'e, 'c> {
+    pub plan: &'e Plan,
+    pub net: Option<&'e RoadNetwork>,
+    pub cfg: &'e ExecConfig<'c>,
+    /// The lights, which show red and each box's road.
+    pub lights: &'e Lights,
+    /// Per actor: length, width, mass.
+    pub dims: &'e [(f64, f64, f64)],
+    /// Per actor: driven by pedals and steering.
+    pub dynamic: &'e [bool],
+    /// Commands each actor got (what its log samples show).
+    pub controls: &'e [ControlSample],
+    /// The actor a SUT drives.
+    pub ego_i: Option<usize>,
+    /// sut.car's actor, driven or planned.
+    pub ego_index: Option<usize>,
+    pub sampling: bool,
+    /// Someone observes the world between steps (closed loop): keep it.
+    pub observed: bool,
+    /// The simulator's frame is mirrored (CARLA).
+    pub mirror: bool,
+    pub step_ms: u64,
+    pub goal_actors: &'e [Option<(usize, usize)>],
+    pub warps: &'e [Warp],
+    /// The trajectories sent for the steps being read.
+    pub sent: &'e [Sent],
+    /// Per actor: driven by a driver (no plan to track: its planned point
+    /// is where it is).
+    pub driven: &'e [bool],
+}
+
+/// What reading steps back changes: the checks, the log, the last states.
+pub(crate) struct Readback {
+    pub boxes: Vec<BoxState>,
+    pub speeds: Vec<f64>,
+    pub accels: Vec<f64>,
+    pub planned: Vec<(f64, f64, f64)>,
+    pub off: Vec<bool>,
+    pub kpis: Kpis,
+    pub last_pos: Vec<Option<litesim_map::Located>>,
+    /// Where each vehicle was last located and how far it may move from
+    /// there and surely still be on a road (`on_road_radius`): the off-road
+    /// check locates it again only beyond that. Not for the SUT's car (it
+    /// sees its road position each step) nor with traffic lights (red-light
+    /// crossings need every step's s).
+    pub on_road_until: Vec<Option<litesim_map::SurelyOnRoad>>,
+    pub rec: Option<LogRecorder>,
+    pub tracking: Tracking,
+    /// Per plan actor: its place in the simulator's list of the last
+    /// chunk (found again only when the list changes).
+    pub slots: Vec<usize>,
+    slot_ids: Vec<litesim_ssp::SmolStr>,
+    pub ego_kpi: Option<EgoKpi>,
+    pub last_t: f64,
+    pub live: Vec<crate::coverage::LiveActor>,
+    pub samples: Vec<Option<crate::coverage::Sample>>,
+    pub next_due: f64,
+    pub next_goal: usize,
+    pub next_lane_goal: usize,
+    pub goal_results: Vec<GoalResult>,
+    pub lane_results: Vec<LaneResult>,
+}
+
+impl Readback {
+    /// Nothing read back yet, for the actors `ids`: the log goes to `rec`
+    /// (when recorded), sut.car's KPIs to `ego_kpi`, and `cfg`'s coverage
+    /// items are sampled when `plan` has them due.
+    pub(crate) fn new(
+        ids: &[String],
+        rec: Option<LogRecorder>,
+        ego_kpi: Option<EgoKpi>,
+        cfg: &ExecConfig<'_>,
+        plan: &Plan,
+    ) -> Self {
+        let n = ids.len();
+        let samples = vec![None; cfg.covers.len()];
+        Readback {
+            boxes: Vec::with_capacity(n),
+            speeds: Vec::with_capacity(n),
+            accels: Vec::new(),
+            planned: Vec::with_capacity(n),
+            off: Vec::with_capacity(n),
+            kpis: Kpis::new(ids),
+            last_pos: vec![None; n],
+            on_road_until: vec![None; n],
+            rec,
+            tracking: Tracking::default(),
+            slots: Vec::new(),
+            slot_ids: Vec::new(),
+            ego_kpi,
+            last_t: 0.0,
+            live: Vec::new(),
+            next_due: due_time(cfg, plan, &samples),
+            samples,
+            next_goal: 0,
+            next_lane_goal: 0,
+            goal_results: Vec::new(),
+            lane_results: Vec::new(),
+        }
+    }
+
+    /// Each plan actor's place in the chunk's list of states. States
+    /// usually come back in creation order: look there first (a search per
+    /// actor would make a chunk quadratic in actors).
+    fn find_slots(&mut self, plan: &Plan, got: &KinematicSteps) -> Result<(), ScenarioError> {
+        if self.slot_ids == got.ids {
+            return Ok(());
+        }
+        self.slots.clear();
+        for (i, a) in plan.actors.iter().enumerate() {
+            let at = match got.ids.get(i) {
+                Some(id) if **id == *a.id => i,
+                _ => got.ids.iter().position(|id| **id == *a.id).ok_or_else(|| {
+                    ScenarioError::Simulator(format!("the simulator lost actor '{}'", a.id))
+                })?,
+            };
+            self.slots.push(at);
+        }
+        self.slot_ids.clone_from(&got.ids);
+        Ok(())
+    }
+
+    /// Reads a chunk of steps back, in step order (`got`'s states are in
+    /// the simulator's frame).
+    pub(crate) fn chunk(
+        &mut self,
+        env: &ReadEnv<'_, '_>,
+        world: &mut World,
+        got: &mut KinematicSteps,
+    ) -> Result<(), ScenarioError> {
+        self.find_slots(env.plan, got)?;
+        if env.mirror {
+            got.states.iter_mut().for_each(Kinematics::mirror_y);
+        }
+        for (k, info) in got.infos.iter().enumerate() {
+            let step = got.step(k);
+            let t = info.sim_time_ms as f64 / 1000.0;
+            self.boxes.clear();
+            self.speeds.clear();
+            self.accels.clear();
+            self.planned.clear();
+            self.off.clear();
+            for i in 0..env.plan.actors.len() {
+                self.read_actor(env, world, i, &step[self.slots[i]], info);
+            }
+            self.kpis
+                .step(t, &self.boxes, &self.speeds, &self.planned, &self.off);
+            self.last_t = t;
+            if env.sampling && t >= self.next_due - 1e-9 {
+                let cfg = env.cfg;
+                live_state(&self.boxes, &self.speeds, &self.accels, &mut self.live);
+                sample_items(
+                    cfg,
+                    env.plan,
+                    env.net,
+                    &self.live,
+                    t,
+                    false,
+                    &mut self.samples,
+                );
+                self.next_due = due_time(cfg, env.plan, &self.samples);
+            }
+            self.judge_lane_goals(env, t);
+            self.judge_gap_goals(env, t);
+        }
+        Ok(())
+    }
+
+    /// One actor's state at one step: the checks' inputs, the log, the
+    /// world, sut.car's KPIs.
+    fn read_actor(
+        &mut self,
+        env: &ReadEnv<'_, '_>,
+        world: &mut World,
+        i: usize,
+        st: &Kinematics,
+        info: &StepInfo,
+    ) {
+        let t = info.sim_time_ms as f64 / 1000.0;
+        let (plan, dims) = (env.plan, env.dims);
+        let a = &plan.actors[i];
+        let w = &env.warps[i];
+        let p = match env.sent[i].planned(info.sim_time_ms, env.step_ms, w) {
+            _ if env.driven[i] => (st.pose.position.x, st.pose.position.y, st.speed),
+            Some(p) => p,
+            None => {
+                let p = shifted(a.at(w.tau(t), plan.dt), w.offset);
+                (p.x, p.y, p.v)
+            }
+        };
+        self.boxes.push(BoxState {
+            x: st.pose.position.x,
+            y: st.pose.position.y,
+            yaw: st.pose.yaw,
+            length: dims[i].0,
+            width: dims[i].1,
+            vx: st.velocity.x,
+            vy: st.velocity.y,
+        });
+        self.speeds.push(st.speed);
+        if env.sampling {
+            let (sy, cy) = math::sin_cos(st.pose.yaw);
+            self.accels
+                .push(st.acceleration.x * cy + st.acceleration.y * sy);
+        }
+        self.planned.push(p);
+        self.check_road(env, i, st, t);
+        if self.rec.is_some() {
+            self.log_sample(env, i, st, info);
+        }
+        if env.observed {
+            let o = world.get_mut(i);
+            let (sy, cy) = math::sin_cos(st.pose.yaw);
+            o.x = st.pose.position.x;
+            o.y = st.pose.position.y;
+            o.yaw = st.pose.yaw;
+            o.speed = st.speed;
+            o.vx = st.velocity.x;
+            o.vy = st.velocity.y;
+            o.acceleration = st.acceleration.x * cy + st.acceleration.y * sy;
+        }
+        if Some(i) == env.ego_index
+            && let Some(ek) = self.ego_kpi.as_mut()
+        {
+            ek.step(t, st.speed, st.pose.position.x, st.pose.position.y);
+        }
+    }
+
+    /// Off-road and red-light checks of actor `i` (a vehicle is located
+    /// again only when it may have left the part of the road it was surely
+    /// on).
+    fn check_road(&mut self, env: &ReadEnv<'_, '_>, i: usize, st: &Kinematics, t: f64) {
+        let net = env.net;
+        let vehicle = env.plan.actors[i].kind == crate::elab::ActorKind::Vehicle;
+        let here = st.pose.position.xy();
+        if self.on_road_until[i].is_some_and(|z| z.contains(here)) {
+            self.off.push(false);
+            return;
+        }
+        let pos = if vehicle {
+            net.and_then(|n| n.locate_near(here, self.last_pos[i]))
+        } else {
+            None
+        };
+        self.off.push(vehicle && net.is_some() && pos.is_none());
+        let lights = env.lights.info.as_ref();
+        // Red light: the car's s passes a red box's s on a lane it controls.
+        if let (Some(info), Some(p), Some(q)) = (lights, &pos, &self.last_pos[i]) {
+            let boxes = info.boxes.iter().zip(&env.lights.red);
+            for ((b, is_red), road) in boxes.zip(&env.lights.box_roads) {
+                let lane_ok = b.valid_lanes.is_empty() || b.valid_lanes.contains(&p.lane);
+                let crossed = *road == Some(p.road)
+                    && *road == Some(q.road)
+                    && ((q.s < b.s && p.s >= b.s) || (q.s > b.s && p.s <= b.s));
+                if *is_red && lane_ok && crossed {
+                    self.kpis.red_light(i, &b.id, t);
+                }
+            }
+        }
+        self.on_road_until[i] = match (net, &pos) {
+            (Some(n), Some(p)) if lights.is_none() && Some(i) != env.ego_i => {
+                Some(n.surely_on_road(here, p))
+            }
+            _ => None,
+        };
+        self.last_pos[i] = pos;
+    }
+
+    /// Actor `i`'s log sample (the first actor's opens the tick, after the
+    /// observer has taken the ticks so far).
+    fn log_sample(&mut self, env: &ReadEnv<'_, '_>, i: usize, st: &Kinematics, info: &StepInfo) {
+        let t = info.sim_time_ms as f64 / 1000.0;
+        let a = &env.plan.actors[i];
+        let Some(r) = self.rec.as_mut() else {
+            return;
+        };
+        if i == 0 {
+            // The ticks so far are complete: the observer may take them
+            // before the next one starts.
+            if let Some(o) = &env.cfg.observer
+                && !r.log().tick.is_empty()
+            {
+                (o.0.lock().unwrap_or_else(|e| e.into_inner()))(r.log());
+            }
+            r.begin(info.step_index, t);
+        }
+        let mut s = ActorSample::from_kinematics(
+            st.pose,
+            st.velocity,
+            st.acceleration,
+            st.yaw_rate,
+            st.speed,
+            env.dims[i].2,
+        );
+        s.control = env.controls[i];
+        let mode = if env.dynamic[i] || Some(i) == env.ego_i {
+            "dynamic"
+        } else {
+            "trajectory"
+        };
+        r.sample(&a.id, mode, &s);
+        if a.ego {
+            self.tracking.push(info.step_index, t, st, a, env.plan);
+        }
+    }
+
+    /// Lane goals whose phase ends now: judged on the simulated state.
+    fn judge_lane_goals(&mut self, env: &ReadEnv<'_, '_>, t: f64) {
+        let plan = env.plan;
+        while self.next_lane_goal < plan.lane_goals.len()
+            && t >= plan.lane_goals[self.next_lane_goal].t1 - 1e-9
+        {
+            let g = &plan.lane_goals[self.next_lane_goal];
+            self.next_lane_goal += 1;
+            let idx = |id: &str| plan.actors.iter().position(|a| a.id == id);
+            let (Some(m), Some(r), Some(net)) = (idx(&g.actor), idx(&g.reference), env.net) else {
+                continue;
+            };
+            let boxes = &self.boxes;
+            let on = |j: usize| net.to_road(litesim_core::Vec2::new(boxes[j].x, boxes[j].y));
+            let got = on(m).map(|p| p.lane);
+            let wanted = on(r).and_then(|p| {
+                let road = net.roads().iter().position(|x| x.id == p.road)?;
+                let here = litesim_map::LanePos {
+                    road,
+                    lane: p.lane,
+                    s: p.s,
+                };
+                match g.relation {
+                    LaneRelation::SameAs => Some(p.lane),
+                    r => net.lane_beside(here, r.offset()),
+                }
+            });
+            self.lane_results.push(LaneResult {
+                actor: g.actor.clone(),
+                reference: g.reference.clone(),
+                relation: g.relation,
+                wanted,
+                got,
+                t,
+                met: wanted.is_some() && wanted == got,
+                strict: g.strict,
+                at: g.at.clone(),
+            });
+        }
+    }
+
+    /// Gap goals whose phase ends now: judged on the simulated state.
+    fn judge_gap_goals(&mut self, env: &ReadEnv<'_, '_>, t: f64) {
+        let plan = env.plan;
+        while self.next_goal < plan.goals.len() && t >= plan.goals[self.next_goal].t1 - 1e-9 {
+            let g = &plan.goals[self.next_goal];
+            let ix = env.goal_actors[self.next_goal];
+            self.next_goal += 1;
+            let Some((m, r)) = ix else {
+                continue;
+            };
+            let bx = |j: usize| Body {
+                x: self.boxes[j].x,
+                y: self.boxes[j].y,
+                yaw: self.boxes[j].yaw,
+                speed: self.speeds[j],
+                length: self.boxes[j].length,
+            };
+            let got = crate::reactive::gap(g, &bx(m), &bx(r));
+            self.goal_results.push(GoalResult {
+                actor: g.actor.clone(),
+                reference: g.reference.clone(),
+                relation: if g.sign > 0.0 {
+                    Order::AheadOf
+                } else {
+                    Order::Behind
+                },
+                wanted: g.distance,
+                got,
+                t,
+                met: (got - g.distance).abs() <= crate::reactive::GAP_TOLERANCE,
+                strict: g.strict,
+                at: g.at.clone(),
+            });
+        }
+    }
+}
+
+/// The ego against its plan, for the log's tracking columns (the
+/// dashboard's error and progress panels, the animation's look-ahead).
+#[derive(Default)]
+pub(crate) struct Tracking {
+    pub columns: litesim_log::TrackingColumns,
+    pub tick: Vec<u64>,
+    /// Planned distance at each plan sample (built on first use).
+    pub cum: Vec<f64>,
+}
+
+impl Tracking {
+    /// Planned path ahead shown as the "prediction": 2 s in 0.2 s steps.
+    const AHEAD: usize = 10;
+
+    fn push(
+        &mut self,
+        tick: u64,
+        t: f64,
+        st: &litesim_ssp::api::Kinematics,
+        a: &crate::plan::ActorPlan,
+        plan: &Plan,
+    ) {
+        let p = a.at(t, plan.dt);
+        let (s, c) = math::sin_cos(p.yaw);
+        let (dx, dy) = (st.pose.position.x - p.x, st.pose.position.y - p.y);
+        let c_ = &mut self.columns;
+        c_.tick.push(tick);
+        c_.lateral_error.push(-s * dx + c * dy);
+        c_.heading_error.push(wrap_angle(st.pose.yaw - p.yaw));
+        // Progress: the planned distance covered by time t.
+        if self.cum.len() != a.samples.len() {
+            let mut acc = 0.0;
+            self.cum = std::iter::once(0.0)
+                .chain(a.samples.windows(2).map(|w| {
+                    acc += math::hypot(w[1].x - w[0].x, w[1].y - w[0].y);
+                    acc
+                }))
+                .collect();
+        }
+        let k = ((t / plan.dt) as usize).min(a.samples.len().saturating_sub(1));
+        let d = self.cum[k] + math::hypot(p.x - a.samples[k].x, p.y - a.samples[k].y);
+        c_.progress.push(d);
+        c_.cmd_acceleration.push(p.a);
+        // The planned path ahead, 0.2 s apart (the animation's look-ahead).
+        let ahead: Vec<[f64; 4]> = (1..=Self::AHEAD)
+            .map(|j| {
+                let q = a.at(t + 0.2 * j as f64, plan.dt);
+                [q.x, q.y, q.yaw, q.v]
+            })
+            .collect();
+        // The steering the plan's curvature over the next 0.2 s implies
+        // (bicycle, wheelbase 0.6 · length as in the seed) — what the applied
+        // angle is compared with.
+        let [x, y, yaw, _] = ahead[0];
+        let ds = math::hypot(x - p.x, y - p.y);
+        let kappa = if ds > 1e-6 {
+            wrap_angle(yaw - p.yaw) / ds
+        } else {
+            0.0
+        };
+        c_.cmd_steering.push(math::atan(0.6 * a.length * kappa));
+        c_.predictions.push(ahead);
+        self.tick.push(tick);
+    }
+}
