@@ -133,7 +133,8 @@ def run(
     Args:
         test: the .osc file.
         seed: the seed (default: the test's, else 1).
-        sut: what drives sut.car: None (its plan), ``"acc"``, ``"fmt-mpc"``,
+        sut: what drives sut.car: None (its plan), ``"acc"``, ``"acc-aeb"``,
+            ``"fmt-mpc"``,
             ``"grpc://HOST:PORT"``, or an object with ``step(observation)``
             returning a :class:`Command` (or a dict of throttle/brake/steering
             or acceleration/curvature) and optionally ``reset(info)``.

@@ -55,9 +55,10 @@ pub struct Common {
     /// configuration is dynamic.
     #[arg(long)]
     pub kinematic: bool,
-    /// What drives sut.car: planned (its plan; default), acc (built-in
-    /// adaptive cruise), fmt-mpc (FMT* + MPC) or grpc://HOST:PORT (an
-    /// external process serving litesim.sut.v1).
+    /// What drives sut.car: planned (its plan; default), acc (the
+    /// reference adaptive cruise, ISO 15622 envelope), acc-aeb (with an
+    /// emergency-braking stage), fmt-mpc (FMT* + MPC) or grpc://HOST:PORT
+    /// (an external process serving litesim.sut.v1).
     #[arg(long, default_value = "planned", value_name = "NAME")]
     pub sut: String,
     /// What drives the other vehicles: driver (default: a driver each —

@@ -143,7 +143,7 @@ fn nobody_listening_and_unknown_names_are_clear_errors() {
     let e = String::from_utf8_lossy(&r.stderr);
     assert!(
         e.contains(
-            "--sut turbo: unknown system under test; valid: planned, acc, fmt-mpc, grpc://HOST:PORT"
+            "--sut turbo: unknown system under test; valid: planned, acc, acc-aeb, fmt-mpc, grpc://HOST:PORT"
         ),
         "{e}"
     );

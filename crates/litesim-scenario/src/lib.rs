@@ -750,6 +750,7 @@ fn run_here(
             d.traffic.contacts.len(),
         ));
     }
+    notes.append(&mut ex.sut_notes);
     // Conditions that held at other times than planned made a new plan.
     let plan = ex.plan.take().unwrap_or(plan);
     let ego_id = plan.actors.iter().find(|a| a.ego).map(|a| a.id.clone());

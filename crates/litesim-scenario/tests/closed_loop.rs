@@ -125,18 +125,17 @@ fn the_other_re_solves_its_gap_against_the_actual_ego() {
         ("other", "sut.car")
     );
     assert!((g.got - 5.0).abs() <= 1.0 && g.met, "{g:?}");
-    // It really adapted: the ego is well behind its planned end.
+    // It really adapted: the reference cruise brakes (gently, from about
+    // 9 s, once the other is slower) and ends behind its plan …
     let end = |r: &RunResult, id: &str| *track(r, id).state.x.last().unwrap();
-    assert!(
-        end(&planned, "sut.car") - end(&acc, "sut.car") > 5.0,
-        "the cruise should end behind its plan"
-    );
+    let behind = end(&planned, "sut.car") - end(&acc, "sut.car");
+    assert!(behind > 0.5, "the cruise ends {behind} m behind its plan");
     // …and the other with it.
-    assert!(end(&planned, "other") - end(&acc, "other") > 5.0);
+    assert!(end(&planned, "other") - end(&acc, "other") > 0.5);
     // Pedal-driven non-SUT actors are re-timed too: their driver follows
     // the re-timed speed and steers by the plan's point abreast of the car.
     // Their brakes respond later than a kinematic actor's, so the gap is
-    // met less tightly (here 7.9 m for 5 m) — but the car stays on the road.
+    // met less tightly (within 3.5 m of 5 m) — but the car stays on the road.
     let dynamic = go_with("cut_in", SutChoice::Acc, DriveMode::Dynamic);
     let g = &dynamic.summary.goals[0];
     assert!((g.got - 5.0).abs() < 3.5, "{g:?}");
@@ -514,7 +513,7 @@ fn observations_carry_the_object_list_route_and_road() {
 #[test]
 fn every_threshold_names_time_actors_and_value() {
     let f = example_file(
-        "import \"cut_in.osc\"\nextend test_config:\n    set min_gap = 30m\n    set max_decel = 5mpsps\n    set max_jerk = 10mpspsps\n",
+        "import \"cut_in.osc\"\nextend test_config:\n    set min_gap = 30m\n    set max_decel = 2mpsps\n    set max_jerk = 1mpspsps\n",
     );
     let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
     let opts = RunOptions {
@@ -531,11 +530,11 @@ fn every_threshold_names_time_actors_and_value() {
         "{fails:?}"
     );
     assert!(
-        has("sut.car decelerates at 9.00 m/s² at 7.60 s"),
+        has("sut.car decelerates at 2.99 m/s² at 9.92 s"),
         "{fails:?}"
     );
-    assert!(has("above the test's max_decel 5 m/s²"), "{fails:?}");
-    assert!(has("above the test's max_jerk 10 m/s³"), "{fails:?}");
+    assert!(has("above the test's max_decel 2 m/s²"), "{fails:?}");
+    assert!(has("above the test's max_jerk 1 m/s³"), "{fails:?}");
     // A threshold that cannot mean anything is an error with its place.
     let bad = example_file("import \"cut_in.osc\"\nextend test_config:\n    set min_ttc = -1s\n");
     let e = prepare(bad.path(), &LoadOptions::default())
@@ -767,7 +766,10 @@ fn lane_goals_chain_through_other_actors_and_side_of_follows_the_sut() {
         "{:?}",
         r.summary.failures
     );
-    assert!(pair(&r, "sut.car", "c").min_distance > 1.0);
+    // The SUT's own lane change squeezes `c` (the reference cruise brakes
+    // within 3.5 m/s² for the car it cuts beside): close, never touching.
+    let d = pair(&r, "sut.car", "c").min_distance;
+    assert!(d > 0.5, "sut.car and c come {d} m close");
 }
 
 const THREE_SECONDS: &str = "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\nextend top.main:\n    do sut.car.drive() with:\n        speed(30kph)\n        duration(3s)\n";

@@ -96,6 +96,8 @@ pub struct Executed {
     /// The actors drivers drove (their missed goals are the scenario's,
     /// not the SUT's).
     pub driven: std::collections::BTreeSet<String>,
+    /// What the SUT reported (an emergency stage that fired, and why).
+    pub sut_notes: Vec<String>,
 }
 
 /// Plans the test again with the given condition times fixed.

@@ -491,7 +491,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
     }
 
     /// Ends the simulation and gathers what the run produced.
-    pub fn finish(self) -> Result<Executed, ScenarioError> {
+    pub fn finish(mut self) -> Result<Executed, ScenarioError> {
         let reason = if self.sut_error.is_some() {
             "system under test failed"
         } else {
@@ -514,6 +514,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
             ..
         } = self.rb;
         let plan = self.plan;
+        let sut_notes = self.sut.as_mut().map(SutSeam::notes).unwrap_or_default();
         kpis.finish();
         if !self.cfg.covers.is_empty() {
             live_state(&boxes, &speeds, &accels, &mut live);
@@ -550,6 +551,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
             realtime_failure: self.realtime_failure,
             coverage: samples.into_iter().flatten().collect(),
             driven,
+            sut_notes,
         })
     }
 }

@@ -222,6 +222,11 @@ pub trait Sut: Send {
     fn reset(&mut self, info: &SutInfo) -> Result<(), SutError>;
     /// One step: the object list in, a command for `sut.car` out.
     fn step(&mut self, obs: &Observation) -> Result<SutCommand, SutError>;
+    /// What the SUT has to report since it was last asked (an emergency
+    /// stage that fired, and why): the run's summary lists it as notes.
+    fn notes(&mut self) -> Vec<String> {
+        Vec::new()
+    }
 }
 
 /// Makes a fresh SUT for each run (external SUTs: a connection each).
@@ -238,8 +243,10 @@ pub enum SutChoice {
     /// sut.car follows its plan (the default; results as the scenario player).
     #[default]
     Planned,
-    /// The built-in adaptive cruise.
+    /// The built-in reference adaptive cruise (ISO 15622 envelope).
     Acc,
+    /// The reference cruise with its emergency-braking stage.
+    AccAeb,
     /// The built-in FMT* + MPC stack.
     FmtMpc,
     /// An external SUT.
@@ -253,7 +260,7 @@ impl std::fmt::Debug for SutChoice {
 }
 
 /// The names `--sut` accepts besides `grpc://HOST:PORT`.
-pub const BUILTIN: [&str; 3] = ["planned", "acc", "fmt-mpc"];
+pub const BUILTIN: [&str; 4] = ["planned", "acc", "acc-aeb", "fmt-mpc"];
 
 impl SutChoice {
     /// Parses a built-in name; `None` for anything else (the caller handles
@@ -262,6 +269,7 @@ impl SutChoice {
         match name {
             "planned" => Some(SutChoice::Planned),
             "acc" => Some(SutChoice::Acc),
+            "acc-aeb" | "acc_aeb" => Some(SutChoice::AccAeb),
             "fmt-mpc" | "fmt_mpc" => Some(SutChoice::FmtMpc),
             _ => None,
         }
@@ -272,6 +280,7 @@ impl SutChoice {
         match self {
             SutChoice::Planned => "planned".into(),
             SutChoice::Acc => "acc".into(),
+            SutChoice::AccAeb => "acc-aeb".into(),
             SutChoice::FmtMpc => "fmt-mpc".into(),
             SutChoice::External(f) => f.name(),
         }
@@ -282,6 +291,7 @@ impl SutChoice {
         Ok(match self {
             SutChoice::Planned => None,
             SutChoice::Acc => Some(Box::new(acc::Acc::default())),
+            SutChoice::AccAeb => Some(Box::new(acc::Acc::with_aeb())),
             SutChoice::FmtMpc => Some(Box::new(fmt_mpc::FmtMpc::default())),
             SutChoice::External(f) => Some(f.create()?),
         })

@@ -51,6 +51,13 @@ impl<'s> SutSeam<'s> {
     }
 }
 
+impl SutSeam<'_> {
+    /// What the SUT has to report.
+    pub fn notes(&mut self) -> Vec<String> {
+        self.sut.notes()
+    }
+}
+
 impl Controller for SutSeam<'_> {
     fn command(&mut self, see: &See<'_>, act: &mut Act<'_>) -> Result<Flow, ScenarioError> {
         // The SUT sees every actor but itself: the observation's layout.

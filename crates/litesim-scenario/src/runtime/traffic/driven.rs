@@ -14,7 +14,7 @@
 //!   list stays fixed during a run; the summary counts these re-entries).
 
 use super::spawn::{Density, fill};
-use super::{LaneGraph, Obstacle, StopLine, Traffic};
+use super::{LaneGraph, Obstacle, StopLine, TRACK_TAU_S, Traffic};
 use crate::elab::{ActorKind, TrafficDecl};
 use crate::error::ScenarioError;
 use crate::plan::{ActorPlan, Plan, PlanSample};
@@ -37,6 +37,28 @@ const OUT_OF_RANGE: f64 = 1.2;
 /// should be in (s): half a lane change, so that its change is centred
 /// where the plan's is.
 const LANE_LOOKAHEAD_S: f64 = 1.5;
+
+/// The acceleration that brings a driver (`me`) to its gap goal `g` to
+/// `reference` (accelerating at `a_ref`) in `left` seconds, at the
+/// reference's speed: the least-effort law for a double integrator that
+/// must reach a position and a speed at a set time, `−6e/T² − 4ė/T` on the
+/// gap's error `e` and its rate `ė`, with `T` at least a second (a goal
+/// about to end is not chased with a jolt). It aims at the phase's end,
+/// not at the plan's path there: a reference that brakes early moves the
+/// aim, and a reference that keeps braking draws the driver only as much as
+/// the time left asks.
+fn gap_pursuit(
+    g: &crate::plan::GapGoal,
+    me: &Body,
+    reference: &Body,
+    a_ref: f64,
+    left: f64,
+) -> f64 {
+    let e = gap(g, me, reference) - g.distance;
+    let e_dot = g.sign * (me.speed - reference.speed);
+    let t = left.max(1.0);
+    a_ref.clamp(-6.0, 3.0) - g.sign * (6.0 * e / (t * t) + 4.0 * e_dot / t)
+}
 
 /// The driven actors of one run.
 #[derive(Debug)]
@@ -62,6 +84,9 @@ pub struct Driven {
     box_lines: Vec<Vec<(u32, f64)>>,
     /// Each plan actor's last map location (a hint for the next).
     hints: Vec<Option<Located>>,
+    /// Each plan actor's speed at the last step, and when (s): the
+    /// references' accelerations for gap goals.
+    last_speeds: (f64, Vec<f64>),
     rng: Rng,
     poses: Vec<Pose>,
 }
@@ -92,6 +117,7 @@ impl Driven {
             recycled: 0,
             box_lines: Vec::new(),
             hints: vec![None; plan.actors.len()],
+            last_speeds: (f64::NAN, Vec::new()),
             rng: Rng::new(0),
             poses: Vec::new(),
         };
@@ -279,9 +305,36 @@ impl Driven {
         states: &[(Vec2, f64, f64, f64)],
         t: f64,
     ) {
+        self.goals_at(net, plan, states, t);
+        self.last_speeds.0 = t;
+        self.last_speeds.1.clear();
+        self.last_speeds.1.extend(states.iter().map(|s| s.2));
+    }
+
+    /// Actor `j`'s acceleration from its speed now (`v`, at `t`) and at the
+    /// last step (0 at the first).
+    fn accel_of(&self, j: usize, v: f64, t: f64) -> f64 {
+        let (t0, speeds) = &self.last_speeds;
+        match speeds.get(j) {
+            Some(v0) if t > *t0 + 1e-9 => (v - v0) / (t - t0),
+            _ => 0.0,
+        }
+    }
+
+    /// The goals proper (see [`Driven::update_goals`]).
+    fn goals_at(
+        &mut self,
+        net: &RoadNetwork,
+        plan: &Plan,
+        states: &[(Vec2, f64, f64, f64)],
+        t: f64,
+    ) {
         for &(i, k) in &self.npcs {
             let a = &plan.actors[i];
-            let mut speed = a.at(t, plan.dt).v;
+            // The plan's speed one tracking time constant ahead: the
+            // driver's first-order speed tracking then keeps the plan's
+            // ramps without lagging them.
+            let mut speed = a.at(t + TRACK_TAU_S, plan.dt).v;
             let mut firm = false;
             for g in &plan.goals {
                 if g.actor != a.id || t < g.t0 - 1e-9 || t >= g.t1 - 1e-9 {
@@ -301,29 +354,10 @@ impl Driven {
                     }
                 };
                 let (me, reference) = (body(i), body(r));
-                let now = gap(g, &me, &reference);
-                // The plan's gap and how it changes, with the error fed back
-                // over a second (less as the phase ends): the driver moves
-                // relative to where the reference actually is as the plan
-                // moved relative to where it planned it.
-                let planned = |at: f64| {
-                    let pb = |j: usize| {
-                        let p = plan.actors[j].at(at, plan.dt);
-                        Body {
-                            x: p.x,
-                            y: p.y,
-                            yaw: p.yaw,
-                            speed: p.v,
-                            length: plan.actors[j].length,
-                        }
-                    };
-                    gap(g, &pb(i), &pb(r))
-                };
-                let dt = 0.2;
-                let rate = (planned(t + dt) - planned(t)) / dt;
-                let tau = (g.t1 - t).clamp(0.3, 1.0);
-                let wanted_rate = rate + (planned(t) - now) / tau;
-                speed = (reference.speed + g.sign * wanted_rate).max(0.0);
+                let a_ref = self.accel_of(r, reference.speed, t);
+                let a = gap_pursuit(g, &me, &reference, a_ref, g.t1 - t);
+                // The speed that the tracking turns into that acceleration.
+                speed = (me.speed + a * TRACK_TAU_S).max(0.0);
                 firm = true;
             }
             // A change the scenario asks for takes its phase (the plan's

@@ -79,6 +79,10 @@ pub struct Vehicle {
     pub goals: Goals,
 }
 
+/// The time constant of a driver's speed tracking (s): a speed goal is
+/// approached at (goal − v) / τ, within the driver's limits.
+pub const TRACK_TAU_S: f64 = 0.5;
+
 impl Vehicle {
     /// The parameters its car-following runs with: with a speed goal the
     /// desired speed does not limit (the goal's tracking does, see
@@ -103,7 +107,7 @@ impl Vehicle {
             self.params.comfort_decel
         };
         match self.goals.speed {
-            Some(goal) => (2.0 * (goal - self.v)).clamp(-brake, self.params.max_accel),
+            Some(goal) => ((goal - self.v) / TRACK_TAU_S).clamp(-brake, self.params.max_accel),
             None => f64::INFINITY,
         }
     }
