@@ -37,9 +37,13 @@ class Result:
 
     Attributes:
         passed: every check held.
-        verdict: ``"pass"``, ``"fail"`` or ``"sut-error"`` (the SUT raised or
-            answered something invalid; its traceback is in ``failures``).
+        verdict: ``"pass"``, ``"fail"`` (a check on the SUT failed),
+            ``"invalid"`` (the scenario was not realised: a non-SUT actor
+            missed its goal; the reasons are in ``invalid``) or ``"error"``
+            (the run could not be carried out: the SUT raised or answered
+            something invalid, its traceback is in ``failures``).
         failures: why it failed, one sentence each (litesim's wording).
+        invalid: why the scenario was not realised, one sentence each.
         summary: the whole summary (what ``litesim run`` writes as summary.json).
         kpis: the summary's measurements: ``actors``, ``pairs`` (min distance,
             min TTC, collisions), ``ego``, ``goals``.
@@ -52,13 +56,13 @@ class Result:
         # The summary is parsed when first read: a batch that looks at the
         # verdict only does not pay for it (half of the Python layer's cost).
         self._summary: Optional[Dict[str, Any]] = None
-        if self.passed:
-            self.verdict = "pass"
-        elif any(f.startswith("sut error") for f in self.failures):
-            self.verdict = "sut-error"
-        else:
-            self.verdict = "fail"
+        self.verdict: str = native.verdict
         self._log = None
+
+    @property
+    def invalid(self) -> List[str]:
+        """Why the scenario was not realised (empty when it was)."""
+        return list(self.summary.get("invalid", []))
 
     @property
     def summary(self) -> Dict[str, Any]:

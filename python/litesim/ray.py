@@ -118,7 +118,9 @@ def batch(
         progress: print a progress line to stderr.
 
     Returns:
-        (runs, passed, failed).
+        (runs, passed, failed), with the most severe verdict of the folder's
+        runs as ``.verdict`` (``"pass"``, ``"invalid"``, ``"fail"``,
+        ``"error"``).
     """
     tests = [os.fspath(t) for t in tests]
     if not tests:
@@ -147,7 +149,20 @@ def batch(
             print(f"\r{done}/{len(jobs)} runs  {rate:.0f}/s", end="", file=sys.stderr, flush=True)
     if progress:
         print(file=sys.stderr)
-    return _native.write_batch(tests, lo, hi, os.fspath(out), lines, sut, mode, force_new)
+    runs, passed, failed, verdict = _native.write_batch(tests, lo, hi, os.fspath(out), lines, sut, mode, force_new)
+    return BatchResult(runs, passed, failed, verdict)
+
+
+class BatchResult(tuple):
+    """(runs, passed, failed) of a batch, with its most severe verdict as
+    ``verdict``."""
+
+    verdict: str
+
+    def __new__(cls, runs: int, passed: int, failed: int, verdict: str) -> "BatchResult":
+        t = super().__new__(cls, (runs, passed, failed))
+        t.verdict = verdict
+        return t
 
 
 def main(argv: Optional[Iterable[str]] = None) -> int:
@@ -163,15 +178,18 @@ def main(argv: Optional[Iterable[str]] = None) -> int:
     ap.add_argument("-q", "--quiet", action="store_true")
     a = ap.parse_args(list(argv) if argv is not None else None)
     try:
-        runs, passed, failed = batch(
+        result = batch(
             a.tests, a.seeds, a.sut, out=a.out, address=a.address, runs_per_task=a.runs_per_task,
             mode=a.mode, force_new=a.force_new, progress=not a.quiet,
         )
     except (LitesimError, ValueError, TypeError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
-    print(f"{runs} runs: {passed} passed, {failed} failed -> {a.out}")
-    return 2 if failed else 0
+    runs, passed, failed = result
+    print(f"{runs} runs: {passed} passed, {failed} failed ({result.verdict}) -> {a.out}")
+    # As `litesim batch`: error 1, fail 2; a scenario not realised fails
+    # nothing (its runs are listed).
+    return {"error": 1, "fail": 2}.get(result.verdict, 0)
 
 
 if __name__ == "__main__":

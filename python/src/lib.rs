@@ -401,6 +401,9 @@ fn mode_of(mode: Option<&str>) -> PyResult<Option<DriveMode>> {
 struct NativeRun {
     #[pyo3(get)]
     passed: bool,
+    /// `pass`, `fail`, `invalid` or `error`.
+    #[pyo3(get)]
+    verdict: &'static str,
     #[pyo3(get)]
     failures: Vec<String>,
     /// The summary as JSON (parsed by the Python side).
@@ -552,6 +555,7 @@ fn run(
     }
     Ok(NativeRun {
         passed: r.summary.pass,
+        verdict: r.summary.verdict.name(),
         failures: r.summary.failures.clone(),
         summary_json: serde_json::to_string(&r.summary).map_err(lerr)?,
         log,
@@ -780,7 +784,8 @@ fn run_lines(
 /// Writes a batch folder exactly as `litesim batch` would (manifest,
 /// results.jsonl, results.csv, coverage.json — same sort, same bytes) from
 /// result lines computed elsewhere (`run_lines` on Ray workers); jobs
-/// without a line run here. Returns (runs, passed, failed).
+/// without a line run here. Returns (runs, passed, failed, the most severe
+/// verdict).
 #[pyfunction]
 #[pyo3(signature = (tests, seed_from, seed_to, out, lines, sut=None, mode=None, force_new=false))]
 #[allow(clippy::too_many_arguments)]
@@ -794,7 +799,7 @@ fn write_batch(
     sut: Option<&Bound<'_, PyAny>>,
     mode: Option<&str>,
     force_new: bool,
-) -> PyResult<(u64, u64, u64)> {
+) -> PyResult<(u64, u64, u64, &'static str)> {
     let sut = sut_choice(sut)?;
     let mode = mode_of(mode)?;
     let mut precomputed = std::collections::BTreeMap::new();
@@ -825,7 +830,12 @@ fn write_batch(
     let report = py
         .detach(|| litesim_scenario::batch::run_batch(&spec, &|_, _| {}))
         .map_err(lerr)?;
-    Ok((report.total, report.passed, report.failed))
+    Ok((
+        report.total,
+        report.passed,
+        report.failed,
+        report.verdict.name(),
+    ))
 }
 
 // ---------------------------------------------------------------- the SSP API in-process

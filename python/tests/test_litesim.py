@@ -53,10 +53,18 @@ def test_a_carla_scenario_runs_as_written(tmp_path):
 
 
 def test_a_failing_run_says_why():
-    # The planned cutting car of seed 6 drives into sut.car (a driver would not).
-    r = litesim.run(str(ROOT / COVERAGE), seed=6, npc="planned")
+    # sut.car replays its plan into the box standing in its lane: its failure.
+    r = litesim.run(str(ROOT / "examples/scenarios/obstacle_goal.osc"), seed=1)
     assert not r.passed and r.verdict == "fail"
-    assert any("collision" in f for f in r.failures), r.failures
+    assert any("sut.car's front struck box's rear" in f for f in r.failures), r.failures
+    assert r.invalid == []
+
+
+def test_a_scenario_that_did_not_happen_is_invalid_not_a_failure():
+    # Seed 6's cutting car cannot reach its gap within a driver's limits.
+    r = litesim.run(str(ROOT / COVERAGE), seed=6)
+    assert not r.passed and r.verdict == "invalid" and r.failures == []
+    assert r.invalid[0].startswith("scenario not realised: "), r.invalid
 
 
 def test_without_pandas_the_log_is_numpy_arrays(monkeypatch):
@@ -91,14 +99,14 @@ def test_a_sut_that_raises_ends_the_run_with_its_traceback():
             return {"throttle": 0.2}
 
     r = litesim.run(CUT_IN, seed=1, sut=Broken())
-    assert r.verdict == "sut-error"
+    assert r.verdict == "error"
     text = "\n".join(r.failures)
     assert "lost the lane" in text and "Traceback" in text and "RuntimeError" in text
     # A wrong answer is a sut error too, naming what was wrong.
     r = litesim.run(CUT_IN, seed=1, sut=type("Odd", (), {"step": lambda self, o: 42})())
-    assert r.verdict == "sut-error" and "returned a int" in r.failures[0]
+    assert r.verdict == "error" and "returned a int" in r.failures[0]
     r = litesim.run(CUT_IN, seed=1, sut=type("Far", (), {"step": lambda self, o: {"throttle": 3.0}})())
-    assert r.verdict == "sut-error" and "throttle is 3" in r.failures[0]
+    assert r.verdict == "error" and "throttle is 3" in r.failures[0]
 
 
 def test_bad_parameters_are_python_exceptions_naming_them():

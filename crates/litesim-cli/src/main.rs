@@ -290,10 +290,15 @@ enum Command {
         /// Fail (exit 2) when a `cover` item has buckets no run hit.
         #[arg(long)]
         fail_on_holes: bool,
+        /// Exit 3 when a run's scenario was not realised (verdict
+        /// `invalid`) and nothing failed; without it such runs are listed
+        /// but do not fail the batch.
+        #[arg(long)]
+        fail_on_invalid: bool,
         /// Run on a Ray cluster (auto, HOST:PORT, ray://HOST:PORT, or local
         /// to start one here) through the Python package (`pip install
         /// ./python[ray]`); the folder written is the same as without.
-        #[arg(long, value_name = "ADDRESS", conflicts_with_all = ["resume", "save_failed", "junit", "threads", "fail_on_holes"])]
+        #[arg(long, value_name = "ADDRESS", conflicts_with_all = ["resume", "save_failed", "junit", "threads", "fail_on_holes", "fail_on_invalid"])]
         ray: Option<String>,
     },
     /// Watch a run in the browser: map, actors, time slider, play, zoom,
@@ -617,6 +622,8 @@ fn run(cli: Cli) -> Result<()> {
                 scenario::Outcome::Pass => Ok(()),
                 // A failed check is an outcome, not a crash: exit 2.
                 scenario::Outcome::Fail => std::process::exit(2),
+                // The scenario did not happen: exit 3.
+                scenario::Outcome::Invalid => std::process::exit(3),
                 // The system under test broke down: exit 1 (summary written).
                 scenario::Outcome::SutError | scenario::Outcome::CouldNotRun => {
                     std::process::exit(1)
@@ -637,6 +644,7 @@ fn run(cli: Cli) -> Result<()> {
             mcap,
             junit,
             fail_on_holes,
+            fail_on_invalid,
             ray,
         } => match scenario::batch(
             tests,
@@ -652,11 +660,14 @@ fn run(cli: Cli) -> Result<()> {
             mcap,
             junit,
             fail_on_holes,
+            fail_on_invalid,
             ray.as_deref(),
         )? {
             scenario::Outcome::Pass => Ok(()),
             // Some run failed its checks: the batch's verdict is a failure.
             scenario::Outcome::Fail => std::process::exit(2),
+            // Only invalid runs, and --fail-on-invalid.
+            scenario::Outcome::Invalid => std::process::exit(3),
             // A test could not be read or run at all.
             scenario::Outcome::SutError | scenario::Outcome::CouldNotRun => std::process::exit(1),
         },

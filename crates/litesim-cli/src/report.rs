@@ -228,10 +228,55 @@ fn pictures(dir: &Path, runs: &[RunLine]) -> BTreeMap<(String, u64), String> {
     out
 }
 
+/// The runs whose scenario was not realised: how many, their reasons
+/// grouped, and which runs (a section of their own: they say nothing of the
+/// SUT).
+fn invalid_section(invalid: &[&RunLine]) -> String {
+    if invalid.is_empty() {
+        return String::new();
+    }
+    let mut reasons: BTreeMap<String, (u64, String)> = BTreeMap::new();
+    for l in invalid {
+        for f in &l.invalid {
+            let e = reasons.entry(reason_kind(f)).or_insert((0, f.clone()));
+            e.0 += 1;
+        }
+    }
+    let mut v: Vec<(&String, &(u64, String))> = reasons.iter().collect();
+    v.sort_by(|a, b| b.1.0.cmp(&a.1.0).then(a.0.cmp(b.0)));
+    let mut h = format!(
+        "<h2>Invalid runs: the scenario was not realised ({})</h2><table id=\"invalid\"><tr><th>runs</th><th>reason (numbers vary)</th><th>example</th></tr>",
+        invalid.len()
+    );
+    for (k, (n, ex)) in v.iter().take(100) {
+        let _ = write!(
+            h,
+            "<tr><td>{n}</td><td>{}</td><td>{}</td></tr>",
+            esc(k),
+            esc(ex)
+        );
+    }
+    h += "</table><p class=\"where\">Runs: ";
+    let names: Vec<String> = invalid
+        .iter()
+        .take(200)
+        .map(|l| format!("{} seed {}", esc(&l.test), l.seed))
+        .collect();
+    h += &names.join(", ");
+    if invalid.len() > 200 {
+        let _ = write!(h, " … {} more", invalid.len() - 200);
+    }
+    h + "</p>"
+}
+
 /// The HTML text.
 pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) -> String {
     let runs = &r.runs;
     let passed = runs.iter().filter(|l| l.pass).count();
+    let invalid: Vec<&RunLine> = runs
+        .iter()
+        .filter(|l| l.verdict == litesim_scenario::Verdict::Invalid)
+        .collect();
     let mut h = String::with_capacity(256 + runs.len() * 160);
     h += "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><title>litesim report</title><style>";
     h += STYLE;
@@ -246,9 +291,10 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
     } else {
         let _ = write!(
             h,
-            "<p id=\"totals\"><b>{}</b> runs: <span class=\"pass\">{passed} passed</span>, <span class=\"fail\">{} failed</span></p>",
+            "<p id=\"totals\"><b>{}</b> runs: <span class=\"pass\">{passed} passed</span>, <span class=\"fail\">{} failed</span>, <span class=\"invalid\">{} invalid</span> (the scenario was not realised: not counted in coverage or KPIs)</p>",
             runs.len(),
-            runs.len() - passed
+            runs.len() - passed - invalid.len(),
+            invalid.len()
         );
     }
     if !r.bad.is_empty() {
@@ -266,7 +312,8 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
     }
     // Failure reasons, grouped.
     let mut reasons: BTreeMap<String, (u64, String)> = BTreeMap::new();
-    for l in runs.iter().filter(|l| !l.pass) {
+    let failed = |l: &&RunLine| !l.pass && l.verdict != litesim_scenario::Verdict::Invalid;
+    for l in runs.iter().filter(failed) {
         for f in &l.failures {
             let e = reasons.entry(reason_kind(f)).or_insert((0, f.clone()));
             e.0 += 1;
@@ -286,16 +333,23 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
         }
         h += "</table>";
     }
-    // KPI histograms.
-    if !runs.is_empty() {
+    h += &invalid_section(&invalid);
+    // KPI histograms and crossed coverage: of the runs whose scenario
+    // happened.
+    let happened: Vec<RunLine> = runs
+        .iter()
+        .filter(|l| l.verdict != litesim_scenario::Verdict::Invalid)
+        .cloned()
+        .collect();
+    if !happened.is_empty() {
         h += "<h2>KPIs</h2><div class=\"charts\">";
-        let ttc: Vec<f64> = runs.iter().filter_map(|l| l.min_ttc).collect();
-        let gap: Vec<f64> = runs
+        let ttc: Vec<f64> = happened.iter().filter_map(|l| l.min_ttc).collect();
+        let gap: Vec<f64> = happened
             .iter()
             .map(|l| l.min_distance)
             .filter(|d| *d >= 0.0)
             .collect();
-        let decel: Vec<f64> = runs.iter().filter_map(|l| l.max_decel).collect();
+        let decel: Vec<f64> = happened.iter().filter_map(|l| l.max_decel).collect();
         h += &histogram("min time to collision", "s", &ttc);
         h += &histogram("min gap (box to box)", "m", &gap);
         h += &histogram("max deceleration of the ego", "m/s²", &decel);
@@ -330,12 +384,12 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
             });
             crossed.truncate(2);
             if let [a, b] = crossed[..] {
-                h += &cross(test, a, b, runs);
+                h += &cross(test, a, b, &happened);
             }
         }
     }
     // The runs table: data as JSON, rows drawn by the script.
-    h += "<h2>Runs</h2><div class=\"controls\"><label>show <select id=\"show\"><option value=\"all\">all</option><option value=\"pass\">passed</option><option value=\"fail\">failed</option></select></label> <label>filter <input id=\"filter\" placeholder=\"text in test or reason\"></label> <span id=\"count\"></span></div>";
+    h += "<h2>Runs</h2><div class=\"controls\"><label>show <select id=\"show\"><option value=\"all\">all</option><option value=\"pass\">passed</option><option value=\"fail\">failed</option><option value=\"invalid\">invalid</option></select></label> <label>filter <input id=\"filter\" placeholder=\"text in test or reason\"></label> <span id=\"count\"></span></div>";
     h += "<table id=\"runs\"><thead><tr><th data-k=\"0\">test</th><th data-k=\"1\">seed</th><th data-k=\"2\">verdict</th><th data-k=\"3\">collisions</th><th data-k=\"4\">min gap (m)</th><th data-k=\"5\">min TTC (s)</th><th data-k=\"6\">max decel (m/s²)</th><th data-k=\"7\">failures</th><th>replay</th></tr></thead><tbody></tbody></table>";
     h += "<script id=\"data\" type=\"application/json\">[";
     for (k, l) in runs.iter().enumerate() {
@@ -345,12 +399,16 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
         let row = serde_json::json!([
             l.test,
             l.seed,
-            l.pass,
+            l.verdict.name(),
             l.collisions,
             l.min_distance,
             l.min_ttc,
             l.max_decel,
-            l.failures.join("; "),
+            if l.verdict == litesim_scenario::Verdict::Invalid {
+                l.invalid.join("; ")
+            } else {
+                l.failures.join("; ")
+            },
             pictures.get(&(l.test.clone(), l.seed)),
         ]);
         // `</` would end the script element.
@@ -506,7 +564,7 @@ fn cross(
     s + "</svg><p>rows: first item's buckets; columns: the second's; pale red: never hit together</p></div>"
 }
 
-const STYLE: &str = "body{font:14px system-ui,sans-serif;margin:24px;color:#222}h1{margin:0}table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ccc;padding:3px 6px;text-align:left;vertical-align:top}th[data-k]{cursor:pointer;background:#f0f0f0}.pass{color:#17803d}.fail{color:#b3261e}.warn{background:#fff4d6;padding:8px;border:1px solid #e0c070}.charts{display:flex;flex-wrap:wrap;gap:16px}.chart{border:1px solid #ddd;padding:8px}.chart h4{margin:0 0 4px}rect.bucket{fill:#4a78c2}rect.hole{fill:#d33}rect.bin{fill:#6a9a5b}.where{color:#666}.empty{font-size:18px}tr.fail td:nth-child(3){color:#b3261e;font-weight:bold}";
+const STYLE: &str = "body{font:14px system-ui,sans-serif;margin:24px;color:#222}h1{margin:0}table{border-collapse:collapse;margin:8px 0}td,th{border:1px solid #ccc;padding:3px 6px;text-align:left;vertical-align:top}th[data-k]{cursor:pointer;background:#f0f0f0}.pass{color:#17803d}.fail{color:#b3261e}.invalid{color:#8a6d00}.warn{background:#fff4d6;padding:8px;border:1px solid #e0c070}.charts{display:flex;flex-wrap:wrap;gap:16px}.chart{border:1px solid #ddd;padding:8px}.chart h4{margin:0 0 4px}rect.bucket{fill:#4a78c2}rect.hole{fill:#d33}rect.bin{fill:#6a9a5b}.where{color:#666}.empty{font-size:18px}tr.fail td:nth-child(3){color:#b3261e;font-weight:bold}";
 
 /// Draws the runs table: filter (verdict, text), sort by column, at most
 /// PAGE rows at a time.
@@ -517,7 +575,9 @@ let key = 1, asc = true;
 function shown() {
   const v = document.getElementById('show').value;
   const f = document.getElementById('filter').value.toLowerCase();
-  return rows.filter(r => (v === 'all' || (v === 'pass') === r[2]) &&
+  // 'failed': the SUT failed or the run could not be carried out.
+  const is = r => v === 'all' || v === r[2] || (v === 'fail' && r[2] === 'error');
+  return rows.filter(r => is(r) &&
     (!f || r[0].toLowerCase().includes(f) || r[7].toLowerCase().includes(f)));
 }
 function cmp(a, b) {
@@ -533,8 +593,8 @@ function draw() {
   body.textContent = '';
   for (const r of all.slice(0, PAGE)) {
     const tr = document.createElement('tr');
-    tr.className = r[2] ? 'pass' : 'fail';
-    const cells = [r[0], r[1], r[2] ? 'pass' : 'FAIL', r[3], r[4] < 0 ? '' : fmt(r[4]), fmt(r[5]), fmt(r[6]), r[7]];
+    tr.className = r[2] === 'pass' || r[2] === 'invalid' ? r[2] : 'fail';
+    const cells = [r[0], r[1], r[2] === 'pass' ? 'pass' : r[2].toUpperCase(), r[3], r[4] < 0 ? '' : fmt(r[4]), fmt(r[5]), fmt(r[6]), r[7]];
     for (const c of cells) { const td = document.createElement('td'); td.textContent = fmt(c); tr.appendChild(td); }
     const td = document.createElement('td');
     if (r[8]) { const a = document.createElement('a'); a.href = r[8]; a.textContent = 'replay'; a.className = 'replay'; td.appendChild(a); }

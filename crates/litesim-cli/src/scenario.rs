@@ -3,7 +3,7 @@
 use anyhow::{Context, Result, anyhow, bail};
 use litesim_log::{ActorSample, LogRecorder, SimulationLog};
 use litesim_scenario::sut::SutChoice;
-use litesim_scenario::{DriveMode, LoadOptions, RunOptions, batch, calibrate, plan::Plan};
+use litesim_scenario::{DriveMode, LoadOptions, RunOptions, Verdict, batch, calibrate, plan::Plan};
 use std::path::{Path, PathBuf};
 
 /// A value on the command line that cannot be used (`--seeds abc`, an
@@ -236,6 +236,7 @@ fn ray_batch(
     match status.code() {
         Some(0) => Ok(Outcome::Pass),
         Some(2) => Ok(Outcome::Fail),
+        Some(3) => Ok(Outcome::Invalid),
         _ => Ok(Outcome::CouldNotRun),
     }
 }
@@ -499,13 +500,13 @@ pub fn run(
     println!("wrote {}", p.display());
     println!(
         "{} {} seed {}: {} ({} steps, {:.2} s, profile {}, model {}, {:?}, sut {})",
-        if s.pass { "PASS" } else { "FAIL" },
+        s.verdict.name().to_uppercase(),
         s.test,
         s.seed,
-        if s.pass {
-            "all checks hold".to_string()
-        } else {
-            s.failures.join("; ")
+        match s.verdict {
+            Verdict::Pass => "all checks hold".to_string(),
+            Verdict::Invalid => s.invalid.join("; "),
+            _ => s.failures.join("; "),
         },
         s.steps,
         s.duration,
@@ -533,12 +534,11 @@ pub fn run(
     for n in &s.notes {
         println!("note: {n}");
     }
-    Ok(if s.pass {
-        Outcome::Pass
-    } else if s.failures.iter().any(|f| f.starts_with("sut error")) {
-        Outcome::SutError
-    } else {
-        Outcome::Fail
+    Ok(match s.verdict {
+        Verdict::Pass => Outcome::Pass,
+        Verdict::Invalid => Outcome::Invalid,
+        Verdict::Fail => Outcome::Fail,
+        Verdict::Error => Outcome::SutError,
     })
 }
 
@@ -560,6 +560,9 @@ pub enum Outcome {
     Pass,
     /// A check failed (exit 2).
     Fail,
+    /// The scenario was not realised (exit 3; a batch's only with
+    /// `--fail-on-invalid`).
+    Invalid,
     /// The system under test failed to answer (exit 1).
     SutError,
     /// Something could not run at all, e.g. a batch's test could not be
@@ -651,6 +654,7 @@ pub fn batch(
     save_failed_mcap: bool,
     junit: Option<PathBuf>,
     fail_on_holes: bool,
+    fail_on_invalid: bool,
     ray: Option<&str>,
 ) -> Result<Outcome> {
     let (a, b) = seeds(seed_range)?;
@@ -703,7 +707,7 @@ pub fn batch(
     bar.finish_and_clear();
     let secs = started.elapsed().as_secs_f64();
     println!(
-        "{} runs in this shard ({} resumed, {} run now in {:.2} s, {:.0} runs/s, {} rows of other seeds dropped); {} passed, {} failed",
+        "{} runs in this shard ({} resumed, {} run now in {:.2} s, {:.0} runs/s, {} rows of other seeds dropped); {} passed, {} failed ({} invalid, {} errors): {}",
         report.total,
         report.skipped,
         report.ran,
@@ -711,7 +715,10 @@ pub fn batch(
         report.ran as f64 / secs.max(1e-9),
         report.foreign,
         report.passed,
-        report.failed
+        report.failed,
+        report.invalid,
+        report.errors,
+        report.verdict.name()
     );
     println!("wrote {}/results.jsonl and results.csv", out.display());
     if let Some(path) = &junit {
@@ -733,16 +740,27 @@ pub fn batch(
             println!("  {} {}: not hit {}", i.test, i.def.name, i.holes.join(" "));
         }
     }
-    Ok(if report.unreadable > 0 {
-        Outcome::CouldNotRun
-    } else if report.failed > 0 {
-        Outcome::Fail
-    } else if fail_on_holes && holes > 0 {
-        eprintln!("--fail-on-holes: {holes} coverage hole(s)");
-        Outcome::Fail
-    } else {
-        Outcome::Pass
-    })
+    // The most severe verdict: error, fail, invalid (only with
+    // --fail-on-invalid: a scenario that did not happen says nothing of
+    // the SUT), pass.
+    Ok(
+        if report.unreadable > 0 || report.verdict == Verdict::Error {
+            Outcome::CouldNotRun
+        } else if report.verdict == Verdict::Fail {
+            Outcome::Fail
+        } else if fail_on_holes && holes > 0 {
+            eprintln!("--fail-on-holes: {holes} coverage hole(s)");
+            Outcome::Fail
+        } else if fail_on_invalid && report.verdict == Verdict::Invalid {
+            eprintln!(
+                "--fail-on-invalid: {} run(s) whose scenario was not realised",
+                report.invalid
+            );
+            Outcome::Invalid
+        } else {
+            Outcome::Pass
+        },
+    )
 }
 
 /// `litesim merge`.

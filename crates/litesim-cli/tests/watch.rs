@@ -254,17 +254,15 @@ fn view(target: &Path) -> Viewer {
     Viewer { child, url }
 }
 
-/// A failing run (a collision at 7.84 s: a failure marker on the timeline;
-/// the cutting car replays its plan, as a driver would not collide).
+/// A failing run (sut.car drives into the box at 4.50 s, its own failure:
+/// a failure marker on the timeline).
 fn failing_run(dir: &Path) -> std::path::PathBuf {
     let out = dir.join("run");
     let o = run(
         &[
-            "examples/scenarios/cut_in_coverage.osc",
-            "--npc",
-            "planned",
+            "examples/scenarios/obstacle_goal.osc",
             "--seed",
-            "6",
+            "1",
             "--no-pictures",
         ],
         &out,
@@ -282,7 +280,8 @@ fn the_viewer_serves_a_run_that_a_browser_scrubs_plays_and_inspects() {
         "check_viewer.py",
         &[v.url.as_ref(), out.join("log.json").as_os_str()],
     );
-    assert!(said.contains("5 markers"), "{said}");
+    // obstacle_goal: its phases and the collision on the timeline.
+    assert!(said.contains("3 markers"), "{said}");
 }
 
 #[test]

@@ -184,10 +184,16 @@ pub struct RunLine {
     pub test: String,
     /// Seed.
     pub seed: u64,
-    /// Passed.
+    /// Passed (`verdict` is `pass`).
     pub pass: bool,
+    /// What the run came to.
+    #[serde(default)]
+    pub verdict: crate::Verdict,
     /// Failures (or the error that stopped the run).
     pub failures: Vec<String>,
+    /// Why the scenario was not realised.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub invalid: Vec<String>,
     /// Collisions.
     pub collisions: usize,
     /// Smallest box distance over all pairs (m); −1 without pairs.
@@ -270,8 +276,14 @@ pub struct BatchReport {
     pub unreadable: u64,
     /// Passed (over all lines in the folder).
     pub passed: u64,
-    /// Failed.
+    /// Failed, invalid or in error (over all lines in the folder).
     pub failed: u64,
+    /// Of those: the scenario not realised.
+    pub invalid: u64,
+    /// Of those: could not be carried out.
+    pub errors: u64,
+    /// The most severe verdict of all lines in the folder.
+    pub verdict: crate::Verdict,
 }
 
 /// Runs one test under one seed in-process (with `base`'s options) and
@@ -286,7 +298,9 @@ pub fn run_line(
         test: name.to_string(),
         seed,
         pass: false,
+        verdict: crate::Verdict::Error,
         failures: Vec::new(),
+        invalid: Vec::new(),
         collisions: 0,
         min_distance: -1.0,
         min_ttc: None,
@@ -315,7 +329,9 @@ pub fn run_line(
         Ok(r) => {
             let s = r.summary;
             line.pass = s.pass;
+            line.verdict = s.verdict;
             line.failures = s.failures;
+            line.invalid = s.invalid;
             line.collisions = s.pairs.iter().filter(|p| p.collision_at.is_some()).count();
             line.min_distance = s
                 .pairs
@@ -391,8 +407,11 @@ pub fn coverage_of<'a>(
     for (t, d) in defs {
         fold.declare(t, d);
     }
+    // A run whose scenario did not happen covers nothing.
     for l in lines {
-        fold.add(&l.test, &l.coverage);
+        if l.verdict != crate::Verdict::Invalid {
+            fold.add(&l.test, &l.coverage);
+        }
     }
     fold.finish()
 }
@@ -414,18 +433,24 @@ pub fn junit(lines: &[RunLine]) -> String {
     for l in lines {
         by.entry(l.test.as_str()).or_default().push(l);
     }
-    let failures = lines.iter().filter(|l| !l.pass).count();
+    use crate::Verdict;
+    let count = |runs: &[&RunLine], v: Verdict| runs.iter().filter(|l| l.verdict == v).count();
+    let all: Vec<&RunLine> = lines.iter().collect();
     let mut x = format!(
-        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites name=\"litesim\" tests=\"{}\" failures=\"{failures}\" errors=\"0\">\n",
-        lines.len()
+        "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<testsuites name=\"litesim\" tests=\"{}\" failures=\"{}\" errors=\"{}\">\n",
+        lines.len(),
+        count(&all, Verdict::Fail),
+        count(&all, Verdict::Error),
     );
     for (test, mut runs) in by {
         runs.sort_by_key(|l| l.seed);
-        let f = runs.iter().filter(|l| !l.pass).count();
         x += &format!(
-            "  <testsuite name=\"{}\" tests=\"{}\" failures=\"{f}\" errors=\"0\" skipped=\"0\">\n",
+            "  <testsuite name=\"{}\" tests=\"{}\" failures=\"{}\" errors=\"{}\" skipped=\"{}\">\n",
             esc(test),
-            runs.len()
+            runs.len(),
+            count(&runs, Verdict::Fail),
+            count(&runs, Verdict::Error),
+            count(&runs, Verdict::Invalid),
         );
         for l in runs {
             // Simulated time, not wall time: the file is the same on every machine.
@@ -435,14 +460,29 @@ pub fn junit(lines: &[RunLine]) -> String {
                 esc(test),
                 l.duration
             );
-            if l.pass {
-                x += "/>\n";
-            } else {
-                let first = l.failures.first().map_or("failed", String::as_str);
+            // fail → <failure>, error → <error>, invalid → <skipped>: the
+            // scenario did not happen, so nothing was tested.
+            let (tag, kind, reasons) = match l.verdict {
+                Verdict::Pass => {
+                    x += "/>\n";
+                    continue;
+                }
+                Verdict::Fail => ("failure", "litesim.failure", &l.failures),
+                Verdict::Error => ("error", "litesim.error", &l.failures),
+                Verdict::Invalid => ("skipped", "litesim.invalid", &l.invalid),
+            };
+            let first = reasons.first().map_or(l.verdict.name(), String::as_str);
+            if tag == "skipped" {
                 x += &format!(
-                    ">\n      <failure message=\"{}\" type=\"litesim.failure\">{}</failure>\n    </testcase>\n",
+                    ">\n      <skipped message=\"{}\">{}</skipped>\n    </testcase>\n",
                     esc(first),
-                    esc(&l.failures.join("\n"))
+                    esc(&reasons.join("\n"))
+                );
+            } else {
+                x += &format!(
+                    ">\n      <{tag} message=\"{}\" type=\"{kind}\">{}</{tag}>\n    </testcase>\n",
+                    esc(first),
+                    esc(&reasons.join("\n"))
                 );
             }
         }
@@ -473,16 +513,17 @@ pub fn write_sorted(
     }
     let mut jsonl = String::new();
     let mut csv = String::from(
-        "test,seed,pass,collisions,min_distance,min_ttc,max_path_error,duration,steps,roads,failures\n",
+        "test,seed,verdict,pass,collisions,min_distance,min_ttc,max_path_error,duration,steps,roads,failures,invalid\n",
     );
     for l in by.values() {
         jsonl += &serde_json::to_string(l).map_err(|e| ScenarioError::Io(e.to_string()))?;
         jsonl.push('\n');
         let q = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
         csv += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             q(&l.test),
             l.seed,
+            l.verdict.name(),
             l.pass,
             l.collisions,
             l.min_distance,
@@ -491,7 +532,8 @@ pub fn write_sorted(
             l.duration,
             l.steps,
             q(&l.roads),
-            q(&l.failures.join("; "))
+            q(&l.failures.join("; ")),
+            q(&l.invalid.join("; "))
         );
     }
     atomic(&dir.join("results.jsonl"), &jsonl)?;
@@ -740,6 +782,10 @@ pub fn run_batch(
     write_sorted(&spec.out, &lines, &defs)?;
     report.passed = lines.iter().filter(|l| l.pass).count() as u64;
     report.failed = lines.len() as u64 - report.passed;
+    let count = |v: crate::Verdict| lines.iter().filter(|l| l.verdict == v).count() as u64;
+    report.invalid = count(crate::Verdict::Invalid);
+    report.errors = count(crate::Verdict::Error);
+    report.verdict = lines.iter().map(|l| l.verdict).max().unwrap_or_default();
     Ok(report)
 }
 

@@ -11,31 +11,144 @@
 
 use crate::elab::Thresholds;
 use crate::runtime::Executed;
-use crate::{DriveMode, tolerances};
+use crate::{DriveMode, Verdict, tolerances};
 
-/// Failures and notes of one run.
+/// What one run came to, and why.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Judged {
+    /// The verdict.
+    pub verdict: Verdict,
+    /// The SUT's failures (and the error that stopped the run).
+    pub failures: Vec<String>,
+    /// Why the scenario was not realised.
+    pub invalid: Vec<String>,
+    /// Remarks (best-effort goals missed).
+    pub notes: Vec<String>,
+}
+
+/// The verdict of one run: error before fail before invalid before pass.
 pub fn verdict(
     ex: &Executed,
     th: &Thresholds,
     mode: DriveMode,
     closed_loop: bool,
     ego_id: Option<&str>,
-) -> (Vec<String>, Vec<String>) {
-    let mut failures = Vec::new();
-    let mut notes = Vec::new();
-    if let Some(e) = &ex.realtime_failure {
-        failures.push(e.clone());
+) -> Judged {
+    let error = ex.realtime_failure.is_some() || ex.sut_error.is_some();
+    let mut j = Judged::default();
+    j.failures.extend(ex.realtime_failure.iter().cloned());
+    j.failures.extend(ex.sut_error.iter().cloned());
+    checks(ex, th, mode, closed_loop, ego_id, &mut j);
+    j.verdict = if error {
+        Verdict::Error
+    } else if !j.failures.is_empty() {
+        Verdict::Fail
+    } else if !j.invalid.is_empty() {
+        Verdict::Invalid
+    } else {
+        Verdict::Pass
+    };
+    j
+}
+
+/// A contact in words: who struck whom, where, and who caused it.
+fn describe_contact(p: &crate::kpi::PairKpi, c: &crate::kpi::Contact) -> String {
+    use crate::kpi::{ContactKind, Part};
+    let part = |x: Part| match x {
+        Part::Front => "front",
+        Part::Rear => "rear",
+        Part::Left => "left side",
+        Part::Right => "right side",
+    };
+    let kind = match c.kind {
+        ContactKind::RearEnd => "rear-end",
+        ContactKind::Sideswipe => "sideswipe",
+        ContactKind::HeadOn => "head-on",
+        ContactKind::Angle => "angle",
+    };
+    let (struck, striker_part, struck_part) = if c.striker == p.a {
+        (&p.b, c.part_a, c.part_b)
+    } else {
+        (&p.a, c.part_b, c.part_a)
+    };
+    let who = match &c.responsible {
+        Some(r) if *r == c.striker => format!("{r} is responsible"),
+        Some(r) => format!("{r} is responsible: it cut into {}'s path", c.striker),
+        None => "both are responsible".to_string(),
+    };
+    format!(
+        "{}'s {} struck {struck}'s {} ({kind}); {who}",
+        c.striker,
+        part(striker_part),
+        part(struck_part)
+    )
+}
+
+/// A driver's missed gap goal as the intent and why: what it ended at, how
+/// the reference braked during the phase, what the driver would have
+/// needed against its limit (`cut_in.osc:30:13: other ended 10.4 m ahead of
+/// sut.car at 10.00 s, wanted 5 m ± 1 m: sut.car braked at up to 6.0 m/s²
+/// from 7.02 s; other needed 7.3 m/s², its limit is 4 m/s²`).
+fn missed_gap(g: &crate::reactive::GoalResult, msg: &str) -> String {
+    let mut why = Vec::new();
+    if let Some((decel, from)) = g.reference_braking {
+        why.push(format!(
+            "{} braked at up to {decel:.1} m/s² from {from:.2} s",
+            g.reference
+        ));
     }
-    if let Some(e) = &ex.sut_error {
-        failures.push(e.clone());
+    if let Some((asked, limit)) = g.needed {
+        why.push(format!(
+            "{} needed {asked:.1} m/s², its limit is {limit} m/s²",
+            g.actor
+        ));
     }
+    if why.is_empty() {
+        msg.to_string()
+    } else {
+        format!("{msg}: {}", why.join("; "))
+    }
+}
+
+/// Every check of the run: failures, the scenario's missed intents, notes.
+fn checks(
+    ex: &Executed,
+    th: &Thresholds,
+    mode: DriveMode,
+    closed_loop: bool,
+    ego_id: Option<&str>,
+    j: &mut Judged,
+) {
+    let Judged {
+        failures,
+        invalid,
+        notes,
+        ..
+    } = j;
     let involves = |a: &str, b: &str| ego_id.is_some_and(|e| a == e || b == e);
     // Collisions with the ego first: they are the verdict on the SUT.
     let mut pairs: Vec<_> = ex.kpis.pairs.iter().collect();
     pairs.sort_by_key(|p| !involves(&p.a, &p.b));
     for p in &pairs {
-        if let Some(t) = p.collision_at {
-            failures.push(format!("collision between {} and {} at {t:.2} s", p.a, p.b));
+        let Some(t) = p.collision_at else {
+            continue;
+        };
+        let head = format!("collision between {} and {} at {t:.2} s", p.a, p.b);
+        let Some(c) = &p.contact else {
+            failures.push(head);
+            continue;
+        };
+        let msg = format!("{head}: {}", describe_contact(p, c));
+        // sut.car struck while keeping its lane and speed: the other's
+        // doing, not the SUT's failure (a collision between two others
+        // still fails the run: the scenario drove them into each other).
+        let ego_blameless = ego_id.is_some_and(|e| {
+            (p.a == e || p.b == e) && c.responsible.as_deref().is_some_and(|r| r != e)
+        });
+        if ego_blameless {
+            notes.push(format!("{msg} (not sut.car's failure)"));
+        } else {
+            failures.push(msg);
         }
     }
     let (tol_path, tol_speed) = tolerances(mode);
@@ -100,12 +213,15 @@ pub fn verdict(
             // force: a gap it could not reach (the SUT or the traffic
             // would not let it) means the scenario did not happen, which
             // is not the SUT's failure.
-            notes.push(format!("scenario not realised: {msg}"));
+            invalid.push(format!("scenario not realised: {}", missed_gap(g, &msg)));
         } else if g.strict {
             failures.push(msg);
         } else {
             notes.push(format!("best effort: {msg}"));
         }
+    }
+    for c in &ex.never_held {
+        invalid.push(format!("scenario not realised: {c}"));
     }
     for g in ex.lane_goals.iter().filter(|g| !g.met) {
         let lane = |l: Option<i32>| l.map_or("no lane".to_string(), |l| format!("lane {l}"));
@@ -124,7 +240,7 @@ pub fn verdict(
             // force: a gap it could not reach (the SUT or the traffic
             // would not let it) means the scenario did not happen, which
             // is not the SUT's failure.
-            notes.push(format!("scenario not realised: {msg}"));
+            invalid.push(format!("scenario not realised: {msg}"));
         } else if g.strict {
             failures.push(msg);
         } else {
@@ -132,7 +248,7 @@ pub fn verdict(
         }
     }
     let Some(ego) = ego_id else {
-        return (failures, notes);
+        return;
     };
     let ego_pairs = || ex.kpis.pairs.iter().filter(|p| p.a == ego || p.b == ego);
     let other = |p: &crate::kpi::PairKpi| if p.a == ego { p.b.clone() } else { p.a.clone() };
@@ -190,5 +306,4 @@ pub fn verdict(
             ));
         }
     }
-    (failures, notes)
 }

@@ -167,6 +167,138 @@ pub struct PairKpi {
     pub min_ttc_at: Option<f64>,
     /// First collision time (s).
     pub collision_at: Option<f64>,
+    /// How the first collision happened, and who caused it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub contact: Option<Contact>,
+}
+
+/// Which part of a body was hit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Part {
+    /// The front.
+    Front,
+    /// The rear.
+    Rear,
+    /// The left side.
+    Left,
+    /// The right side.
+    Right,
+}
+
+/// The kind of a collision, from the two headings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactKind {
+    /// Same direction, a front into a rear (headings within 30°).
+    RearEnd,
+    /// Same direction, side to side.
+    Sideswipe,
+    /// Opposite directions (headings 150° or more apart).
+    HeadOn,
+    /// Crossing paths (between).
+    Angle,
+}
+
+/// A collision's geometry at first contact and its attribution: who struck
+/// whom, where, and who was not keeping its lane and speed.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Contact {
+    /// The kind.
+    pub kind: ContactKind,
+    /// Where the pair's first actor (`a`) was hit.
+    pub part_a: Part,
+    /// Where the second (`b`) was hit.
+    pub part_b: Part,
+    /// The actor that struck the other (its front, or the one that moved
+    /// sideways into the other).
+    pub striker: String,
+    /// The actor responsible: the striker, unless the other cut into its
+    /// path (it was moving sideways across the striker's heading faster
+    /// than [`CUT_IN_SPEED`]); `None`: both (a head-on where neither
+    /// swerved).
+    pub responsible: Option<String>,
+}
+
+/// Sideways speed (m/s) across the other's heading above which an actor
+/// counts as changing lanes at a contact (not keeping its lane).
+pub const CUT_IN_SPEED: f64 = 0.3;
+
+/// Where `other`'s centre lies seen from `me`: the part of `me` facing it
+/// (its half extents set the diagonals that part the four sides).
+fn part_facing(me: &BoxState, other: &BoxState) -> Part {
+    let (s, c) = math::sin_cos(me.yaw);
+    let (dx, dy) = (other.x - me.x, other.y - me.y);
+    let along = (dx * c + dy * s) / (0.5 * me.length).max(1e-6);
+    let across = (-dx * s + dy * c) / (0.5 * me.width).max(1e-6);
+    if along.abs() >= across.abs() {
+        if along >= 0.0 {
+            Part::Front
+        } else {
+            Part::Rear
+        }
+    } else if across >= 0.0 {
+        Part::Left
+    } else {
+        Part::Right
+    }
+}
+
+/// `me`'s speed across `other`'s heading, towards `other` (m/s).
+fn sideways_towards(me: &BoxState, other: &BoxState) -> f64 {
+    let (s, c) = math::sin_cos(other.yaw);
+    let lateral_v = -me.vx * s + me.vy * c;
+    let lateral_p = -(other.x - me.x) * s + (other.y - me.y) * c;
+    lateral_v * lateral_p.signum()
+}
+
+/// The geometry and attribution of a contact between `a` and `b` (ids
+/// `ida`, `idb`).
+pub fn contact(a: &BoxState, b: &BoxState, ida: &str, idb: &str) -> Contact {
+    let (part_a, part_b) = (part_facing(a, b), part_facing(b, a));
+    let alpha = wrap_angle(b.yaw - a.yaw).abs();
+    let kind = if alpha >= 150f64.to_radians() {
+        ContactKind::HeadOn
+    } else if alpha > 30f64.to_radians() {
+        ContactKind::Angle
+    } else if matches!(part_a, Part::Front | Part::Rear)
+        && matches!(part_b, Part::Front | Part::Rear)
+    {
+        ContactKind::RearEnd
+    } else {
+        ContactKind::Sideswipe
+    };
+    let (sa, sb) = (sideways_towards(a, b), sideways_towards(b, a));
+    let name = |first: bool| if first { ida } else { idb }.to_string();
+    let (striker, responsible) = match kind {
+        ContactKind::RearEnd | ContactKind::Angle => {
+            // The front that hit: a's front into b, or b's into a.
+            let a_strikes = part_a == Part::Front && part_b != Part::Front;
+            let struck_swerved = if a_strikes { sb } else { sa } > CUT_IN_SPEED;
+            let striker = name(a_strikes);
+            let responsible = if kind == ContactKind::RearEnd && struck_swerved {
+                // It cut into the striker's path: the cut-in's fault.
+                name(!a_strikes)
+            } else {
+                striker.clone()
+            };
+            (striker, Some(responsible))
+        }
+        ContactKind::Sideswipe | ContactKind::HeadOn => {
+            // The one moving sideways into the other.
+            let a_moves = sa >= sb;
+            let striker = name(a_moves);
+            let responsible = (sa.max(sb) > CUT_IN_SPEED).then(|| striker.clone());
+            (striker, responsible)
+        }
+    };
+    Contact {
+        kind,
+        part_a,
+        part_b,
+        striker,
+        responsible,
+    }
 }
 
 /// KPIs of one actor.
@@ -871,6 +1003,7 @@ impl Kpis {
         }
         if d == 0.0 && p.collision_at.is_none() {
             p.collision_at = Some(t);
+            p.contact = Some(contact(a, b, &p.a, &p.b));
         }
         let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
         let closing = math::hypot(wx, wy);
@@ -979,6 +1112,47 @@ mod tests {
             vx,
             vy,
         }
+    }
+
+    #[test]
+    fn contacts_are_attributed_from_their_geometry() {
+        // The ego keeps its lane at 10 m/s; a faster car runs into its rear.
+        let ego = bx(0.0, 0.0, 0.0, 10.0, 0.0);
+        let rear = bx(-3.9, 0.1, 0.0, 15.0, 0.0);
+        let c = contact(&ego, &rear, "sut.car", "other");
+        assert_eq!(
+            (c.kind, c.part_a, c.part_b),
+            (ContactKind::RearEnd, Part::Rear, Part::Front)
+        );
+        assert_eq!(c.striker, "other");
+        assert_eq!(c.responsible.as_deref(), Some("other"));
+        // A car cuts in just ahead, moving sideways: the ego's front hits
+        // its rear, and the cut-in is responsible.
+        let cut = bx(3.9, 0.3, 0.1, 10.0, -1.5);
+        let c = contact(&ego, &cut, "sut.car", "other");
+        assert_eq!(c.kind, ContactKind::RearEnd);
+        assert_eq!(c.striker, "sut.car");
+        assert_eq!(c.responsible.as_deref(), Some("other"));
+        // The same car ahead keeping its lane: the ego is responsible.
+        let slow = bx(3.9, 0.3, 0.0, 5.0, 0.0);
+        let c = contact(&ego, &slow, "sut.car", "other");
+        assert_eq!(c.responsible.as_deref(), Some("sut.car"));
+        // Side by side, the other drifting into the ego's side.
+        let beside = bx(0.5, 1.9, 0.0, 10.0, -1.0);
+        let c = contact(&ego, &beside, "sut.car", "other");
+        assert_eq!(
+            (c.kind, c.part_a, c.part_b),
+            (ContactKind::Sideswipe, Part::Left, Part::Right)
+        );
+        assert_eq!(c.responsible.as_deref(), Some("other"));
+        // A crossing car's front into the ego's right side.
+        let crossing = bx(0.0, -2.9, std::f64::consts::FRAC_PI_2, 0.0, 8.0);
+        let c = contact(&ego, &crossing, "sut.car", "other");
+        assert_eq!(
+            (c.kind, c.part_a, c.part_b),
+            (ContactKind::Angle, Part::Right, Part::Front)
+        );
+        assert_eq!(c.responsible.as_deref(), Some("other"));
     }
 
     /// Distance by brute force: every corner of each box to every edge of

@@ -343,6 +343,52 @@ impl Npc {
     }
 }
 
+/// What a run came to, from the least to the most severe (a batch takes
+/// the most severe of its runs).
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, serde::Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// Every check on the SUT held and the scenario happened.
+    #[default]
+    Pass,
+    /// The scenario was not realised: a non-SUT actor missed its goal (its
+    /// gap or lane), or a condition it waited for never held. Nothing is
+    /// said of the SUT; the run counts in no coverage and no KPI.
+    Invalid,
+    /// A check on the SUT failed: a collision, off-road, a red light, a
+    /// test threshold, a goal of sut.car's own, or (for the scenario
+    /// player) an actor off its plan.
+    Fail,
+    /// The run could not be carried out: the SUT failed to answer, a paced
+    /// run overran under the `fail` policy, or the test could not run.
+    Error,
+}
+
+impl Verdict {
+    /// Its name (`pass`, `invalid`, `fail`, `error`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Verdict::Pass => "pass",
+            Verdict::Invalid => "invalid",
+            Verdict::Fail => "fail",
+            Verdict::Error => "error",
+        }
+    }
+
+    /// The exit code of `litesim run` for it: 0 pass, 2 fail, 3 invalid,
+    /// 1 error (64 is a usage error, before any run).
+    pub fn exit_code(self) -> u8 {
+        match self {
+            Verdict::Pass => 0,
+            Verdict::Fail => 2,
+            Verdict::Invalid => 3,
+            Verdict::Error => 1,
+        }
+    }
+}
+
 /// The run summary: deterministic (no wall-clock fields).
 #[derive(Clone, Debug, Serialize)]
 pub struct Summary {
@@ -350,10 +396,16 @@ pub struct Summary {
     pub test: String,
     /// Seed.
     pub seed: u64,
-    /// Passed every check.
+    /// Passed every check (`verdict` is `pass`).
     pub pass: bool,
-    /// Why not.
+    /// What the run came to.
+    pub verdict: Verdict,
+    /// Why not: the SUT's failures (or the error that stopped the run).
     pub failures: Vec<String>,
+    /// Why the scenario was not realised (verdict `invalid` when nothing
+    /// failed): each intent that did not happen, and why.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub invalid: Vec<String>,
     /// Map file.
     pub map: String,
     /// Profile and model used.
@@ -601,7 +653,13 @@ fn run_here(
                 test: test_name,
                 seed,
                 pass: violations.is_empty(),
+                verdict: if violations.is_empty() {
+                    Verdict::Pass
+                } else {
+                    Verdict::Fail
+                },
                 failures: violations,
+                invalid: Vec::new(),
                 map: prep.map_name.clone(),
                 profile,
                 model,
@@ -706,6 +764,15 @@ fn run_here(
         drivers.as_mut(),
     )?;
     if let Some(d) = &drivers {
+        // What each driver's gap pursuit asked beyond its limit: the
+        // reason an invalid verdict names.
+        for g in &mut ex.goals {
+            if let Some(&(asked, limit)) = d.asked.get(&(g.actor.clone(), g.at.clone()))
+                && asked > limit
+            {
+                g.needed = Some((asked, limit));
+            }
+        }
         let ids = |slots: &[(usize, u32)]| {
             slots
                 .iter()
@@ -754,14 +821,14 @@ fn run_here(
     // Conditions that held at other times than planned made a new plan.
     let plan = ex.plan.take().unwrap_or(plan);
     let ego_id = plan.actors.iter().find(|a| a.ego).map(|a| a.id.clone());
-    let (failures, judge_notes) = judge::verdict(
+    let judged = judge::verdict(
         &ex,
         &prep.test.config.thresholds,
         mode,
         sut.is_some(),
         ego_id.as_deref(),
     );
-    notes.extend(judge_notes);
+    notes.extend(judged.notes);
     let mut pairs = ex.kpis.pairs;
     for p in &mut pairs {
         if !p.min_distance.is_finite() {
@@ -772,8 +839,10 @@ fn run_here(
         summary: Summary {
             test: test_name,
             seed,
-            pass: failures.is_empty(),
-            failures,
+            pass: judged.verdict == Verdict::Pass,
+            verdict: judged.verdict,
+            failures: judged.failures,
+            invalid: judged.invalid,
             map: prep.map_name.clone(),
             profile: ex.profile,
             model: ex.model,

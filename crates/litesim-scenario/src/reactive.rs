@@ -63,6 +63,16 @@ pub struct GoalResult {
     pub strict: bool,
     /// Where the modifier is.
     pub at: String,
+    /// The reference's hardest braking during the phase (m/s², positive)
+    /// and when it first braked harder than 0.5 m/s² (s); absent when it
+    /// did not.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reference_braking: Option<(f64, f64)>,
+    /// For a driver's goal: the hardest deceleration its pursuit asked
+    /// (m/s², positive) and the limit it brakes within; absent when it
+    /// asked none beyond the limit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub needed: Option<(f64, f64)>,
 }
 
 /// Sideways speed of a lane goal's shift (m/s): a lane (3.5 m) in about

@@ -335,14 +335,96 @@ fn a_gap_goal_missed_because_the_sut_braked_is_the_scenario_not_realised() {
     let s = &r.summary;
     assert!(s.pairs.iter().all(|p| p.collision_at.is_none()));
     assert!(!s.goals[0].met, "{:?}", s.goals);
-    // Not the SUT's failure: the scenario did not happen.
-    assert!(s.pass, "{:?}", s.failures);
+    // Not the SUT's failure: the scenario did not happen, and the verdict
+    // names the intent and why.
+    assert_eq!(s.verdict, litesim_scenario::Verdict::Invalid);
+    assert!(!s.pass && s.failures.is_empty(), "{:?}", s.failures);
+    let why = &s.invalid[0];
+    assert!(
+        why.starts_with("scenario not realised: ")
+            && why.contains("other ended")
+            && why.contains("wanted 5 m ± 1 m")
+            && why.contains("sut.car braked at up to 6.0 m/s² from 7.0")
+            && why.contains("other needed")
+            && why.contains("its limit is"),
+        "{why}"
+    );
+    assert_eq!(litesim_scenario::Verdict::Invalid.exit_code(), 3);
+}
+
+/// sut.car at 30 km/h; `other` 20 m behind it in its lane at 60 km/h,
+/// replayed (`--npc planned`): it runs into sut.car's rear.
+const REAR_ENDED: &str = r#"import "../../osc/domain/config.osc"
+extend test_config:
+    set map = "../maps/straight.xodr"
+extend top.main:
+    do c: sut.rear_ended()
+scenario sut.rear_ended:
+    r: two_way_road
+    other: vehicle
+    do parallel(overlap: equal):
+        sut.car.drive() with:
+            speed(30kph)
+            along(r, at: start)
+            lane(1, at: start)
+        other.drive() with:
+            speed(60kph)
+            lane(same_as: sut.car, at: start)
+            position(20m, behind: sut.car, at: start)
+    with: duration(5s)
+"#;
+
+#[test]
+fn sut_car_rear_ended_while_keeping_its_lane_is_not_its_failure() {
+    let f = example_file(REAR_ENDED);
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let opts = RunOptions {
+        seed: Some(1),
+        npc: Npc::Planned,
+        ..RunOptions::default()
+    };
+    let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    let s = &r.summary;
+    let p = s.pairs.iter().find(|p| p.collision_at.is_some()).unwrap();
+    let c = p.contact.as_ref().unwrap();
+    assert_eq!(c.kind, litesim_scenario::kpi::ContactKind::RearEnd);
+    assert_eq!(
+        (c.striker.as_str(), c.responsible.as_deref()),
+        ("other", Some("other"))
+    );
+    assert_eq!(
+        s.verdict,
+        litesim_scenario::Verdict::Pass,
+        "{:?}",
+        s.failures
+    );
     assert!(
         s.notes
             .iter()
-            .any(|n| n.starts_with("scenario not realised: ") && n.contains("other ended")),
+            .any(|n| n.starts_with("collision between sut.car and other at")
+                && n.contains(
+                    "other's front struck sut.car's rear (rear-end); other is responsible"
+                )
+                && n.ends_with("(not sut.car's failure)")),
         "{:?}",
         s.notes
+    );
+    // The same contact with sut.car driving into a slower car ahead is
+    // sut.car's failure, said the same way.
+    let f = example_file(
+        &REAR_ENDED
+            .replace("position(20m, behind:", "position(20m, ahead_of:")
+            .replace("speed(60kph)", "speed(10kph)"),
+    );
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    let s = &r.summary;
+    assert_eq!(s.verdict, litesim_scenario::Verdict::Fail);
+    assert!(
+        s.failures.iter().any(|f| f
+            .contains("sut.car's front struck other's rear (rear-end); sut.car is responsible")),
+        "{:?}",
+        s.failures
     );
 }
 

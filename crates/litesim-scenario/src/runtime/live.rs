@@ -85,6 +85,25 @@ impl Live {
     }
 }
 
+impl Live {
+    /// The conditions the run looked at on the simulated state that never
+    /// held, with the time the first plan had for them: the scenario did
+    /// not happen as written.
+    pub fn never_held(&self, plan: &Plan) -> Vec<String> {
+        plan.conditions
+            .iter()
+            .filter(|c| self.last_truth.contains_key(&c.key) && !self.settled.contains(&c.key))
+            .map(|c| {
+                let when = match self.first_plan.get(&c.key).copied().flatten() {
+                    Some(t) => format!("the plan had it at {t:.2} s"),
+                    None => "the plan did not have it hold".to_string(),
+                };
+                format!("the condition {} never held ({when})", describe(&c.cond))
+            })
+            .collect()
+    }
+}
+
 /// A condition as text, for summaries.
 fn describe(e: &crate::elab::CExpr) -> String {
     use crate::elab::{CExpr, Value};

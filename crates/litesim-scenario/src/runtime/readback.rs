@@ -59,6 +59,9 @@ pub(crate) struct ReadEnv<'e, 'c> {
     /// Per actor: driven by a driver (no plan to track: its planned point
     /// is where it is).
     pub driven: &'e [bool],
+    /// The SUT's command of the steps being read, as (acceleration,
+    /// road-wheel angle).
+    pub sut_command: Option<(f64, f64)>,
 }
 
 /// What reading steps back changes: the checks, the log, the last states.
@@ -91,6 +94,9 @@ pub(crate) struct Readback {
     pub next_lane_goal: usize,
     pub goal_results: Vec<GoalResult>,
     pub lane_results: Vec<LaneResult>,
+    /// Per gap goal: its reference's hardest braking in the phase so far
+    /// and when it first braked (m/s², s).
+    pub goal_braking: Vec<Option<(f64, f64)>>,
 }
 
 impl Readback {
@@ -128,6 +134,7 @@ impl Readback {
             next_lane_goal: 0,
             goal_results: Vec::new(),
             lane_results: Vec::new(),
+            goal_braking: vec![None; plan.goals.len()],
         }
     }
 
@@ -177,6 +184,7 @@ impl Readback {
             }
             self.kpis
                 .step(t, &self.boxes, &self.speeds, &self.planned, &self.off);
+            self.note_braking(env, step, t);
             self.last_t = t;
             if env.sampling && t >= self.next_due - 1e-9 {
                 let cfg = env.cfg;
@@ -196,6 +204,29 @@ impl Readback {
             self.judge_gap_goals(env, t);
         }
         Ok(())
+    }
+
+    /// Each open gap goal's reference: its hardest braking in the phase
+    /// and when it first braked harder than 0.5 m/s² (what an invalid
+    /// verdict names as the reason a goal was missed).
+    fn note_braking(&mut self, env: &ReadEnv<'_, '_>, step: &[Kinematics], t: f64) {
+        let goals = &env.plan.goals;
+        self.goal_braking.resize(goals.len(), None);
+        for (k, g) in goals.iter().enumerate() {
+            let Some((_, r)) = env.goal_actors.get(k).copied().flatten() else {
+                continue;
+            };
+            if t < g.t0 - 1e-9 || t > g.t1 + 1e-9 {
+                continue;
+            }
+            let st = &step[self.slots[r]];
+            let (sy, cy) = math::sin_cos(st.pose.yaw);
+            let decel = -(st.acceleration.x * cy + st.acceleration.y * sy);
+            if decel > 0.5 {
+                let b = self.goal_braking[k].get_or_insert((decel, t));
+                b.0 = b.0.max(decel);
+            }
+        }
     }
 
     /// One actor's state at one step: the checks' inputs, the log, the
@@ -332,7 +363,8 @@ impl Readback {
         };
         r.sample(&a.id, mode, &s);
         if a.ego {
-            self.tracking.push(info.step_index, t, st, a, env.plan);
+            self.tracking
+                .push(info.step_index, t, st, a, env.plan, env.sut_command);
         }
     }
 
@@ -409,6 +441,8 @@ impl Readback {
                 met: (got - g.distance).abs() <= crate::reactive::GAP_TOLERANCE,
                 strict: g.strict,
                 at: g.at.clone(),
+                reference_braking: self.goal_braking.get(self.next_goal - 1).copied().flatten(),
+                needed: None,
             });
         }
     }
@@ -428,6 +462,9 @@ impl Tracking {
     /// Planned path ahead shown as the "prediction": 2 s in 0.2 s steps.
     const AHEAD: usize = 10;
 
+    /// One tick of the ego's columns; `sut`: the SUT's command this tick
+    /// as (acceleration, road-wheel angle) — what the columns show in
+    /// closed loop instead of the plan's.
     fn push(
         &mut self,
         tick: u64,
@@ -435,6 +472,7 @@ impl Tracking {
         st: &litesim_ssp::api::Kinematics,
         a: &crate::plan::ActorPlan,
         plan: &Plan,
+        sut: Option<(f64, f64)>,
     ) {
         let p = a.at(t, plan.dt);
         let (s, c) = math::sin_cos(p.yaw);
@@ -456,7 +494,7 @@ impl Tracking {
         let k = ((t / plan.dt) as usize).min(a.samples.len().saturating_sub(1));
         let d = self.cum[k] + math::hypot(p.x - a.samples[k].x, p.y - a.samples[k].y);
         c_.progress.push(d);
-        c_.cmd_acceleration.push(p.a);
+        c_.cmd_acceleration.push(sut.map_or(p.a, |c| c.0));
         // The planned path ahead, 0.2 s apart (the animation's look-ahead).
         let ahead: Vec<[f64; 4]> = (1..=Self::AHEAD)
             .map(|j| {
@@ -474,7 +512,8 @@ impl Tracking {
         } else {
             0.0
         };
-        c_.cmd_steering.push(math::atan(0.6 * a.length * kappa));
+        c_.cmd_steering
+            .push(sut.map_or(math::atan(0.6 * a.length * kappa), |c| c.1));
         c_.predictions.push(ahead);
         self.tick.push(tick);
     }

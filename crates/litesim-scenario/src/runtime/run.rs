@@ -307,7 +307,8 @@ impl<'a, 'c> Runtime<'a, 'c> {
     fn seat_sut(&mut self, e: usize, s: &'a mut (dyn Sut + '_)) {
         let observer = Observer::new(&self.plan.actors[e]);
         let lim = self.cast.catalogue[e];
-        let mut seam = SutSeam::new(s, e, lim, &self.sim.caps.model, self.sim.mirror);
+        let model = (self.sim.caps.model.as_str(), self.cast.dims[e].2);
+        let mut seam = SutSeam::new(s, e, lim, model, self.sim.mirror);
         let info = sut_info(self.cfg, &self.sim, &self.plan, &self.cast, e, &observer);
         self.sut_error = seam.reset(&info);
         self.sut = Some(seam);
@@ -371,6 +372,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
         rb.next_lane_goal = plan.lane_goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
         self.lights.replanned(plan, k, step_ms);
         rb.tracking.cum.clear();
+        rb.goal_braking = vec![None; plan.goals.len()];
         self.planned.replanned();
         Ok(())
     }
@@ -467,6 +469,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
             warps: &planned.warps,
             sent: &planned.sent,
             driven: &self.driven,
+            sut_command: self.sut.as_ref().and_then(|s| s.last),
         };
         let (rb, world, got) = (&mut self.rb, &mut self.world, &mut self.got);
         if !(planned.overlap && k < self.steps) {
@@ -515,6 +518,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
         } = self.rb;
         let plan = self.plan;
         let sut_notes = self.sut.as_mut().map(SutSeam::notes).unwrap_or_default();
+        let never_held = self.live.never_held(&plan);
         kpis.finish();
         if !self.cfg.covers.is_empty() {
             live_state(&boxes, &speeds, &accels, &mut live);
@@ -552,6 +556,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
             coverage: samples.into_iter().flatten().collect(),
             driven,
             sut_notes,
+            never_held,
         })
     }
 }

@@ -21,6 +21,11 @@ pub(crate) struct SutSeam<'s> {
     /// The simulator's model (its steering geometry).
     model: String,
     mirror: bool,
+    /// sut.car's mass (kg): a force command's acceleration.
+    mass: f64,
+    /// The last command as the SUT sent it, as (acceleration, road-wheel
+    /// angle): what the log's command columns show.
+    pub last: Option<(f64, f64)>,
 }
 
 impl<'s> SutSeam<'s> {
@@ -29,7 +34,7 @@ impl<'s> SutSeam<'s> {
         sut: &'s mut (dyn Sut + 's),
         ego: usize,
         lim: Limits,
-        model: &str,
+        (model, mass): (&str, f64),
         mirror: bool,
     ) -> Self {
         SutSeam {
@@ -38,6 +43,38 @@ impl<'s> SutSeam<'s> {
             lim,
             model: model.to_string(),
             mirror,
+            mass,
+            last: None,
+        }
+    }
+
+    /// A command as (acceleration, road-wheel angle): an acceleration
+    /// command as sent; pedals at the vehicle's limits (full throttle its
+    /// largest acceleration, full brake its largest deceleration); forces
+    /// over its mass (the steering wheel's angle is not a road-wheel angle
+    /// without the steering ratio: NaN).
+    fn as_accel(&self, c: &SutCommand) -> (f64, f64) {
+        match *c {
+            SutCommand::Accel {
+                acceleration,
+                curvature,
+            } => (acceleration, math::atan(self.lim.wheelbase * curvature)),
+            SutCommand::Pedals {
+                throttle,
+                brake,
+                steering,
+            } => (
+                throttle * self.lim.max_accel - brake * self.lim.max_decel,
+                steering * self.lim.max_steer,
+            ),
+            SutCommand::Physical {
+                drive_force_n,
+                brake_force_n,
+                ..
+            } => (
+                (drive_force_n - brake_force_n) / self.mass.max(1.0),
+                f64::NAN,
+            ),
         }
     }
 
@@ -69,6 +106,7 @@ impl Controller for SutSeam<'_> {
         });
         match cmd {
             Ok(c) => {
+                self.last = Some(self.as_accel(&c));
                 let id = &see.plan.actors[self.ego].id;
                 let control = &mut act.controls[self.ego];
                 send_sut(act.ssp, id, c, self, control)?;

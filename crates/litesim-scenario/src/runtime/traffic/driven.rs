@@ -24,6 +24,7 @@ use litesim_core::geometry::Pose;
 use litesim_core::rng::Rng;
 use litesim_map::{Located, RoadNetwork};
 use litesim_ssp::api::{Coord6, XyTrajectory};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// Length and width of an ambient vehicle (m): a mid-size car.
@@ -87,6 +88,9 @@ pub struct Driven {
     /// Each plan actor's speed at the last step, and when (s): the
     /// references' accelerations for gap goals.
     last_speeds: (f64, Vec<f64>),
+    /// Per gap goal (`actor`, `at`): the hardest deceleration its pursuit
+    /// asked (m/s², positive) and the limit the driver brakes within.
+    pub asked: BTreeMap<(String, String), (f64, f64)>,
     rng: Rng,
     poses: Vec<Pose>,
 }
@@ -118,6 +122,7 @@ impl Driven {
             box_lines: Vec::new(),
             hints: vec![None; plan.actors.len()],
             last_speeds: (f64::NAN, Vec::new()),
+            asked: BTreeMap::new(),
             rng: Rng::new(0),
             poses: Vec::new(),
         };
@@ -356,6 +361,13 @@ impl Driven {
                 let (me, reference) = (body(i), body(r));
                 let a_ref = self.accel_of(r, reference.speed, t);
                 let a = gap_pursuit(g, &me, &reference, a_ref, g.t1 - t);
+                let p = &self.traffic.vehicles[k as usize].params;
+                let limit = p.safe_decel.max(p.comfort_decel);
+                let e = self
+                    .asked
+                    .entry((g.actor.clone(), g.at.clone()))
+                    .or_insert((0.0, limit));
+                e.0 = e.0.max(-a);
                 // The speed that the tracking turns into that acceleration.
                 speed = (me.speed + a * TRACK_TAU_S).max(0.0);
                 firm = true;
