@@ -220,6 +220,12 @@ impl Readback {
                 continue;
             }
             let st = &step[self.slots[r]];
+            let (ax, ay) = (st.acceleration.x, st.acceleration.y);
+            // Braking harder than 0.5 m/s² needs an acceleration that
+            // large: most steps are decided without trigonometry.
+            if ax * ax + ay * ay <= 0.25 {
+                continue;
+            }
             let (sy, cy) = math::sin_cos(st.pose.yaw);
             let decel = -(st.acceleration.x * cy + st.acceleration.y * sy);
             if decel > 0.5 {
