@@ -353,6 +353,10 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
         h += &histogram("min time to collision", "s", &ttc);
         h += &histogram("min gap (box to box)", "m", &gap);
         h += &histogram("max deceleration of the ego", "m/s²", &decel);
+        let thw: Vec<f64> = happened.iter().filter_map(|l| l.min_thw).collect();
+        let drac: Vec<f64> = happened.iter().filter_map(|l| l.max_drac).collect();
+        h += &histogram("min time headway of the ego", "s", &thw);
+        h += &histogram("max DRAC of the ego", "m/s²", &drac);
         h += "</div>";
     }
     // Coverage.

@@ -274,3 +274,81 @@ fn report_of_an_empty_batch_says_so_and_of_no_batch_is_an_error() {
     assert!(!o.status.success());
     assert!(text(&o).contains("not a folder"), "{}", text(&o));
 }
+
+/// The coverage example under drivers (the default): some cut-ins cannot
+/// be realised within a driver's limits. Those runs are `invalid`, not
+/// failures: `run` exits 3, a batch exits 0 (3 with `--fail-on-invalid`),
+/// JUnit skips them, and they cover nothing.
+#[test]
+fn scenarios_that_did_not_happen_are_invalid_apart_from_failures() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = litesim()
+        .current_dir(workspace())
+        .args(["run", TEST, "--seed", "6", "--no-pictures", "-o"])
+        .arg(dir.path().join("run"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o));
+    assert!(text(&o).contains("INVALID cut_in_coverage.osc seed 6: scenario not realised: "));
+    let summary = read(&dir.path().join("run/summary.json"));
+    assert!(summary.contains("\"verdict\": \"invalid\""), "{summary}");
+
+    let batch = |extra: &[&str], out: &Path, junit: &Path| {
+        litesim()
+            .current_dir(workspace())
+            .args(["batch", TEST, "--seeds", "1..12", "-q", "--junit"])
+            .arg(junit)
+            .args(extra)
+            .arg("-o")
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    let (out, junit) = (dir.path().join("b"), dir.path().join("b.xml"));
+    let o = batch(&[], &out, &junit);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let rows = read(&out.join("results.jsonl"));
+    let invalid = rows
+        .lines()
+        .filter(|l| l.contains("\"verdict\":\"invalid\""))
+        .count();
+    assert!(invalid > 0 && invalid < 12, "{rows}");
+    assert!(
+        text(&o).contains(&format!("({invalid} invalid, 0 errors): invalid")),
+        "{}",
+        text(&o)
+    );
+    let csv = read(&out.join("results.csv"));
+    assert!(csv.starts_with("test,seed,verdict,pass,"), "{csv}");
+    // JUnit: invalid runs are skipped with their reason; the file is valid.
+    let xml = read(&junit);
+    assert_eq!(
+        xml.matches("<skipped message=\"scenario not realised: ")
+            .count(),
+        invalid
+    );
+    let xsd = workspace().join("crates/litesim-cli/tests/data/junit.xsd");
+    python(
+        "check_junit.py",
+        &[junit.to_str().unwrap(), "12", "0", xsd.to_str().unwrap()],
+    );
+    // Coverage counts only the runs that happened.
+    let cov: serde_json::Value = serde_json::from_str(&read(&out.join("coverage.json"))).unwrap();
+    let side = cov["items"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|i| i["name"] == "c.side")
+        .unwrap();
+    let counted: u64 = side["buckets"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|b| b["count"].as_u64().unwrap())
+        .sum();
+    assert_eq!(counted as usize, 12 - invalid, "{side}");
+    // --fail-on-invalid makes them fail the batch (exit 3).
+    let o = batch(&["--fail-on-invalid", "--force-new"], &out, &junit);
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o));
+    assert!(text(&o).contains("--fail-on-invalid: "), "{}", text(&o));
+}

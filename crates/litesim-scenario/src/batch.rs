@@ -211,6 +211,12 @@ pub struct RunLine {
     /// The ego's largest deceleration (m/s²).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_decel: Option<f64>,
+    /// The ego's smallest time headway to an actor it followed (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_thw: Option<f64>,
+    /// The ego's largest DRAC to an actor it closed on (m/s²).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_drac: Option<f64>,
     /// `cover`/`record` samples.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub coverage: Vec<crate::coverage::Sample>,
@@ -309,6 +315,8 @@ pub fn run_line(
         steps: 0,
         roads: String::new(),
         max_decel: None,
+        min_thw: None,
+        max_drac: None,
         coverage: Vec::new(),
     };
     let prep = match prep {
@@ -348,6 +356,17 @@ pub fn run_line(
             line.duration = s.duration;
             line.steps = s.steps;
             line.max_decel = s.ego.as_ref().map(|e| e.max_decel);
+            let leads = s.ego.as_ref().map_or(&[][..], |e| &e.leads[..]);
+            line.min_thw = leads
+                .iter()
+                .map(|l| l.min_thw)
+                .filter(|t| *t >= 0.0)
+                .reduce(f64::min);
+            line.max_drac = leads
+                .iter()
+                .map(|l| l.max_drac)
+                .filter(|d| *d > 0.0)
+                .reduce(f64::max);
             line.coverage = s.coverage;
             line.roads = s
                 .roads

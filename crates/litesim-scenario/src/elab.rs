@@ -322,8 +322,15 @@ pub struct Thresholds {
     pub min_gap: Option<f64>,
     /// Largest allowed deceleration of sut.car (m/s²).
     pub max_decel: Option<f64>,
-    /// Largest allowed jerk of sut.car (m/s³).
+    /// Largest allowed jerk of sut.car (m/s³), over 0.1 s.
     pub max_jerk: Option<f64>,
+    /// Largest allowed jerk of sut.car over 1 s windows (m/s³).
+    pub max_jerk_1s: Option<f64>,
+    /// Smallest allowed time headway of sut.car to an actor it follows (s).
+    pub min_thw: Option<f64>,
+    /// Largest allowed deceleration sut.car would need to avoid a crash
+    /// with an actor it closes on (DRAC, m/s²).
+    pub max_drac: Option<f64>,
     /// sut.car must end within this distance of its route's goal (m).
     pub goal_tolerance: Option<f64>,
     /// Seconds the system under test may take to answer a step.
@@ -491,8 +498,8 @@ impl Elab<'_> {
                     }
                     "profile" => self.test.config.profile = v.text().ok_or_else(bad)?.to_string(),
                     "dynamic" => self.test.config.dynamic = v.boolean().ok_or_else(bad)?,
-                    "min_ttc" | "min_gap" | "max_decel" | "max_jerk" | "goal_tolerance"
-                    | "sut_timeout" => {
+                    "min_ttc" | "min_gap" | "max_decel" | "max_jerk" | "max_jerk_1s"
+                    | "min_thw" | "max_drac" | "goal_tolerance" | "sut_timeout" => {
                         let x = v.num().ok_or_else(bad)?;
                         if !(x.is_finite() && x >= 0.0) {
                             return Err(ScenarioError::Elaboration(format!(
@@ -506,6 +513,9 @@ impl Elab<'_> {
                             "min_gap" => &mut th.min_gap,
                             "max_decel" => &mut th.max_decel,
                             "max_jerk" => &mut th.max_jerk,
+                            "max_jerk_1s" => &mut th.max_jerk_1s,
+                            "min_thw" => &mut th.min_thw,
+                            "max_drac" => &mut th.max_drac,
                             "goal_tolerance" => &mut th.goal_tolerance,
                             _ => &mut th.sut_timeout,
                         };

@@ -296,6 +296,39 @@ fn checks(
                 e.max_jerk, e.max_jerk_at
             ));
         }
+        if let Some(limit) = th.max_jerk_1s
+            && e.max_jerk_1s > limit
+        {
+            failures.push(format!(
+                "{ego} jerk over 1 s is {:.2} m/s³ at {:.2} s, above the test's max_jerk_1s {limit} m/s³",
+                e.max_jerk_1s, e.max_jerk_1s_at
+            ));
+        }
+        let thw = e
+            .leads
+            .iter()
+            .filter(|l| l.min_thw >= 0.0)
+            .min_by(|a, b| a.min_thw.total_cmp(&b.min_thw));
+        if let (Some(limit), Some(l)) = (th.min_thw, thw)
+            && l.min_thw < limit
+        {
+            failures.push(format!(
+                "time headway of {ego} to {} is {:.2} s at {:.2} s, below the test's min_thw {limit} s",
+                l.id, l.min_thw, l.min_thw_at
+            ));
+        }
+        let drac = e
+            .leads
+            .iter()
+            .max_by(|a, b| a.max_drac.total_cmp(&b.max_drac));
+        if let (Some(limit), Some(l)) = (th.max_drac, drac)
+            && l.max_drac > limit
+        {
+            failures.push(format!(
+                "{ego} needed {:.2} m/s² to avoid {} at {:.2} s (DRAC), above the test's max_drac {limit} m/s²",
+                l.max_drac, l.id, l.max_drac_at
+            ));
+        }
         if let Some(tol) = th.goal_tolerance
             && e.distance_to_goal > tol
             && ex.sut_error.is_none()

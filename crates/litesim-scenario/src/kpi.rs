@@ -1028,6 +1028,28 @@ impl Kpis {
     }
 }
 
+/// sut.car behind one actor: how close in time, how hard it would have had
+/// to brake.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct LeadKpi {
+    /// The actor ahead.
+    pub id: String,
+    /// Smallest time headway (s): the bumper gap over sut.car's speed
+    /// (the time gap; SUMO's and most ADAS programs' reading of THW).
+    pub min_thw: f64,
+    /// When (s).
+    pub min_thw_at: f64,
+    /// Largest deceleration needed to avoid a crash (m/s²): `Δv² / (2 s)`
+    /// while closing on it (the lead at constant speed); 0 when it never
+    /// closed.
+    pub max_drac: f64,
+    /// When (s); 0 when it never closed.
+    pub max_drac_at: f64,
+}
+
+/// Beyond this distance (m) along or across sut.car nothing is a lead.
+const LEAD_RANGE_M: f64 = 150.0;
+
 /// The ego's own KPIs: braking, jerk, where it ended.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct EgoKpi {
@@ -1041,14 +1063,27 @@ pub struct EgoKpi {
     pub max_jerk: f64,
     /// When (s).
     pub max_jerk_at: f64,
+    /// Largest |jerk| over 1 s windows (m/s³): the change of acceleration
+    /// over a second, the averaging ISO 15622's limits are read with.
+    pub max_jerk_1s: f64,
+    /// When (s).
+    pub max_jerk_1s_at: f64,
     /// Distance from the final position to the route's goal (m).
     pub distance_to_goal: f64,
     /// Final speed (m/s).
     pub final_speed: f64,
+    /// Per actor sut.car followed (ahead of it in its path, the same
+    /// way): the smallest time headway and the largest DRAC, in plan order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub leads: Vec<LeadKpi>,
     #[serde(skip)]
     dt: f64,
     #[serde(skip)]
     accels: std::collections::VecDeque<f64>,
+    #[serde(skip)]
+    accels_1s: std::collections::VecDeque<f64>,
+    #[serde(skip)]
+    lead_of: std::collections::BTreeMap<usize, usize>,
     #[serde(skip)]
     last_v: Option<f64>,
     #[serde(skip)]
@@ -1089,10 +1124,90 @@ impl EgoKpi {
                 self.max_jerk_at = t;
             }
         }
+        let m1 = ((1.0 / self.dt).round() as usize).max(1);
+        self.accels_1s.push_back(a);
+        if self.accels_1s.len() > m1 {
+            let old = self.accels_1s.pop_front().unwrap_or(a);
+            let j = (a - old) / (m1 as f64 * self.dt);
+            if j.abs() > self.max_jerk_1s {
+                self.max_jerk_1s = j.abs();
+                self.max_jerk_1s_at = t;
+            }
+        }
+    }
+
+    /// sut.car (`boxes[e]`, at `speeds[e]`) against every actor ahead of it
+    /// in its path and heading the same way (within 45°): time headway and
+    /// DRAC; `id(j)` names actor `j`.
+    pub fn follow<'a>(
+        &mut self,
+        t: f64,
+        e: usize,
+        boxes: &[BoxState],
+        speeds: &[f64],
+        id: impl Fn(usize) -> &'a str,
+    ) {
+        let me = &boxes[e];
+        let v = speeds[e];
+        let (s, c) = math::sin_cos(me.yaw);
+        for (j, b) in boxes.iter().enumerate() {
+            let (dx, dy) = (b.x - me.x, b.y - me.y);
+            if j == e || dx.abs() > LEAD_RANGE_M || dy.abs() > LEAD_RANGE_M {
+                continue;
+            }
+            let along = dx * c + dy * s;
+            let across = -dx * s + dy * c;
+            let (sb, cb) = math::sin_cos(b.yaw - me.yaw);
+            if along <= 0.0 || across.abs() > 0.5 * (me.width + b.width) || cb < 0.707 {
+                continue;
+            }
+            // The lead's extent along sut.car's heading.
+            let half = 0.5 * (b.length * cb.abs() + b.width * sb.abs());
+            let gap = (along - 0.5 * me.length - half).max(0.0);
+            let v_lead = b.vx * c + b.vy * s;
+            let k = *self.lead_of.entry(j).or_insert_with(|| {
+                self.leads.push(LeadKpi {
+                    id: id(j).to_string(),
+                    min_thw: f64::INFINITY,
+                    ..LeadKpi::default()
+                });
+                self.leads.len() - 1
+            });
+            let l = &mut self.leads[k];
+            if v > 0.5 {
+                let thw = gap / v;
+                if thw < l.min_thw {
+                    l.min_thw = thw;
+                    l.min_thw_at = t;
+                }
+            }
+            let closing = v - v_lead;
+            if closing > 0.0 {
+                let drac = closing * closing / (2.0 * gap.max(0.01));
+                if drac > l.max_drac {
+                    l.max_drac = drac;
+                    l.max_drac_at = t;
+                }
+            }
+        }
     }
 
     /// Closes the record against the goal `(gx, gy)`.
     pub fn finish(&mut self, gx: f64, gy: f64) {
+        // Leads in plan order; a lead never followed at speed has no THW.
+        let order: Vec<usize> = self.lead_of.values().copied().collect();
+        let mut leads = std::mem::take(&mut self.leads);
+        self.leads = order
+            .into_iter()
+            .map(|k| std::mem::take(&mut leads[k]))
+            .filter(|l| l.min_thw.is_finite() || l.max_drac > 0.0)
+            .map(|mut l| {
+                if !l.min_thw.is_finite() {
+                    l.min_thw = -1.0;
+                }
+                l
+            })
+            .collect();
         self.distance_to_goal = math::hypot(self.pos.0 - gx, self.pos.1 - gy);
     }
 }
@@ -1112,6 +1227,37 @@ mod tests {
             vx,
             vy,
         }
+    }
+
+    #[test]
+    fn time_headway_drac_and_jerk_over_a_second() {
+        let mut k = EgoKpi::new("sut.car", 0.02);
+        // sut.car at 20 m/s, a car 20 m ahead (16 m bumper gap) at 10 m/s,
+        // one in the next lane, one behind.
+        let boxes = [
+            bx(0.0, 0.0, 0.0, 20.0, 0.0),
+            bx(20.0, 0.0, 0.0, 10.0, 0.0),
+            bx(10.0, 3.5, 0.0, 10.0, 0.0),
+            bx(-20.0, 0.0, 0.0, 30.0, 0.0),
+        ];
+        let speeds = [20.0, 10.0, 10.0, 30.0];
+        let ids = ["sut.car", "lead", "beside", "behind"];
+        k.follow(1.0, 0, &boxes, &speeds, |j| ids[j]);
+        k.finish(0.0, 0.0);
+        assert_eq!(k.leads.len(), 1);
+        let l = &k.leads[0];
+        assert_eq!(l.id, "lead");
+        assert!((l.min_thw - 0.8).abs() < 1e-12, "{l:?}");
+        assert!((l.max_drac - 100.0 / 32.0).abs() < 1e-12, "{l:?}");
+        // Braking ramped at 2 m/s³ for 2 s: 2 m/s³ over a second.
+        let mut k = EgoKpi::new("sut.car", 0.02);
+        let mut v = 20.0;
+        for i in 0..200 {
+            let a = -2.0 * (i as f64 * 0.02);
+            v += a * 0.02;
+            k.step(i as f64 * 0.02, v, 0.0, 0.0);
+        }
+        assert!((k.max_jerk_1s - 2.0).abs() < 1e-6, "{}", k.max_jerk_1s);
     }
 
     #[test]

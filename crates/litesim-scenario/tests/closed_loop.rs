@@ -547,6 +547,57 @@ fn every_threshold_names_time_actors_and_value() {
 }
 
 #[test]
+fn headway_drac_and_one_second_jerk_are_thresholds_too() {
+    let f = example_file(
+        "import \"cut_in.osc\"\nextend test_config:\n    set min_thw = 0.8s\n    set max_drac = 0.0001mpsps\n    set max_jerk_1s = 1mpspsps\n",
+    );
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let opts = RunOptions {
+        seed: Some(1),
+        sut: SutChoice::Acc,
+        ..RunOptions::default()
+    };
+    let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    let fails = &r.summary.failures;
+    let has = |s: &str| fails.iter().any(|f| f.contains(s));
+    assert!(
+        has("time headway of sut.car to other is 0.30 s at 8.20 s, below the test's min_thw 0.8 s"),
+        "{fails:?}"
+    );
+    assert!(
+        has("(DRAC), above the test's max_drac 0.0001 m/s²"),
+        "{fails:?}"
+    );
+    assert!(has("sut.car jerk over 1 s is 2.45 m/s³"), "{fails:?}");
+    let lead = &r.summary.ego.as_ref().unwrap().leads[0];
+    assert_eq!(lead.id, "other");
+    // A threshold of the wrong dimension, or an unknown one, is an error
+    // at its place.
+    for (text, want) in [
+        (
+            "    set min_thw = 3m\n",
+            ":3:19: error[E0303]: this field is a time, but this value is a length",
+        ),
+        (
+            "    set min_thx = 3s\n",
+            ":3:9: error[E0310]: unknown name 'min_thx' in 'test_config'",
+        ),
+        (
+            "    set max_drac = -1mpsps\n",
+            "'max_drac' must be a finite value ≥ 0",
+        ),
+    ] {
+        let bad = example_file(&format!(
+            "import \"cut_in.osc\"\nextend test_config:\n{text}"
+        ));
+        let e = prepare(bad.path(), &LoadOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want), "{e}");
+    }
+}
+
+#[test]
 fn red_lights_judge_the_sut() {
     // The planned ego runs the red light; the cruise stops for it.
     let planned = go("red_light_run", SutChoice::Planned);

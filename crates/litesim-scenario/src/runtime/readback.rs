@@ -185,6 +185,10 @@ impl Readback {
             self.kpis
                 .step(t, &self.boxes, &self.speeds, &self.planned, &self.off);
             self.note_braking(env, step, t);
+            if let (Some(e), Some(ek)) = (env.ego_index, self.ego_kpi.as_mut()) {
+                let actors = &env.plan.actors;
+                ek.follow(t, e, &self.boxes, &self.speeds, |j| &actors[j].id);
+            }
             self.last_t = t;
             if env.sampling && t >= self.next_due - 1e-9 {
                 let cfg = env.cfg;

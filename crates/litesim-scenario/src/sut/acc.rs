@@ -21,7 +21,7 @@
 //! [`AEB_DELAY_S`]; each firing is reported (when, the lead, TTC, gap).
 //! Lateral: pure pursuit of the route.
 //!
-//! The IDM of the first closed-loop wave ([`idm`]) stays: `fmt-mpc` keeps
+//! The IDM of the first closed-loop wave (`idm`) stays: `fmt-mpc` keeps
 //! its speed with it.
 
 use super::route::RoutePoint;
