@@ -1157,8 +1157,11 @@ impl EgoKpi {
             }
             let along = dx * c + dy * s;
             let across = -dx * s + dy * c;
+            if along <= 0.0 || across.abs() > 0.5 * (me.width + b.width) {
+                continue;
+            }
             let (sb, cb) = math::sin_cos(b.yaw - me.yaw);
-            if along <= 0.0 || across.abs() > 0.5 * (me.width + b.width) || cb < 0.707 {
+            if cb < 0.707 {
                 continue;
             }
             // The lead's extent along sut.car's heading.
