@@ -228,25 +228,21 @@ fn pictures(dir: &Path, runs: &[RunLine]) -> BTreeMap<(String, u64), String> {
     out
 }
 
-/// The runs whose scenario was not realised: how many, their reasons
-/// grouped, and which runs (a section of their own: they say nothing of the
-/// SUT).
-fn invalid_section(invalid: &[&RunLine]) -> String {
-    if invalid.is_empty() {
+/// Reasons grouped by their kind (numbers masked), most frequent first,
+/// each with an example: a table with the id `id`, empty without reasons.
+fn reasons_table<'a>(id: &str, reasons: impl Iterator<Item = &'a String>) -> String {
+    let mut by: BTreeMap<String, (u64, String)> = BTreeMap::new();
+    for f in reasons {
+        let e = by.entry(reason_kind(f)).or_insert((0, f.clone()));
+        e.0 += 1;
+    }
+    if by.is_empty() {
         return String::new();
     }
-    let mut reasons: BTreeMap<String, (u64, String)> = BTreeMap::new();
-    for l in invalid {
-        for f in &l.invalid {
-            let e = reasons.entry(reason_kind(f)).or_insert((0, f.clone()));
-            e.0 += 1;
-        }
-    }
-    let mut v: Vec<(&String, &(u64, String))> = reasons.iter().collect();
+    let mut v: Vec<(&String, &(u64, String))> = by.iter().collect();
     v.sort_by(|a, b| b.1.0.cmp(&a.1.0).then(a.0.cmp(b.0)));
     let mut h = format!(
-        "<h2>Invalid runs: the scenario was not realised ({})</h2><table id=\"invalid\"><tr><th>runs</th><th>reason (numbers vary)</th><th>example</th></tr>",
-        invalid.len()
+        "<table id=\"{id}\"><tr><th>runs</th><th>reason (numbers vary)</th><th>example</th></tr>"
     );
     for (k, (n, ex)) in v.iter().take(100) {
         let _ = write!(
@@ -256,7 +252,22 @@ fn invalid_section(invalid: &[&RunLine]) -> String {
             esc(ex)
         );
     }
-    h += "</table><p class=\"where\">Runs: ";
+    h + "</table>"
+}
+
+/// The runs whose scenario was not realised: how many, their reasons
+/// grouped, and which runs (a section of their own: they say nothing of the
+/// SUT).
+fn invalid_section(invalid: &[&RunLine]) -> String {
+    if invalid.is_empty() {
+        return String::new();
+    }
+    let mut h = format!(
+        "<h2>Invalid runs: the scenario was not realised ({})</h2>",
+        invalid.len()
+    );
+    h += &reasons_table("invalid", invalid.iter().flat_map(|l| &l.invalid));
+    h += "<p class=\"where\">Runs: ";
     let names: Vec<String> = invalid
         .iter()
         .take(200)
@@ -311,27 +322,14 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
         let _ = write!(h, "<div class=\"warn\">{}</div>", esc(e));
     }
     // Failure reasons, grouped.
-    let mut reasons: BTreeMap<String, (u64, String)> = BTreeMap::new();
     let failed = |l: &&RunLine| !l.pass && l.verdict != litesim_scenario::Verdict::Invalid;
-    for l in runs.iter().filter(failed) {
-        for f in &l.failures {
-            let e = reasons.entry(reason_kind(f)).or_insert((0, f.clone()));
-            e.0 += 1;
-        }
-    }
-    if !reasons.is_empty() {
-        let mut v: Vec<(&String, &(u64, String))> = reasons.iter().collect();
-        v.sort_by(|a, b| b.1.0.cmp(&a.1.0).then(a.0.cmp(b.0)));
-        h += "<h2>Failure reasons</h2><table id=\"reasons\"><tr><th>runs</th><th>reason (numbers vary)</th><th>example</th></tr>";
-        for (k, (n, ex)) in v.iter().take(100) {
-            let _ = write!(
-                h,
-                "<tr><td>{n}</td><td>{}</td><td>{}</td></tr>",
-                esc(k),
-                esc(ex)
-            );
-        }
-        h += "</table>";
+    let table = reasons_table(
+        "reasons",
+        runs.iter().filter(failed).flat_map(|l| &l.failures),
+    );
+    if !table.is_empty() {
+        h += "<h2>Failure reasons</h2>";
+        h += &table;
     }
     h += &invalid_section(&invalid);
     // KPI histograms and crossed coverage: of the runs whose scenario

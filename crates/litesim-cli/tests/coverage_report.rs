@@ -347,6 +347,22 @@ fn scenarios_that_did_not_happen_are_invalid_apart_from_failures() {
         .map(|b| b["count"].as_u64().unwrap())
         .sum();
     assert_eq!(counted as usize, 12 - invalid, "{side}");
+    // The report lists them apart, with their reasons.
+    let o = litesim()
+        .current_dir(workspace())
+        .arg("report")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let html = read(&out.join("report.html"));
+    assert!(
+        html.contains(&format!(
+            "<h2>Invalid runs: the scenario was not realised ({invalid})</h2><table id=\"invalid\">"
+        )),
+        "{html}"
+    );
+    assert!(html.contains(&format!("<span class=\"invalid\">{invalid} invalid</span>")));
     // --fail-on-invalid makes them fail the batch (exit 3).
     let o = batch(&["--fail-on-invalid", "--force-new"], &out, &junit);
     assert_eq!(o.status.code(), Some(3), "{}", text(&o));
