@@ -331,6 +331,9 @@ pub struct Thresholds {
     /// Largest allowed deceleration sut.car would need to avoid a crash
     /// with an actor it closes on (DRAC, m/s²).
     pub max_drac: Option<f64>,
+    /// Smallest allowed post-encroachment time of sut.car with an actor at
+    /// a junction's conflict area (s).
+    pub min_pet: Option<f64>,
     /// sut.car must end within this distance of its route's goal (m).
     pub goal_tolerance: Option<f64>,
     /// Seconds the system under test may take to answer a step.
@@ -499,7 +502,7 @@ impl Elab<'_> {
                     "profile" => self.test.config.profile = v.text().ok_or_else(bad)?.to_string(),
                     "dynamic" => self.test.config.dynamic = v.boolean().ok_or_else(bad)?,
                     "min_ttc" | "min_gap" | "max_decel" | "max_jerk" | "max_jerk_1s"
-                    | "min_thw" | "max_drac" | "goal_tolerance" | "sut_timeout" => {
+                    | "min_thw" | "max_drac" | "min_pet" | "goal_tolerance" | "sut_timeout" => {
                         let x = v.num().ok_or_else(bad)?;
                         if !(x.is_finite() && x >= 0.0) {
                             return Err(ScenarioError::Elaboration(format!(
@@ -516,6 +519,7 @@ impl Elab<'_> {
                             "max_jerk_1s" => &mut th.max_jerk_1s,
                             "min_thw" => &mut th.min_thw,
                             "max_drac" => &mut th.max_drac,
+                            "min_pet" => &mut th.min_pet,
                             "goal_tolerance" => &mut th.goal_tolerance,
                             _ => &mut th.sut_timeout,
                         };

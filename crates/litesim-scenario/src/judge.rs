@@ -329,6 +329,15 @@ fn checks(
                 l.max_drac, l.id, l.max_drac_at
             ));
         }
+        let pet = e.pets.iter().min_by(|a, b| a.pet.total_cmp(&b.pet));
+        if let (Some(limit), Some(p)) = (th.min_pet, pet)
+            && p.pet < limit
+        {
+            failures.push(format!(
+                "post-encroachment time of {ego} and {} at junction {} is {:.2} s at {:.2} s, below the test's min_pet {limit} s",
+                p.id, p.junction, p.pet, p.at
+            ));
+        }
         if let Some(tol) = th.goal_tolerance
             && e.distance_to_goal > tol
             && ex.sut_error.is_none()

@@ -1047,6 +1047,33 @@ pub struct LeadKpi {
     pub max_drac_at: f64,
 }
 
+/// sut.car and one actor at a junction's conflict area.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PetKpi {
+    /// The other actor.
+    pub id: String,
+    /// The junction.
+    pub junction: String,
+    /// Post-encroachment time (s): from the first one leaving the area to
+    /// the second entering it; 0 when both were in it at once.
+    pub pet: f64,
+    /// When the second entered (s).
+    pub at: f64,
+}
+
+/// Beyond this distance (m) of sut.car no actor's passage through a
+/// conflict area is tracked.
+const PET_RANGE_M: f64 = 100.0;
+
+/// Whether `b`'s box comes within `r` of `c`.
+fn box_within(b: &BoxState, c: litesim_core::Vec2, r: f64) -> bool {
+    let (s, co) = math::sin_cos(b.yaw);
+    let (dx, dy) = (c.x - b.x, c.y - b.y);
+    let along = ((dx * co + dy * s).abs() - 0.5 * b.length).max(0.0);
+    let across = ((-dx * s + dy * co).abs() - 0.5 * b.width).max(0.0);
+    along * along + across * across <= r * r
+}
+
 /// Beyond this distance (m) along or across sut.car nothing is a lead.
 const LEAD_RANGE_M: f64 = 150.0;
 
@@ -1076,6 +1103,15 @@ pub struct EgoKpi {
     /// way): the smallest time headway and the largest DRAC, in plan order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub leads: Vec<LeadKpi>,
+    /// Per actor whose path crossed sut.car's at a junction's conflict
+    /// area: the post-encroachment time, in plan order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub pets: Vec<PetKpi>,
+    #[serde(skip)]
+    areas: Vec<crate::runtime::traffic::ConflictArea>,
+    /// Per actor and area: its first passage (entered, left; NaN until).
+    #[serde(skip)]
+    passes: Vec<Vec<[f64; 2]>>,
     #[serde(skip)]
     dt: f64,
     #[serde(skip)]
@@ -1136,6 +1172,49 @@ impl EgoKpi {
         }
     }
 
+    /// The junctions' conflict areas where post-encroachment time is
+    /// measured.
+    pub fn with_areas(mut self, areas: Vec<crate::runtime::traffic::ConflictArea>) -> Self {
+        self.areas = areas;
+        self
+    }
+
+    /// Each actor near sut.car (`boxes[e]`) entering or leaving a conflict
+    /// area: its first passage through each.
+    fn pass(&mut self, t: f64, e: usize, boxes: &[BoxState]) {
+        if self.areas.is_empty() {
+            return;
+        }
+        if self.passes.len() < boxes.len() {
+            self.passes
+                .resize(boxes.len(), vec![[f64::NAN; 2]; self.areas.len()]);
+        }
+        let me = &boxes[e];
+        for (j, b) in boxes.iter().enumerate() {
+            if (b.x - me.x).abs() > PET_RANGE_M || (b.y - me.y).abs() > PET_RANGE_M {
+                continue;
+            }
+            for (k, a) in self.areas.iter().enumerate() {
+                let p = &mut self.passes[j][k];
+                if !p[1].is_nan() && p[1] < t - 1e-9 {
+                    // Its first passage is over.
+                    continue;
+                }
+                if (a.centre.x - b.x).abs() > a.radius + b.length
+                    || (a.centre.y - b.y).abs() > a.radius + b.length
+                {
+                    continue;
+                }
+                if box_within(b, a.centre, a.radius) {
+                    if p[0].is_nan() {
+                        p[0] = t;
+                    }
+                    p[1] = t;
+                }
+            }
+        }
+    }
+
     /// sut.car (`boxes[e]`, at `speeds[e]`) against every actor ahead of it
     /// in its path and heading the same way (within 45°): time headway and
     /// DRAC; `id(j)` names actor `j`.
@@ -1147,6 +1226,7 @@ impl EgoKpi {
         speeds: &[f64],
         id: impl Fn(usize) -> &'a str,
     ) {
+        self.pass(t, e, boxes);
         let me = &boxes[e];
         let v = speeds[e];
         let (s, c) = math::sin_cos(me.yaw);
@@ -1192,6 +1272,42 @@ impl EgoKpi {
                     l.max_drac_at = t;
                 }
             }
+        }
+    }
+
+    /// The post-encroachment times of sut.car (actor `e`) with every actor
+    /// whose first passage through a conflict area it shared: the smallest
+    /// per actor; `id(j)` names actor `j`.
+    pub fn finish_pets<'a>(&mut self, e: usize, id: impl Fn(usize) -> &'a str) {
+        let Some(mine) = self.passes.get(e).cloned() else {
+            return;
+        };
+        for (j, theirs) in self.passes.iter().enumerate() {
+            if j == e {
+                continue;
+            }
+            let mut best: Option<PetKpi> = None;
+            for (k, (m, o)) in mine.iter().zip(theirs).enumerate() {
+                if m[0].is_nan() || o[0].is_nan() {
+                    continue;
+                }
+                let (pet, at) = if m[1] < o[0] {
+                    (o[0] - m[1], o[0])
+                } else if o[1] < m[0] {
+                    (m[0] - o[1], m[0])
+                } else {
+                    (0.0, m[0].max(o[0]))
+                };
+                if best.as_ref().is_none_or(|b| pet < b.pet) {
+                    best = Some(PetKpi {
+                        id: id(j).to_string(),
+                        junction: self.areas[k].junction.clone(),
+                        pet,
+                        at,
+                    });
+                }
+            }
+            self.pets.extend(best);
         }
     }
 

@@ -122,6 +122,19 @@ impl Prepared {
     }
 }
 
+/// The map's junction conflict areas (none without junctions: the lane
+/// graph is then not built for them).
+fn conflict_areas(prep: &Prepared) -> Vec<runtime::traffic::ConflictArea> {
+    let junctions = prep
+        .net
+        .as_deref()
+        .is_some_and(|n| n.roads().iter().any(|r| r.junction.is_some()));
+    match prep.lane_graph() {
+        Some(g) if junctions => g.areas.clone(),
+        _ => Vec::new(),
+    }
+}
+
 /// Loads, checks and elaborates a test; loads its map.
 pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioError> {
     let env = |k: &str| match &opts.env {
@@ -712,6 +725,7 @@ fn run_here(
         covers: prep.test.covers.clone(),
         values: sol.values.clone(),
         people_yield: opts.npc == Npc::Driver,
+        conflict_areas: conflict_areas(prep),
     };
     let mut sut = opts
         .sut

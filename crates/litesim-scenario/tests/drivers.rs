@@ -429,6 +429,36 @@ fn sut_car_rear_ended_while_keeping_its_lane_is_not_its_failure() {
 }
 
 #[test]
+fn post_encroachment_time_is_measured_at_the_junctions_conflict_areas() {
+    let f = example_file(
+        "import \"junction_traffic.osc\"\nextend test_config:\n    set min_pet = 9s\n",
+    );
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let opts = RunOptions {
+        seed: Some(1),
+        sut: SutChoice::Acc,
+        ..RunOptions::default()
+    };
+    let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    let pets = &r.summary.ego.as_ref().unwrap().pets;
+    assert!(!pets.is_empty(), "no actor crossed sut.car's path");
+    let p = pets.iter().min_by(|a, b| a.pet.total_cmp(&b.pet)).unwrap();
+    assert!(p.pet >= 0.0 && p.pet < 9.0, "{p:?}");
+    let want = format!(
+        "post-encroachment time of sut.car and {} at junction {} is {:.2} s",
+        p.id, p.junction, p.pet
+    );
+    assert!(
+        r.summary
+            .failures
+            .iter()
+            .any(|f| f.starts_with(&want) && f.ends_with("below the test's min_pet 9 s")),
+        "{:?}",
+        r.summary.failures
+    );
+}
+
+#[test]
 fn the_reference_cruise_fails_a_slow_close_cut_in_and_its_aeb_avoids_it() {
     let f = example_file(SLOW_CUT_IN);
     let prep = prepare(f.path(), &LoadOptions::default()).unwrap();

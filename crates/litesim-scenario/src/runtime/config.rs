@@ -60,6 +60,8 @@ pub struct ExecConfig<'a> {
     /// People, cyclists and animals hold their plans' clocks rather than
     /// walk into a vehicle that stands in their way (`--npc driver`).
     pub people_yield: bool,
+    /// The map's junction conflict areas (post-encroachment time).
+    pub conflict_areas: Vec<crate::runtime::traffic::ConflictArea>,
 }
 
 /// What an execution produced.

@@ -233,7 +233,9 @@ impl<'a, 'c> Runtime<'a, 'c> {
         let modes: Vec<bool> = (0..n).map(|i| dynamic[i] || Some(i) == ego_i).collect();
         let cast = cast::create(ssp, &sim, plan, &modes, rec.as_mut())?;
         let ids: Vec<String> = plan.actors.iter().map(|a| a.id.clone()).collect();
-        let ego_kpi = ego_index.map(|e| EgoKpi::new(&plan.actors[e].id, sim.dt));
+        let ego_kpi = ego_index.map(|e| {
+            EgoKpi::new(&plan.actors[e].id, sim.dt).with_areas(cfg.conflict_areas.clone())
+        });
         let rb = Readback::new(&ids, rec, ego_kpi, cfg, plan);
         let yielding = cfg.people_yield && plan.actors.iter().any(yields);
         // Without closed-loop drivers nothing needs the states before the
@@ -527,6 +529,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
         if let (Some(ek), Some(e)) = (ego_kpi.as_mut(), self.ego_index) {
             let last = plan.actors[e].samples.last().copied().unwrap_or_default();
             ek.finish(last.x, last.y);
+            ek.finish_pets(e, |j| &plan.actors[j].id);
         }
         let log = rec.map(|r| finish_log(r, tracking, &plan, self.ego_i.is_some()));
         let driven = plan

@@ -59,9 +59,24 @@ pub enum Conflict {
     Cross,
 }
 
+/// Where the paths of two crossing lanes of a junction meet: a disc around
+/// the closest pair of their centre-line points, as wide as the wider lane
+/// (what post-encroachment time is measured at).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConflictArea {
+    /// The junction's id.
+    pub junction: String,
+    /// The centre (map frame).
+    pub centre: litesim_core::Vec2,
+    /// The radius (m).
+    pub radius: f64,
+}
+
 /// Every drivable lane, indexed by `u32` (what drivers hold).
 #[derive(Clone, Debug, Default)]
 pub struct LaneGraph {
+    /// Where crossing lanes of junctions meet, in junction and lane order.
+    pub areas: Vec<ConflictArea>,
     /// The lanes, in road, section, lane-id order.
     pub lanes: Vec<LaneInfo>,
     index: BTreeMap<LaneRef, u32>,
@@ -119,7 +134,11 @@ impl LaneGraph {
                 }
             }
         }
-        let mut g = LaneGraph { lanes, index };
+        let mut g = LaneGraph {
+            lanes,
+            index,
+            areas: Vec::new(),
+        };
         for i in 0..g.lanes.len() {
             let node = g.lanes[i].node;
             let next: Vec<u32> = net
@@ -180,6 +199,7 @@ impl LaneGraph {
             })
             .collect();
         let mut found: Vec<(u32, u32, Conflict)> = Vec::new();
+        let mut areas = Vec::new();
         for lanes in by_junction.values() {
             for (k, &a) in lanes.iter().enumerate() {
                 for &b in &lanes[k + 1..] {
@@ -190,15 +210,28 @@ impl LaneGraph {
                         Conflict::Merge
                     } else {
                         let reach = 0.45 * (la.width + lb.width);
-                        let near = points[&a].iter().any(|p| {
-                            points[&b].iter().any(|q| {
+                        let mut closest: Option<(f64, litesim_core::Vec2)> = None;
+                        for p in &points[&a] {
+                            for q in &points[&b] {
                                 let d = *p - *q;
-                                d.dot(d) < reach * reach
-                            })
-                        });
-                        if !near {
-                            continue;
+                                let d2 = d.dot(d);
+                                if closest.is_none_or(|c| d2 < c.0) {
+                                    closest = Some((d2, (*p + *q) * 0.5));
+                                }
+                            }
                         }
+                        let Some((_, centre)) = closest.filter(|c| c.0 < reach * reach) else {
+                            continue;
+                        };
+                        let junction = net.roads()[la.node.road]
+                            .junction
+                            .clone()
+                            .unwrap_or_default();
+                        areas.push(ConflictArea {
+                            junction,
+                            centre,
+                            radius: 0.5 * la.width.max(lb.width),
+                        });
                         Conflict::Cross
                     };
                     found.push((a, b, kind));
@@ -209,6 +242,7 @@ impl LaneGraph {
             self.lanes[a as usize].conflicts.push((b, kind));
             self.lanes[b as usize].conflicts.push((a, kind));
         }
+        self.areas = areas;
     }
 
     /// The lane index of a routing-graph node.

@@ -22,7 +22,7 @@ pub mod lanes;
 pub mod spawn;
 
 use super::driver::{self, DriverParams, LaneChangeCase, Leader};
-pub use lanes::{Conflict, LaneGraph, LaneInfo};
+pub use lanes::{Conflict, ConflictArea, LaneGraph, LaneInfo};
 
 /// How long a lane change takes from lane to lane (s).
 pub const LANE_CHANGE_S: f64 = 3.0;
