@@ -222,6 +222,13 @@ struct Plots {
     /// The ego's time to collision with that actor (s) while closing, the
     /// smallest in each bucket.
     ttc: Vec<Option<f32>>,
+    /// The ego's longitudinal acceleration as it happened (m/s²).
+    accel: Vec<Option<f32>>,
+    /// The acceleration commanded of it (m/s²): the SUT's command in
+    /// closed loop, the plan's otherwise; empty without the log's tracking.
+    command: Vec<Option<f32>>,
+    /// Whose command (`sut`, `planned`, …).
+    command_label: String,
 }
 
 fn finite32(v: f64) -> Option<f32> {
@@ -361,11 +368,22 @@ impl ViewData {
         // Plots: buckets of ≤ PLOT_POINTS; speed at each bucket's first
         // tick, gap and TTC at their smallest (the critical values survive).
         let per = n.div_ceil(PLOT_POINTS).max(1);
+        let tracking = log.tracking.as_ref();
         let mut plots = Plots {
             t: Vec::new(),
             speed: vec![Vec::new(); log.tracks.len()],
             gap: Vec::new(),
             ttc: Vec::new(),
+            accel: Vec::new(),
+            command: Vec::new(),
+            command_label: tracking.map_or(String::new(), |t| t.command_label().to_string()),
+        };
+        // The commanded acceleration at a tick (the tracking columns have
+        // their own ticks).
+        let command_at = |tick: u64| {
+            let tr = tracking?;
+            let i = tr.tick.binary_search(&tick).ok()?;
+            tr.cmd_acceleration.get(i).copied().and_then(finite32)
         };
         for start in (0..n).step_by(per) {
             let end = (start + per).min(n);
@@ -380,6 +398,16 @@ impl ViewData {
             plots
                 .ttc
                 .push(ttc[start..end].iter().fold(None, |m, v| min_opt(m, *v)));
+            let e = &log.tracks[ego];
+            plots.accel.push(
+                index[ego][start]
+                    .and_then(|i| finite32(e.derived.longitudinal_acceleration[i as usize])),
+            );
+            if tracking.is_some() {
+                plots
+                    .command
+                    .push(index[ego][start].and_then(|i| command_at(e.tick[i as usize])));
+            }
         }
 
         // Timeline markers: failures (at the time their text names, else

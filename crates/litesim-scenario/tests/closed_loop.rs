@@ -930,3 +930,38 @@ fn a_realtime_overrun_fails_the_run_under_the_fail_policy() {
     assert_eq!(rt.steps, 150);
     assert!(rt.overruns > 0 && rt.first_overrun.is_some(), "{rt:?}");
 }
+
+#[test]
+fn the_log_keeps_the_suts_own_command_beside_what_the_car_did() {
+    // The cruise brakes for the cut-in: its commanded acceleration is in
+    // the log's command columns (the dashboard's and the viewer's `sut`
+    // series), not the plan's zero.
+    let r = go("cut_in", SutChoice::Acc);
+    let log = r.log.as_ref().unwrap();
+    let tr = log.tracking.as_ref().unwrap();
+    assert_eq!(tr.command_label(), "sut");
+    let least = tr
+        .cmd_acceleration
+        .iter()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    assert!(least < -2.0, "the command never braked: {least}");
+    // What the car did follows what was sent (the dummy model applies an
+    // acceleration command from the next step).
+    let ego = log.track("sut.car").unwrap();
+    let applied = &ego.derived.longitudinal_acceleration;
+    let k = tr
+        .cmd_acceleration
+        .iter()
+        .position(|a| *a == least)
+        .unwrap();
+    let i = ego.tick.iter().position(|t| *t == tr.tick[k] + 1).unwrap();
+    assert!(
+        (applied[i] - least).abs() < 0.1,
+        "{} vs {least}",
+        applied[i]
+    );
+    // The plan's command under the player.
+    let p = go("cut_in", SutChoice::Planned);
+    assert_eq!(p.log.unwrap().tracking.unwrap().command_label(), "planned");
+}

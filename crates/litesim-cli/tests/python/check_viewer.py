@@ -112,6 +112,10 @@ with sync_playwright() as p:
     # Failures and phases are on the timeline; plots are drawn.
     markers = page.locator("#timeline .marker").count()
     assert page.locator("#plot-speed").count() == 1
+    # The ego's acceleration beside what was commanded of it.
+    assert page.locator("#plot-accel").count() == 1
+    # Whose command it is: the log's (sut, planned, …), else "commanded".
+    assert page.locator("#cmd-label").inner_text(), "no command label"
 
     assert not errors, errors
     if url.startswith("file://"):
