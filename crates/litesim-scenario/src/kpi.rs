@@ -1120,6 +1120,10 @@ pub struct EgoKpi {
     accels_1s: std::collections::VecDeque<f64>,
     #[serde(skip)]
     lead_of: std::collections::BTreeMap<usize, usize>,
+    /// sut.car's last heading and its (sin, cos): a car driving straight
+    /// needs no trigonometry per step.
+    #[serde(skip)]
+    trig: (f64, (f64, f64)),
     #[serde(skip)]
     last_v: Option<f64>,
     #[serde(skip)]
@@ -1132,6 +1136,8 @@ impl EgoKpi {
         EgoKpi {
             id: id.to_string(),
             dt,
+            // No heading yet: the first step computes its trigonometry.
+            trig: (f64::NAN, (0.0, 1.0)),
             ..EgoKpi::default()
         }
     }
@@ -1229,7 +1235,10 @@ impl EgoKpi {
         self.pass(t, e, boxes);
         let me = &boxes[e];
         let v = speeds[e];
-        let (s, c) = math::sin_cos(me.yaw);
+        if me.yaw.to_bits() != self.trig.0.to_bits() {
+            self.trig = (me.yaw, math::sin_cos(me.yaw));
+        }
+        let (s, c) = self.trig.1;
         for (j, b) in boxes.iter().enumerate() {
             let (dx, dy) = (b.x - me.x, b.y - me.y);
             if j == e || dx.abs() > LEAD_RANGE_M || dy.abs() > LEAD_RANGE_M {
@@ -1240,7 +1249,11 @@ impl EgoKpi {
             if along <= 0.0 || across.abs() > 0.5 * (me.width + b.width) {
                 continue;
             }
-            let (sb, cb) = math::sin_cos(b.yaw - me.yaw);
+            let (sb, cb) = if b.yaw == me.yaw {
+                (0.0, 1.0)
+            } else {
+                math::sin_cos(b.yaw - me.yaw)
+            };
             if cb < 0.707 {
                 continue;
             }
