@@ -355,6 +355,8 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
         let drac: Vec<f64> = happened.iter().filter_map(|l| l.max_drac).collect();
         h += &histogram("min time headway of the ego", "s", &thw);
         h += &histogram("max DRAC of the ego", "m/s²", &drac);
+        let pet: Vec<f64> = happened.iter().filter_map(|l| l.min_pet).collect();
+        h += &histogram("min post-encroachment time of the ego", "s", &pet);
         h += "</div>";
     }
     // Coverage.

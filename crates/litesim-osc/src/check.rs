@@ -500,12 +500,27 @@ impl Checker<'_> {
             .this
             .as_ref()
             .map_or(String::new(), |t| format!(" in '{t}'"));
-        self.err(
-            "E0310",
-            span,
-            format!("unknown name '{name}'{place}"),
-            (!hint.is_empty()).then(|| format!("did you mean: {hint}?")),
-        );
+        // In a struct (a configuration such as test_config), the fields it
+        // has are the answer: all of them, after the close ones.
+        let fields = self.scope.this.as_ref().and_then(|t| {
+            matches!(self.m.compounds.get(&**t), Some((DeclKind::Struct, ..))).then(|| {
+                self.m
+                    .params(t)
+                    .into_iter()
+                    .map(|(n, _)| n)
+                    .collect::<Vec<_>>()
+            })
+        });
+        let hint = match (hint.is_empty(), fields) {
+            (true, Some(f)) => Some(format!("its fields: {}", f.join(", "))),
+            (false, Some(f)) => Some(format!(
+                "did you mean: {hint}? its fields: {}",
+                f.join(", ")
+            )),
+            (false, None) => Some(format!("did you mean: {hint}?")),
+            (true, None) => None,
+        };
+        self.err("E0310", span, format!("unknown name '{name}'{place}"), hint);
         Ty::Unknown
     }
 

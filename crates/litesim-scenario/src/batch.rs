@@ -217,6 +217,9 @@ pub struct RunLine {
     /// The ego's largest DRAC to an actor it closed on (m/s²).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_drac: Option<f64>,
+    /// The ego's smallest post-encroachment time at a junction (s).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub min_pet: Option<f64>,
     /// `cover`/`record` samples.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub coverage: Vec<crate::coverage::Sample>,
@@ -317,6 +320,7 @@ pub fn run_line(
         max_decel: None,
         min_thw: None,
         max_drac: None,
+        min_pet: None,
         coverage: Vec::new(),
     };
     let prep = match prep {
@@ -367,6 +371,10 @@ pub fn run_line(
                 .map(|l| l.max_drac)
                 .filter(|d| *d > 0.0)
                 .reduce(f64::max);
+            line.min_pet = s
+                .ego
+                .as_ref()
+                .and_then(|e| e.pets.iter().map(|p| p.pet).reduce(f64::min));
             line.coverage = s.coverage;
             line.roads = s
                 .roads

@@ -583,6 +583,10 @@ fn headway_drac_and_one_second_jerk_are_thresholds_too() {
             ":3:9: error[E0310]: unknown name 'min_thx' in 'test_config'",
         ),
         (
+            "    set min_thx = 3s\n",
+            "its fields: map, seed, step_ms, min_ttc, min_gap, max_decel, max_jerk, max_jerk_1s, min_thw, max_drac, min_pet, goal_tolerance",
+        ),
+        (
             "    set max_drac = -1mpsps\n",
             "'max_drac' must be a finite value ≥ 0",
         ),

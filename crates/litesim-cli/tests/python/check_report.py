@@ -48,8 +48,8 @@ with sync_playwright() as p:
         nh = chart.locator("rect.hole").count()
         assert nh == holes, f"{item}: {nh} holes marked, expected {holes}"
         assert page.locator(".chart.crossed rect.cell").count() > 0, "no cross coverage"
-        # TTC, gap, deceleration, time headway, DRAC.
-        assert page.locator(".chart.kpi").count() == 5
+        # TTC, gap, deceleration, time headway, DRAC, PET.
+        assert page.locator(".chart.kpi").count() == 6
         links = page.locator("a.replay")
         if failed:
             assert links.count() > 0, "failed runs link to their replay"
