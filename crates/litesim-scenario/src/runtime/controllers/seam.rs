@@ -48,6 +48,17 @@ impl<'s> SutSeam<'s> {
         }
     }
 
+    /// The road-wheel angle that gives `curvature` in the model: the seed's
+    /// Model SSP turns at sin δ / L, the bicycle at tan δ / L.
+    fn wheel_angle(&self, curvature: f64) -> f64 {
+        let lk = self.lim.wheelbase * curvature;
+        if self.model == "dummy" || self.model.is_empty() {
+            math::asin(lk.clamp(-1.0, 1.0))
+        } else {
+            math::atan(lk)
+        }
+    }
+
     /// A command as (acceleration, road-wheel angle): an acceleration
     /// command as sent; pedals at the vehicle's limits (full throttle its
     /// largest acceleration, full brake its largest deceleration); forces
@@ -58,7 +69,7 @@ impl<'s> SutSeam<'s> {
             SutCommand::Accel {
                 acceleration,
                 curvature,
-            } => (acceleration, math::atan(self.lim.wheelbase * curvature)),
+            } => (acceleration, self.wheel_angle(curvature)),
             SutCommand::Pedals {
                 throttle,
                 brake,
@@ -148,14 +159,7 @@ fn send_sut(
             acceleration,
             curvature,
         } => {
-            // The road-wheel angle giving that curvature in the model: the
-            // seed's Model SSP turns at sin δ / L, the bicycle at tan δ / L.
-            let lk = caps.wheelbase * curvature;
-            let delta = if seam.model == "dummy" || seam.model.is_empty() {
-                math::asin(lk.clamp(-1.0, 1.0))
-            } else {
-                math::atan(lk)
-            };
+            let delta = seam.wheel_angle(curvature);
             *control = ControlSample {
                 acceleration,
                 steering_angle: delta,
