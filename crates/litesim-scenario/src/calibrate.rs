@@ -236,7 +236,7 @@ pub fn errors(
             covers: Vec::new(),
             values: Default::default(),
             people_yield: false,
-            conflict_areas: Vec::new(),
+            conflict_areas: Default::default(),
         };
         let ex = execute(&mut ssp, &plan, None, &cfg, None, None, None)?;
         let a = &ex.kpis.actors[0];

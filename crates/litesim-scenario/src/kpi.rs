@@ -1108,7 +1108,7 @@ pub struct EgoKpi {
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub pets: Vec<PetKpi>,
     #[serde(skip)]
-    areas: Vec<crate::runtime::traffic::ConflictArea>,
+    areas: std::sync::Arc<[crate::runtime::traffic::ConflictArea]>,
     /// Per actor and area: its first passage (entered, left; NaN until).
     #[serde(skip)]
     passes: Vec<Vec<[f64; 2]>>,
@@ -1180,7 +1180,10 @@ impl EgoKpi {
 
     /// The junctions' conflict areas where post-encroachment time is
     /// measured.
-    pub fn with_areas(mut self, areas: Vec<crate::runtime::traffic::ConflictArea>) -> Self {
+    pub fn with_areas(
+        mut self,
+        areas: std::sync::Arc<[crate::runtime::traffic::ConflictArea]>,
+    ) -> Self {
         self.areas = areas;
         self
     }

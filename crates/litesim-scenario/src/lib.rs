@@ -124,14 +124,14 @@ impl Prepared {
 
 /// The map's junction conflict areas (none without junctions: the lane
 /// graph is then not built for them).
-fn conflict_areas(prep: &Prepared) -> Vec<runtime::traffic::ConflictArea> {
+fn conflict_areas(prep: &Prepared) -> Arc<[runtime::traffic::ConflictArea]> {
     let junctions = prep
         .net
         .as_deref()
         .is_some_and(|n| n.roads().iter().any(|r| r.junction.is_some()));
     match prep.lane_graph() {
         Some(g) if junctions => g.areas.clone(),
-        _ => Vec::new(),
+        _ => Arc::default(),
     }
 }
 
@@ -781,7 +781,7 @@ fn run_here(
         // What each driver's gap pursuit asked beyond its limit: the
         // reason an invalid verdict names.
         for g in &mut ex.goals {
-            if let Some(&(asked, limit)) = d.asked.get(&(g.actor.clone(), g.at.clone()))
+            if let Some((asked, limit)) = d.asked(&g.actor, &g.at)
                 && asked > limit
             {
                 g.needed = Some((asked, limit));

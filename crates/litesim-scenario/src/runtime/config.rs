@@ -61,7 +61,7 @@ pub struct ExecConfig<'a> {
     /// walk into a vehicle that stands in their way (`--npc driver`).
     pub people_yield: bool,
     /// The map's junction conflict areas (post-encroachment time).
-    pub conflict_areas: Vec<crate::runtime::traffic::ConflictArea>,
+    pub conflict_areas: std::sync::Arc<[crate::runtime::traffic::ConflictArea]>,
 }
 
 /// What an execution produced.

@@ -27,6 +27,12 @@ use litesim_log::{ActorSample, ControlSample, LogRecorder};
 use litesim_map::RoadNetwork;
 use litesim_ssp::api::{KinematicSteps, Kinematics, StepInfo};
 
+/// A state's acceleration along its heading (m/s²).
+fn along_heading(st: &Kinematics) -> f64 {
+    let (sy, cy) = math::sin_cos(st.pose.yaw);
+    st.acceleration.x * cy + st.acceleration.y * sy
+}
+
 /// What reading steps back only reads (fixed for a chunk; in open loop for
 /// the whole run).
 #[derive(Clone, Copy)]
@@ -214,9 +220,9 @@ impl Readback {
     /// and when it first braked harder than 0.5 m/s² (what an invalid
     /// verdict names as the reason a goal was missed).
     fn note_braking(&mut self, env: &ReadEnv<'_, '_>, step: &[Kinematics], t: f64) {
-        let goals = &env.plan.goals;
-        self.goal_braking.resize(goals.len(), None);
-        for (k, g) in goals.iter().enumerate() {
+        // One slot per goal of the plan in force (made with the plan, again
+        // when it is replanned).
+        for (k, g) in env.plan.goals.iter().enumerate() {
             let Some((_, r)) = env.goal_actors.get(k).copied().flatten() else {
                 continue;
             };
@@ -230,8 +236,7 @@ impl Readback {
             if ax * ax + ay * ay <= 0.25 {
                 continue;
             }
-            let (sy, cy) = math::sin_cos(st.pose.yaw);
-            let decel = -(st.acceleration.x * cy + st.acceleration.y * sy);
+            let decel = -along_heading(st);
             if decel > 0.5 {
                 let b = self.goal_braking[k].get_or_insert((decel, t));
                 b.0 = b.0.max(decel);
@@ -271,10 +276,10 @@ impl Readback {
             vy: st.velocity.y,
         });
         self.speeds.push(st.speed);
-        if env.sampling {
-            let (sy, cy) = math::sin_cos(st.pose.yaw);
-            self.accels
-                .push(st.acceleration.x * cy + st.acceleration.y * sy);
+        // The acceleration along the heading, for coverage and the world.
+        let accel = (env.sampling || env.observed).then(|| along_heading(st));
+        if let (true, Some(a)) = (env.sampling, accel) {
+            self.accels.push(a);
         }
         self.planned.push(p);
         self.check_road(env, i, st, t);
@@ -283,14 +288,13 @@ impl Readback {
         }
         if env.observed {
             let o = world.get_mut(i);
-            let (sy, cy) = math::sin_cos(st.pose.yaw);
             o.x = st.pose.position.x;
             o.y = st.pose.position.y;
             o.yaw = st.pose.yaw;
             o.speed = st.speed;
             o.vx = st.velocity.x;
             o.vy = st.velocity.y;
-            o.acceleration = st.acceleration.x * cy + st.acceleration.y * sy;
+            o.acceleration = accel.unwrap_or_default();
         }
         if Some(i) == env.ego_index
             && let Some(ek) = self.ego_kpi.as_mut()

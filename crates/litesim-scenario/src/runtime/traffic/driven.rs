@@ -24,7 +24,6 @@ use litesim_core::geometry::Pose;
 use litesim_core::rng::Rng;
 use litesim_map::{Located, RoadNetwork};
 use litesim_ssp::api::{Coord6, XyTrajectory};
-use std::collections::BTreeMap;
 use std::sync::Arc;
 
 /// Length and width of an ambient vehicle (m): a mid-size car.
@@ -61,6 +60,16 @@ fn gap_pursuit(
     a_ref.clamp(-6.0, 3.0) - g.sign * (6.0 * e / (t * t) + 4.0 * e_dot / t)
 }
 
+/// What a driver's pursuit of one gap goal asked.
+#[derive(Clone, Debug)]
+struct Asked {
+    actor: String,
+    /// The goal's modifier (`file:line:col`).
+    at: String,
+    asked: f64,
+    limit: f64,
+}
+
 /// The driven actors of one run.
 #[derive(Debug)]
 pub struct Driven {
@@ -88,9 +97,10 @@ pub struct Driven {
     /// Each plan actor's speed at the last step, and when (s): the
     /// references' accelerations for gap goals.
     last_speeds: (f64, Vec<f64>),
-    /// Per gap goal (`actor`, `at`): the hardest deceleration its pursuit
-    /// asked (m/s², positive) and the limit the driver brakes within.
-    pub asked: BTreeMap<(String, String), (f64, f64)>,
+    /// Per gap goal: the hardest deceleration its pursuit asked (m/s²,
+    /// positive) and the limit the driver brakes within (see
+    /// [`Driven::asked`]).
+    asked: Vec<Asked>,
     rng: Rng,
     poses: Vec<Pose>,
 }
@@ -122,7 +132,7 @@ impl Driven {
             box_lines: Vec::new(),
             hints: vec![None; plan.actors.len()],
             last_speeds: (f64::NAN, Vec::new()),
-            asked: BTreeMap::new(),
+            asked: Vec::new(),
             rng: Rng::new(0),
             poses: Vec::new(),
         };
@@ -363,11 +373,21 @@ impl Driven {
                 let a = gap_pursuit(g, &me, &reference, a_ref, g.t1 - t);
                 let p = &self.traffic.vehicles[k as usize].params;
                 let limit = p.safe_decel.max(p.comfort_decel);
-                let e = self
+                // Looked up by reference: a goal's record is made once, not
+                // a key per step.
+                match self
                     .asked
-                    .entry((g.actor.clone(), g.at.clone()))
-                    .or_insert((0.0, limit));
-                e.0 = e.0.max(-a);
+                    .iter_mut()
+                    .find(|x| x.actor == g.actor && x.at == g.at)
+                {
+                    Some(x) => x.asked = x.asked.max(-a),
+                    None => self.asked.push(Asked {
+                        actor: g.actor.clone(),
+                        at: g.at.clone(),
+                        asked: (-a).max(0.0),
+                        limit,
+                    }),
+                }
                 // The speed that the tracking turns into that acceleration.
                 speed = (me.speed + a * TRACK_TAU_S).max(0.0);
                 firm = true;
@@ -465,6 +485,16 @@ impl Driven {
     /// The plan actor of slot `k`.
     pub fn actor_of(&self, k: usize) -> usize {
         self.actor_of[k]
+    }
+
+    /// For `actor`'s gap goal whose modifier stands at `at`: the hardest
+    /// deceleration its pursuit asked (m/s², positive) and the limit the
+    /// driver brakes within; `None` when it never pursued it.
+    pub fn asked(&self, actor: &str, at: &str) -> Option<(f64, f64)> {
+        self.asked
+            .iter()
+            .find(|x| x.actor == actor && x.at == at)
+            .map(|x| (x.asked, x.limit))
     }
 
     /// The stop lines of the simulator's traffic-light boxes (`road` is

@@ -76,7 +76,7 @@ pub struct ConflictArea {
 #[derive(Clone, Debug, Default)]
 pub struct LaneGraph {
     /// Where crossing lanes of junctions meet, in junction and lane order.
-    pub areas: Vec<ConflictArea>,
+    pub areas: std::sync::Arc<[ConflictArea]>,
     /// The lanes, in road, section, lane-id order.
     pub lanes: Vec<LaneInfo>,
     index: BTreeMap<LaneRef, u32>,
@@ -137,7 +137,7 @@ impl LaneGraph {
         let mut g = LaneGraph {
             lanes,
             index,
-            areas: Vec::new(),
+            areas: Default::default(),
         };
         for i in 0..g.lanes.len() {
             let node = g.lanes[i].node;
@@ -242,7 +242,7 @@ impl LaneGraph {
             self.lanes[a as usize].conflicts.push((b, kind));
             self.lanes[b as usize].conflicts.push((a, kind));
         }
-        self.areas = areas;
+        self.areas = areas.into();
     }
 
     /// The lane index of a routing-graph node.
