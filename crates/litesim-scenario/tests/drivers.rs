@@ -805,3 +805,54 @@ fn a_driver_changes_lanes_over_the_duration_the_scenario_gives() {
         );
     }
 }
+
+/// `other` at 100 km/h for 60 s on a 300-odd-metre road.
+const TO_THE_EDGE: &str = r#"import "../../osc/domain/config.osc"
+extend test_config:
+    set map = "../maps/straight.xodr"
+extend top.main:
+    do sut.edge()
+scenario sut.edge:
+    r: two_way_road
+    other: vehicle
+    do parallel(overlap: equal):
+        sut.car.drive() with:
+            speed(10kph)
+            along(r, at: start)
+            lane(1, at: start)
+        other.drive() with:
+            speed(100kph)
+            lane(left_of: sut.car, at: start)
+            position(20m, ahead_of: sut.car, at: start)
+    with: duration(60s)
+"#;
+
+#[test]
+fn a_driver_that_reaches_the_end_of_its_lane_stops_there_with_a_note() {
+    let f = example_file(TO_THE_EDGE);
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let opts = RunOptions {
+        seed: Some(1),
+        record: true,
+        ..RunOptions::default()
+    };
+    let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+    let s = &r.summary;
+    assert!(
+        s.notes
+            .iter()
+            .any(|n| n.starts_with("other reaches the end of road 1 lane -2")
+                && n.ends_with("no lane continues, it stops there")),
+        "{:?}",
+        s.notes
+    );
+    // It never leaves the road, and it stands at the end.
+    assert_eq!(
+        s.verdict,
+        litesim_scenario::Verdict::Pass,
+        "{:?}",
+        s.failures
+    );
+    let o = r.log.as_ref().unwrap().track("other").unwrap();
+    assert!(o.state.speed.last().unwrap().abs() < 0.05);
+}
