@@ -255,7 +255,7 @@ def test_a_worker_killed_mid_batch_loses_and_duplicates_nothing(tmp_path):
 
     _ray_init(tmp_path)
     marker = str(tmp_path / "crashed")
-    sut = CrashOnce(marker, seed=57)
+    sut = CrashOnce(marker, seed=58)
     cwd = os.getcwd()
     os.chdir(ROOT)
     try:

@@ -144,14 +144,28 @@ fn junit_validates_and_fail_on_holes_fails() {
     );
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let rows = read(&out2.join("results.jsonl"));
-    let failed = rows
-        .lines()
-        .filter(|l| l.contains("\"pass\":false"))
-        .count();
-    assert!(failed > 0);
+    // Failed runs are JUnit failures; runs whose scenario did not happen
+    // (the cutting car could not be placed 15 m behind a sut.car that
+    // starts near the road's start) are skipped.
+    let count = |v: &str| {
+        rows.lines()
+            .filter(|l| l.contains(&format!("\"verdict\":\"{v}\"")))
+            .count()
+    };
+    let (failed, invalid) = (count("fail"), count("invalid"));
+    assert!(
+        failed > 0 && invalid > 0,
+        "{failed} failed, {invalid} invalid"
+    );
     python(
         "check_junit.py",
-        &[junit2.to_str().unwrap(), "30", &failed.to_string(), x],
+        &[
+            junit2.to_str().unwrap(),
+            "30",
+            &failed.to_string(),
+            x,
+            &invalid.to_string(),
+        ],
     );
     let cov = workspace().join("examples/scenarios/cov_pass.osc");
     let _rm = Remove(cov.clone());
@@ -195,9 +209,11 @@ fn report_renders_in_chromium_with_bad_lines_skipped() {
     let o = batch(&["--seeds", "1..50", "--save-failed"], &out);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     let rows = read(&out.join("results.jsonl"));
+    // The report's `fail` filter shows failed runs; invalid ones (the
+    // cutting car could not be placed) have their own section.
     let failed = rows
         .lines()
-        .filter(|l| l.contains("\"pass\":false"))
+        .filter(|l| l.contains("\"verdict\":\"fail\""))
         .count();
     // A truncated line and a foreign one: named, skipped, the rest renders.
     let mut f = rows.clone();

@@ -25,14 +25,22 @@ impl RoadNetwork {
 
     /// Moves `ds` metres along the direction of travel (negative = back),
     /// across road ends through the lane graph.
-    pub fn advance(&self, mut p: LanePos, mut ds: f64) -> LanePos {
+    pub fn advance(&self, p: LanePos, ds: f64) -> LanePos {
+        self.advance_rest(p, ds).0
+    }
+
+    /// [`Self::advance`], and the part of `|ds|` that could not be
+    /// travelled because the lane ends (a dead end or the map's edge) —
+    /// 0 when the whole move fits. Placement uses it to tell a position
+    /// that lies beyond the map from one that is on it.
+    pub fn advance_rest(&self, mut p: LanePos, mut ds: f64) -> (LanePos, f64) {
         for _ in 0..64 {
             let road = &self.roads()[p.road];
             let dir = if self.travels_forward(p) { 1.0 } else { -1.0 };
             let s_new = p.s + dir * ds;
             if (0.0..=road.length).contains(&s_new) {
                 p.s = s_new;
-                return p;
+                return (p, 0.0);
             }
             // Leaving this road: the remaining distance continues on the next lane.
             let (edge, rest) = if s_new > road.length {
@@ -53,7 +61,7 @@ impl RoadNetwork {
             };
             let Some(n) = next else {
                 p.s = edge;
-                return p;
+                return (p, rest);
             };
             let nr = &self.roads()[n.road];
             let probe = LanePos {
@@ -71,9 +79,12 @@ impl RoadNetwork {
                     nr.length
                 },
             };
-            ds = rest;
+            // The rest of the move keeps its sense: backwards stays
+            // backwards on the predecessor (a `behind` placement across a
+            // junction lands on the incoming road, not back on this one).
+            ds = if leaving_forward { rest } else { -rest };
         }
-        p
+        (p, 0.0)
     }
 
     /// Moves `dist` metres of *travelled path* along the lane: `s` runs along
@@ -215,5 +226,49 @@ mod tests {
         assert_eq!(net.lane_beside(LanePos { lane: -3, ..right }, -1), None);
         let p = net.lane_pos_pose(right, 0.0);
         assert!((p.position.x - 100.0).abs() < 1e-9 && (p.position.y + 1.75).abs() < 1e-9);
+        // The part of a move beyond a dead end is returned.
+        assert_eq!(
+            net.advance_rest(right, 430.0),
+            (LanePos { s: 500.0, ..right }, 30.0)
+        );
+        assert_eq!(
+            net.advance_rest(right, -130.0),
+            (LanePos { s: 0.0, ..right }, 30.0)
+        );
+        assert_eq!(net.advance_rest(right, 30.0).1, 0.0);
+    }
+
+    #[test]
+    fn a_move_backwards_across_a_junction_continues_backwards() {
+        let p = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../examples/maps/junction.xodr"
+        );
+        let net = RoadNetwork::from_xodr(&std::fs::read_to_string(p).unwrap(), "j").unwrap();
+        for (i, r) in net.roads().iter().enumerate() {
+            let Some(_) = r.junction.as_ref() else {
+                continue;
+            };
+            let start = LanePos {
+                road: i,
+                lane: -1,
+                s: 1.0,
+            };
+            // 10 m back from 1 m into a connecting road: 9 m before the
+            // junction on the incoming arm, whose end is at the junction.
+            let (q, rest) = net.advance_rest(start, -10.0);
+            assert_eq!(rest, 0.0);
+            assert!(net.roads()[q.road].junction.is_none(), "{} -> {q:?}", r.id);
+            let to_end = if net.travels_forward(q) {
+                net.roads()[q.road].length - q.s
+            } else {
+                q.s
+            };
+            assert!((to_end - 9.0).abs() < 1e-9, "{} -> {q:?}", r.id);
+            // And forwards again enters the junction (by its first
+            // connecting road: the arm has several).
+            let (back, _) = net.advance_rest(q, 10.0);
+            assert!(net.roads()[back.road].junction.is_some(), "{}", r.id);
+        }
     }
 }

@@ -196,6 +196,7 @@ pub fn reference_plan(m: Manoeuvre, step_s: f64) -> Plan {
         }],
         phases: Vec::new(),
         violations: Vec::new(),
+        unplaced: Vec::new(),
         lights: Vec::new(),
         goals: Vec::new(),
         lane_goals: Vec::new(),

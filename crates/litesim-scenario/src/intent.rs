@@ -118,6 +118,14 @@ impl Order {
             Order::Behind => -1.0,
         }
     }
+
+    /// How a message says it (`ahead of`, `behind`).
+    pub fn word(self) -> &'static str {
+        match self {
+            Order::AheadOf => "ahead of",
+            Order::Behind => "behind",
+        }
+    }
 }
 
 /// A lane relation to another actor (`lane(same_as: X)`).

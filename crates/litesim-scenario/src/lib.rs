@@ -631,6 +631,8 @@ fn run_here(
         .collect();
     if !violations.is_empty() {
         notes.push("the plan failed the profile's post-plan checks: it was not executed".into());
+    } else if !plan.unplaced.is_empty() {
+        notes.push("an actor could not be placed with this seed: the run was not executed".into());
     }
     let file = opts
         .calibration
@@ -660,19 +662,24 @@ fn run_here(
         .path
         .file_name()
         .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-    if opts.plan_only || !violations.is_empty() {
+    if opts.plan_only || !violations.is_empty() || !plan.unplaced.is_empty() {
+        // A plan that breaks its checks fails; one whose actors could not
+        // all be placed is a scenario that did not happen (`invalid`).
+        let verdict = if !violations.is_empty() {
+            Verdict::Fail
+        } else if !plan.unplaced.is_empty() {
+            Verdict::Invalid
+        } else {
+            Verdict::Pass
+        };
         return Ok(RunResult {
             summary: Summary {
                 test: test_name,
                 seed,
-                pass: violations.is_empty(),
-                verdict: if violations.is_empty() {
-                    Verdict::Pass
-                } else {
-                    Verdict::Fail
-                },
+                pass: verdict == Verdict::Pass,
+                verdict,
                 failures: violations,
-                invalid: Vec::new(),
+                invalid: plan.unplaced.clone(),
                 map: prep.map_name.clone(),
                 profile,
                 model,

@@ -235,6 +235,11 @@ pub struct Plan {
     pub phases: Vec<Phase>,
     /// Violations of `strict` modifiers (reported with the post-plan checks).
     pub violations: Vec<String>,
+    /// Actors that could not be placed where their start modifiers put
+    /// them (beyond the end of a lane, no free place): the scenario cannot
+    /// be set up with this seed, the run is `invalid` and not executed.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub unplaced: Vec<String>,
     /// Traffic-light switches in time order.
     pub lights: Vec<LightSwitch>,
     /// Gaps to other actors that phases ask for at their end
@@ -1077,6 +1082,7 @@ fn plan_once(
     // Placement, in dependency order.
     let first_leaf = |id: &str| rleaves.iter().find(|l| l.actor == id);
     let mut placed: BTreeMap<String, Motion> = BTreeMap::new();
+    let mut unplaced = Vec::new();
     let roads_ok: Vec<usize> = (0..net.roads().len())
         .filter(|i| {
             let r = &net.roads()[*i];
@@ -1129,6 +1135,7 @@ fn plan_once(
                 rng,
                 &roads_ok,
                 (&leaf.at, &leaf.mod_at),
+                &mut unplaced,
             )?;
             placed.insert(id, m);
         }
@@ -1526,6 +1533,7 @@ fn plan_once(
             actors: keep,
             phases,
             violations,
+            unplaced,
             lights,
             goals,
             lane_goals,
@@ -1580,6 +1588,7 @@ fn place(
     rng: &mut Rng,
     roads_ok: &[usize],
     (at, mod_at): (&str, &[String]),
+    unplaced: &mut Vec<String>,
 ) -> Result<Motion, ScenarioError> {
     let me = &plans[i];
     check_start_combination(net, me, mods, mod_at, placed)?;
@@ -1680,21 +1689,47 @@ fn place(
         let margin = me.length / 2.0 + 5.0;
         let lo = margin.min(r.length / 2.0);
         let hi = (r.length * 0.5).max(lo);
+        if let Some(o) = offset
+            && !(0.0..=r.length).contains(&o)
+        {
+            unplaced.push(format!(
+                "{at}: {} could not be placed {o:.1} m along road {}: the road is {:.1} m long",
+                me.id, r.id, r.length
+            ));
+        }
         let mut s = offset.unwrap_or_else(|| sample(lo, hi, rng));
-        for _ in 0..50 {
-            let clear = placed.iter().all(|(oid, om)| {
+        let clear = |s: f64| {
+            placed.iter().all(|(oid, om)| {
                 let ol = index.get(oid).map_or(4.0, |k| plans[*k].length);
                 om.pos.road != road
                     || om.pos.lane != lane
                     || (om.pos.s - s).abs() > (ol + me.length) / 2.0 + 5.0
-            });
-            if clear {
+            })
+        };
+        for _ in 0..50 {
+            if clear(s) {
                 break;
             }
             s += (me.length + 10.0).min(r.length / 8.0).max(1.0);
             if s > r.length - margin.min(r.length / 4.0) {
                 s = lo;
             }
+        }
+        // An explicit offset is where the author put the actor (another
+        // actor there is the author's choice); a free place that every try
+        // found taken is a scenario that could not be set up.
+        if offset.is_none() && !clear(s) {
+            unplaced.push(format!(
+                "{at}: {} could not be placed: no free place in road {} lane {lane} \
+                 ({:.0} m, {} actor(s) already there)",
+                me.id,
+                r.id,
+                r.length,
+                placed
+                    .values()
+                    .filter(|om| om.pos.road == road && om.pos.lane == lane)
+                    .count()
+            ));
         }
         mo.pos.s = s.clamp(0.0, r.length);
         // Point the lane's s at its direction of travel: s runs backwards on backward lanes.
@@ -1727,17 +1762,20 @@ fn place(
         };
     }
     // Longitudinal relation.
-    if let Some((distance, time, order, o)) = starting()
-        .find_map(|m| match m {
+    if let Some((k, distance, time, order, o)) = mods
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.at() != At::End)
+        .find_map(|(k, m)| match m {
             Intent::Position {
                 distance,
                 time,
                 reference,
                 ..
-            } => Some((*distance, *time, reference.clone())),
+            } => Some((k, *distance, *time, reference.clone())),
             _ => None,
         })
-        .and_then(|(d, t, r)| r.map(|(order, o)| (d, t, order, o)))
+        .and_then(|(k, d, t, r)| r.map(|(order, o)| (k, d, t, order, o)))
         && let Some(om) = placed.get(&o)
     {
         let ol = index.get(&o).map_or(4.6, |j| plans[*j].length);
@@ -1748,14 +1786,30 @@ fn place(
         };
         let gap = d + (ol + me.length) / 2.0;
         let lane = mo.pos.lane;
-        mo.pos = net.advance_path(
-            LanePos {
-                lane: om.pos.lane,
-                ..om.pos
-            },
-            order.sign() * gap,
-            None,
-        );
+        let base = LanePos {
+            lane: om.pos.lane,
+            ..om.pos
+        };
+        let (end, rest) = net.advance_rest(base, order.sign() * gap);
+        if rest > 0.01 {
+            let road = &net.roads()[end.road];
+            unplaced.push(format!(
+                "{}: {} could not be placed {d:.1} m {} {o}: {o}'s lane (road {} lane {}) \
+                 ends {:.1} m {} it, {rest:.1} m short",
+                mod_at.get(k).map_or(at, String::as_str),
+                me.id,
+                order.word(),
+                road.id,
+                end.lane,
+                (gap - rest - (ol + me.length) / 2.0).max(0.0),
+                if order.sign() > 0.0 {
+                    "ahead of"
+                } else {
+                    "behind"
+                },
+            ));
+        }
+        mo.pos = net.advance_path(base, order.sign() * gap, None);
         mo.pos.lane = lane;
     }
     // Beside another actor (people, cyclists at the kerb).

@@ -856,3 +856,114 @@ fn a_driver_that_reaches_the_end_of_its_lane_stops_there_with_a_note() {
     let o = r.log.as_ref().unwrap().track("other").unwrap();
     assert!(o.state.speed.last().unwrap().abs() < 0.05);
 }
+
+/// `other` placed a seeded distance ahead of sut.car, up to far beyond
+/// the end of the 500 m road.
+const PLACED_BEYOND: &str = r#"import "../../osc/domain/config.osc"
+extend test_config:
+    set map = "../maps/straight.xodr"
+extend top.main:
+    do sut.far()
+scenario sut.far:
+    r: two_way_road
+    other: vehicle
+    d: length with:
+        keep(it in [10m..700m])
+    do parallel(overlap: equal, duration: 3s):
+        sut.car.drive() with:
+            speed(60kph)
+            along(r, start_offset: 100m, at: start)
+            lane(1, at: start)
+        other.drive() with:
+            speed(60kph)
+            lane(same_as: sut.car, at: start)
+            position(d, ahead_of: sut.car, at: start)
+"#;
+
+#[test]
+fn an_actor_that_cannot_be_placed_with_its_seed_is_an_invalid_run() {
+    let f = example_file(PLACED_BEYOND);
+    let prep = prepare(f.path(), &LoadOptions::default()).unwrap();
+    let (mut invalid, mut passed) = (0, 0);
+    for seed in 1..=40 {
+        let opts = RunOptions {
+            seed: Some(seed),
+            ..RunOptions::default()
+        };
+        let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
+        let s = &r.summary;
+        // sut.car's front is at 102.3 m of 500 m: 395.4 m of lane ahead
+        // for other's rear, the centre-to-centre room minus the lengths.
+        let d = r.plan.actors[1].samples[0].x - r.plan.actors[0].samples[0].x - 4.6;
+        match s.verdict {
+            litesim_scenario::Verdict::Invalid => {
+                invalid += 1;
+                assert_eq!(s.steps, 0, "not executed");
+                assert_eq!(s.invalid.len(), 1, "{:?}", s.invalid);
+                let why = &s.invalid[0];
+                assert!(
+                    why.contains(":19:13: other could not be placed")
+                        && why.contains(
+                            "ahead of sut.car: sut.car's lane (road 1 lane -3) ends 395.4 m"
+                        )
+                        && why.ends_with(" short"),
+                    "{why}"
+                );
+                assert_eq!(s.verdict.exit_code(), 3);
+            }
+            litesim_scenario::Verdict::Pass => {
+                passed += 1;
+                assert!(s.steps > 0 && s.invalid.is_empty());
+                assert!(d < 395.5, "placed {d} m ahead, beyond the lane");
+            }
+            v => panic!("seed {seed}: {v:?} {:?}", s.failures),
+        }
+    }
+    assert!(
+        invalid > 10 && passed > 5,
+        "{invalid} invalid, {passed} passed"
+    );
+}
+
+#[test]
+fn a_batch_counts_unplaced_seeds_as_invalid_with_their_reason() {
+    let f = example_file(PLACED_BEYOND);
+    let dir = tempfile::tempdir().unwrap();
+    let spec = litesim_scenario::batch::BatchSpec {
+        tests: vec![f.path().to_path_buf()],
+        seed_from: 1,
+        seed_to: 30,
+        shard: (0, 1),
+        threads: Some(2),
+        out: dir.path().to_path_buf(),
+        resume: false,
+        force_new: false,
+        mode: None,
+        load: LoadOptions::default(),
+        calibration_dir: None,
+        sut: Default::default(),
+        npc: Npc::Driver,
+        sut_timeout: None,
+        save_failed: false,
+        save_failed_mcap: false,
+        precomputed: Default::default(),
+    };
+    let report = litesim_scenario::batch::run_batch(&spec, &|_, _| {}).unwrap();
+    assert!(report.invalid > 5 && report.invalid < 30, "{report:?}");
+    assert_eq!(
+        (report.errors, report.passed + report.invalid),
+        (0, 30),
+        "{report:?}"
+    );
+    assert_eq!(report.verdict, litesim_scenario::Verdict::Invalid);
+    let lines = std::fs::read_to_string(dir.path().join("results.jsonl")).unwrap();
+    let invalid: Vec<&str> = lines
+        .lines()
+        .filter(|l| l.contains(r#""verdict":"invalid""#))
+        .collect();
+    assert_eq!(invalid.len() as u64, report.invalid);
+    assert!(
+        invalid.iter().all(|l| l.contains("could not be placed")),
+        "{invalid:?}"
+    );
+}
