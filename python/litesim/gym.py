@@ -16,7 +16,6 @@ the overshoot above the requested speed), −100 when the run ends failed.
 """
 from __future__ import annotations
 
-import math
 from typing import Any, Dict, Optional, Tuple
 
 import gymnasium as gym
@@ -24,7 +23,6 @@ import numpy as np
 from gymnasium import spaces
 
 from . import _native
-from ._native import Command
 
 BIG = 1e6
 
@@ -47,66 +45,47 @@ class ScenarioEnv(gym.Env):
             np.array([1.0, 1.0, 1.0], dtype=np.float32),
             dtype=np.float32,
         )
-        self._run: Optional[_native.SteppedRun] = None
-        self._last: Optional[_native.Observation] = None
-        self._dt = 0.02
-
-    def _encode(self, o: "_native.Observation") -> np.ndarray:
-        out = np.zeros((1 + self.max_objects, 6), dtype=np.float32)
-        e = o.ego
-        road = o.road
-        out[0] = [
-            e.speed,
-            o.requested_speed,
-            min(o.distance_to_goal, 1000.0) if math.isfinite(o.distance_to_goal) else 1000.0,
-            road["offset"] if road else 0.0,
-            e.length,
-            e.width,
-        ]
-        c, s = math.cos(e.yaw), math.sin(e.yaw)
-        near = sorted(o.objects, key=lambda a: (a.x - e.x) ** 2 + (a.y - e.y) ** 2)
-        for i, a in enumerate(near[: self.max_objects]):
-            dx, dy = a.x - e.x, a.y - e.y
-            dyaw = math.atan2(math.sin(a.yaw - e.yaw), math.cos(a.yaw - e.yaw))
-            out[1 + i] = [1.0, dx * c + dy * s, -dx * s + dy * c, dyaw, a.speed, a.length]
-        return np.clip(out, -BIG, BIG)
+        # The test is prepared once (parsed, its map loaded); each episode
+        # is a run stepped on this thread, its observations encoded natively.
+        self._episodes = _native.Episodes(self.test, mode, max_objects)
+        self._running = False
 
     def reset(self, *, seed: Optional[int] = None, options: Optional[Dict[str, Any]] = None):
         super().reset(seed=seed)
-        if self._run is not None:
-            self._run.close()
         # The litesim seed: the one given, else one drawn from the env's RNG.
-        run_seed = seed if seed is not None else int(self.np_random.integers(1, 2**31 - 1))
-        self._run = _native.SteppedRun(self.test, run_seed, self.mode)
-        ev = self._run.next()
-        if ev[0] != "obs":
-            raise _native.LitesimError(f"the run ended before its first step: {ev[2]}")
-        self._last = ev[1]
-        return self._encode(self._last), {"time": self._last.time, "seed": run_seed}
+        # A drawn seed whose scenario cannot be set up (an actor that
+        # cannot be placed: an invalid run) is drawn again; a given one is
+        # an error that says why.
+        for _ in range(100):
+            run_seed = seed if seed is not None else int(self.np_random.integers(1, 2**31 - 1))
+            try:
+                obs, t = self._episodes.reset(run_seed)
+                break
+            except _native.LitesimError as e:
+                if seed is not None or not str(e).startswith("the run ended before its first step: invalid"):
+                    raise
+                why = str(e)
+        else:
+            raise _native.LitesimError(f"{self.test}: 100 drawn seeds in a row could not be set up (the last: {why})")
+        self._running = True
+        return obs, {"time": t, "seed": run_seed}
 
     def step(self, action) -> Tuple[np.ndarray, float, bool, bool, Dict[str, Any]]:
-        if self._run is None or self._last is None:
+        if not self._running:
             raise RuntimeError("call reset() before step()")
-        a = np.clip(np.asarray(action, dtype=np.float64).reshape(-1), self.action_space.low, self.action_space.high)
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
         if a.shape != (3,):
             raise ValueError(f"action: expected 3 numbers (throttle, brake, steering), got shape {np.shape(action)}")
-        prev = self._last
-        self._run.send(Command.pedals(float(a[0]), float(a[1]), float(a[2])))
-        ev = self._run.next()
-        if ev[0] == "obs":
-            o = ev[1]
-            dt = max(o.time - prev.time, 0.0)
-            over = max(0.0, o.ego.speed - max(o.requested_speed, 0.0))
-            reward = (o.ego.speed - 2.0 * over) * dt
-            self._last = o
-            return self._encode(o), float(reward), False, False, {"time": o.time}
-        _, passed, failures, _summary = ev
-        obs = self._encode(prev)
-        self._last = None
-        self._run = None
-        return obs, 0.0 if passed else -100.0, True, False, {"passed": passed, "failures": failures}
+        # Clipped to the action space (plain floats: np.clip costs more
+        # than the simulation step).
+        throttle = min(max(float(a[0]), 0.0), 1.0)
+        brake = min(max(float(a[1]), 0.0), 1.0)
+        steering = min(max(float(a[2]), -1.0), 1.0)
+        obs, reward, terminated, info = self._episodes.step(throttle, brake, steering)
+        if terminated:
+            self._running = False
+        return obs, reward, terminated, False, info
 
     def close(self):
-        if self._run is not None:
-            self._run.close()
-            self._run = None
+        self._episodes.close()
+        self._running = False

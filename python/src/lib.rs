@@ -9,13 +9,12 @@ use litesim_scenario::sut::{
     LightState, ObjectState, Observation, RoadPos, Sut, SutChoice, SutCommand, SutError,
     SutFactory, SutInfo,
 };
-use litesim_scenario::{DriveMode, LoadOptions, RunOptions};
+use litesim_scenario::{DriveMode, LoadOptions, RunOptions, Stepped};
 use pyo3::create_exception;
-use pyo3::exceptions::{PyException, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyException, PyRuntimeError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 use std::path::PathBuf;
-use std::sync::mpsc;
 use std::sync::{Arc, Mutex};
 
 create_exception!(
@@ -564,95 +563,29 @@ fn run(
 
 // ---------------------------------------------------------------- stepping (gym)
 
-/// A run driven from outside, one step at a time: the run's thread hands
-/// each observation out and waits for the command.
-enum Event {
-    Obs(Box<Observation>),
-    Done(Result<Box<litesim_scenario::RunResult>, String>),
-}
-
-struct ChannelSut {
-    to_env: mpsc::SyncSender<Event>,
-    from_env: Arc<Mutex<mpsc::Receiver<SutCommand>>>,
-}
-
-impl Sut for ChannelSut {
-    fn name(&self) -> String {
-        "python:gym".into()
-    }
-    fn reset(&mut self, _info: &SutInfo) -> Result<(), SutError> {
-        Ok(())
-    }
-    fn step(&mut self, obs: &Observation) -> Result<SutCommand, SutError> {
-        self.to_env
-            .send(Event::Obs(Box::new(obs.clone())))
-            .map_err(|_| SutError("the environment was closed".into()))?;
-        let rx = self.from_env.lock().map_err(|_| SutError("lock".into()))?;
-        rx.recv()
-            .map_err(|_| SutError("the environment was closed".into()))
-    }
-}
-
-struct ChannelFactory {
-    to_env: mpsc::SyncSender<Event>,
-    from_env: Arc<Mutex<mpsc::Receiver<SutCommand>>>,
-}
-
-impl SutFactory for ChannelFactory {
-    fn name(&self) -> String {
-        "python:gym".into()
-    }
-    fn create(&self) -> Result<Box<dyn Sut>, SutError> {
-        Ok(Box::new(ChannelSut {
-            to_env: self.to_env.clone(),
-            from_env: Arc::clone(&self.from_env),
-        }))
-    }
-}
-
-/// One run stepped by the caller (the gymnasium env's engine).
+/// A run driven from outside, one step at a time, on the caller's thread:
+/// the run lives in this object ([`Stepped`]), so a step is a call, not a
+/// hand-over between threads.
 #[pyclass(name = "SteppedRun", module = "litesim._native")]
 struct SteppedRun {
-    // A Mutex only to make the pyclass Sync (one caller at a time anyway).
-    events: Mutex<mpsc::Receiver<Event>>,
-    commands: Option<mpsc::SyncSender<SutCommand>>,
-    thread: Option<std::thread::JoinHandle<()>>,
+    run: Owned<Stepped>,
+    /// An observation was handed out and waits for its command.
+    waiting: bool,
     finished: bool,
 }
 
 #[pymethods]
 impl SteppedRun {
-    /// Starts `test` with `seed`; `first()` gives the first observation.
+    /// Starts `test` with `seed`; `next()` gives the first observation.
     #[new]
     #[pyo3(signature = (test, seed=None, mode=None))]
     fn new(test: PathBuf, seed: Option<u64>, mode: Option<&str>) -> PyResult<Self> {
         let mode = mode_of(mode)?;
         let prep = litesim_scenario::prepare(&test, &LoadOptions::default()).map_err(lerr)?;
-        let (to_env, events) = mpsc::sync_channel(1);
-        let (commands, from_env) = mpsc::sync_channel(1);
-        let factory = ChannelFactory {
-            to_env: to_env.clone(),
-            from_env: Arc::new(Mutex::new(from_env)),
-        };
-        let opts = RunOptions {
-            seed,
-            mode,
-            record: false,
-            sut: SutChoice::External(Arc::new(factory)),
-            // The agent may think as long as it likes.
-            sut_timeout: Some(1e9),
-            ..RunOptions::default()
-        };
-        let thread = std::thread::spawn(move || {
-            let r = litesim_scenario::run(&prep, &mut litesim_scenario::in_process(), &opts)
-                .map(Box::new)
-                .map_err(|e| e.to_string());
-            let _ = to_env.send(Event::Done(r));
-        });
+        let opts = stepped_options(seed, mode);
         Ok(SteppedRun {
-            events: Mutex::new(events),
-            commands: Some(commands),
-            thread: Some(thread),
+            run: Owned::new(Stepped::start(Arc::new(prep), &opts).map_err(lerr)?),
+            waiting: false,
             finished: false,
         })
     }
@@ -665,81 +598,253 @@ impl SteppedRun {
                 "the run is over; reset the environment",
             ));
         }
-        let events = &self.events;
-        let ev = py.detach(|| match events.lock() {
-            Ok(rx) => rx.recv().map_err(|_| ()),
-            Err(_) => Err(()),
-        });
-        match ev {
-            Ok(Event::Obs(o)) => Ok(("obs", Py::new(py, PyObservation { obs: *o })?)
-                .into_pyobject(py)?
-                .into_any()),
-            Ok(Event::Done(r)) => {
-                self.finished = true;
-                if let Some(t) = self.thread.take() {
-                    let _ = t.join();
-                }
-                match r {
-                    Ok(r) => Ok((
-                        "done",
-                        r.summary.pass,
-                        r.summary.failures.clone(),
-                        serde_json::to_string(&r.summary).map_err(lerr)?,
-                    )
-                        .into_pyobject(py)?
-                        .into_any()),
-                    Err(e) => Err(LitesimError::new_err(e)),
-                }
-            }
-            Err(_) => Err(LitesimError::new_err("the run stopped unexpectedly")),
+        if self.waiting {
+            return Err(LitesimError::new_err(
+                "send() the command for the last observation first",
+            ));
         }
+        let run = self.run.get();
+        if let Some(o) = run.observation().map_err(lerr)? {
+            self.waiting = true;
+            let obs = PyObservation { obs: o.clone() };
+            return Ok(("obs", Py::new(py, obs)?).into_pyobject(py)?.into_any());
+        }
+        self.finished = true;
+        let r = run.finish().map_err(lerr)?;
+        Ok((
+            "done",
+            r.summary.pass,
+            r.summary.failures.clone(),
+            serde_json::to_string(&r.summary).map_err(lerr)?,
+        )
+            .into_pyobject(py)?
+            .into_any())
     }
 
-    /// Sends the command for the observation just received.
+    /// Sends the command for the observation just received (the step runs).
     fn send(&mut self, command: &Bound<'_, PyAny>) -> PyResult<()> {
         let cmd = command_of(command).map_err(PyValueError::new_err)?;
-        match &self.commands {
-            Some(c) => c
-                .send(cmd)
-                .map_err(|_| LitesimError::new_err("the run is over")),
-            None => Err(LitesimError::new_err("the run is closed")),
+        if self.finished {
+            return Err(LitesimError::new_err("the run is over"));
         }
+        if !self.waiting {
+            return Err(LitesimError::new_err(
+                "next() gives the observation to answer first",
+            ));
+        }
+        self.waiting = false;
+        self.run.get().step(cmd).map_err(lerr)?;
+        Ok(())
     }
 
-    /// Stops the run (its thread ends at its next step).
-    fn close(&mut self, py: Python<'_>) {
-        self.commands = None;
-        if let Some(t) = self.thread.take() {
-            // Drain until the run ends: it fails its next step at once.
-            let events = &self.events;
-            py.detach(|| {
-                drain(events);
-                let _ = t.join();
-            });
-        }
+    /// Stops the run.
+    fn close(&mut self) {
         self.finished = true;
     }
 }
 
-/// Receives until the run's end (its SUT fails its next step once the
-/// command channel is gone, so the run ends promptly).
-fn drain(events: &Mutex<mpsc::Receiver<Event>>) {
-    if let Ok(rx) = events.lock() {
-        while let Ok(ev) = rx.recv() {
-            if matches!(ev, Event::Done(_)) {
-                break;
-            }
-        }
+/// A value only ever used through `&mut self` (a pyclass's state): the
+/// Mutex makes the class `Sync` as pyo3 asks, and `get_mut` reaches the
+/// value without locking (the borrow proves no one else holds it).
+struct Owned<T>(Mutex<T>);
+
+impl<T> Owned<T> {
+    fn new(v: T) -> Self {
+        Owned(Mutex::new(v))
+    }
+    fn get(&mut self) -> &mut T {
+        self.0
+            .get_mut()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
     }
 }
 
-impl Drop for SteppedRun {
-    fn drop(&mut self) {
-        self.commands = None;
-        if let Some(t) = self.thread.take() {
-            drain(&self.events);
-            let _ = t.join();
+/// A stepped run's options: the caller is the SUT and may think as long
+/// as it likes; nothing is recorded.
+fn stepped_options(seed: Option<u64>, mode: Option<DriveMode>) -> RunOptions {
+    RunOptions {
+        seed,
+        mode,
+        record: false,
+        sut: SutChoice::External(Arc::new(Outside)),
+        sut_timeout: Some(1e9),
+        ..RunOptions::default()
+    }
+}
+
+/// The name a stepped run's SUT has in summaries (the run never calls
+/// it: the caller gives each command).
+struct Outside;
+
+impl SutFactory for Outside {
+    fn name(&self) -> String {
+        "python:gym".into()
+    }
+    fn create(&self) -> Result<Box<dyn Sut>, SutError> {
+        Err(SutError("a stepped run's SUT is its caller".into()))
+    }
+}
+
+/// The gymnasium environment's engine: a test prepared once (parsed,
+/// elaborated, its map loaded), then episodes of it, each a [`Stepped`]
+/// run. Observations are encoded here, straight into a numpy array (the
+/// layout `litesim.gym` documents), and the reward computed: an
+/// environment step is one call.
+#[pyclass(name = "Episodes", module = "litesim._native")]
+struct Episodes {
+    prep: Arc<litesim_scenario::Prepared>,
+    mode: Option<DriveMode>,
+    max_objects: usize,
+    run: Option<Owned<Stepped>>,
+    /// The last observation's (time, encoded rows).
+    last: Option<(f64, Vec<f32>)>,
+}
+
+/// Python's `BIG`: observation entries are clipped to ±BIG.
+const BIG: f32 = 1e6;
+
+/// The observation as (1 + max_objects) rows of 6, row-major.
+fn encode(o: &Observation, max_objects: usize) -> Vec<f32> {
+    let rows = 1 + max_objects;
+    let mut out = vec![0.0f32; rows * 6];
+    let e = &o.ego;
+    let goal = if o.distance_to_goal.is_finite() {
+        o.distance_to_goal.min(1000.0)
+    } else {
+        1000.0
+    };
+    let offset = o.road.as_ref().map_or(0.0, |r| r.offset);
+    let row0 = [e.speed, o.requested_speed, goal, offset, e.length, e.width];
+    for (k, v) in row0.into_iter().enumerate() {
+        out[k] = v as f32;
+    }
+    let (c, s) = (e.yaw.cos(), e.yaw.sin());
+    // Nearest first; a stable sort keeps equal distances in the
+    // observation's order.
+    let mut near: Vec<(f64, &ObjectState)> = o
+        .objects
+        .iter()
+        .map(|a| ((a.x - e.x).powi(2) + (a.y - e.y).powi(2), a))
+        .collect();
+    near.sort_by(|x, y| x.0.total_cmp(&y.0));
+    for (i, (_, a)) in near.iter().take(max_objects).enumerate() {
+        let (dx, dy) = (a.x - e.x, a.y - e.y);
+        let d = a.yaw - e.yaw;
+        let dyaw = d.sin().atan2(d.cos());
+        let row = [
+            1.0,
+            dx * c + dy * s,
+            -dx * s + dy * c,
+            dyaw,
+            a.speed,
+            a.length,
+        ];
+        for (k, v) in row.into_iter().enumerate() {
+            out[(1 + i) * 6 + k] = v as f32;
         }
+    }
+    for v in &mut out {
+        *v = if v.is_nan() { *v } else { v.clamp(-BIG, BIG) };
+    }
+    out
+}
+
+/// Encoded rows as a (rows, 6) float32 array.
+fn array<'py>(py: Python<'py>, rows: &[f32]) -> PyResult<Bound<'py, PyAny>> {
+    use numpy::PyArrayMethods;
+    let a = numpy::PyArray1::from_slice(py, rows);
+    Ok(a.reshape([rows.len() / 6, 6])?.into_any())
+}
+
+#[pymethods]
+impl Episodes {
+    /// Prepares `test` once for all its episodes.
+    #[new]
+    #[pyo3(signature = (test, mode=None, max_objects=8))]
+    fn new(test: PathBuf, mode: Option<&str>, max_objects: usize) -> PyResult<Self> {
+        let mode = mode_of(mode)?;
+        let prep = litesim_scenario::prepare(&test, &LoadOptions::default()).map_err(lerr)?;
+        Ok(Episodes {
+            prep: Arc::new(prep),
+            mode,
+            max_objects,
+            run: None,
+            last: None,
+        })
+    }
+
+    /// A new episode with `seed`: its first observation and time.
+    fn reset<'py>(&mut self, py: Python<'py>, seed: u64) -> PyResult<(Bound<'py, PyAny>, f64)> {
+        let opts = stepped_options(Some(seed), self.mode);
+        let mut run = Stepped::start(Arc::clone(&self.prep), &opts).map_err(lerr)?;
+        let Some(o) = run.observation().map_err(lerr)? else {
+            let why = run
+                .finish()
+                .map(|r| {
+                    let mut why = r.summary.failures;
+                    why.extend(r.summary.invalid);
+                    format!("{}: {}", r.summary.verdict.name(), why.join("; "))
+                })
+                .unwrap_or_else(|e| e.to_string());
+            return Err(LitesimError::new_err(format!(
+                "the run ended before its first step: {why}"
+            )));
+        };
+        let (t, rows) = (o.time, encode(o, self.max_objects));
+        let a = array(py, &rows)?;
+        self.last = Some((t, rows));
+        self.run = Some(Owned::new(run));
+        Ok((a, t))
+    }
+
+    /// One step with pedals (throttle 0..1, brake 0..1, steering -1..1,
+    /// already clipped): (observation, reward, terminated, info), info
+    /// `{"time": t}` or at the end `{"passed": …, "failures": […]}`.
+    fn step<'py>(
+        &mut self,
+        py: Python<'py>,
+        throttle: f64,
+        brake: f64,
+        steering: f64,
+    ) -> PyResult<(Bound<'py, PyAny>, f64, bool, Bound<'py, PyDict>)> {
+        let max_objects = self.max_objects;
+        let (Some(run), Some((t0, _))) = (self.run.as_mut(), self.last.as_ref()) else {
+            return Err(PyRuntimeError::new_err("call reset() before step()"));
+        };
+        let (t0, run) = (*t0, run.get());
+        let cmd = SutCommand::Pedals {
+            throttle,
+            brake,
+            steering,
+        };
+        run.step(cmd).map_err(lerr)?;
+        let info = PyDict::new(py);
+        if let Some(o) = run.observation().map_err(lerr)? {
+            let dt = (o.time - t0).max(0.0);
+            let over = (o.ego.speed - o.requested_speed.max(0.0)).max(0.0);
+            let reward = (o.ego.speed - 2.0 * over) * dt;
+            let (t, rows) = (o.time, encode(o, max_objects));
+            let a = array(py, &rows)?;
+            info.set_item("time", t)?;
+            self.last = Some((t, rows));
+            return Ok((a, reward, false, info));
+        }
+        let r = run.finish().map_err(lerr)?;
+        self.run = None;
+        let (_, rows) = self.last.take().unwrap_or_default();
+        let a = array(py, &rows)?;
+        info.set_item("passed", r.summary.pass)?;
+        info.set_item("failures", r.summary.failures.clone())?;
+        info.set_item("verdict", r.summary.verdict.name())?;
+        info.set_item("invalid", r.summary.invalid.clone())?;
+        let reward = if r.summary.pass { 0.0 } else { -100.0 };
+        Ok((a, reward, true, info))
+    }
+
+    /// Ends the episode under way, if any.
+    fn close(&mut self) {
+        self.run = None;
+        self.last = None;
     }
 }
 
@@ -1135,6 +1240,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyCommand>()?;
     m.add_class::<NativeRun>()?;
     m.add_class::<SteppedRun>()?;
+    m.add_class::<Episodes>()?;
     m.add_class::<Simulator>()?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(run_lines, m)?)?;

@@ -199,6 +199,59 @@ def test_the_gym_env_passes_gymnasiums_checker_and_drives():
     env.close()
 
 
+def test_a_stepped_run_is_the_same_run_as_with_the_sut_inside():
+    """The caller as the SUT (SteppedRun, no thread): the same summary as
+    litesim.run with the same controller called by the run."""
+    from litesim import _native
+
+    for seed in (2, 7):
+        called = Agent()
+        inside = litesim.run(CUT_IN, seed=seed, sut=called, record=False).summary
+        run = _native.SteppedRun(CUT_IN, seed)
+        # The controller is told what litesim.run told it (its vehicle, route).
+        agent, steps = Agent(), 0
+        agent.reset(called.info)
+        while True:
+            ev = run.next()
+            if ev[0] == "done":
+                break
+            run.send(agent.step(ev[1]))
+            steps += 1
+        outside = json.loads(ev[3])
+        assert steps == inside["steps"] == outside["steps"] == 500
+        for k in ("verdict", "failures", "invalid", "actors", "pairs", "ego", "goals"):
+            assert outside[k] == inside[k], k
+        with pytest.raises(_native.LitesimError, match="over"):
+            run.next()
+
+
+def test_gym_env_step_and_reset_costs():
+    """Prints the figures BENCHMARKS.md quotes: ScenarioEnv.step and reset
+    medians, a 500-step episode."""
+    from litesim.gym import ScenarioEnv
+
+    env = ScenarioEnv(CUT_IN)
+    env.reset(seed=1)  # the first reset builds what episodes share
+    act = np.array([0.3, 0.0, 0.0], dtype=np.float32)
+    resets, steps, episodes = [], [], []
+    for _ in range(20):
+        t = time.perf_counter()
+        env.reset()
+        resets.append(time.perf_counter() - t)
+        e0 = time.perf_counter()
+        while True:
+            t = time.perf_counter()
+            _, _, terminated, _, _ = env.step(act)
+            steps.append(time.perf_counter() - t)
+            if terminated:
+                break
+        episodes.append(time.perf_counter() - e0)
+    med = lambda v: sorted(v)[len(v) // 2]
+    print(f"\nScenarioEnv: step median {med(steps) * 1e6:.1f} µs, reset median {med(resets) * 1e6:.0f} µs, 500-step episode median {med(episodes) * 1e3:.2f} ms")
+    # Loose bounds (a noisy CI machine); BENCHMARKS.md has the figures.
+    assert med(steps) < 100e-6 and med(resets) < 5e-3
+
+
 def _ray_init(tmp_path):
     import ray
 

@@ -239,7 +239,7 @@ pub fn errors(
             people_yield: false,
             conflict_areas: Default::default(),
         };
-        let ex = execute(&mut ssp, &plan, None, &cfg, None, None, None)?;
+        let ex = execute(&mut ssp, plan, cfg, None, None, None)?.ex;
         let a = &ex.kpis.actors[0];
         sq_p += a.rms_path_error.powi(2);
         sq_v += a.rms_speed_error.powi(2);

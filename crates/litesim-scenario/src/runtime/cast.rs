@@ -31,12 +31,12 @@ pub(crate) struct Sim {
 }
 
 /// Initialises the simulator and starts its simulation.
-pub(crate) fn init(ssp: &mut dyn Ssp, cfg: &ExecConfig<'_>) -> Result<Sim, ScenarioError> {
+pub(crate) fn init(ssp: &mut dyn Ssp, cfg: &ExecConfig) -> Result<Sim, ScenarioError> {
     let init = ssp
         .init(InitRequest {
             client_name: "litesim scenario".into(),
             step_size_ms: cfg.step_ms,
-            map: cfg.map_text.map(String::from),
+            map: cfg.map_text.as_deref().cloned(),
             profile: cfg.profile.clone(),
             model: cfg.model.clone(),
             seed: cfg.seed,

@@ -24,7 +24,7 @@ pub enum DriveMode {
 
 /// What the execution needs besides the plan.
 #[derive(Clone, Debug)]
-pub struct ExecConfig<'a> {
+pub struct ExecConfig {
     /// SSP profile.
     pub profile: String,
     /// SSP model.
@@ -34,7 +34,7 @@ pub struct ExecConfig<'a> {
     /// Step (ms).
     pub step_ms: u32,
     /// OpenDRIVE text sent to the simulator (traffic lights), if any.
-    pub map_text: Option<&'a str>,
+    pub map_text: Option<std::sync::Arc<String>>,
     /// Drive mode.
     pub mode: DriveMode,
     /// Driver gains (the profile's calibration when `None`).
@@ -87,8 +87,6 @@ pub struct Executed {
     pub sut_error: Option<String>,
     /// `wait`/`until` conditions as they held on the simulated state.
     pub live_events: Vec<LiveEvent>,
-    /// The plan in force at the end, when live conditions changed it.
-    pub plan: Option<Plan>,
     /// Pacing figures of a real-time run.
     pub realtime: Option<crate::realtime::Stats>,
     /// The `cover`/`record` items' samples, in item order.
@@ -106,7 +104,7 @@ pub struct Executed {
 }
 
 /// Plans the test again with the given condition times fixed.
-pub type Replan<'a> = dyn Fn(&BTreeMap<String, f64>) -> Result<Plan, ScenarioError> + 'a;
+pub type Replan<'a> = dyn Fn(&BTreeMap<String, f64>) -> Result<Plan, ScenarioError> + Send + 'a;
 
 /// A `wait`/`until` condition held on the simulated state.
 #[derive(Clone, Debug, PartialEq, Serialize)]

@@ -43,7 +43,7 @@ impl Lights {
     pub fn list(
         ssp: &mut dyn Ssp,
         plan: &Plan,
-        cfg: &ExecConfig<'_>,
+        cfg: &ExecConfig,
         net: Option<&RoadNetwork>,
     ) -> Result<Self, ScenarioError> {
         let info = if !plan.lights.is_empty() {

@@ -25,4 +25,5 @@ pub mod traffic;
 
 pub use config::{DriveMode, ExecConfig, Executed, LiveEvent, POSTPONE_S, Replan};
 pub use controllers::pid::HEADING_LEVER_M;
-pub use run::execute;
+pub use controllers::seam::SutSlot;
+pub use run::{Finished, SspSlot, execute};

@@ -36,10 +36,10 @@ fn along_heading(st: &Kinematics) -> f64 {
 /// What reading steps back only reads (fixed for a chunk; in open loop for
 /// the whole run).
 #[derive(Clone, Copy)]
-pub(crate) struct ReadEnv<'e, 'c> {
+pub(crate) struct ReadEnv<'e> {
     pub plan: &'e Plan,
     pub net: Option<&'e RoadNetwork>,
-    pub cfg: &'e ExecConfig<'c>,
+    pub cfg: &'e ExecConfig,
     /// The lights, which show red and each box's road.
     pub lights: &'e Lights,
     /// Per actor: length, width, mass.
@@ -113,7 +113,7 @@ impl Readback {
         ids: &[String],
         rec: Option<LogRecorder>,
         ego_kpi: Option<EgoKpi>,
-        cfg: &ExecConfig<'_>,
+        cfg: &ExecConfig,
         plan: &Plan,
     ) -> Self {
         let n = ids.len();
@@ -169,7 +169,7 @@ impl Readback {
     /// the simulator's frame).
     pub(crate) fn chunk(
         &mut self,
-        env: &ReadEnv<'_, '_>,
+        env: &ReadEnv<'_>,
         world: &mut World,
         got: &mut KinematicSteps,
     ) -> Result<(), ScenarioError> {
@@ -219,7 +219,7 @@ impl Readback {
     /// Each open gap goal's reference: its hardest braking in the phase
     /// and when it first braked harder than 0.5 m/s² (what an invalid
     /// verdict names as the reason a goal was missed).
-    fn note_braking(&mut self, env: &ReadEnv<'_, '_>, step: &[Kinematics], t: f64) {
+    fn note_braking(&mut self, env: &ReadEnv<'_>, step: &[Kinematics], t: f64) {
         // One slot per goal of the plan in force (made with the plan, again
         // when it is replanned).
         for (k, g) in env.plan.goals.iter().enumerate() {
@@ -248,7 +248,7 @@ impl Readback {
     /// world, sut.car's KPIs.
     fn read_actor(
         &mut self,
-        env: &ReadEnv<'_, '_>,
+        env: &ReadEnv<'_>,
         world: &mut World,
         i: usize,
         st: &Kinematics,
@@ -306,7 +306,7 @@ impl Readback {
     /// Off-road and red-light checks of actor `i` (a vehicle is located
     /// again only when it may have left the part of the road it was surely
     /// on).
-    fn check_road(&mut self, env: &ReadEnv<'_, '_>, i: usize, st: &Kinematics, t: f64) {
+    fn check_road(&mut self, env: &ReadEnv<'_>, i: usize, st: &Kinematics, t: f64) {
         let net = env.net;
         let vehicle = env.plan.actors[i].kind == crate::elab::ActorKind::Vehicle;
         let here = st.pose.position.xy();
@@ -345,7 +345,7 @@ impl Readback {
 
     /// Actor `i`'s log sample (the first actor's opens the tick, after the
     /// observer has taken the ticks so far).
-    fn log_sample(&mut self, env: &ReadEnv<'_, '_>, i: usize, st: &Kinematics, info: &StepInfo) {
+    fn log_sample(&mut self, env: &ReadEnv<'_>, i: usize, st: &Kinematics, info: &StepInfo) {
         let t = info.sim_time_ms as f64 / 1000.0;
         let a = &env.plan.actors[i];
         let Some(r) = self.rec.as_mut() else {
@@ -383,7 +383,7 @@ impl Readback {
     }
 
     /// Lane goals whose phase ends now: judged on the simulated state.
-    fn judge_lane_goals(&mut self, env: &ReadEnv<'_, '_>, t: f64) {
+    fn judge_lane_goals(&mut self, env: &ReadEnv<'_>, t: f64) {
         let plan = env.plan;
         while self.next_lane_goal < plan.lane_goals.len()
             && t >= plan.lane_goals[self.next_lane_goal].t1 - 1e-9
@@ -424,7 +424,7 @@ impl Readback {
     }
 
     /// Gap goals whose phase ends now: judged on the simulated state.
-    fn judge_gap_goals(&mut self, env: &ReadEnv<'_, '_>, t: f64) {
+    fn judge_gap_goals(&mut self, env: &ReadEnv<'_>, t: f64) {
         let plan = env.plan;
         while self.next_goal < plan.goals.len() && t >= plan.goals[self.next_goal].t1 - 1e-9 {
             let g = &plan.goals[self.next_goal];

@@ -15,7 +15,7 @@ use super::cast::{self, Cast, Sim};
 use super::controllers::drivers::Drivers;
 use super::controllers::pid::Pid;
 use super::controllers::planned::{Clock, Planned, yields};
-use super::controllers::seam::SutSeam;
+use super::controllers::seam::{SutSeam, SutSlot};
 use super::controllers::{Act, Controller, Flow, See, ssp_err};
 use super::lights::Lights;
 use super::live::Live;
@@ -27,40 +27,70 @@ use super::{DriveMode, ExecConfig, Executed, Replan};
 use crate::error::ScenarioError;
 use crate::kpi::EgoKpi;
 use crate::plan::Plan;
-use crate::sut::{Sut, SutInfo};
+use crate::sut::SutInfo;
 use litesim_log::{ControlSample, LogRecorder, SimulationLog};
-use litesim_map::RoadNetwork;
 use litesim_ssp::api::{ActorFilter, KinematicSteps, Ssp};
-use std::borrow::Cow;
 
 /// Runs `plan` on `ssp`; with a `sut`, `sut.car` is driven by it each step
 /// and the other actors react to where it actually is; with `drivers_of`,
 /// the actors it drives (the scenario's vehicles under `--npc driver`,
-/// ambient traffic) are driven by the traffic engine.
-pub fn execute(
-    ssp: &mut dyn Ssp,
-    plan: &Plan,
-    net: Option<&RoadNetwork>,
-    cfg: &ExecConfig,
-    sut: Option<&mut (dyn Sut + '_)>,
-    replan: Option<&Replan<'_>>,
-    drivers_of: Option<&mut Driven>,
-) -> Result<Executed, ScenarioError> {
-    let mut rt = Runtime::new(ssp, plan, net, cfg, sut, replan, drivers_of)?;
+/// ambient traffic) are driven by the traffic engine. The map is
+/// `cfg.map`.
+pub fn execute<'a>(
+    ssp: &'a mut dyn Ssp,
+    plan: Plan,
+    cfg: ExecConfig,
+    sut: Option<SutSlot<'a>>,
+    replan: Option<Box<Replan<'a>>>,
+    drivers_of: Option<Driven>,
+) -> Result<Finished, ScenarioError> {
+    let mut rt = Runtime::new(SspSlot::Borrowed(ssp), plan, cfg, sut, replan, drivers_of)?;
     while rt.step()? {}
     rt.finish()
 }
 
+/// What a finished run gives back: the record, the plan in force at the
+/// end and the traffic engine (what its drivers asked, their notes).
+pub struct Finished {
+    /// What happened.
+    pub ex: Executed,
+    /// The plan in force at the end (a live condition may have replaced
+    /// the first one).
+    pub plan: Plan,
+    /// The drivers, when there were any.
+    pub drivers: Option<Driven>,
+}
+
+/// The simulator a runtime steps: the caller's (a run) or its own (a run
+/// stepped from outside, which outlives any caller's frame).
+pub enum SspSlot<'a> {
+    /// Borrowed for the run.
+    Borrowed(&'a mut dyn Ssp),
+    /// Owned by the run.
+    Owned(Box<dyn Ssp>),
+}
+
+impl SspSlot<'_> {
+    fn get(&mut self) -> &mut dyn Ssp {
+        match self {
+            SspSlot::Borrowed(s) => &mut **s,
+            SspSlot::Owned(s) => &mut **s,
+        }
+    }
+}
+
 /// A run in progress: the simulator, the controllers and what the
-/// read-back has gathered.
-pub(crate) struct Runtime<'a, 'c> {
-    ssp: &'a mut dyn Ssp,
-    cfg: &'a ExecConfig<'c>,
-    net: Option<&'a RoadNetwork>,
+/// read-back has gathered. It owns everything per run (the plan, the
+/// configuration, the drivers) so that a caller can keep it between
+/// steps ([`crate::Stepped`]); only the simulator and the re-planning
+/// may be borrowed.
+pub(crate) struct Runtime<'a> {
+    ssp: SspSlot<'a>,
+    cfg: ExecConfig,
     /// The plan in force: replaced when a condition holds live at another
     /// time than planned (closed loop only).
-    plan: Cow<'a, Plan>,
-    replan: Option<&'a Replan<'a>>,
+    plan: Plan,
+    replan: Option<Box<Replan<'a>>>,
     sim: Sim,
     cast: Cast,
     /// Per actor: driven by a driver.
@@ -72,7 +102,7 @@ pub(crate) struct Runtime<'a, 'c> {
     world: World,
     observer: Option<Observer>,
     sut: Option<SutSeam<'a>>,
-    drivers: Option<Drivers<'a>>,
+    drivers: Option<Drivers>,
     planned: Planned,
     /// Per actor: the command it got last.
     controls: Vec<ControlSample>,
@@ -92,6 +122,9 @@ pub(crate) struct Runtime<'a, 'c> {
     steps: u64,
     /// Most steps per simulator call (1 in closed loop).
     chunk: u64,
+    /// The step's head is done (conditions, lights, observation): its
+    /// (steps, sut.car's offset from its route) wait for the command.
+    headed: Option<(u64, Option<f64>)>,
     pacer: Option<crate::realtime::Pacer>,
     realtime_failure: Option<String>,
     sut_error: Option<String>,
@@ -119,12 +152,7 @@ fn chunk_steps(k: u64, most: u64, switch: Option<u64>) -> u64 {
 
 /// Per actor: driven by pedals and steering — a vehicle that moves, in
 /// dynamic mode, that neither the SUT nor a driver drives.
-fn pedal_driven(
-    plan: &Plan,
-    cfg: &ExecConfig<'_>,
-    ego_i: Option<usize>,
-    driven: &[bool],
-) -> Vec<bool> {
+fn pedal_driven(plan: &Plan, cfg: &ExecConfig, ego_i: Option<usize>, driven: &[bool]) -> Vec<bool> {
     (0..plan.actors.len())
         .map(|i| {
             let a = &plan.actors[i];
@@ -138,7 +166,7 @@ fn pedal_driven(
 }
 
 /// The log recorder, told what the simulator is.
-fn recorder(sim: &Sim, cfg: &ExecConfig<'_>) -> LogRecorder {
+fn recorder(sim: &Sim, cfg: &ExecConfig) -> LogRecorder {
     let mut r = LogRecorder::new(sim.dt);
     r.meta("profile", &sim.caps.profile);
     r.meta("model", &sim.caps.model);
@@ -149,7 +177,7 @@ fn recorder(sim: &Sim, cfg: &ExecConfig<'_>) -> LogRecorder {
 
 /// What the SUT is told before the first step.
 fn sut_info(
-    cfg: &ExecConfig<'_>,
+    cfg: &ExecConfig,
     sim: &Sim,
     plan: &Plan,
     cast: &Cast,
@@ -201,17 +229,16 @@ fn planned_controller(
     )
 }
 
-impl<'a, 'c> Runtime<'a, 'c> {
+impl<'a> Runtime<'a> {
     /// Sets the stage: the simulator initialised, every actor created, the
     /// controllers made, the SUT reset.
     pub fn new(
-        ssp: &'a mut dyn Ssp,
-        plan: &'a Plan,
-        net: Option<&'a RoadNetwork>,
-        cfg: &'a ExecConfig<'c>,
-        sut: Option<&'a mut (dyn Sut + '_)>,
-        replan: Option<&'a Replan<'a>>,
-        drivers_of: Option<&'a mut Driven>,
+        mut ssp: SspSlot<'a>,
+        plan: Plan,
+        cfg: ExecConfig,
+        sut: Option<SutSlot<'a>>,
+        replan: Option<Box<Replan<'a>>>,
+        drivers_of: Option<Driven>,
     ) -> Result<Self, ScenarioError> {
         let n = plan.actors.len();
         let driven: Vec<bool> = match drivers_of.as_ref() {
@@ -227,16 +254,16 @@ impl<'a, 'c> Runtime<'a, 'c> {
             })?),
             None => None,
         };
-        let sim = cast::init(ssp, cfg)?;
-        let mut rec = cfg.record.then(|| recorder(&sim, cfg));
-        let dynamic = pedal_driven(plan, cfg, ego_i, &driven);
+        let sim = cast::init(ssp.get(), &cfg)?;
+        let mut rec = cfg.record.then(|| recorder(&sim, &cfg));
+        let dynamic = pedal_driven(&plan, &cfg, ego_i, &driven);
         let modes: Vec<bool> = (0..n).map(|i| dynamic[i] || Some(i) == ego_i).collect();
-        let cast = cast::create(ssp, &sim, plan, &modes, rec.as_mut())?;
+        let cast = cast::create(ssp.get(), &sim, &plan, &modes, rec.as_mut())?;
         let ids: Vec<String> = plan.actors.iter().map(|a| a.id.clone()).collect();
         let ego_kpi = ego_index.map(|e| {
             EgoKpi::new(&plan.actors[e].id, sim.dt).with_areas(cfg.conflict_areas.clone())
         });
-        let rb = Readback::new(&ids, rec, ego_kpi, cfg, plan);
+        let rb = Readback::new(&ids, rec, ego_kpi, &cfg, &plan);
         let yielding = cfg.people_yield && plan.actors.iter().any(yields);
         // Without closed-loop drivers nothing needs the states before the
         // next command: the plan is known, so trajectories go out a chunk
@@ -257,8 +284,8 @@ impl<'a, 'c> Runtime<'a, 'c> {
         } else {
             1
         };
-        let lights = Lights::list(ssp, plan, cfg, net)?;
-        let drivers = match (drivers_of, net) {
+        let lights = Lights::list(ssp.get(), &plan, &cfg, cfg.map.as_deref())?;
+        let drivers = match (drivers_of, cfg.map.clone()) {
             (Some(d), Some(net)) => Some(Drivers::new(d, net, &lights)),
             _ => None,
         };
@@ -267,17 +294,16 @@ impl<'a, 'c> Runtime<'a, 'c> {
         let world = if open_loop {
             World::empty()
         } else {
-            World::start(plan, &cast.dims, ego_i)
+            World::start(&plan, &cast.dims, ego_i)
         };
         let mut rt = Runtime {
             steps: litesim_core::steps_for_horizon(plan.duration, sim.dt),
-            goal_actors: goal_indices(plan),
-            live: Live::new(plan),
+            goal_actors: goal_indices(&plan),
+            live: Live::new(&plan),
             controls: vec![ControlSample::default(); n],
-            plan: Cow::Borrowed(plan),
+            plan,
             ssp,
             cfg,
-            net,
             replan,
             sim,
             cast,
@@ -295,6 +321,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
             ego_index,
             k: 0,
             chunk,
+            headed: None,
             pacer,
             realtime_failure: None,
             sut_error: None,
@@ -306,12 +333,12 @@ impl<'a, 'c> Runtime<'a, 'c> {
     }
 
     /// The SUT takes sut.car (actor `e`): it is told its vehicle and route.
-    fn seat_sut(&mut self, e: usize, s: &'a mut (dyn Sut + '_)) {
+    fn seat_sut(&mut self, e: usize, s: SutSlot<'a>) {
         let observer = Observer::new(&self.plan.actors[e]);
         let lim = self.cast.catalogue[e];
         let model = (self.sim.caps.model.as_str(), self.cast.dims[e].2);
         let mut seam = SutSeam::new(s, e, lim, model, self.sim.mirror);
-        let info = sut_info(self.cfg, &self.sim, &self.plan, &self.cast, e, &observer);
+        let info = sut_info(&self.cfg, &self.sim, &self.plan, &self.cast, e, &observer);
         self.sut_error = seam.reset(&info);
         self.sut = Some(seam);
         self.observer = Some(observer);
@@ -320,15 +347,57 @@ impl<'a, 'c> Runtime<'a, 'c> {
     /// One step (in open loop a chunk of steps): head, observe, command,
     /// simulate, read back. Returns whether the run goes on.
     pub fn step(&mut self) -> Result<bool, ScenarioError> {
-        if self.k >= self.steps || self.sut_error.is_some() || self.realtime_failure.is_some() {
+        if !self.head()? {
+            return Ok(false);
+        }
+        self.tail()
+    }
+
+    /// Whether the run is over (its steps done, the SUT failed, or real
+    /// time overran).
+    pub fn over(&self) -> bool {
+        self.k >= self.steps || self.sut_error.is_some() || self.realtime_failure.is_some()
+    }
+
+    /// The step's head, once per step: live conditions, light switches,
+    /// the chunk's size, sut.car's observation. False when the run is over.
+    pub fn head(&mut self) -> Result<bool, ScenarioError> {
+        if self.headed.is_some() {
+            return Ok(true);
+        }
+        if self.over() {
             return Ok(false);
         }
         let (k, step_ms) = (self.k, self.sim.step_ms);
         self.relive()?;
-        self.lights.switch_due(self.ssp, &self.plan, k, step_ms)?;
+        self.lights
+            .switch_due(self.ssp.get(), &self.plan, k, step_ms)?;
         let next_switch = self.lights.next_tick(&self.plan, step_ms);
         let n_steps = chunk_steps(k, self.chunk.min(self.steps - k), next_switch);
         let ego_lateral = self.observe();
+        self.headed = Some((n_steps, ego_lateral));
+        Ok(true)
+    }
+
+    /// What sut.car observes at this step (after [`Runtime::head`]).
+    pub fn observation(&self) -> Option<&crate::sut::Observation> {
+        self.observer.as_ref().map(|_| &self.world.obs)
+    }
+
+    /// The command of a SUT driven from outside, for this step.
+    pub fn give(&mut self, cmd: crate::sut::SutCommand) {
+        if let Some(s) = self.sut.as_mut() {
+            s.give(cmd);
+        }
+    }
+
+    /// The rest of the step: the controllers command, the simulator steps,
+    /// the read-back. Returns whether the run goes on.
+    pub fn tail(&mut self) -> Result<bool, ScenarioError> {
+        let Some((n_steps, ego_lateral)) = self.headed.take() else {
+            return Ok(!self.over());
+        };
+        let k = self.k;
         if let Flow::Stop(msg) = self.command(n_steps, ego_lateral)? {
             self.sut_error = Some(msg);
             return Ok(false);
@@ -344,10 +413,15 @@ impl<'a, 'c> Runtime<'a, 'c> {
         Ok(self.k < self.steps)
     }
 
+    /// The time of the step to come (s).
+    pub fn time(&self) -> f64 {
+        (self.k * self.sim.step_ms) as f64 / 1000.0
+    }
+
     /// Closed loop: the plan's conditions on the world; one that held at
     /// another time than planned makes the plan again.
     fn relive(&mut self) -> Result<(), ScenarioError> {
-        let Some(replan) = self.replan else {
+        let Some(replan) = self.replan.as_ref() else {
             return Ok(());
         };
         if self.ego_i.is_none() || self.plan.conditions.is_empty() {
@@ -364,9 +438,9 @@ impl<'a, 'c> Runtime<'a, 'c> {
                 "planning again for a live condition changed the actors".into(),
             ));
         }
-        self.plan = Cow::Owned(new);
-        let (plan, rb) = (&*self.plan, &mut self.rb);
-        rb.next_due = due_time(self.cfg, plan, &rb.samples);
+        self.plan = new;
+        let (plan, rb) = (&self.plan, &mut self.rb);
+        rb.next_due = due_time(&self.cfg, plan, &rb.samples);
         self.steps = litesim_core::steps_for_horizon(plan.duration, self.sim.dt);
         self.goal_actors = goal_indices(plan);
         // Goals ended and switches due by now belong to the past.
@@ -390,7 +464,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
             (self.k, t),
             e,
             self.rb.last_pos[e].as_ref(),
-            self.net,
+            self.cfg.map.as_deref(),
             &mut self.lights,
         )
     }
@@ -413,7 +487,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
             mirror: self.sim.mirror,
         };
         let mut act = Act {
-            ssp: &mut *self.ssp,
+            ssp: self.ssp.get(),
             controls: &mut self.controls,
         };
         let mut controllers: [Option<&mut dyn Controller>; 3] = [
@@ -434,12 +508,14 @@ impl<'a, 'c> Runtime<'a, 'c> {
         if n_steps == 1 {
             let (info, states) = self
                 .ssp
+                .get()
                 .step(None, &ActorFilter::default())
                 .map_err(ssp_err)?;
             self.got.clear();
             self.got.push_reported(info, &states).map_err(ssp_err)?;
         } else {
             self.ssp
+                .get()
                 .step_many_kinematics(n_steps as u32, &mut self.got)
                 .map_err(ssp_err)?;
         }
@@ -455,8 +531,8 @@ impl<'a, 'c> Runtime<'a, 'c> {
         let planned = &mut self.planned;
         let env = ReadEnv {
             plan: &self.plan,
-            net: self.net,
-            cfg: self.cfg,
+            net: self.cfg.map.as_deref(),
+            cfg: &self.cfg,
             lights: &self.lights,
             dims: &self.cast.dims,
             dynamic: &self.dynamic,
@@ -496,13 +572,13 @@ impl<'a, 'c> Runtime<'a, 'c> {
     }
 
     /// Ends the simulation and gathers what the run produced.
-    pub fn finish(mut self) -> Result<Executed, ScenarioError> {
+    pub fn finish(mut self) -> Result<Finished, ScenarioError> {
         let reason = if self.sut_error.is_some() {
             "system under test failed"
         } else {
             "plan finished"
         };
-        self.ssp.end_simulation(reason).map_err(ssp_err)?;
+        self.ssp.get().end_simulation(reason).map_err(ssp_err)?;
         let Readback {
             boxes,
             speeds,
@@ -524,7 +600,8 @@ impl<'a, 'c> Runtime<'a, 'c> {
         kpis.finish();
         if !self.cfg.covers.is_empty() {
             live_state(&boxes, &speeds, &accels, &mut live);
-            sample_items(self.cfg, &plan, self.net, &live, last_t, true, &mut samples);
+            let net = self.cfg.map.as_deref();
+            sample_items(&self.cfg, &plan, net, &live, last_t, true, &mut samples);
         }
         if let (Some(ek), Some(e)) = (ego_kpi.as_mut(), self.ego_index) {
             let last = plan.actors[e].samples.last().copied().unwrap_or_default();
@@ -539,7 +616,7 @@ impl<'a, 'c> Runtime<'a, 'c> {
             .filter(|(_, d)| **d)
             .map(|(a, _)| a.id.clone())
             .collect();
-        Ok(Executed {
+        let ex = Executed {
             kpis,
             steps: self.k,
             live_events: self.live.events,
@@ -547,10 +624,6 @@ impl<'a, 'c> Runtime<'a, 'c> {
             goals: goal_results,
             lane_goals: lane_results,
             sut_error: self.sut_error,
-            plan: match plan {
-                Cow::Owned(p) => Some(p),
-                Cow::Borrowed(_) => None,
-            },
             log,
             profile: self.sim.caps.profile,
             model: self.sim.caps.model,
@@ -560,6 +633,11 @@ impl<'a, 'c> Runtime<'a, 'c> {
             driven,
             sut_notes,
             never_held,
+        };
+        Ok(Finished {
+            ex,
+            plan,
+            drivers: self.drivers.map(|d| d.driven),
         })
     }
 }

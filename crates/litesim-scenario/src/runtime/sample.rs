@@ -33,7 +33,7 @@ pub(crate) fn live_state(
 
 /// When the next item not sampled yet is due (s; infinite: at the end).
 pub(crate) fn due_time(
-    cfg: &ExecConfig<'_>,
+    cfg: &ExecConfig,
     plan: &Plan,
     samples: &[Option<crate::coverage::Sample>],
 ) -> f64 {
@@ -68,7 +68,7 @@ fn item_due(item: &crate::coverage::CoverItem, plan: &Plan) -> f64 {
 /// Samples the items due at `t` (`end`: the run is over, every item not
 /// sampled yet is due — a phase that never ended is sampled at the end).
 pub(crate) fn sample_items(
-    cfg: &ExecConfig<'_>,
+    cfg: &ExecConfig,
     plan: &Plan,
     net: Option<&RoadNetwork>,
     live: &[crate::coverage::LiveActor],

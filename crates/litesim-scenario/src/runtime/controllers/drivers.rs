@@ -9,25 +9,27 @@ use crate::error::ScenarioError;
 use crate::runtime::traffic::driven::Driven;
 use litesim_core::Vec2;
 use litesim_map::RoadNetwork;
+use std::sync::Arc;
 
-/// The traffic engine behind the controller trait.
-pub(crate) struct Drivers<'d> {
+/// The traffic engine behind the controller trait (it owns the engine for
+/// the run and gives it back at the end: what the drivers asked and met).
+pub(crate) struct Drivers {
     /// The engine and its vehicles.
-    pub driven: &'d mut Driven,
-    net: &'d RoadNetwork,
+    pub driven: Driven,
+    net: Arc<RoadNetwork>,
 }
 
-impl<'d> Drivers<'d> {
+impl Drivers {
     /// The engine on `net`, told where the lights' stop lines are.
-    pub fn new(driven: &'d mut Driven, net: &'d RoadNetwork, lights: &super::Lights) -> Self {
+    pub fn new(mut driven: Driven, net: Arc<RoadNetwork>, lights: &super::Lights) -> Self {
         if let Some(l) = lights.info.as_ref() {
-            driven.set_lights(net, &l.boxes, &lights.box_roads);
+            driven.set_lights(&net, &l.boxes, &lights.box_roads);
         }
         Drivers { driven, net }
     }
 }
 
-impl Controller for Drivers<'_> {
+impl Controller for Drivers {
     fn command(&mut self, see: &See<'_>, act: &mut Act<'_>) -> Result<Flow, ScenarioError> {
         let states: Vec<(Vec2, f64, f64, f64)> = (0..see.plan.actors.len())
             .map(|i| {
@@ -40,7 +42,7 @@ impl Controller for Drivers<'_> {
         let (plan, mirror) = (see.plan, see.mirror);
         let ssp = &mut *act.ssp;
         self.driven.step(
-            self.net,
+            &self.net,
             plan,
             &states,
             (&see.lights.red, &yellow),

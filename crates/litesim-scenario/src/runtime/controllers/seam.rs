@@ -11,9 +11,22 @@ use litesim_core::math;
 use litesim_log::ControlSample;
 use litesim_ssp::api::{DynamicMove, Ssp};
 
+/// Where the SUT's commands come from.
+pub enum SutSlot<'s> {
+    /// A SUT the caller keeps.
+    Borrowed(&'s mut dyn Sut),
+    /// A SUT the run keeps.
+    Owned(Box<dyn Sut>),
+    /// The caller of a stepped run: it reads the observation and gives the
+    /// command before each step ([`crate::Stepped`]).
+    Outside,
+}
+
 /// The system under test behind the controller trait.
 pub(crate) struct SutSeam<'s> {
-    sut: &'s mut (dyn Sut + 's),
+    sut: SutSlot<'s>,
+    /// An outside SUT's command for the step to come.
+    given: Option<SutCommand>,
     /// sut.car's plan index.
     pub ego: usize,
     /// sut.car's limits from the catalogue.
@@ -31,7 +44,7 @@ pub(crate) struct SutSeam<'s> {
 impl<'s> SutSeam<'s> {
     /// The SUT driving actor `ego`.
     pub fn new(
-        sut: &'s mut (dyn Sut + 's),
+        sut: SutSlot<'s>,
         ego: usize,
         lim: Limits,
         (model, mass): (&str, f64),
@@ -39,6 +52,7 @@ impl<'s> SutSeam<'s> {
     ) -> Self {
         SutSeam {
             sut,
+            given: None,
             ego,
             lim,
             model: model.to_string(),
@@ -92,24 +106,42 @@ impl<'s> SutSeam<'s> {
     /// Tells the SUT its vehicle and route; its failure as the run's stop
     /// message.
     pub fn reset(&mut self, info: &SutInfo) -> Option<String> {
-        self.sut
+        self.inside()?
             .reset(info)
             .err()
             .map(|err| format!("sut error at t=0.00 s (reset): {err}"))
     }
-}
 
-impl SutSeam<'_> {
+    /// The SUT the run calls (none when it is driven from outside).
+    fn inside(&mut self) -> Option<&mut dyn Sut> {
+        match &mut self.sut {
+            SutSlot::Borrowed(s) => Some(&mut **s),
+            SutSlot::Owned(s) => Some(&mut **s),
+            SutSlot::Outside => None,
+        }
+    }
+
+    /// An outside SUT's command for the step to come.
+    pub fn give(&mut self, cmd: SutCommand) {
+        self.given = Some(cmd);
+    }
+
     /// What the SUT has to report.
     pub fn notes(&mut self) -> Vec<String> {
-        self.sut.notes()
+        self.inside().map(|s| s.notes()).unwrap_or_default()
     }
 }
 
 impl Controller for SutSeam<'_> {
     fn command(&mut self, see: &See<'_>, act: &mut Act<'_>) -> Result<Flow, ScenarioError> {
         // The SUT sees every actor but itself: the observation's layout.
-        let answer = self.sut.step(&see.world.obs);
+        let answer = match self.inside() {
+            Some(s) => s.step(&see.world.obs),
+            None => self
+                .given
+                .take()
+                .ok_or_else(|| crate::sut::SutError("no command was given for this step".into())),
+        };
         let cmd = answer.map_err(|err| err.0).and_then(|c| {
             c.validate()
                 .map(|()| c)
