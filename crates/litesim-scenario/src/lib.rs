@@ -111,9 +111,52 @@ pub struct Prepared {
     /// The map's lanes as drivers see them: built on first use (the first
     /// run with drivers), then shared by every run of a batch.
     pub lanes: Arc<std::sync::OnceLock<Arc<runtime::traffic::LaneGraph>>>,
+    /// The driver gains runs read from files, per (calibration folder,
+    /// look beside the test, profile): a file is found, read, parsed and
+    /// hashed once per test, not once per seed.
+    pub calibrations: Arc<std::sync::Mutex<Vec<(CalibrationKey, CalibrationRead)>>>,
 }
 
+/// Where a run looks for its calibration file.
+pub type CalibrationKey = (Option<PathBuf>, bool, String);
+/// What it found: the gains (none: built-in) and how the summary names
+/// them, or why the file could not be used.
+pub type CalibrationRead = Result<(Option<litesim_ssp::profile::Calibration>, String), String>;
+
 impl Prepared {
+    /// The calibration a run under `opts` and `profile` reads from a file
+    /// (read once per test and key, then shared).
+    pub(crate) fn calibration_read(&self, opts: &RunOptions, profile: &str) -> CalibrationRead {
+        let key = (
+            opts.calibration_dir.clone(),
+            opts.calibration_near_test,
+            profile.to_string(),
+        );
+        let mut cache = self
+            .calibrations
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        if let Some((_, got)) = cache.iter().find(|(k, _)| *k == key) {
+            return got.clone();
+        }
+        let got = match calibration_file(self, opts, profile) {
+            Some(f) => match std::fs::read_to_string(&f) {
+                Ok(text) => calibrate::from_toml(&text)
+                    .map(|c| {
+                        (
+                            Some(c),
+                            format!("{} sha256:{}", f.display(), sha256_hex(text.as_bytes())),
+                        )
+                    })
+                    .map_err(|e| format!("{}: {e}", f.display())),
+                Err(_) => Ok((None, "built-in".to_string())),
+            },
+            None => Ok((None, "built-in".to_string())),
+        };
+        cache.push((key, got.clone()));
+        got
+    }
+
     /// The map's lanes as drivers see them (`None` without a map).
     pub fn lane_graph(&self) -> Option<Arc<runtime::traffic::LaneGraph>> {
         let net = self.net.as_deref()?;
@@ -218,6 +261,7 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
     });
     Ok(Prepared {
         lanes: Default::default(),
+        calibrations: Default::default(),
         has_lights,
         source_hash,
         path: path.to_path_buf(),

@@ -9,9 +9,8 @@ use crate::runtime::run::Runtime;
 use crate::runtime::{Finished, SspSlot, SutSlot};
 use crate::sut::{Observation, SutCommand};
 use crate::{
-    DriveMode, Npc, Prepared, RunOptions, RunResult, ScenarioError, Summary, Verdict, calibrate,
-    calibration_file, conflict_areas, judge, plan_test, plan_test_with, postplan, runtime,
-    sha256_hex, simulator_of,
+    DriveMode, Npc, Prepared, RunOptions, RunResult, ScenarioError, Summary, Verdict,
+    conflict_areas, judge, plan_test, plan_test_with, postplan, runtime, simulator_of,
 };
 use litesim_map::RoadNetwork;
 use litesim_ssp::Ssp;
@@ -71,24 +70,11 @@ where
     } else if !plan.unplaced.is_empty() {
         notes.push("an actor could not be placed with this seed: the run was not executed".into());
     }
-    let file = opts
-        .calibration
-        .is_none()
-        .then(|| calibration_file(&prep, opts, &profile))
-        .flatten();
-    let (calibration, calibration_src) = match (&opts.calibration, file) {
-        (Some(c), _) => (Some(*c), "given".to_string()),
-        (None, Some(f)) => match std::fs::read_to_string(&f) {
-            Ok(text) => (
-                Some(
-                    calibrate::from_toml(&text)
-                        .map_err(|e| ScenarioError::Io(format!("{}: {e}", f.display())))?,
-                ),
-                format!("{} sha256:{}", f.display(), sha256_hex(text.as_bytes())),
-            ),
-            Err(_) => (None, "built-in".to_string()),
-        },
-        (None, None) => (None, "built-in".to_string()),
+    let (calibration, calibration_src) = match &opts.calibration {
+        Some(c) => (Some(*c), "given".to_string()),
+        None => prep
+            .calibration_read(opts, &profile)
+            .map_err(ScenarioError::Io)?,
     };
     let mode = opts.mode.unwrap_or(if prep.test.config.dynamic {
         DriveMode::Dynamic

@@ -17,6 +17,9 @@ pub(crate) struct Drivers {
     /// The engine and its vehicles.
     pub driven: Driven,
     net: Arc<RoadNetwork>,
+    /// Every actor's (position, heading, speed, length) this step: one
+    /// buffer for the run.
+    states: Vec<(Vec2, f64, f64, f64)>,
 }
 
 impl Drivers {
@@ -25,23 +28,27 @@ impl Drivers {
         if let Some(l) = lights.info.as_ref() {
             driven.set_lights(&net, &l.boxes, &lights.box_roads);
         }
-        Drivers { driven, net }
+        Drivers {
+            driven,
+            net,
+            states: Vec::new(),
+        }
     }
 }
 
 impl Controller for Drivers {
     fn command(&mut self, see: &See<'_>, act: &mut Act<'_>) -> Result<Flow, ScenarioError> {
-        let states: Vec<(Vec2, f64, f64, f64)> = (0..see.plan.actors.len())
-            .map(|i| {
-                let o = see.world.get(i);
-                (Vec2::new(o.x, o.y), o.yaw, o.speed, o.length)
-            })
-            .collect();
+        let mut states = std::mem::take(&mut self.states);
+        states.clear();
+        states.extend((0..see.plan.actors.len()).map(|i| {
+            let o = see.world.get(i);
+            (Vec2::new(o.x, o.y), o.yaw, o.speed, o.length)
+        }));
         let ego_xy = see.ego_index.map(|e| states[e].0);
         let yellow = see.lights.yellow();
         let (plan, mirror) = (see.plan, see.mirror);
         let ssp = &mut *act.ssp;
-        self.driven.step(
+        let stepped = self.driven.step(
             &self.net,
             plan,
             &states,
@@ -56,7 +63,9 @@ impl Controller for Drivers {
                 ssp.set_xy_trajectory(&plan.actors[i].id, traj)
                     .map_err(ssp_err)
             },
-        )?;
+        );
+        self.states = states;
+        stepped?;
         Ok(Flow::Go)
     }
 }

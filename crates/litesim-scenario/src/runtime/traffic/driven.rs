@@ -101,6 +101,9 @@ pub struct Driven {
     /// positive) and the limit the driver brakes within (see
     /// [`Driven::asked`]).
     asked: Vec<Asked>,
+    /// The plan's lane at a lane goal's start, per (actor, goal start):
+    /// asked every step while the goal lasts, the same answer each time.
+    goal_start_lanes: std::cell::RefCell<Vec<(usize, u64, Option<u32>)>>,
     rng: Rng,
     poses: Vec<Pose>,
 }
@@ -133,6 +136,7 @@ impl Driven {
             hints: vec![None; plan.actors.len()],
             last_speeds: (f64::NAN, Vec::new()),
             asked: Vec::new(),
+            goal_start_lanes: Default::default(),
             rng: Rng::new(0),
             poses: Vec::new(),
         };
@@ -454,7 +458,19 @@ impl Driven {
         {
             // Not before the plan's own change is due: the reference may
             // still move, and a change once begun is finished.
-            if plan_lane(t + LANE_LOOKAHEAD_S) == plan_lane(g.t0) {
+            let key = (i, g.t0.to_bits());
+            let memo = self
+                .goal_start_lanes
+                .borrow()
+                .iter()
+                .find(|(a, t0, _)| (*a, *t0) == key)
+                .map(|x| x.2);
+            let at_start = memo.unwrap_or_else(|| {
+                let l = plan_lane(g.t0);
+                self.goal_start_lanes.borrow_mut().push((key.0, key.1, l));
+                l
+            });
+            if plan_lane(t + LANE_LOOKAHEAD_S) == at_start {
                 return None;
             }
             let r = index(&g.reference)?;
