@@ -445,9 +445,11 @@ impl Driven {
                 .and_then(|p| self.graph.locate(net, &p))
                 .map(|x| x.0)
         };
+        // Near the plan's point ahead this step (the hint): a projection
+        // from there, not a search of the map's grid cell.
         let plan_lane = |at: f64| {
             let p = plan.actors[i].at(at, plan.dt);
-            net.locate(Vec2::new(p.x, p.y))
+            net.locate_near(Vec2::new(p.x, p.y), self.hints[i])
                 .and_then(|p| self.graph.locate(net, &p))
                 .map(|x| x.0)
         };
