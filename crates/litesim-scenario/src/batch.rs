@@ -518,9 +518,9 @@ pub fn junit(lines: &[RunLine]) -> String {
     x + "</testsuites>\n"
 }
 
-/// Writes `results.jsonl` (sorted, one line per (test, seed)) and
-/// `results.csv` into `dir`, atomically; and `coverage.json` when the
-/// tests have `cover`/`record` items (`defs`).
+/// Writes `results.jsonl` and `results.csv` sorted by (test, seed) and
+/// `coverage.json` (when there are items) from `lines`; the last line
+/// given for a (test, seed) wins.
 pub fn write_sorted(
     dir: &Path,
     lines: &[RunLine],
@@ -532,21 +532,93 @@ pub fn write_sorted(
     for l in lines {
         by.insert((l.test.clone(), l.seed), l);
     }
-    if !defs.is_empty() {
-        let c = coverage_of(defs, by.values().copied());
-        let text =
-            serde_json::to_string_pretty(&c).map_err(|e| ScenarioError::Io(e.to_string()))?;
-        atomic(&dir.join("coverage.json"), &(text + "\n"))?;
-    }
-    let mut jsonl = String::new();
-    let mut csv = String::from(
-        "test,seed,verdict,pass,collisions,min_distance,min_ttc,max_path_error,duration,steps,roads,failures,invalid\n",
-    );
+    let mut w = Sorted::new(dir, defs)?;
     for l in by.values() {
-        jsonl += &serde_json::to_string(l).map_err(|e| ScenarioError::Io(e.to_string()))?;
-        jsonl.push('\n');
+        let text = serde_json::to_string(l).map_err(|e| ScenarioError::Io(e.to_string()))?;
+        w.add(l, &text)?;
+    }
+    w.finish()
+}
+
+/// The sorted result files being written, one line at a time: the JSON
+/// line, its CSV row, its coverage folded in, the verdicts counted.
+struct Sorted<'d> {
+    dir: &'d Path,
+    jsonl: TempFile,
+    csv: TempFile,
+    fold: Option<crate::coverage::Fold>,
+    /// (passed, failed, invalid, errors, most severe verdict).
+    counts: (u64, u64, u64, u64, crate::Verdict),
+}
+
+/// A file written beside its final name and renamed over it when done
+/// (what [`atomic`] does for a file made in one piece).
+struct TempFile {
+    path: PathBuf,
+    tmp: PathBuf,
+    out: std::io::BufWriter<std::fs::File>,
+}
+
+impl TempFile {
+    fn new(path: PathBuf) -> Result<Self, ScenarioError> {
+        let name = path
+            .file_name()
+            .map_or("out".into(), |n| n.to_string_lossy().into_owned());
+        let tmp = path.with_file_name(format!(".{name}.tmp"));
+        let f = std::fs::File::create(&tmp)
+            .map_err(|e| ScenarioError::Io(format!("{}: {e}", path.display())))?;
+        Ok(TempFile {
+            path,
+            tmp,
+            out: std::io::BufWriter::new(f),
+        })
+    }
+
+    fn write(&mut self, text: &str) -> Result<(), ScenarioError> {
+        self.out
+            .write_all(text.as_bytes())
+            .map_err(|e| ScenarioError::Io(format!("{}: {e}", self.path.display())))
+    }
+
+    fn finish(self) -> Result<(), ScenarioError> {
+        let io = |e: std::io::Error| ScenarioError::Io(format!("{}: {e}", self.path.display()));
+        let f = self.out.into_inner().map_err(|e| io(e.into_error()))?;
+        f.sync_all().map_err(io)?;
+        std::fs::rename(&self.tmp, &self.path).map_err(io)
+    }
+}
+
+impl<'d> Sorted<'d> {
+    fn new(
+        dir: &'d Path,
+        defs: &[(String, crate::coverage::ItemDef)],
+    ) -> Result<Self, ScenarioError> {
+        let fold = (!defs.is_empty()).then(|| {
+            let mut f = crate::coverage::Fold::default();
+            for (t, d) in defs {
+                f.declare(t, d);
+            }
+            f
+        });
+        let mut csv = TempFile::new(dir.join("results.csv"))?;
+        csv.write(
+            "test,seed,verdict,pass,collisions,min_distance,min_ttc,max_path_error,duration,steps,roads,failures,invalid\n",
+        )?;
+        Ok(Sorted {
+            dir,
+            jsonl: TempFile::new(dir.join("results.jsonl"))?,
+            csv,
+            fold,
+            counts: (0, 0, 0, 0, crate::Verdict::Pass),
+        })
+    }
+
+    /// The next line in (test, seed) order; `text` is its JSON.
+    fn add(&mut self, l: &RunLine, text: &str) -> Result<(), ScenarioError> {
+        self.jsonl.write(text)?;
+        self.jsonl.write("\n")?;
         let q = |s: &str| format!("\"{}\"", s.replace('"', "\"\""));
-        csv += &format!(
+        self.csv.write(&format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             q(&l.test),
             l.seed,
@@ -561,10 +633,121 @@ pub fn write_sorted(
             q(&l.roads),
             q(&l.failures.join("; ")),
             q(&l.invalid.join("; "))
-        );
+        ))?;
+        // A run whose scenario did not happen covers nothing.
+        if let Some(f) = self.fold.as_mut()
+            && l.verdict != crate::Verdict::Invalid
+        {
+            f.add(&l.test, &l.coverage);
+        }
+        let c = &mut self.counts;
+        if l.pass {
+            c.0 += 1;
+        } else {
+            c.1 += 1;
+        }
+        c.2 += u64::from(l.verdict == crate::Verdict::Invalid);
+        c.3 += u64::from(l.verdict == crate::Verdict::Error);
+        c.4 = c.4.max(l.verdict);
+        Ok(())
     }
-    atomic(&dir.join("results.jsonl"), &jsonl)?;
-    atomic(&dir.join("results.csv"), &csv)
+
+    /// Closes the files; gives the counts.
+    fn finish_counts(self) -> Result<(u64, u64, u64, u64, crate::Verdict), ScenarioError> {
+        if let Some(f) = self.fold {
+            let text = serde_json::to_string_pretty(&f.finish())
+                .map_err(|e| ScenarioError::Io(e.to_string()))?;
+            atomic(&self.dir.join("coverage.json"), &(text + "\n"))?;
+        }
+        self.jsonl.finish()?;
+        self.csv.finish()?;
+        Ok(self.counts)
+    }
+
+    fn finish(self) -> Result<(), ScenarioError> {
+        self.finish_counts().map(|_| ())
+    }
+}
+
+/// Sorts the results file of a batch in place, streaming: only each
+/// line's (test, seed) and place in the file are held, not the lines, so
+/// a batch's memory does not grow with its runs. The last line of a
+/// (test, seed) wins; lines of jobs not `wanted` (test index, seed) are
+/// dropped. Gives the verdict counts.
+fn sort_results_file(
+    dir: &Path,
+    tests: &[String],
+    wanted: impl Fn(usize, u64) -> bool,
+    defs: &[(String, crate::coverage::ItemDef)],
+) -> Result<(u64, u64, u64, u64, crate::Verdict), ScenarioError> {
+    use std::io::{BufRead, Read, Seek};
+    #[derive(Deserialize)]
+    struct Key {
+        test: String,
+        seed: u64,
+    }
+    let path = dir.join("results.jsonl");
+    let io = |e: std::io::Error| ScenarioError::Io(format!("{}: {e}", path.display()));
+    let mut places: BTreeMap<(usize, u64), (u64, usize)> = BTreeMap::new();
+    {
+        let mut r = std::io::BufReader::new(std::fs::File::open(&path).map_err(io)?);
+        let (mut at, mut buf) = (0u64, String::new());
+        loop {
+            buf.clear();
+            let n = r.read_line(&mut buf).map_err(io)?;
+            if n == 0 {
+                break;
+            }
+            // A run interrupted mid-write leaves a partial last line:
+            // what does not parse is skipped.
+            if let Ok(k) = serde_json::from_str::<Key>(buf.trim_end())
+                && let Some(ti) = tests.iter().position(|t| *t == k.test)
+                && wanted(ti, k.seed)
+            {
+                places.insert((ti, k.seed), (at, n));
+            }
+            at += n as u64;
+        }
+    }
+    let mut f = std::fs::File::open(&path).map_err(io)?;
+    let mut w = Sorted::new(dir, defs)?;
+    // (test, seed) order is the tests' names' order, then seeds.
+    let mut order: Vec<usize> = (0..tests.len()).collect();
+    order.sort_by(|a, b| tests[*a].cmp(&tests[*b]));
+    let mut line = Vec::new();
+    for ti in order {
+        for (_, &(at, n)) in places.range((ti, 0)..=(ti, u64::MAX)) {
+            line.resize(n, 0);
+            f.seek(std::io::SeekFrom::Start(at)).map_err(io)?;
+            f.read_exact(&mut line).map_err(io)?;
+            let text = String::from_utf8_lossy(&line);
+            let text = text.trim_end();
+            let l: RunLine = serde_json::from_str(text)
+                .map_err(|e| ScenarioError::Io(format!("{}: {e}", path.display())))?;
+            w.add(&l, text)?;
+        }
+    }
+    w.finish_counts()
+}
+
+/// The (test, seed) of each readable line of a results file, in file
+/// order (what a resumed batch has done already).
+fn read_keys(path: &Path) -> Vec<(String, u64)> {
+    use std::io::BufRead;
+    #[derive(Deserialize)]
+    struct Key {
+        test: String,
+        seed: u64,
+    }
+    let Ok(f) = std::fs::File::open(path) else {
+        return Vec::new();
+    };
+    std::io::BufReader::new(f)
+        .lines()
+        .map_while(Result::ok)
+        .filter_map(|l| serde_json::from_str::<Key>(&l).ok())
+        .map(|k| (k.test, k.seed))
+        .collect()
 }
 
 /// Writes `text` to `path` atomically: a temporary file in the same folder
@@ -678,13 +861,14 @@ pub fn run_batch(
         seeds: format!("{}..{}", spec.seed_from, spec.seed_to),
         shard: format!("{si}/{sn}"),
     };
-    let wanted: Vec<(String, u64)> = jobs_of(
-        preps.iter().map(|(n, _)| n.as_str()),
-        spec.seed_from,
-        spec.seed_to,
-        (si, sn),
-    );
-    let wanted_set: std::collections::BTreeSet<&(String, u64)> = wanted.iter().collect();
+    // This command's jobs, (test index, seed): a shard's share of every
+    // test's seeds (the rule of `jobs_of`, decided without a list).
+    let names: Vec<String> = preps.iter().map(|(n, _)| n.clone()).collect();
+    let seeds = spec.seed_to - spec.seed_from + 1;
+    let wanted = |ti: usize, seed: u64| {
+        (spec.seed_from..=spec.seed_to).contains(&seed)
+            && (ti as u64 * seeds + (seed - spec.seed_from)) % sn.max(1) == si
+    };
     let mut foreign = 0u64;
     if !spec.resume && !spec.force_new && std::fs::metadata(&results).is_ok_and(|m| m.len() > 0) {
         return Err(ScenarioError::Io(format!(
@@ -692,7 +876,7 @@ pub fn run_batch(
             spec.out.display()
         )));
     }
-    let mut lines = if spec.resume {
+    let done = if spec.resume {
         match Manifest::read(&spec.out)? {
             Some(old) => {
                 let diffs = manifest.differences(&old, true);
@@ -712,34 +896,27 @@ pub fn run_batch(
             }
             None => {}
         }
-        // Only this command's jobs are kept; the newest line of a job wins.
-        let mut by: BTreeMap<(String, u64), RunLine> = BTreeMap::new();
-        for l in read_lines(&results) {
-            let key = (l.test.clone(), l.seed);
-            if wanted_set.contains(&key) {
-                by.insert(key, l);
-            } else {
-                foreign += 1;
+        // Only this command's jobs are kept (the others are dropped when
+        // the file is sorted at the end); the newest line of a job wins.
+        let mut done = std::collections::BTreeSet::new();
+        for (test, seed) in read_keys(&results) {
+            match names.iter().position(|n| *n == test) {
+                Some(ti) if wanted(ti, seed) => {
+                    done.insert((ti, seed));
+                }
+                _ => foreign += 1,
             }
         }
-        by.into_values().collect()
+        done
     } else {
-        Vec::new()
+        std::collections::BTreeSet::new()
     };
     clean_temporaries(&spec.out);
     clean_temporaries(&spec.out.join("failed"));
     let manifest_hash = manifest.write(&spec.out)?;
-    let done: std::collections::BTreeSet<(String, u64)> =
-        lines.iter().map(|l| (l.test.clone(), l.seed)).collect();
-    let index: BTreeMap<&str, usize> = preps
-        .iter()
-        .enumerate()
-        .map(|(i, (n, _))| (n.as_str(), i))
-        .collect();
-    let jobs: Vec<(usize, u64)> = wanted
-        .iter()
-        .filter(|k| !done.contains(*k))
-        .map(|(n, seed)| (index[n.as_str()], *seed))
+    let jobs: Vec<(usize, u64)> = (0..names.len())
+        .flat_map(|ti| (spec.seed_from..=spec.seed_to).map(move |seed| (ti, seed)))
+        .filter(|&(ti, seed)| wanted(ti, seed) && !done.contains(&(ti, seed)))
         .collect();
     let total = jobs.len() as u64;
     let mut report = BatchReport {
@@ -787,9 +964,8 @@ pub fn run_batch(
                 let _ = writeln!(g.0, "{text}");
                 g.1 += 1;
                 progress(g.1, total);
-                line
             })
-            .collect::<Vec<RunLine>>()
+            .count()
     };
     let new = match spec.threads {
         Some(n) => rayon::ThreadPoolBuilder::new()
@@ -799,20 +975,20 @@ pub fn run_batch(
             .install(work),
         None => work(),
     };
-    report.ran = new.len() as u64;
-    lines.extend(new);
+    report.ran = new as u64;
+    drop(sink);
     let defs = item_defs(
         preps
             .iter()
             .filter_map(|(n, p)| p.as_ref().ok().map(|p| (n.as_str(), p))),
     );
-    write_sorted(&spec.out, &lines, &defs)?;
-    report.passed = lines.iter().filter(|l| l.pass).count() as u64;
-    report.failed = lines.len() as u64 - report.passed;
-    let count = |v: crate::Verdict| lines.iter().filter(|l| l.verdict == v).count() as u64;
-    report.invalid = count(crate::Verdict::Invalid);
-    report.errors = count(crate::Verdict::Error);
-    report.verdict = lines.iter().map(|l| l.verdict).max().unwrap_or_default();
+    let (passed, failed, invalid, errors, verdict) =
+        sort_results_file(&spec.out, &names, wanted, &defs)?;
+    report.passed = passed;
+    report.failed = failed;
+    report.invalid = invalid;
+    report.errors = errors;
+    report.verdict = verdict;
     Ok(report)
 }
 
