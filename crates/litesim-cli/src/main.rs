@@ -62,10 +62,32 @@ enum Command {
         /// Largest request (bytes).
         #[arg(long, default_value_t = 16 * 1024 * 1024)]
         max_message_bytes: usize,
-        /// A session's lease (s): one unused this long is ended (its client
-        /// is gone); every call, or an explicit KeepAlive, renews it.
-        #[arg(long, default_value_t = 30)]
-        idle_timeout_s: u64,
+        /// End a session unused this long (s), whatever its connection
+        /// does; every call, or an explicit KeepAlive, renews it. Off by
+        /// default: a session lives as long as the connection that made it.
+        #[arg(long, value_name = "SECONDS", alias = "idle-timeout-s")]
+        idle_timeout: Option<f64>,
+        /// HTTP/2 keepalive (s): the server pings each connection this
+        /// often and closes one that does not answer within it — its
+        /// sessions are then detached, as when the client closes.
+        #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
+        keepalive: f64,
+        /// How long a session outlives its closed connection (s): a client
+        /// that reconnects takes it back with Attach within this time.
+        #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+        attach_grace: f64,
+        /// A folder Init's map_path may read from (repeatable); by default
+        /// the folder the server is started in. Other paths are refused.
+        #[arg(long, value_name = "DIR")]
+        map_root: Vec<PathBuf>,
+        /// Every call (but health's) must carry `authorization: Bearer
+        /// <token>`, the token being this file's content.
+        #[arg(long, value_name = "FILE")]
+        auth_token_file: Option<PathBuf>,
+        /// Serve in plain text on an address that is not loopback (there
+        /// is no TLS: anyone who can reach the port sees the traffic).
+        #[arg(long)]
+        insecure: bool,
         /// Server worker threads; 0 = one per CPU. For lock-step latency run
         /// one worker and put server and client on one CPU (`taskset -c 0`
         /// for both): a wake-up on another CPU costs tens of µs on a VM.
@@ -413,6 +435,28 @@ fn main() -> std::process::ExitCode {
     }
 }
 
+/// A bearer token from a file (its content, trimmed); empty is an error.
+fn read_token(f: &std::path::Path) -> Result<String> {
+    let t =
+        std::fs::read_to_string(f).with_context(|| format!("--auth-token-file {}", f.display()))?;
+    let t = t.trim().to_string();
+    if t.is_empty() || !t.chars().all(|c| c.is_ascii_graphic()) {
+        anyhow::bail!(
+            "--auth-token-file {}: expected one token of printable ASCII characters",
+            f.display()
+        );
+    }
+    Ok(t)
+}
+
+/// The token this command sends to a litesim server
+/// (`LITESIM_TOKEN_FILE`), if any.
+pub(crate) fn client_token() -> Result<Option<String>> {
+    std::env::var_os("LITESIM_TOKEN_FILE")
+        .map(|f| read_token(std::path::Path::new(&f)))
+        .transpose()
+}
+
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Serve {
@@ -423,9 +467,27 @@ fn run(cli: Cli) -> Result<()> {
             max_sessions,
             max_actors,
             max_message_bytes,
-            idle_timeout_s,
+            idle_timeout,
+            keepalive,
+            attach_grace,
+            map_root,
+            auth_token_file,
+            insecure,
             workers,
         } => {
+            let auth_token = auth_token_file.map(|f| read_token(&f)).transpose()?;
+            let secs = |name: &str, v: f64| {
+                if v.is_finite() && v > 0.0 && v <= 86_400.0 {
+                    Ok(std::time::Duration::from_secs_f64(v))
+                } else {
+                    Err(anyhow::anyhow!(
+                        "--{name} {v}: expected seconds in (0, 86400]"
+                    ))
+                }
+            };
+            let idle_timeout = idle_timeout.map(|v| secs("idle-timeout", v)).transpose()?;
+            let keepalive = secs("keepalive", keepalive)?;
+            let attach_grace = secs("attach-grace", attach_grace)?;
             // Fail early, before binding, on names that cannot work.
             litesim_ssp::model_by_name(&model).map_err(|e| anyhow::anyhow!(e.message))?;
             litesim_ssp::Profile::builtin(&profile).map_err(|e| anyhow::anyhow!(e.message))?;
@@ -437,10 +499,15 @@ fn run(cli: Cli) -> Result<()> {
                     max_actors,
                     ..litesim_ssp::SessionLimits::default()
                 },
-                idle_timeout: std::time::Duration::from_secs(idle_timeout_s),
+                idle_timeout,
+                keepalive,
+                attach_grace,
+                map_roots: map_root,
+                auth_token,
                 max_message_bytes,
                 trace_rpc,
             };
+            let cfg_has_token = cfg.auth_token.is_some();
             let mut rt = tokio::runtime::Builder::new_multi_thread();
             if workers > 0 {
                 rt.worker_threads(workers);
@@ -451,6 +518,17 @@ fn run(cli: Cli) -> Result<()> {
                     .await
                     .with_context(|| format!("cannot bind {addr}"))?;
                 let local = listener.local_addr()?;
+                if !local.ip().is_loopback() {
+                    if !insecure {
+                        anyhow::bail!(
+                            "refusing to serve on {local}: it is not loopback, and litesim serves gRPC without TLS (not implemented yet), so anyone who can reach the port could read and drive the sessions; bind 127.0.0.1 and tunnel, or pass --insecure to serve in plain text anyway"
+                        );
+                    }
+                    eprintln!(
+                        "litesim: --insecure: serving in plain text on {local}; calls and maps cross the network unencrypted{}",
+                        if cfg_has_token { "" } else { ", and without --auth-token-file anyone who reaches the port can drive it" }
+                    );
+                }
                 println!("litesim: serving the SSP API on {local} (health, reflection on)");
                 std::io::stdout().flush()?;
                 litesim_grpc::serve(listener, cfg, async {
@@ -470,7 +548,8 @@ fn run(cli: Cli) -> Result<()> {
         }
         Command::Client { addr, opts } => {
             let mut c =
-                litesim_grpc::RemoteSsp::connect(&addr).map_err(|e| anyhow::anyhow!(e.message))?;
+                litesim_grpc::RemoteSsp::connect_with_token(&addr, client_token()?.as_deref())
+                    .map_err(|e| anyhow::anyhow!(e.message))?;
             demo::run(&mut c, &opts, &format!("gRPC {addr}"))
         }
         Command::Profiles { name: None } => {

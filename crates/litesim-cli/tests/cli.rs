@@ -1076,3 +1076,62 @@ fn a_carla_scenario_checks_and_runs_as_written() {
         .unwrap();
     assert_eq!(out.status.code(), Some(64));
 }
+
+#[test]
+fn serve_refuses_a_public_address_without_insecure_and_runs_need_its_token() {
+    // Not loopback, no TLS, no --insecure: refused before serving, saying why.
+    let out = litesim()
+        .args(["serve", "--addr", "0.0.0.0:0"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("not loopback") && err.contains("--insecure"),
+        "{err}"
+    );
+    // With --insecure it serves, and says what that means.
+    let mut child = litesim()
+        .args(["serve", "--addr", "0.0.0.0:0", "--insecure"])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stderr.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(line.contains("--insecure: serving in plain text"), "{line}");
+    // A server with a token: a run over gRPC without it is refused, with
+    // it (LITESIM_TOKEN_FILE) it runs.
+    let dir = tempfile::tempdir().unwrap();
+    let token = dir.path().join("token");
+    std::fs::write(&token, "tok-123\n").unwrap();
+    let server = serve(&["--auth-token-file", token.to_str().unwrap()]);
+    let sim = format!("grpc://{}", server.addr);
+    let run = |with: bool| {
+        let mut c = litesim();
+        c.current_dir(workspace())
+            .args([
+                "run",
+                "examples/scenarios/cut_in.osc",
+                "--no-pictures",
+                "--sim",
+                &sim,
+                "-o",
+            ])
+            .arg(dir.path().join("out"));
+        if with {
+            c.env("LITESIM_TOKEN_FILE", &token);
+        }
+        c.output().unwrap()
+    };
+    let o = run(false);
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("Bearer"), "{err}");
+    let o = run(true);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

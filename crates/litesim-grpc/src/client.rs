@@ -12,10 +12,28 @@ use litesim_ssp::*;
 use std::collections::BTreeMap;
 use tonic::transport::Channel;
 
+/// Adds `authorization: Bearer <token>` to every call when the client
+/// has a token.
+#[derive(Clone, Debug, Default)]
+pub struct Bearer(Option<tonic::metadata::MetadataValue<tonic::metadata::Ascii>>);
+
+impl tonic::service::Interceptor for Bearer {
+    fn call(&mut self, mut req: tonic::Request<()>) -> Result<tonic::Request<()>, tonic::Status> {
+        if let Some(v) = &self.0 {
+            req.metadata_mut().insert("authorization", v.clone());
+        }
+        Ok(req)
+    }
+}
+
+/// The generated client as a [`RemoteSsp`] holds it.
+pub type RawClient =
+    SimulatorSupportClient<tonic::service::interceptor::InterceptedService<Channel, Bearer>>;
+
 /// The SSP API over gRPC.
 pub struct RemoteSsp {
     rt: tokio::runtime::Runtime,
-    client: SimulatorSupportClient<Channel>,
+    client: RawClient,
     session_id: String,
     /// `shutdown` was sent.
     closed: bool,
@@ -40,6 +58,18 @@ impl std::fmt::Debug for RemoteSsp {
 impl RemoteSsp {
     /// Connects to `addr` (`http://127.0.0.1:50051` or `127.0.0.1:50051`).
     pub fn connect(addr: &str) -> SspResult<Self> {
+        Self::connect_with_token(addr, None)
+    }
+
+    /// [`RemoteSsp::connect`] to a server that wants a token
+    /// (`litesim serve --auth-token-file`): every call carries it.
+    pub fn connect_with_token(addr: &str, token: Option<&str>) -> SspResult<Self> {
+        let bearer = match token {
+            Some(t) => Bearer(Some(format!("Bearer {t}").parse().map_err(|_| {
+                SspError::invalid("the token must be printable ASCII without line breaks")
+            })?)),
+            None => Bearer(None),
+        };
         let uri = if addr.contains("://") {
             addr.to_string()
         } else {
@@ -64,7 +94,7 @@ impl RemoteSsp {
                     )
                 })
         })?;
-        let client = SimulatorSupportClient::new(channel)
+        let client = SimulatorSupportClient::with_interceptor(channel, bearer)
             .max_decoding_message_size(usize::MAX)
             .max_encoding_message_size(usize::MAX);
         Ok(Self {
@@ -81,12 +111,7 @@ impl RemoteSsp {
     }
 
     /// The raw tonic client, e.g. to open a `StepStream`.
-    pub fn raw(
-        &mut self,
-    ) -> (
-        &tokio::runtime::Runtime,
-        &mut SimulatorSupportClient<Channel>,
-    ) {
+    pub fn raw(&mut self) -> (&tokio::runtime::Runtime, &mut RawClient) {
         (&self.rt, &mut self.client)
     }
 
@@ -101,6 +126,23 @@ impl RemoteSsp {
             .block_on(self.client.keep_alive(req))
             .map_err(crate::convert::error)?;
         Ok(std::time::Duration::from_millis(r.into_inner().lease_ms))
+    }
+
+    /// Takes back session `id` after a reconnect (it was detached when
+    /// its connection closed; the server keeps it for its grace period,
+    /// 30 s by default); this client then drives it. Returns its
+    /// simulated time (ms).
+    pub fn attach(&mut self, id: &str) -> SspResult<u64> {
+        let req = pb::AttachRequest {
+            session_id: id.to_string(),
+        };
+        let r = self
+            .rt
+            .block_on(self.client.attach(req))
+            .map_err(crate::convert::error)?;
+        self.session_id = id.to_string();
+        self.closed = false;
+        Ok(r.into_inner().sim_time_ms)
     }
 
     /// Asks the server to pace this session's steps to the wall clock

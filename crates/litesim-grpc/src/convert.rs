@@ -707,6 +707,8 @@ pub fn status(e: SspError) -> tonic::Status {
         E::Aborted => tonic::Code::Aborted,
         E::Unavailable => tonic::Code::Unavailable,
         E::Internal => tonic::Code::Internal,
+        E::PermissionDenied => tonic::Code::PermissionDenied,
+        E::Unauthenticated => tonic::Code::Unauthenticated,
     };
     tonic::Status::new(code, e.message)
 }
@@ -724,6 +726,8 @@ pub fn error(s: tonic::Status) -> SspError {
         tonic::Code::ResourceExhausted => E::ResourceExhausted,
         tonic::Code::Aborted | tonic::Code::Cancelled => E::Aborted,
         tonic::Code::Unavailable => E::Unavailable,
+        tonic::Code::PermissionDenied => E::PermissionDenied,
+        tonic::Code::Unauthenticated => E::Unauthenticated,
         _ => E::Internal,
     };
     SspError::new(code, s.message().to_string())

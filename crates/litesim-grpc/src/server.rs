@@ -1,9 +1,21 @@
 //! The tonic server: many independent Model SSP sessions behind one socket.
 //!
-//! * Each `Init` creates a session; every later call names it. Sessions end
-//!   on `Shutdown`, when their `StepStream` closes, when they sit idle longer
-//!   than [`ServerConfig::idle_timeout`] (a client that disappeared), or a
-//!   short grace period after `EndSimulation`.
+//! * Each `Init` creates a session; every later call names it. A session
+//!   belongs to the connection that created it: while that connection is
+//!   open it is never reclaimed, however long it idles. When the
+//!   connection closes (the client exited or was killed: at once; the
+//!   network dropped: within the HTTP/2 keepalive timeout) its sessions are
+//!   detached — they no longer count against `--max-sessions` — and freed
+//!   after [`ServerConfig::attach_grace`] unless a client takes one back
+//!   with `Attach`. Sessions also end on `Shutdown`, a short while after
+//!   `EndSimulation`, and, when the server sets one, after
+//!   [`ServerConfig::idle_timeout`] unused.
+//! * A session that is gone is answered NOT_FOUND with how it ended (shut
+//!   down, freed when its connection closed at a time, expired), and "never
+//!   created" only for ids this server never issued.
+//! * `Init` reads a `map_path` only from under the server's map roots
+//!   (symbolic links and `..` resolved first); any other path is refused
+//!   with one PERMISSION_DENIED message, whether or not the file exists.
 //! * Limits on sessions, actors, trajectory points, steps per call and
 //!   message size answer `RESOURCE_EXHAUSTED`; a bad request never affects
 //!   another session.
@@ -37,9 +49,21 @@ pub struct ServerConfig {
     pub max_sessions: usize,
     /// Per-session limits.
     pub limits: SessionLimits,
-    /// A session unused this long is ended (its client is gone): the
-    /// lease every call — or an explicit `KeepAlive` — renews.
-    pub idle_timeout: Duration,
+    /// A session unused this long is ended: the lease every call — or an
+    /// explicit `KeepAlive` — renews. Off (`None`) by default: sessions
+    /// live as long as their connection.
+    pub idle_timeout: Option<Duration>,
+    /// HTTP/2 keepalive: pings every this long, and a connection that
+    /// does not answer one within it is closed (its sessions detached).
+    pub keepalive: Duration,
+    /// How long a session outlives its closed connection, for `Attach`.
+    pub attach_grace: Duration,
+    /// The folders `Init`'s `map_path` may read from (empty: the folder
+    /// the server was started in).
+    pub map_roots: Vec<PathBuf>,
+    /// Every call but health's must carry `authorization: Bearer <this>`
+    /// (UNAUTHENTICATED otherwise).
+    pub auth_token: Option<String>,
     /// Largest request accepted (bytes).
     pub max_message_bytes: usize,
     /// JSON-lines trace of every call.
@@ -53,15 +77,63 @@ impl Default for ServerConfig {
             default_model: "dummy".into(),
             max_sessions: 64,
             limits: SessionLimits::default(),
-            idle_timeout: Duration::from_secs(30),
+            idle_timeout: None,
+            keepalive: Duration::from_secs(10),
+            attach_grace: Duration::from_secs(30),
+            map_roots: Vec::new(),
+            auth_token: None,
             max_message_bytes: 16 * 1024 * 1024,
             trace_rpc: None,
         }
     }
 }
 
+/// Who holds a session.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Owner {
+    /// The open connection with this id.
+    Conn(u64),
+    /// Its connection closed at this instant (server time, s): it waits
+    /// for an `Attach`.
+    Detached(Instant, f64),
+    /// Made without a connection (the service called in-process).
+    Local,
+}
+
+/// How a session ended: what NOT_FOUND says of it.
+#[derive(Clone, Debug)]
+enum Ended {
+    Shutdown(f64),
+    ConnectionClosed(f64),
+    Idle(f64),
+    AfterEnd(f64),
+}
+
+impl Ended {
+    fn say(&self, id: &str) -> String {
+        match self {
+            Ended::Shutdown(t) => {
+                format!("session '{id}' was closed by Shutdown at t = {t:.1} s (server time)")
+            }
+            Ended::ConnectionClosed(t) => format!(
+                "session '{id}' was freed when its connection closed at t = {t:.1} s (server time) and no client attached it within the grace period"
+            ),
+            Ended::Idle(t) => format!(
+                "session '{id}' expired at t = {t:.1} s (server time): unused longer than the server's --idle-timeout"
+            ),
+            Ended::AfterEnd(t) => format!(
+                "session '{id}' was freed at t = {t:.1} s (server time), after EndSimulation"
+            ),
+        }
+    }
+}
+
+/// Most ended sessions remembered for NOT_FOUND's answer.
+const ENDED_KEPT: usize = 1_000_000;
+
 struct Slot {
     session: Mutex<Session>,
+    owner: Mutex<Owner>,
     last_used: Mutex<Instant>,
     streaming: AtomicBool,
     /// Paced stepping: the wall-clock instant and simulated time (ms) the
@@ -72,6 +144,12 @@ struct Slot {
 struct Inner {
     cfg: ServerConfig,
     sessions: Mutex<BTreeMap<String, Arc<Slot>>>,
+    /// Ended sessions and how (at most [`ENDED_KEPT`], oldest dropped).
+    ended: Mutex<(BTreeMap<String, Ended>, std::collections::VecDeque<String>)>,
+    /// Connections open now.
+    open_conns: Mutex<std::collections::BTreeSet<u64>>,
+    /// The map roots, resolved.
+    roots: Vec<PathBuf>,
     next_id: AtomicU64,
     started: Instant,
     trace: Option<Mutex<std::io::BufWriter<std::fs::File>>>,
@@ -101,10 +179,26 @@ impl SspService {
             )?))),
             None => None,
         };
+        let roots = if cfg.map_roots.is_empty() {
+            vec![std::env::current_dir()?]
+        } else {
+            cfg.map_roots.clone()
+        };
+        let roots = roots
+            .iter()
+            .map(|r| {
+                std::fs::canonicalize(r).map_err(|e| {
+                    std::io::Error::new(e.kind(), format!("map root {}: {e}", r.display()))
+                })
+            })
+            .collect::<std::io::Result<Vec<_>>>()?;
         Ok(Self {
             inner: Arc::new(Inner {
                 cfg,
                 sessions: Mutex::new(BTreeMap::new()),
+                ended: Mutex::new(Default::default()),
+                open_conns: Mutex::new(Default::default()),
+                roots,
                 next_id: AtomicU64::new(1),
                 started: Instant::now(),
                 trace,
@@ -117,20 +211,133 @@ impl SspService {
         lock(&self.inner.sessions).len()
     }
 
-    /// Ends sessions idle longer than the timeout, or ended more than 10 s ago.
+    /// Ends detached sessions past their grace, sessions ended by
+    /// `EndSimulation` more than 10 s ago, and (with an idle timeout)
+    /// sessions unused longer than it; as of `now`.
+    pub fn reap_at(&self, now: Instant) -> usize {
+        let t = self.server_time(now);
+        let mut gone = Vec::new();
+        {
+            let mut sessions = lock(&self.inner.sessions);
+            sessions.retain(|id, slot| {
+                let why = self.why_reaped(slot, now, t);
+                if let Some(w) = why.clone() {
+                    gone.push((id.clone(), w));
+                }
+                why.is_none()
+            });
+        }
+        let n = gone.len();
+        for (id, why) in gone {
+            self.bury(id, why);
+        }
+        n
+    }
+
+    /// [`SspService::reap_at`] now.
     pub fn reap(&self) -> usize {
-        let now = Instant::now();
-        let mut sessions = lock(&self.inner.sessions);
-        let before = sessions.len();
-        sessions.retain(|_, slot| {
-            if slot.streaming.load(Ordering::SeqCst) {
-                return true;
+        self.reap_at(Instant::now())
+    }
+
+    /// Why a session is reaped at `now` (server time `t`), if it is.
+    fn why_reaped(&self, slot: &Slot, now: Instant, t: f64) -> Option<Ended> {
+        if let Owner::Detached(since, _) = *lock(&slot.owner)
+            && now.saturating_duration_since(since) >= self.inner.cfg.attach_grace
+        {
+            return Some(Ended::ConnectionClosed(self.server_time(since)));
+        }
+        if slot.streaming.load(Ordering::SeqCst) {
+            return None;
+        }
+        let idle = now.saturating_duration_since(*lock(&slot.last_used));
+        if lock(&slot.session).phase() == litesim_ssp::Phase::Ended
+            && idle > Duration::from_secs(10)
+        {
+            return Some(Ended::AfterEnd(t));
+        }
+        match self.inner.cfg.idle_timeout {
+            Some(lease) if idle >= lease => Some(Ended::Idle(t)),
+            _ => None,
+        }
+    }
+
+    /// Seconds since the server started, at `at`.
+    fn server_time(&self, at: Instant) -> f64 {
+        at.saturating_duration_since(self.inner.started)
+            .as_secs_f64()
+    }
+
+    /// Remembers how session `id` ended (the oldest record goes past
+    /// [`ENDED_KEPT`]).
+    fn bury(&self, id: String, why: Ended) {
+        let mut g = lock(&self.inner.ended);
+        let (map, order) = &mut *g;
+        if map.insert(id.clone(), why).is_none() {
+            order.push_back(id);
+        }
+        while order.len() > ENDED_KEPT {
+            if let Some(old) = order.pop_front() {
+                map.remove(&old);
             }
-            let idle = now.duration_since(*lock(&slot.last_used));
-            let ended = lock(&slot.session).phase() == litesim_ssp::Phase::Ended;
-            idle < self.inner.cfg.idle_timeout && !(ended && idle > Duration::from_secs(10))
-        });
-        before - sessions.len()
+        }
+    }
+
+    /// A connection opened.
+    pub fn connection_opened(&self, conn: u64) {
+        lock(&self.inner.open_conns).insert(conn);
+    }
+
+    /// A connection closed: its sessions are detached (freed after the
+    /// grace period unless attached again).
+    pub fn connection_closed(&self, conn: u64) {
+        lock(&self.inner.open_conns).remove(&conn);
+        let now = Instant::now();
+        let t = self.server_time(now);
+        for slot in lock(&self.inner.sessions).values() {
+            let mut o = lock(&slot.owner);
+            if *o == Owner::Conn(conn) {
+                *o = Owner::Detached(now, t);
+            }
+        }
+    }
+
+    /// Sessions held by open connections or in-process callers (what
+    /// `--max-sessions` counts), and of those, held by `conn`.
+    fn held(&self, conn: Option<u64>) -> (usize, usize) {
+        let sessions = lock(&self.inner.sessions);
+        let mut n = (0, 0);
+        for slot in sessions.values() {
+            match *lock(&slot.owner) {
+                Owner::Detached(..) => {}
+                o => {
+                    n.0 += 1;
+                    if conn.is_some_and(|c| o == Owner::Conn(c)) {
+                        n.1 += 1;
+                    }
+                }
+            }
+        }
+        n
+    }
+
+    /// Frees the detached session that has waited longest (to make room).
+    fn evict_detached(&self) -> bool {
+        let victim = {
+            let sessions = lock(&self.inner.sessions);
+            sessions
+                .iter()
+                .filter_map(|(id, slot)| match *lock(&slot.owner) {
+                    Owner::Detached(since, t) => Some((since, t, id.clone())),
+                    _ => None,
+                })
+                .min_by(|a, b| a.0.cmp(&b.0).then_with(|| a.2.cmp(&b.2)))
+        };
+        let Some((_, t, id)) = victim else {
+            return false;
+        };
+        lock(&self.inner.sessions).remove(&id);
+        self.bury(id, Ended::ConnectionClosed(t));
+        true
     }
 
     /// Writes one trace line (no-op without a trace file).
@@ -156,14 +363,42 @@ impl SspService {
         if session_id.is_empty() {
             return Err(SspError::invalid("session_id is missing"));
         }
-        lock(&self.inner.sessions)
-            .get(session_id)
-            .cloned()
-            .ok_or_else(|| {
-                SspError::not_found(format!(
-                    "no session '{session_id}' (never created, shut down or expired)"
-                ))
-            })
+        let slot = lock(&self.inner.sessions).get(session_id).cloned();
+        let Some(slot) = slot else {
+            return Err(SspError::not_found(self.gone(session_id)));
+        };
+        if let Owner::Detached(_, t) = *lock(&slot.owner) {
+            return Err(SspError::precondition(format!(
+                "session '{session_id}' was detached when its connection closed at t = {t:.1} s (server time): Attach it to go on (within {} s of the close)",
+                self.inner.cfg.attach_grace.as_secs_f64()
+            )));
+        }
+        Ok(slot)
+    }
+
+    /// NOT_FOUND's words for a session that is not here.
+    fn gone(&self, id: &str) -> String {
+        if let Some(e) = lock(&self.inner.ended).0.get(id) {
+            return format!("no session: {}", e.say(id));
+        }
+        // Ids are `sNNNNNN-xxxxxxxx`, N counting up: one this server never
+        // reached was never created; an older one it no longer remembers
+        // (past the last million) is said so.
+        let n = id
+            .strip_prefix('s')
+            .and_then(|r| r.split('-').next())
+            .and_then(|d| d.parse::<u64>().ok());
+        match n {
+            Some(n)
+                if n < self.inner.next_id.load(Ordering::SeqCst)
+                    && lock(&self.inner.ended).1.len() >= ENDED_KEPT =>
+            {
+                format!(
+                    "no session '{id}': not created by this server, or ended longer ago than the last {ENDED_KEPT} sessions it remembers"
+                )
+            }
+            _ => format!("no session '{id}': never created by this server"),
+        }
     }
 
     /// Runs `f` on a session, traces the call and maps errors to statuses.
@@ -208,11 +443,16 @@ impl SspService {
         }
     }
 
-    fn init_session(&self, r: pb::InitRequest) -> SspResult<litesim_ssp::InitResponse> {
-        let map = r.map.map(|m| match m {
-            pb::init_request::Map::MapPath(p) => p,
-            pb::init_request::Map::MapXodr(x) => x,
-        });
+    fn init_session(
+        &self,
+        r: pb::InitRequest,
+        conn: Option<u64>,
+    ) -> SspResult<litesim_ssp::InitResponse> {
+        let map = match r.map {
+            Some(pb::init_request::Map::MapPath(p)) => Some(self.map_under_roots(&p)?),
+            Some(pb::init_request::Map::MapXodr(x)) => Some(x),
+            None => None,
+        };
         let req = litesim_ssp::InitRequest {
             client_name: r.client_name,
             step_size_ms: r.step_size_ms,
@@ -240,16 +480,20 @@ impl SspService {
         );
         let result = (|| {
             // At the limit, sessions whose lease ran out go first (the
-            // periodic reaper may not have come round yet).
-            if lock(&self.inner.sessions).len() >= self.inner.cfg.max_sessions {
+            // periodic reaper may not have come round yet); detached
+            // sessions do not count, but they are freed (longest waiting
+            // first) when the whole table would grow past twice the limit.
+            let max = self.inner.cfg.max_sessions;
+            if self.held(conn).0 >= max {
                 self.reap();
             }
-            if lock(&self.inner.sessions).len() >= self.inner.cfg.max_sessions {
+            let (held, mine) = self.held(conn);
+            if held >= max {
                 return Err(SspError::exhausted(format!(
-                    "the server already runs {} sessions (the limit); shut one down first",
-                    self.inner.cfg.max_sessions
+                    "the server already holds {held} sessions, its limit (--max-sessions {max}); {mine} of them belong to this connection: shut one down first"
                 )));
             }
+            while lock(&self.inner.sessions).len() >= 2 * max.max(1) && self.evict_detached() {}
             let mut resp = session.init(req)?;
             let n = self.inner.next_id.fetch_add(1, Ordering::SeqCst);
             let id = format!(
@@ -257,14 +501,27 @@ impl SspService {
                 (self.inner.started.elapsed().as_nanos() as u64 ^ n.wrapping_mul(0x9e37_79b9))
                     & 0xffff_ffff
             );
-            let mut sessions = lock(&self.inner.sessions);
-            if sessions.len() >= self.inner.cfg.max_sessions {
-                return Err(SspError::exhausted("session limit reached"));
+            // A connection that closed while the map loaded leaves its
+            // session detached at once.
+            let owner = match conn {
+                Some(c) if lock(&self.inner.open_conns).contains(&c) => Owner::Conn(c),
+                Some(_) => {
+                    let now = Instant::now();
+                    Owner::Detached(now, self.server_time(now))
+                }
+                None => Owner::Local,
+            };
+            if self.held(conn).0 >= max {
+                return Err(SspError::exhausted(format!(
+                    "the server already holds {max} sessions, its limit (--max-sessions {max})"
+                )));
             }
+            let mut sessions = lock(&self.inner.sessions);
             sessions.insert(
                 id.clone(),
                 Arc::new(Slot {
                     session: Mutex::new(std::mem::take(&mut session)),
+                    owner: Mutex::new(owner),
                     last_used: Mutex::new(Instant::now()),
                     streaming: AtomicBool::new(false),
                     pacing: Mutex::new(None),
@@ -378,8 +635,9 @@ impl SimulatorSupport for SspService {
         // a slow or huge map never holds up other clients' calls, and with
         // a deadline.
         let svc = self.clone();
+        let conn = conn_of(&req);
         let r = req.into_inner();
-        let job = tokio::task::spawn_blocking(move || svc.init_session(r));
+        let job = tokio::task::spawn_blocking(move || svc.init_session(r, conn));
         let resp = match tokio::time::timeout(INIT_TIMEOUT, job).await {
             Ok(Ok(res)) => res.map_err(cv::status)?,
             Ok(Err(e)) => return Err(Status::internal(format!("init failed: {e}"))),
@@ -407,8 +665,44 @@ impl SimulatorSupport for SspService {
         let id = req.into_inner().session_id;
         self.with(&id, "keep_alive", || Value::Null, false, |_| Ok(()))?;
         Ok(Response::new(pb::KeepAliveResponse {
-            lease_ms: self.inner.cfg.idle_timeout.as_millis() as u64,
+            lease_ms: self
+                .inner
+                .cfg
+                .idle_timeout
+                .map_or(0, |d| d.as_millis() as u64),
         }))
+    }
+
+    async fn attach(
+        &self,
+        req: Request<pb::AttachRequest>,
+    ) -> Result<Response<pb::AttachResponse>, Status> {
+        let conn = conn_of(&req);
+        let id = req.into_inner().session_id;
+        let slot = lock(&self.inner.sessions).get(&id).cloned();
+        let result = match slot {
+            None => Err(SspError::not_found(self.gone(&id))),
+            Some(slot) => {
+                let mut o = lock(&slot.owner);
+                match (*o, conn) {
+                    (Owner::Conn(c), Some(me))
+                        if c != me && lock(&self.inner.open_conns).contains(&c) =>
+                    {
+                        Err(SspError::precondition(format!(
+                            "session '{id}' belongs to another open connection"
+                        )))
+                    }
+                    _ => {
+                        *o = conn.map_or(Owner::Local, Owner::Conn);
+                        *lock(&slot.last_used) = Instant::now();
+                        Ok(lock(&slot.session).sim_time_ms())
+                    }
+                }
+            }
+        };
+        self.trace(&id, "attach", Value::Null, &result);
+        let sim_time_ms = result.map_err(cv::status)?;
+        Ok(Response::new(pb::AttachResponse { sim_time_ms }))
     }
 
     async fn set_pacing(
@@ -438,9 +732,16 @@ impl SimulatorSupport for SspService {
     ) -> Result<Response<pb::ShutdownResponse>, Status> {
         let id = req.into_inner().session_id;
         let removed = lock(&self.inner.sessions).remove(&id);
-        let result = removed
-            .map(|_| Value::Null)
-            .ok_or_else(|| SspError::not_found(format!("no session '{id}'")));
+        let result = match removed {
+            Some(_) => {
+                self.bury(
+                    id.clone(),
+                    Ended::Shutdown(self.server_time(Instant::now())),
+                );
+                Ok(Value::Null)
+            }
+            None => Err(SspError::not_found(self.gone(&id))),
+        };
         self.trace(&id, "shutdown", Value::Null, &result);
         result.map_err(cv::status)?;
         Ok(Response::new(pb::ShutdownResponse {}))
@@ -671,8 +972,9 @@ impl SimulatorSupport for SspService {
                 }
             }
             // The stream owned the session: it ends with the stream.
-            if !session_id.is_empty() {
-                lock(&svc.inner.sessions).remove(&session_id);
+            if !session_id.is_empty() && lock(&svc.inner.sessions).remove(&session_id).is_some() {
+                let t = svc.server_time(Instant::now());
+                svc.bury(session_id, Ended::Shutdown(t));
             }
         });
         Ok(Response::new(Box::pin(
@@ -927,6 +1229,176 @@ pub const FILE_DESCRIPTOR_SET: &[u8] =
 /// Lock-step traffic is many tiny messages: without TCP_NODELAY, Nagle and
 /// delayed ACKs add tens of milliseconds per call. The tonic builder's own
 /// nodelay setting applies only to listeners it binds itself.
+/// Checks each call's `authorization: Bearer <token>` against the
+/// server's token (every call passes when it has none).
+#[derive(Clone)]
+struct BearerCheck {
+    expected: Option<Arc<str>>,
+}
+
+impl tonic::service::Interceptor for BearerCheck {
+    fn call(&mut self, req: Request<()>) -> Result<Request<()>, Status> {
+        let Some(want) = &self.expected else {
+            return Ok(req);
+        };
+        let given = req
+            .metadata()
+            .get("authorization")
+            .and_then(|v| v.to_str().ok())
+            .and_then(|v| v.strip_prefix("Bearer "))
+            .unwrap_or("");
+        // Compared in time independent of where they differ.
+        let same = given.len() == want.len()
+            && given
+                .bytes()
+                .zip(want.bytes())
+                .fold(0u8, |acc, (a, b)| acc | (a ^ b))
+                == 0;
+        if same {
+            Ok(req)
+        } else {
+            Err(Status::unauthenticated(
+                "this server needs `authorization: Bearer <token>` on every call (litesim serve --auth-token-file)",
+            ))
+        }
+    }
+}
+
+/// The connection a request came on (none when the service is called
+/// without one).
+fn conn_of<T>(req: &Request<T>) -> Option<u64> {
+    req.extensions().get::<ConnId>().map(|c| c.0)
+}
+
+/// A connection's number, in each request's extensions.
+#[derive(Clone, Copy, Debug)]
+pub struct ConnId(pub u64);
+
+/// An accepted TCP connection that tells the service when it closes
+/// (hyper drops it when the client closes, is killed, or misses the
+/// keepalive).
+struct TrackedConn {
+    io: tokio::net::TcpStream,
+    id: u64,
+    svc: SspService,
+}
+
+impl Drop for TrackedConn {
+    fn drop(&mut self) {
+        self.svc.connection_closed(self.id);
+    }
+}
+
+impl tonic::transport::server::Connected for TrackedConn {
+    type ConnectInfo = ConnId;
+    fn connect_info(&self) -> ConnId {
+        ConnId(self.id)
+    }
+}
+
+impl tokio::io::AsyncRead for TrackedConn {
+    fn poll_read(
+        mut self: Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &mut tokio::io::ReadBuf<'_>,
+    ) -> std::task::Poll<std::io::Result<()>> {
+        Pin::new(&mut self.io).poll_read(cx, buf)
+    }
+}
+
+impl tokio::io::AsyncWrite for TrackedConn {
+    fn poll_write(
+        mut self: Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        buf: &[u8],
+    ) -> std::task::Poll<std::io::Result<usize>> {
+        Pin::new(&mut self.io).poll_write(cx, buf)
+    }
+    fn poll_flush(
+        mut self: Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<std::io::Result<()>> {
+        Pin::new(&mut self.io).poll_flush(cx)
+    }
+    fn poll_shutdown(
+        mut self: Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+    ) -> std::task::Poll<std::io::Result<()>> {
+        Pin::new(&mut self.io).poll_shutdown(cx)
+    }
+    fn poll_write_vectored(
+        mut self: Pin<&mut Self>,
+        cx: &mut std::task::Context<'_>,
+        bufs: &[std::io::IoSlice<'_>],
+    ) -> std::task::Poll<std::io::Result<usize>> {
+        Pin::new(&mut self.io).poll_write_vectored(cx, bufs)
+    }
+    fn is_write_vectored(&self) -> bool {
+        self.io.is_write_vectored()
+    }
+}
+
+/// Accepted connections, numbered and tracked by `svc`.
+fn tracked_incoming(
+    listener: tokio::net::TcpListener,
+    svc: SspService,
+) -> impl tokio_stream::Stream<Item = std::io::Result<TrackedConn>> {
+    let next = AtomicU64::new(1);
+    nodelay_incoming(listener).map(move |conn| {
+        conn.map(|io| {
+            let id = next.fetch_add(1, Ordering::SeqCst);
+            svc.connection_opened(id);
+            TrackedConn {
+                io,
+                id,
+                svc: svc.clone(),
+            }
+        })
+    })
+}
+
+impl SspService {
+    /// `path` resolved (symbolic links, `..`) if it lies under one of the
+    /// map roots; otherwise PERMISSION_DENIED with one message whether or
+    /// not the file exists (the server is no oracle for its disk).
+    fn map_under_roots(&self, path: &str) -> SspResult<String> {
+        let roots = &self.inner.roots;
+        let refused = || {
+            SspError::new(
+                litesim_ssp::ErrorCode::PermissionDenied,
+                format!(
+                    "map_path is not under the server's map roots ({}); send the map inline (map_xodr), or start the server with --map-root",
+                    roots
+                        .iter()
+                        .map(|r| r.display().to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+        };
+        let p = std::path::Path::new(path);
+        // Relative paths are taken from the first root.
+        let p = if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            roots.first().map_or(p.to_path_buf(), |r| r.join(p))
+        };
+        let under = |q: &std::path::Path| roots.iter().any(|r| q.starts_with(r));
+        match std::fs::canonicalize(&p) {
+            Ok(real) if under(&real) => Ok(real.display().to_string()),
+            Ok(_) => Err(refused()),
+            // A file that does not exist is "not found" only where its
+            // folder resolves under a root; elsewhere the same refusal.
+            Err(_) => match p.parent().map(std::fs::canonicalize) {
+                Some(Ok(dir)) if under(&dir) => Err(SspError::not_found(format!(
+                    "map_path {path}: no such file under the map root"
+                ))),
+                _ => Err(refused()),
+            },
+        }
+    }
+}
+
 pub(crate) fn nodelay_incoming(
     listener: tokio::net::TcpListener,
 ) -> impl tokio_stream::Stream<Item = std::io::Result<tokio::net::TcpStream>> {
@@ -945,7 +1417,12 @@ pub async fn serve(
     shutdown: impl std::future::Future<Output = ()> + Send,
 ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let max = cfg.max_message_bytes;
+    let keepalive = cfg.keepalive;
+    let check = BearerCheck {
+        expected: cfg.auth_token.as_deref().map(Arc::from),
+    };
     let svc = SspService::new(cfg)?;
+    let conns = svc.clone();
     let reaper = svc.clone();
     let reap_task = tokio::spawn(async move {
         let mut every = tokio::time::interval(Duration::from_secs(1));
@@ -965,14 +1442,23 @@ pub async fn serve(
             .register_encoded_file_descriptor_set(FILE_DESCRIPTOR_SET)
             .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
     };
-    let reflection = reflection_builder().build_v1()?;
-    let reflection_alpha = reflection_builder().build_v1alpha()?;
-    let ssp = SimulatorSupportServer::new(svc)
-        .max_decoding_message_size(max)
-        .max_encoding_message_size(usize::MAX);
-    let incoming = nodelay_incoming(listener);
+    // Health stays open (load balancers ask it); the API and reflection
+    // need the token when the server has one.
+    use tonic::service::interceptor::InterceptedService;
+    let reflection = InterceptedService::new(reflection_builder().build_v1()?, check.clone());
+    let reflection_alpha =
+        InterceptedService::new(reflection_builder().build_v1alpha()?, check.clone());
+    let ssp = InterceptedService::new(
+        SimulatorSupportServer::new(svc)
+            .max_decoding_message_size(max)
+            .max_encoding_message_size(usize::MAX),
+        check,
+    );
+    let incoming = tracked_incoming(listener, conns);
     let result = tonic::transport::Server::builder()
         .tcp_nodelay(true)
+        .http2_keepalive_interval(Some(keepalive))
+        .http2_keepalive_timeout(Some(keepalive))
         .layer(tower::util::MapResponseLayer::new(remap_oversize))
         .add_service(health)
         .add_service(reflection)

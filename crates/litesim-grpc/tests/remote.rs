@@ -649,8 +649,13 @@ fn huge_ids_get_bounded_answers_not_transport_errors() {
 
 #[test]
 fn odd_map_paths_are_refused_at_once_and_never_hold_up_others() {
-    let server = start(ServerConfig::default());
     let dir = tempfile::tempdir().unwrap();
+    // Odd files under the server's map roots (outside them nothing is
+    // opened at all: tests/sessions.rs).
+    let server = start(ServerConfig {
+        map_roots: vec![dir.path().to_path_buf(), "/dev".into()],
+        ..ServerConfig::default()
+    });
     let fifo = dir.path().join("map.fifo");
     assert!(
         std::process::Command::new("mkfifo")
@@ -723,24 +728,27 @@ fn nan_traffic_light_numbers_are_invalid_arguments_naming_the_field() {
 }
 
 #[test]
-fn sessions_of_vanished_clients_are_reclaimed_within_the_lease() {
+fn with_an_idle_timeout_silent_sessions_are_reclaimed_within_the_lease() {
     let lease = std::time::Duration::from_millis(800);
     let server = start(ServerConfig {
         max_sessions: 4,
-        idle_timeout: lease,
+        idle_timeout: Some(lease),
         ..ServerConfig::default()
     });
     // One client keeps its session with explicit keep-alives …
     let mut keeper = RemoteSsp::connect(&server.addr.to_string()).unwrap();
     keeper.init(InitRequest::default()).unwrap();
     assert_eq!(keeper.keep_alive().unwrap(), lease);
-    // … three vanish without a word (no Shutdown: as if killed).
+    // … three keep their connections open but fall silent (a hung client:
+    // the connection alone would keep their sessions; the lease does not).
+    let mut silent = Vec::new();
     for _ in 0..3 {
         // Init through the raw client: the RemoteSsp does not know the
-        // session, so dropping it closes the connection without Shutdown.
+        // session and never renews it.
         let mut c = RemoteSsp::connect(&server.addr.to_string()).unwrap();
         let (rt, raw) = c.raw();
         rt.block_on(raw.init(pb::InitRequest::default())).unwrap();
+        silent.push(c);
     }
     let mut fresh = RemoteSsp::connect(&server.addr.to_string()).unwrap();
     let e = fresh.init(InitRequest::default()).unwrap_err();

@@ -26,6 +26,10 @@ pub enum ErrorCode {
     Unavailable,
     /// A bug.
     Internal,
+    /// The caller may not do this (a map path outside the server's roots).
+    PermissionDenied,
+    /// The call lacks the server's token.
+    Unauthenticated,
 }
 
 /// An SSP error: a code and a message that names the field or state at fault.
