@@ -84,6 +84,10 @@ enum Command {
         /// <token>`, the token being this file's content.
         #[arg(long, value_name = "FILE")]
         auth_token_file: Option<PathBuf>,
+        /// Serve Prometheus metrics (`GET /metrics`: sessions open,
+        /// created, freed by cause, steps, call latencies) on this address.
+        #[arg(long, value_name = "ADDR")]
+        metrics: Option<std::net::SocketAddr>,
         /// Serve in plain text on an address that is not loopback (there
         /// is no TLS: anyone who can reach the port sees the traffic).
         #[arg(long)]
@@ -472,6 +476,7 @@ fn run(cli: Cli) -> Result<()> {
             attach_grace,
             map_root,
             auth_token_file,
+            metrics,
             insecure,
             workers,
         } => {
@@ -504,6 +509,7 @@ fn run(cli: Cli) -> Result<()> {
                 attach_grace,
                 map_roots: map_root,
                 auth_token,
+                metrics,
                 max_message_bytes,
                 trace_rpc,
             };

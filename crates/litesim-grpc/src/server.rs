@@ -64,6 +64,8 @@ pub struct ServerConfig {
     /// Every call but health's must carry `authorization: Bearer <this>`
     /// (UNAUTHENTICATED otherwise).
     pub auth_token: Option<String>,
+    /// Serve Prometheus text metrics (`GET /metrics`) on this address.
+    pub metrics: Option<std::net::SocketAddr>,
     /// Largest request accepted (bytes).
     pub max_message_bytes: usize,
     /// JSON-lines trace of every call.
@@ -82,6 +84,7 @@ impl Default for ServerConfig {
             attach_grace: Duration::from_secs(30),
             map_roots: Vec::new(),
             auth_token: None,
+            metrics: None,
             max_message_bytes: 16 * 1024 * 1024,
             trace_rpc: None,
         }
@@ -128,6 +131,56 @@ impl Ended {
     }
 }
 
+/// Upper bounds of the call-latency histogram's buckets (s).
+const LATENCY_BUCKETS: [f64; 11] = [
+    25e-6, 50e-6, 100e-6, 250e-6, 500e-6, 1e-3, 2.5e-3, 10e-3, 50e-3, 250e-3, 1.0,
+];
+
+/// One method's call latencies: counts per bucket (the last is +Inf),
+/// their sum.
+#[derive(Clone, Debug, Default)]
+struct Latency {
+    buckets: [u64; LATENCY_BUCKETS.len() + 1],
+    sum: f64,
+    count: u64,
+}
+
+/// What `--metrics` serves.
+#[derive(Default)]
+struct Metrics {
+    created: AtomicU64,
+    /// Freed by cause: Shutdown (or a StepStream's end), connection
+    /// closed, idle timeout, after EndSimulation.
+    freed: [AtomicU64; 4],
+    steps: AtomicU64,
+    calls: Mutex<BTreeMap<&'static str, Latency>>,
+}
+
+impl Metrics {
+    fn freed(&self, why: &Ended) {
+        let k = match why {
+            Ended::Shutdown(_) => 0,
+            Ended::ConnectionClosed(_) => 1,
+            Ended::Idle(_) => 2,
+            Ended::AfterEnd(_) => 3,
+        };
+        self.freed[k].fetch_add(1, Ordering::Relaxed);
+    }
+
+    fn call(&self, method: &'static str, took: Duration) {
+        let s = took.as_secs_f64();
+        let mut calls = lock(&self.calls);
+        let l = calls.entry(method).or_default();
+        let b = LATENCY_BUCKETS
+            .iter()
+            .position(|&le| s <= le)
+            .unwrap_or(LATENCY_BUCKETS.len());
+        l.buckets[b] += 1;
+        l.sum += s;
+        l.count += 1;
+    }
+}
+
 /// Most ended sessions remembered for NOT_FOUND's answer.
 const ENDED_KEPT: usize = 1_000_000;
 
@@ -150,6 +203,7 @@ struct Inner {
     open_conns: Mutex<std::collections::BTreeSet<u64>>,
     /// The map roots, resolved.
     roots: Vec<PathBuf>,
+    metrics: Metrics,
     next_id: AtomicU64,
     started: Instant,
     trace: Option<Mutex<std::io::BufWriter<std::fs::File>>>,
@@ -199,6 +253,7 @@ impl SspService {
                 ended: Mutex::new(Default::default()),
                 open_conns: Mutex::new(Default::default()),
                 roots,
+                metrics: Metrics::default(),
                 next_id: AtomicU64::new(1),
                 started: Instant::now(),
                 trace,
@@ -270,6 +325,7 @@ impl SspService {
     /// Remembers how session `id` ended (the oldest record goes past
     /// [`ENDED_KEPT`]).
     fn bury(&self, id: String, why: Ended) {
+        self.inner.metrics.freed(&why);
         let mut g = lock(&self.inner.ended);
         let (map, order) = &mut *g;
         if map.insert(id.clone(), why).is_none() {
@@ -405,7 +461,7 @@ impl SspService {
     fn with<R: Serialize>(
         &self,
         session_id: &str,
-        method: &str,
+        method: &'static str,
         args: impl FnOnce() -> Value,
         stepping: bool,
         f: impl FnOnce(&mut Session) -> SspResult<R>,
@@ -418,9 +474,17 @@ impl SspService {
                     "this session is driven by an open StepStream; unary stepping is refused",
                 ));
             }
-            *lock(&slot.last_used) = Instant::now();
+            let started = Instant::now();
+            *lock(&slot.last_used) = started;
             let mut s = lock(&slot.session);
-            f(&mut s)
+            let before = s.steps_executed();
+            let r = f(&mut s);
+            let m = &self.inner.metrics;
+            m.steps
+                .fetch_add(s.steps_executed() - before, Ordering::Relaxed);
+            drop(s);
+            m.call(method, started.elapsed());
+            r
         });
         if traced {
             self.trace(session_id, method, args, &result);
@@ -473,6 +537,7 @@ impl SspService {
             .trace
             .as_ref()
             .map(|_| serde_json::to_value(&req).unwrap_or(Value::Null));
+        let started = Instant::now();
         let mut session = Session::new(
             &self.inner.cfg.default_profile,
             &self.inner.cfg.default_model,
@@ -528,8 +593,10 @@ impl SspService {
                 }),
             );
             resp.session_id = id;
+            self.inner.metrics.created.fetch_add(1, Ordering::Relaxed);
             Ok(resp)
         })();
+        self.inner.metrics.call("init", started.elapsed());
         if let Some(args) = traced_req {
             self.trace(
                 result.as_ref().map_or("", |r| r.session_id.as_str()),
@@ -1229,6 +1296,147 @@ pub const FILE_DESCRIPTOR_SET: &[u8] =
 /// Lock-step traffic is many tiny messages: without TCP_NODELAY, Nagle and
 /// delayed ACKs add tens of milliseconds per call. The tonic builder's own
 /// nodelay setting applies only to listeners it binds itself.
+impl SspService {
+    /// The metrics in Prometheus's text format (version 0.0.4).
+    pub fn metrics_text(&self) -> String {
+        use std::fmt::Write as _;
+        let m = &self.inner.metrics;
+        let (mut attached, mut detached) = (0u64, 0u64);
+        for slot in lock(&self.inner.sessions).values() {
+            match *lock(&slot.owner) {
+                Owner::Detached(..) => detached += 1,
+                _ => attached += 1,
+            }
+        }
+        let mut t = String::new();
+        let head = |t: &mut String, name: &str, kind: &str, help: &str| {
+            let _ = writeln!(t, "# HELP {name} {help}");
+            let _ = writeln!(t, "# TYPE {name} {kind}");
+        };
+        head(
+            &mut t,
+            "litesim_sessions_open",
+            "gauge",
+            "Sessions held now, by whether their connection is open.",
+        );
+        let _ = writeln!(t, "litesim_sessions_open{{state=\"attached\"}} {attached}");
+        let _ = writeln!(t, "litesim_sessions_open{{state=\"detached\"}} {detached}");
+        head(
+            &mut t,
+            "litesim_sessions_created_total",
+            "counter",
+            "Sessions created by Init.",
+        );
+        let _ = writeln!(
+            t,
+            "litesim_sessions_created_total {}",
+            m.created.load(Ordering::Relaxed)
+        );
+        head(
+            &mut t,
+            "litesim_sessions_freed_total",
+            "counter",
+            "Sessions freed, by cause.",
+        );
+        let causes = ["shutdown", "connection_closed", "idle_timeout", "after_end"];
+        for (k, cause) in causes.iter().enumerate() {
+            let _ = writeln!(
+                t,
+                "litesim_sessions_freed_total{{cause=\"{cause}\"}} {}",
+                m.freed[k].load(Ordering::Relaxed)
+            );
+        }
+        head(
+            &mut t,
+            "litesim_steps_total",
+            "counter",
+            "Simulation steps run, all sessions.",
+        );
+        let _ = writeln!(t, "litesim_steps_total {}", m.steps.load(Ordering::Relaxed));
+        head(
+            &mut t,
+            "litesim_call_duration_seconds",
+            "histogram",
+            "Time a call spent on its session, by method.",
+        );
+        for (method, l) in lock(&m.calls).iter() {
+            let mut cum = 0;
+            for (k, n) in l.buckets.iter().enumerate() {
+                cum += n;
+                let le = LATENCY_BUCKETS
+                    .get(k)
+                    .map_or("+Inf".to_string(), |b| format!("{b}"));
+                let _ = writeln!(
+                    t,
+                    "litesim_call_duration_seconds_bucket{{method=\"{method}\",le=\"{le}\"}} {cum}"
+                );
+            }
+            let _ = writeln!(
+                t,
+                "litesim_call_duration_seconds_sum{{method=\"{method}\"}} {}",
+                l.sum
+            );
+            let _ = writeln!(
+                t,
+                "litesim_call_duration_seconds_count{{method=\"{method}\"}} {}",
+                l.count
+            );
+        }
+        t
+    }
+}
+
+/// Serves `GET /metrics` (Prometheus text) on `listener`; anything else
+/// is 404. One short HTTP/1.1 exchange per connection.
+async fn serve_metrics(listener: tokio::net::TcpListener, svc: SspService) {
+    use tokio::io::{AsyncReadExt, AsyncWriteExt};
+    loop {
+        let Ok((mut sock, _)) = listener.accept().await else {
+            continue;
+        };
+        let svc = svc.clone();
+        tokio::spawn(async move {
+            let mut buf = vec![0u8; 8192];
+            let mut n = 0;
+            // The request line and headers: at most 8 KiB, within 5 s.
+            let read = tokio::time::timeout(Duration::from_secs(5), async {
+                while n < buf.len() {
+                    let k = sock.read(&mut buf[n..]).await.ok()?;
+                    if k == 0 {
+                        return None;
+                    }
+                    n += k;
+                    if buf[..n].windows(4).any(|w| w == b"\r\n\r\n") {
+                        return Some(());
+                    }
+                }
+                None
+            })
+            .await;
+            if !matches!(read, Ok(Some(()))) {
+                return;
+            }
+            let head = String::from_utf8_lossy(&buf[..n]);
+            let path = head.split_whitespace().nth(1).unwrap_or("");
+            let wanted = head.starts_with("GET ") && path.split('?').next() == Some("/metrics");
+            let (status, body) = if wanted {
+                ("200 OK", svc.metrics_text())
+            } else {
+                (
+                    "404 Not Found",
+                    "litesim serves its metrics at GET /metrics\n".to_string(),
+                )
+            };
+            let reply = format!(
+                "HTTP/1.1 {status}\r\nContent-Type: text/plain; version=0.0.4; charset=utf-8\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+                body.len()
+            );
+            let _ = sock.write_all(reply.as_bytes()).await;
+            let _ = sock.shutdown().await;
+        });
+    }
+}
+
 /// Checks each call's `authorization: Bearer <token>` against the
 /// server's token (every call passes when it has none).
 #[derive(Clone)]
@@ -1418,12 +1626,22 @@ pub async fn serve(
 ) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
     let max = cfg.max_message_bytes;
     let keepalive = cfg.keepalive;
+    let metrics_addr = cfg.metrics;
     let check = BearerCheck {
         expected: cfg.auth_token.as_deref().map(Arc::from),
     };
     let svc = SspService::new(cfg)?;
     let conns = svc.clone();
     let reaper = svc.clone();
+    let metrics_task = match metrics_addr {
+        Some(a) => {
+            let l = tokio::net::TcpListener::bind(a)
+                .await
+                .map_err(|e| format!("--metrics {a}: {e}"))?;
+            Some(tokio::spawn(serve_metrics(l, svc.clone())))
+        }
+        None => None,
+    };
     let reap_task = tokio::spawn(async move {
         let mut every = tokio::time::interval(Duration::from_secs(1));
         loop {
@@ -1467,6 +1685,9 @@ pub async fn serve(
         .serve_with_incoming_shutdown(incoming, shutdown)
         .await;
     reap_task.abort();
+    if let Some(t) = metrics_task {
+        t.abort();
+    }
     result.map_err(Into::into)
 }
 

@@ -165,9 +165,11 @@ fn attach_after_a_reconnect_within_the_grace_period_and_not_after() {
     });
     let addr = server.addr.to_string();
     let id = orphan(&addr);
-    // Reconnected within the grace: the session is taken back and driven.
+    // Reconnected within the grace: the session is taken back and driven
+    // (once the server has seen the old connection close, a moment after
+    // the client dropped it: until then it belongs to that connection).
     let mut back = RemoteSsp::connect(&addr).unwrap();
-    assert_eq!(back.attach(&id).unwrap(), 0);
+    assert!(soon(Duration::from_millis(500), || back.attach(&id) == Ok(0)));
     back.start_simulation(0).unwrap();
     back.create_actor(car("a")).unwrap();
     // A second client cannot take it from an open connection.
@@ -480,4 +482,90 @@ fn with_a_token_every_call_but_health_needs_it() {
         status,
         tonic_health::pb::health_check_response::ServingStatus::Serving as i32
     );
+}
+
+/// `GET path` on `addr`: (status line, body).
+fn http_get(addr: std::net::SocketAddr, path: &str) -> (String, String) {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(addr).unwrap();
+    write!(s, "GET {path} HTTP/1.1\r\nHost: x\r\n\r\n").unwrap();
+    let mut text = String::new();
+    s.read_to_string(&mut text).unwrap();
+    let (head, body) = text.split_once("\r\n\r\n").unwrap();
+    (head.lines().next().unwrap().to_string(), body.to_string())
+}
+
+/// The value of the metric line that starts with `key ` in `text`.
+fn metric(text: &str, key: &str) -> f64 {
+    text.lines()
+        .find_map(|l| l.strip_prefix(key).and_then(|r| r.strip_prefix(' ')))
+        .unwrap_or_else(|| panic!("{key} missing from:\n{text}"))
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn metrics_are_served_in_prometheus_text_and_count_what_happened() {
+    let port = std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap();
+    let server = start(ServerConfig {
+        metrics: Some(port),
+        ..ServerConfig::default()
+    });
+    let addr = server.addr.to_string();
+    let mut a = RemoteSsp::connect(&addr).unwrap();
+    a.init(InitRequest::default()).unwrap();
+    a.start_simulation(0).unwrap();
+    a.wait_start_simulation(100).unwrap();
+    a.create_actor(car("a")).unwrap();
+    for _ in 0..7 {
+        a.step(None, &ActorFilter::default()).unwrap();
+    }
+    a.shutdown().unwrap();
+    orphan(&addr);
+    let mut b = RemoteSsp::connect(&addr).unwrap();
+    b.init(InitRequest::default()).unwrap();
+    // The orphan's connection closed: detached.
+    let mut text = String::new();
+    assert!(soon(Duration::from_secs(1), || {
+        let (status, body) = http_get(port, "/metrics");
+        assert_eq!(status, "HTTP/1.1 200 OK");
+        text = body;
+        metric(&text, "litesim_sessions_open{state=\"detached\"}") == 1.0
+    }));
+    assert_eq!(metric(&text, "litesim_sessions_created_total"), 3.0);
+    assert_eq!(
+        metric(&text, "litesim_sessions_open{state=\"attached\"}"),
+        1.0
+    );
+    assert_eq!(
+        metric(&text, "litesim_sessions_freed_total{cause=\"shutdown\"}"),
+        1.0
+    );
+    assert_eq!(metric(&text, "litesim_steps_total"), 7.0);
+    // Each step call is in the histogram, cumulative up to +Inf.
+    assert_eq!(
+        metric(
+            &text,
+            "litesim_call_duration_seconds_count{method=\"step\"}"
+        ),
+        7.0
+    );
+    assert_eq!(
+        metric(
+            &text,
+            "litesim_call_duration_seconds_bucket{method=\"step\",le=\"+Inf\"}"
+        ),
+        7.0
+    );
+    assert!(text.contains("# TYPE litesim_call_duration_seconds histogram"));
+    // Every sample line is `name{labels} value` or `name value`.
+    for l in text.lines().filter(|l| !l.starts_with('#')) {
+        let (_, v) = l.rsplit_once(' ').unwrap();
+        assert!(v.parse::<f64>().is_ok(), "{l}");
+    }
+    let (status, _) = http_get(port, "/other");
+    assert_eq!(status, "HTTP/1.1 404 Not Found");
 }

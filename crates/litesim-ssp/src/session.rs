@@ -342,6 +342,11 @@ impl Session {
         self.step_ms
     }
 
+    /// Steps run since `init`.
+    pub fn steps_executed(&self) -> u64 {
+        self.steps_executed
+    }
+
     /// Simulated time (ms).
     pub fn sim_time_ms(&self) -> u64 {
         self.world.as_ref().map_or(0, |w| w.tick() * self.step_ms)
