@@ -88,8 +88,14 @@ enum Command {
         /// created, freed by cause, steps, call latencies) on this address.
         #[arg(long, value_name = "ADDR")]
         metrics: Option<std::net::SocketAddr>,
-        /// Serve in plain text on an address that is not loopback (there
-        /// is no TLS: anyone who can reach the port sees the traffic).
+        /// Serve over TLS with this certificate chain (PEM; with --tls-key).
+        #[arg(long, value_name = "FILE", requires = "tls_key")]
+        tls_cert: Option<PathBuf>,
+        /// The TLS private key (PEM; with --tls-cert).
+        #[arg(long, value_name = "FILE", requires = "tls_cert")]
+        tls_key: Option<PathBuf>,
+        /// Serve in plain text on an address that is not loopback (without
+        /// TLS anyone who can reach the port sees the traffic).
         #[arg(long)]
         insecure: bool,
         /// Server worker threads; 0 = one per CPU. For lock-step latency run
@@ -461,6 +467,19 @@ pub(crate) fn client_token() -> Result<Option<String>> {
         .transpose()
 }
 
+/// Connects to a litesim server at `addr` as this command does: with the
+/// token of `LITESIM_TOKEN_FILE` and, when `LITESIM_CA_FILE` names a CA
+/// (PEM), over TLS.
+pub(crate) fn connect_server(addr: &str) -> Result<litesim_grpc::RemoteSsp> {
+    let ca = std::env::var_os("LITESIM_CA_FILE")
+        .map(|f| {
+            std::fs::read(&f).with_context(|| format!("LITESIM_CA_FILE {}", f.to_string_lossy()))
+        })
+        .transpose()?;
+    litesim_grpc::RemoteSsp::connect_with(addr, client_token()?.as_deref(), ca.as_deref())
+        .map_err(|e| anyhow::anyhow!("{e}"))
+}
+
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Serve {
@@ -477,9 +496,24 @@ fn run(cli: Cli) -> Result<()> {
             map_root,
             auth_token_file,
             metrics,
+            tls_cert,
+            tls_key,
             insecure,
             workers,
         } => {
+            let tls = match (tls_cert, tls_key) {
+                (Some(c), Some(k)) => {
+                    let read = |f: &PathBuf, what: &str| {
+                        std::fs::read(f).with_context(|| format!("--{what} {}", f.display()))
+                    };
+                    Some(litesim_grpc::TlsPem {
+                        cert: read(&c, "tls-cert")?,
+                        key: read(&k, "tls-key")?,
+                    })
+                }
+                _ => None,
+            };
+            let plain = tls.is_none();
             let auth_token = auth_token_file.map(|f| read_token(&f)).transpose()?;
             let secs = |name: &str, v: f64| {
                 if v.is_finite() && v > 0.0 && v <= 86_400.0 {
@@ -510,6 +544,7 @@ fn run(cli: Cli) -> Result<()> {
                 map_roots: map_root,
                 auth_token,
                 metrics,
+                tls,
                 max_message_bytes,
                 trace_rpc,
             };
@@ -524,10 +559,10 @@ fn run(cli: Cli) -> Result<()> {
                     .await
                     .with_context(|| format!("cannot bind {addr}"))?;
                 let local = listener.local_addr()?;
-                if !local.ip().is_loopback() {
+                if !local.ip().is_loopback() && plain {
                     if !insecure {
                         anyhow::bail!(
-                            "refusing to serve on {local}: it is not loopback, and litesim serves gRPC without TLS (not implemented yet), so anyone who can reach the port could read and drive the sessions; bind 127.0.0.1 and tunnel, or pass --insecure to serve in plain text anyway"
+                            "refusing to serve on {local} in plain text: it is not loopback, so anyone who can reach the port could read and drive the sessions; give --tls-cert and --tls-key, bind 127.0.0.1, or pass --insecure to serve in plain text anyway"
                         );
                     }
                     eprintln!(
@@ -553,9 +588,7 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
         Command::Client { addr, opts } => {
-            let mut c =
-                litesim_grpc::RemoteSsp::connect_with_token(&addr, client_token()?.as_deref())
-                    .map_err(|e| anyhow::anyhow!(e.message))?;
+            let mut c = connect_server(&addr)?;
             demo::run(&mut c, &opts, &format!("gRPC {addr}"))
         }
         Command::Profiles { name: None } => {

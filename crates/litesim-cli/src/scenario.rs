@@ -378,11 +378,7 @@ pub fn run(
             let addr = url
                 .strip_prefix("grpc://")
                 .ok_or_else(|| usage!("--sim {url}: expected grpc://HOST:PORT or in-process"))?;
-            let mut remote = litesim_grpc::RemoteSsp::connect_with_token(
-                addr,
-                crate::client_token()?.as_deref(),
-            )
-            .map_err(|e| anyhow!("{e}"))?;
+            let mut remote = crate::connect_server(addr)?;
             traced(&mut remote)
         }
     }?;

@@ -1135,3 +1135,58 @@ fn serve_refuses_a_public_address_without_insecure_and_runs_need_its_token() {
     let o = run(true);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+#[test]
+fn serve_over_tls_on_a_public_address_and_run_against_it_with_the_ca_and_token() {
+    let dir = tempfile::tempdir().unwrap();
+    let ck = rcgen::generate_simple_self_signed(vec!["localhost".into()]).unwrap();
+    let (cert, key, token) = (
+        dir.path().join("cert.pem"),
+        dir.path().join("key.pem"),
+        dir.path().join("token"),
+    );
+    std::fs::write(&cert, ck.cert.pem()).unwrap();
+    std::fs::write(&key, ck.signing_key.serialize_pem()).unwrap();
+    std::fs::write(&token, "tok-tls\n").unwrap();
+    let tls = [
+        "--tls-cert",
+        cert.to_str().unwrap(),
+        "--tls-key",
+        key.to_str().unwrap(),
+        "--auth-token-file",
+        token.to_str().unwrap(),
+    ];
+    // With TLS a public address needs no --insecure.
+    let mut child = litesim()
+        .args(["serve", "--addr", "0.0.0.0:0"])
+        .args(tls)
+        .stdout(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(line.contains("serving the SSP API on 0.0.0.0:"), "{line}");
+    // A run over TLS: the CA and the token from the environment.
+    let server = serve(&tls);
+    let port = server.addr.rsplit(':').next().unwrap();
+    let o = litesim()
+        .current_dir(workspace())
+        .args([
+            "run",
+            "examples/scenarios/cut_in.osc",
+            "--no-pictures",
+            "--sim",
+        ])
+        .arg(format!("grpc://localhost:{port}"))
+        .arg("-o")
+        .arg(dir.path().join("out"))
+        .env("LITESIM_TOKEN_FILE", &token)
+        .env("LITESIM_CA_FILE", &cert)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}

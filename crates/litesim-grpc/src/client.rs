@@ -64,17 +64,28 @@ impl RemoteSsp {
     /// [`RemoteSsp::connect`] to a server that wants a token
     /// (`litesim serve --auth-token-file`): every call carries it.
     pub fn connect_with_token(addr: &str, token: Option<&str>) -> SspResult<Self> {
+        Self::connect_with(addr, token, None)
+    }
+
+    /// [`RemoteSsp::connect_with_token`], over TLS when `ca_pem` is given:
+    /// the server's certificate must chain to this CA (PEM) and name the
+    /// address's host.
+    pub fn connect_with(addr: &str, token: Option<&str>, ca_pem: Option<&[u8]>) -> SspResult<Self> {
         let bearer = match token {
             Some(t) => Bearer(Some(format!("Bearer {t}").parse().map_err(|_| {
                 SspError::invalid("the token must be printable ASCII without line breaks")
             })?)),
             None => Bearer(None),
         };
-        let uri = if addr.contains("://") {
-            addr.to_string()
-        } else {
-            format!("http://{addr}")
+        let uri = match (addr.split_once("://"), ca_pem) {
+            (Some(_), _) => addr.to_string(),
+            (None, Some(_)) => format!("https://{addr}"),
+            (None, None) => format!("http://{addr}"),
         };
+        let tls = ca_pem.map(|ca| {
+            tonic::transport::ClientTlsConfig::new()
+                .ca_certificate(tonic::transport::Certificate::from_pem(ca))
+        });
         let rt = tokio::runtime::Builder::new_current_thread()
             .enable_all()
             .build()
@@ -82,17 +93,19 @@ impl RemoteSsp {
                 SspError::new(ErrorCode::Internal, format!("cannot start a runtime: {e}"))
             })?;
         let channel = rt.block_on(async {
-            Channel::from_shared(uri.clone())
-                .map_err(|e| SspError::invalid(format!("bad address '{addr}': {e}")))?
-                .tcp_nodelay(true)
-                .connect()
-                .await
-                .map_err(|e| {
-                    SspError::new(
-                        ErrorCode::Unavailable,
-                        format!("cannot connect to {uri}: {e}"),
-                    )
-                })
+            let mut ep = Channel::from_shared(uri.clone())
+                .map_err(|e| SspError::invalid(format!("bad address '{addr}': {e}")))?;
+            if let Some(t) = tls {
+                ep = ep
+                    .tls_config(t)
+                    .map_err(|e| SspError::invalid(format!("TLS for '{addr}': {e}")))?;
+            }
+            ep.tcp_nodelay(true).connect().await.map_err(|e| {
+                SspError::new(
+                    ErrorCode::Unavailable,
+                    format!("cannot connect to {uri}: {e}"),
+                )
+            })
         })?;
         let client = SimulatorSupportClient::with_interceptor(channel, bearer)
             .max_decoding_message_size(usize::MAX)

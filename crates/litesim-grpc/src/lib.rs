@@ -32,4 +32,4 @@ pub mod server;
 pub mod sut;
 
 pub use client::RemoteSsp;
-pub use server::{LoopbackServer, ServerConfig, SspService, serve};
+pub use server::{LoopbackServer, ServerConfig, SspService, TlsPem, serve};

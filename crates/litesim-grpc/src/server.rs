@@ -38,6 +38,26 @@ use std::time::{Duration, Instant};
 use tokio_stream::{Stream, StreamExt};
 use tonic::{Request, Response, Status, Streaming};
 
+/// A TLS identity: certificate chain and private key, PEM.
+#[derive(Clone)]
+pub struct TlsPem {
+    /// The certificate chain.
+    pub cert: Vec<u8>,
+    /// The private key.
+    pub key: Vec<u8>,
+}
+
+impl std::fmt::Debug for TlsPem {
+    /// The key never goes into a message.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "TlsPem({} bytes of certificate, key hidden)",
+            self.cert.len()
+        )
+    }
+}
+
 /// Server settings.
 #[derive(Clone, Debug)]
 pub struct ServerConfig {
@@ -66,6 +86,8 @@ pub struct ServerConfig {
     pub auth_token: Option<String>,
     /// Serve Prometheus text metrics (`GET /metrics`) on this address.
     pub metrics: Option<std::net::SocketAddr>,
+    /// Serve over TLS with this certificate chain and key (PEM).
+    pub tls: Option<TlsPem>,
     /// Largest request accepted (bytes).
     pub max_message_bytes: usize,
     /// JSON-lines trace of every call.
@@ -85,6 +107,7 @@ impl Default for ServerConfig {
             map_roots: Vec::new(),
             auth_token: None,
             metrics: None,
+            tls: None,
             max_message_bytes: 16 * 1024 * 1024,
             trace_rpc: None,
         }
@@ -1475,7 +1498,13 @@ impl tonic::service::Interceptor for BearerCheck {
 /// The connection a request came on (none when the service is called
 /// without one).
 fn conn_of<T>(req: &Request<T>) -> Option<u64> {
-    req.extensions().get::<ConnId>().map(|c| c.0)
+    let ext = req.extensions();
+    ext.get::<ConnId>()
+        .or_else(|| {
+            ext.get::<tonic::transport::server::TlsConnectInfo<ConnId>>()
+                .map(|t| t.get_ref())
+        })
+        .map(|c| c.0)
 }
 
 /// A connection's number, in each request's extensions.
@@ -1627,6 +1656,7 @@ pub async fn serve(
     let max = cfg.max_message_bytes;
     let keepalive = cfg.keepalive;
     let metrics_addr = cfg.metrics;
+    let tls = cfg.tls.clone();
     let check = BearerCheck {
         expected: cfg.auth_token.as_deref().map(Arc::from),
     };
@@ -1673,7 +1703,14 @@ pub async fn serve(
         check,
     );
     let incoming = tracked_incoming(listener, conns);
-    let result = tonic::transport::Server::builder()
+    let mut builder = tonic::transport::Server::builder();
+    if let Some(t) = &tls {
+        let id = tonic::transport::Identity::from_pem(&t.cert, &t.key);
+        builder = builder
+            .tls_config(tonic::transport::ServerTlsConfig::new().identity(id))
+            .map_err(|e| format!("TLS: {e}"))?;
+    }
+    let result = builder
         .tcp_nodelay(true)
         .http2_keepalive_interval(Some(keepalive))
         .http2_keepalive_timeout(Some(keepalive))

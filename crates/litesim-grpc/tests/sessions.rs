@@ -569,3 +569,39 @@ fn metrics_are_served_in_prometheus_text_and_count_what_happened() {
     let (status, _) = http_get(port, "/other");
     assert_eq!(status, "HTTP/1.1 404 Not Found");
 }
+
+#[test]
+fn over_tls_with_a_token_only_the_right_caller_gets_in() {
+    // A certificate for localhost / 127.0.0.1, made for the test.
+    let ck =
+        rcgen::generate_simple_self_signed(vec!["localhost".into(), "127.0.0.1".into()]).unwrap();
+    let (cert, key) = (ck.cert.pem(), ck.signing_key.serialize_pem());
+    let server = start(ServerConfig {
+        tls: Some(litesim_grpc::TlsPem {
+            cert: cert.clone().into_bytes(),
+            key: key.into_bytes(),
+        }),
+        auth_token: Some("tls-token".into()),
+        ..ServerConfig::default()
+    });
+    let addr = format!("localhost:{}", server.addr.port());
+    let ca = cert.as_bytes();
+    // TLS and the token: works.
+    let mut c = RemoteSsp::connect_with(&addr, Some("tls-token"), Some(ca)).unwrap();
+    c.init(InitRequest::default()).unwrap();
+    c.start_simulation(0).unwrap();
+    // TLS without the token: UNAUTHENTICATED.
+    let mut c = RemoteSsp::connect_with(&addr, None, Some(ca)).unwrap();
+    let e = c.init(InitRequest::default()).unwrap_err();
+    assert_eq!(e.code, ErrorCode::Unauthenticated, "{}", e.message);
+    // Plain text to a TLS server: no answer at all.
+    let plain = RemoteSsp::connect_with_token(&server.addr.to_string(), Some("tls-token"))
+        .and_then(|mut c| c.init(InitRequest::default()).map(|_| ()));
+    assert!(plain.is_err());
+    // A CA that did not sign the server's certificate: refused.
+    let other = rcgen::generate_simple_self_signed(vec!["localhost".into()]).unwrap();
+    let wrong =
+        RemoteSsp::connect_with(&addr, Some("tls-token"), Some(other.cert.pem().as_bytes()))
+            .and_then(|mut c| c.init(InitRequest::default()).map(|_| ()));
+    assert!(wrong.is_err());
+}
