@@ -1,5 +1,5 @@
-//! A run from its plan to its summary: set up ([`start`]), stepped by
-//! the runtime, concluded (the verdict, the drivers' notes). [`run_here`]
+//! A run from its plan to its summary: set up (`start`), stepped by
+//! the runtime, concluded (the verdict, the drivers' notes). `run_here`
 //! does all three for a SUT the run calls itself; [`Stepped`] lets the
 //! caller be the SUT: it reads each step's observation and gives the
 //! command, with no thread and no channel between them (the gymnasium
