@@ -17,6 +17,18 @@ use tonic::transport::Channel;
 #[derive(Clone, Debug, Default)]
 pub struct Bearer(Option<tonic::metadata::MetadataValue<tonic::metadata::Ascii>>);
 
+impl Bearer {
+    /// For `token` (none: no header).
+    pub fn new(token: Option<&str>) -> SspResult<Self> {
+        match token {
+            Some(t) => Ok(Bearer(Some(format!("Bearer {t}").parse().map_err(
+                |_| SspError::invalid("the token must be printable ASCII without line breaks"),
+            )?))),
+            None => Ok(Bearer(None)),
+        }
+    }
+}
+
 impl tonic::service::Interceptor for Bearer {
     fn call(&mut self, mut req: tonic::Request<()>) -> Result<tonic::Request<()>, tonic::Status> {
         if let Some(v) = &self.0 {
@@ -71,12 +83,7 @@ impl RemoteSsp {
     /// the server's certificate must chain to this CA (PEM) and name the
     /// address's host.
     pub fn connect_with(addr: &str, token: Option<&str>, ca_pem: Option<&[u8]>) -> SspResult<Self> {
-        let bearer = match token {
-            Some(t) => Bearer(Some(format!("Bearer {t}").parse().map_err(|_| {
-                SspError::invalid("the token must be printable ASCII without line breaks")
-            })?)),
-            None => Bearer(None),
-        };
+        let bearer = Bearer::new(token)?;
         let uri = match (addr.split_once("://"), ca_pem) {
             (Some(_), _) => addr.to_string(),
             (None, Some(_)) => format!("https://{addr}"),

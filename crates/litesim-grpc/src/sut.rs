@@ -27,6 +27,57 @@ static RUNS: AtomicU64 = AtomicU64::new(0);
 #[derive(Clone, Debug)]
 pub struct GrpcSutFactory {
     addr: String,
+    auth: Auth,
+}
+
+/// How a SUT client proves itself and checks its server: a bearer token
+/// sent with every call, a CA (PEM) the server's certificate must chain
+/// to (TLS).
+#[derive(Clone, Default)]
+pub struct Auth {
+    /// Sent as `authorization: Bearer <token>`.
+    pub token: Option<String>,
+    /// With it, the connection is TLS.
+    pub ca_pem: Option<Vec<u8>>,
+}
+
+impl std::fmt::Debug for Auth {
+    /// The token never goes into a message.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "Auth {{ token: {}, tls: {} }}",
+            if self.token.is_some() {
+                "given"
+            } else {
+                "none"
+            },
+            self.ca_pem.is_some()
+        )
+    }
+}
+
+impl Auth {
+    /// From the files named by `LITESIM_SUT_TOKEN_FILE` and
+    /// `LITESIM_SUT_CA_FILE` (what `--sut grpc://…` and Python's
+    /// `sut="grpc://…"` use).
+    pub fn from_env() -> Result<Self, SutError> {
+        let read = |var: &str| -> Result<Option<Vec<u8>>, SutError> {
+            std::env::var_os(var)
+                .map(|f| {
+                    std::fs::read(&f)
+                        .map_err(|e| SutError(format!("{var} {}: {e}", f.to_string_lossy())))
+                })
+                .transpose()
+        };
+        let token = read("LITESIM_SUT_TOKEN_FILE")?
+            .map(|b| String::from_utf8_lossy(&b).trim().to_string())
+            .filter(|t| !t.is_empty());
+        Ok(Auth {
+            token,
+            ca_pem: read("LITESIM_SUT_CA_FILE")?,
+        })
+    }
 }
 
 impl GrpcSutFactory {
@@ -43,7 +94,14 @@ impl GrpcSutFactory {
         }
         Ok(Self {
             addr: a.to_string(),
+            auth: Auth::default(),
         })
+    }
+
+    /// The same, with a token and/or a CA.
+    pub fn with_auth(mut self, auth: Auth) -> Self {
+        self.auth = auth;
+        self
     }
 }
 
@@ -57,7 +115,7 @@ pub fn choice_by_name(name: &str) -> Result<Option<SutChoice>, SutError> {
     }
     if name.starts_with("grpc://") {
         return Ok(Some(SutChoice::External(std::sync::Arc::new(
-            GrpcSutFactory::new(name)?,
+            GrpcSutFactory::new(name)?.with_auth(Auth::from_env()?),
         ))));
     }
     Ok(None)
@@ -68,15 +126,23 @@ impl SutFactory for GrpcSutFactory {
         format!("grpc://{}", self.addr)
     }
     fn create(&self) -> Result<Box<dyn Sut>, SutError> {
-        Ok(Box::new(GrpcSut::new(&self.addr)?))
+        Ok(Box::new(
+            GrpcSut::new(&self.addr)?.with_auth(self.auth.clone()),
+        ))
     }
 }
+
+/// The generated SUT client with its bearer-token interceptor.
+type SutClient = SystemUnderTestClient<
+    tonic::service::interceptor::InterceptedService<Channel, crate::client::Bearer>,
+>;
 
 /// An external SUT, stepped in lock step over gRPC.
 pub struct GrpcSut {
     addr: String,
+    auth: Auth,
     rt: tokio::runtime::Runtime,
-    client: Option<SystemUnderTestClient<Channel>>,
+    client: Option<SutClient>,
     timeout: Duration,
     run_id: String,
     ego_id: String,
@@ -91,6 +157,7 @@ impl GrpcSut {
             .map_err(|e| SutError(format!("cannot start a runtime: {e}")))?;
         Ok(Self {
             addr: addr.to_string(),
+            auth: Auth::default(),
             rt,
             client: None,
             timeout: Duration::from_secs(1),
@@ -99,10 +166,16 @@ impl GrpcSut {
         })
     }
 
+    /// The same, with a token and/or a CA.
+    pub fn with_auth(mut self, auth: Auth) -> Self {
+        self.auth = auth;
+        self
+    }
+
     fn call<T>(
         &mut self,
         what: &str,
-        f: impl AsyncFnOnce(&mut SystemUnderTestClient<Channel>) -> Result<T, Status>,
+        f: impl AsyncFnOnce(&mut SutClient) -> Result<T, Status>,
     ) -> Result<T, SutError> {
         let timeout = self.timeout;
         let addr = self.addr.clone();
@@ -165,18 +238,29 @@ impl Sut for GrpcSut {
         if info.timeout_s.is_finite() && info.timeout_s > 0.0 {
             self.timeout = Duration::from_secs_f64(info.timeout_s.min(3600.0));
         }
-        let uri = format!("http://{}", self.addr);
+        let tls = self.auth.ca_pem.as_ref().map(|ca| {
+            tonic::transport::ClientTlsConfig::new()
+                .ca_certificate(tonic::transport::Certificate::from_pem(ca))
+        });
+        let scheme = if tls.is_some() { "https" } else { "http" };
+        let uri = format!("{scheme}://{}", self.addr);
         let timeout = self.timeout;
         let channel = self.rt.block_on(async {
-            let ep = Channel::from_shared(uri.clone())
-                .map_err(|e| SutError(format!("bad address '{}': {e}", self.addr)))?
-                .tcp_nodelay(true)
-                .connect_timeout(timeout);
+            let mut ep = Channel::from_shared(uri.clone())
+                .map_err(|e| SutError(format!("bad address '{}': {e}", self.addr)))?;
+            if let Some(t) = tls {
+                ep = ep
+                    .tls_config(t)
+                    .map_err(|e| SutError(format!("TLS for '{}': {e}", self.addr)))?;
+            }
+            let ep = ep.tcp_nodelay(true).connect_timeout(timeout);
             ep.connect()
                 .await
                 .map_err(|e| SutError(format!("cannot connect to {uri}: {e}")))
         })?;
-        self.client = Some(SystemUnderTestClient::new(channel));
+        let bearer = crate::client::Bearer::new(self.auth.token.as_deref())
+            .map_err(|e| SutError(e.message))?;
+        self.client = Some(SystemUnderTestClient::with_interceptor(channel, bearer));
         self.ego_id = info.ego_id.clone();
         self.run_id = format!(
             "{}#{}#{}#{}",

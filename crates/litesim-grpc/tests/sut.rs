@@ -121,3 +121,62 @@ fn wrong_answers_are_sut_errors() {
         assert_eq!(r.summary.steps, 0);
     }
 }
+
+#[test]
+fn a_sut_behind_tls_and_a_token_is_reached_with_its_ca_and_token() {
+    use litesim_grpc::sut::{Auth, SutService};
+    let ck = rcgen::generate_simple_self_signed(vec!["localhost".into()]).unwrap();
+    let cert = ck.cert.pem();
+    let identity = tonic::transport::Identity::from_pem(&cert, ck.signing_key.serialize_pem());
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .unwrap();
+    let listener = rt
+        .block_on(tokio::net::TcpListener::bind("127.0.0.1:0"))
+        .unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let check = |req: Request<()>| match req.metadata().get("authorization") {
+        Some(v) if v == "Bearer sut-token" => Ok(req),
+        _ => Err(Status::unauthenticated("no token")),
+    };
+    let svc = SystemUnderTestServer::with_interceptor(
+        SutService::new(Arc::new(BuiltinFactory("acc".into()))),
+        check,
+    );
+    rt.spawn(
+        tonic::transport::Server::builder()
+            .tls_config(tonic::transport::ServerTlsConfig::new().identity(identity))
+            .unwrap()
+            .add_service(svc)
+            .serve_with_incoming(tokio_stream::wrappers::TcpListenerStream::new(listener)),
+    );
+    let with = |auth: Auth| {
+        let f = GrpcSutFactory::new(&format!("grpc://localhost:{port}"))
+            .unwrap()
+            .with_auth(auth);
+        cut_in(SutChoice::External(Arc::new(f)))
+    };
+    // The CA and the token: the run is the in-process one.
+    let r = with(Auth {
+        token: Some("sut-token".into()),
+        ca_pem: Some(cert.clone().into_bytes()),
+    });
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    assert_eq!(r.summary.steps, 500);
+    // Without the token: the SUT's error ends the run, saying why.
+    let r = with(Auth {
+        token: None,
+        ca_pem: Some(cert.into_bytes()),
+    });
+    assert_eq!(r.summary.verdict, litesim_scenario::Verdict::Error);
+    assert!(
+        r.summary
+            .failures
+            .iter()
+            .any(|f| f.contains("Unauthenticated")),
+        "{:?}",
+        r.summary.failures
+    );
+}
