@@ -95,37 +95,18 @@ where
         } else {
             Verdict::Pass
         };
-        return Ok(Setup::Done(Box::new(RunResult {
-            summary: Summary {
-                test: test_name,
-                seed,
-                pass: verdict == Verdict::Pass,
-                verdict,
-                failures: violations,
-                invalid: plan.unplaced.clone(),
-                map: prep.map_name.clone(),
-                profile,
-                model,
-                mode,
-                sut: opts.sut.name(),
-                npc: opts.npc,
-                duration: plan.duration,
-                steps: 0,
-                roads: sol.roads.clone(),
-                actors: Vec::new(),
-                pairs: Vec::new(),
-                ego: None,
-                goals: Vec::new(),
-                lane_goals: Vec::new(),
-                conditions: Vec::new(),
-                calibration: calibration_src,
-                realtime: None,
-                coverage: Vec::new(),
-                notes,
-            },
-            plan,
-            log: None,
-        })));
+        let head = Heading {
+            test: test_name,
+            seed,
+            mode,
+            profile,
+            model,
+            sut: opts.sut.name(),
+            npc: opts.npc,
+            calibration: calibration_src,
+        };
+        let r = unrun(&prep, head, verdict, violations, plan, sol.roads, notes);
+        return Ok(Setup::Done(Box::new(r)));
     }
     let cfg = runtime::ExecConfig {
         profile: profile.clone(),
@@ -153,46 +134,10 @@ where
         people_yield: opts.npc == Npc::Driver,
         conflict_areas: conflict_areas(&prep),
     };
-    let sut = if outside {
-        Some(SutSlot::Outside)
-    } else {
-        opts.sut
-            .instantiate()
-            .map_err(|source| ScenarioError::Sut {
-                name: opts.sut.name(),
-                source,
-            })?
-            .map(SutSlot::Owned)
-    };
+    let sut = sut_slot(opts, outside)?;
     let closed_loop = sut.is_some();
-    // Drivers take over the scenario's other vehicles (`--npc driver`)
-    // and the ambient traffic, which joins the plan's actors at its start.
-    let mut plan = plan;
-    let mut drivers = None;
-    let mut traffic_actors = Vec::new();
-    let npc = opts.npc == Npc::Driver;
-    if let Some(net) = prep.net.as_deref()
-        && (npc || prep.test.config.traffic.is_some())
-    {
-        let graph = prep
-            .lane_graph()
-            .unwrap_or_else(|| Arc::new(runtime::traffic::LaneGraph::new(net)));
-        let (d, actors) = runtime::traffic::driven::Driven::place(
-            prep.test.config.traffic.as_ref(),
-            npc,
-            graph,
-            net,
-            &plan,
-            f64::from(step_ms) / 1000.0,
-            seed,
-        )?;
-        plan.actors.extend(actors.iter().cloned());
-        traffic_actors = actors;
-        notes.extend(d.notes.iter().cloned());
-        if !d.traffic.vehicles.is_empty() {
-            drivers = Some(d);
-        }
-    }
+    let (plan, drivers, traffic_actors) =
+        place_drivers(&prep, plan, opts.npc, step_ms, seed, &mut notes)?;
     let replanning = prep.clone();
     let replan: Box<crate::runtime::Replan<'a>> = Box::new(move |fixed: &BTreeMap<String, f64>| {
         plan_test_with(&replanning, seed, step_ms, fixed).map(|(_, mut p)| {
@@ -218,6 +163,122 @@ where
             net: prep.net.clone(),
         },
     })))
+}
+
+/// The SUT of a run: its caller (`outside`), or the one `opts` names.
+fn sut_slot<'a>(opts: &RunOptions, outside: bool) -> Result<Option<SutSlot<'a>>, ScenarioError> {
+    if outside {
+        return Ok(Some(SutSlot::Outside));
+    }
+    Ok(opts
+        .sut
+        .instantiate()
+        .map_err(|source| ScenarioError::Sut {
+            name: opts.sut.name(),
+            source,
+        })?
+        .map(SutSlot::Owned))
+}
+
+/// Drivers take over the scenario's other vehicles (`--npc driver`) and
+/// the ambient traffic, which joins the plan's actors at its start: the
+/// plan with them, the engine (when it drives anything) and the traffic
+/// actors (re-planning appends them again).
+fn place_drivers(
+    prep: &Prepared,
+    mut plan: crate::plan::Plan,
+    npc: Npc,
+    step_ms: u32,
+    seed: u64,
+    notes: &mut Vec<String>,
+) -> Result<
+    (
+        crate::plan::Plan,
+        Option<runtime::traffic::driven::Driven>,
+        Vec<crate::plan::ActorPlan>,
+    ),
+    ScenarioError,
+> {
+    let npc = npc == Npc::Driver;
+    let Some(net) = prep
+        .net
+        .as_deref()
+        .filter(|_| npc || prep.test.config.traffic.is_some())
+    else {
+        return Ok((plan, None, Vec::new()));
+    };
+    let graph = prep
+        .lane_graph()
+        .unwrap_or_else(|| Arc::new(runtime::traffic::LaneGraph::new(net)));
+    let (d, actors) = runtime::traffic::driven::Driven::place(
+        prep.test.config.traffic.as_ref(),
+        npc,
+        graph,
+        net,
+        &plan,
+        f64::from(step_ms) / 1000.0,
+        seed,
+    )?;
+    plan.actors.extend(actors.iter().cloned());
+    notes.extend(d.notes.iter().cloned());
+    let drivers = (!d.traffic.vehicles.is_empty()).then_some(d);
+    Ok((plan, drivers, actors))
+}
+
+/// What a summary says of its run before anything ran.
+struct Heading {
+    test: String,
+    seed: u64,
+    mode: DriveMode,
+    profile: String,
+    model: String,
+    sut: String,
+    npc: Npc,
+    calibration: String,
+}
+
+/// The result of a run that is not executed (plan only, a plan that
+/// failed its checks, an actor that could not be placed).
+fn unrun(
+    prep: &Prepared,
+    h: Heading,
+    verdict: Verdict,
+    failures: Vec<String>,
+    plan: crate::plan::Plan,
+    roads: BTreeMap<String, String>,
+    notes: Vec<String>,
+) -> RunResult {
+    RunResult {
+        summary: Summary {
+            test: h.test,
+            seed: h.seed,
+            pass: verdict == Verdict::Pass,
+            verdict,
+            failures,
+            invalid: plan.unplaced.clone(),
+            map: prep.map_name.clone(),
+            profile: h.profile,
+            model: h.model,
+            mode: h.mode,
+            sut: h.sut,
+            npc: h.npc,
+            duration: plan.duration,
+            steps: 0,
+            roads,
+            actors: Vec::new(),
+            pairs: Vec::new(),
+            ego: None,
+            goals: Vec::new(),
+            lane_goals: Vec::new(),
+            conditions: Vec::new(),
+            calibration: h.calibration,
+            realtime: None,
+            coverage: Vec::new(),
+            notes,
+        },
+        plan,
+        log: None,
+    }
 }
 
 /// What the summary needs besides what the runtime records.
@@ -274,57 +335,7 @@ impl Started<'_> {
             drivers,
         } = rt.finish()?;
         if let Some(d) = &drivers {
-            // What each driver's gap pursuit asked beyond its limit: the
-            // reason an invalid verdict names.
-            for g in &mut ex.goals {
-                if let Some((asked, limit)) = d.asked(&g.actor, &g.at)
-                    && asked > limit
-                {
-                    g.needed = Some((asked, limit));
-                }
-            }
-            let ids = |slots: &[(usize, u32)]| {
-                slots
-                    .iter()
-                    .map(|&(i, _)| plan.actors[i].id.as_str())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            };
-            if !d.npcs.is_empty() {
-                notes.push(format!(
-                    "driven by drivers (--npc driver): {}",
-                    ids(&d.npcs)
-                ));
-            }
-            if d.decl.is_some() {
-                notes.push(format!(
-                    "ambient traffic: {} vehicles (traffic.0 …), {} re-entries around sut.car",
-                    d.traffic.vehicles.len() - d.npcs.len(),
-                    d.recycled,
-                ));
-            }
-            for (k, v) in d.traffic.vehicles.iter().enumerate() {
-                if v.at_dead_end {
-                    let id = &plan.actors[d.actor_of(k)].id;
-                    let info = &d.graph.lanes[v.lane as usize];
-                    let road = net
-                        .as_deref()
-                        .map_or(String::new(), |n| n.roads()[info.node.road].id.clone());
-                    notes.push(format!(
-                        "{id} stopped where its lane ends (road {road} lane {}): a dead end or the map's edge",
-                        info.node.lane
-                    ));
-                }
-            }
-            notes.push(format!(
-                "drivers: {} lane changes, {} contacts seen by the drivers",
-                d.traffic
-                    .vehicles
-                    .iter()
-                    .map(|v| u64::from(v.lane_changes))
-                    .sum::<u64>(),
-                d.traffic.contacts.len(),
-            ));
+            drivers_say(d, &plan, net.as_deref(), &mut ex.goals, &mut notes);
         }
         notes.append(&mut ex.sut_notes);
         // `plan`: the plan in force at the end (conditions that held at
@@ -451,6 +462,67 @@ impl Stepped {
             State::Taken => Err(ScenarioError::Plan("the run was finished already".into())),
         }
     }
+}
+
+/// What the drivers add to a summary: each gap goal's deceleration asked
+/// beyond its limit (the reason an invalid verdict names), who they drove,
+/// the ambient traffic, vehicles stopped at a dead end, lane changes.
+fn drivers_say(
+    d: &runtime::traffic::driven::Driven,
+    plan: &crate::plan::Plan,
+    net: Option<&RoadNetwork>,
+    goals: &mut [crate::reactive::GoalResult],
+    notes: &mut Vec<String>,
+) {
+    // What each driver's gap pursuit asked beyond its limit: the
+    // reason an invalid verdict names.
+    for g in goals.iter_mut() {
+        if let Some((asked, limit)) = d.asked(&g.actor, &g.at)
+            && asked > limit
+        {
+            g.needed = Some((asked, limit));
+        }
+    }
+    let ids = |slots: &[(usize, u32)]| {
+        slots
+            .iter()
+            .map(|&(i, _)| plan.actors[i].id.as_str())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if !d.npcs.is_empty() {
+        notes.push(format!(
+            "driven by drivers (--npc driver): {}",
+            ids(&d.npcs)
+        ));
+    }
+    if d.decl.is_some() {
+        notes.push(format!(
+            "ambient traffic: {} vehicles (traffic.0 …), {} re-entries around sut.car",
+            d.traffic.vehicles.len() - d.npcs.len(),
+            d.recycled,
+        ));
+    }
+    for (k, v) in d.traffic.vehicles.iter().enumerate() {
+        if v.at_dead_end {
+            let id = &plan.actors[d.actor_of(k)].id;
+            let info = &d.graph.lanes[v.lane as usize];
+            let road = net.map_or(String::new(), |n| n.roads()[info.node.road].id.clone());
+            notes.push(format!(
+                    "{id} stopped where its lane ends (road {road} lane {}): a dead end or the map's edge",
+                    info.node.lane
+                ));
+        }
+    }
+    notes.push(format!(
+        "drivers: {} lane changes, {} contacts seen by the drivers",
+        d.traffic
+            .vehicles
+            .iter()
+            .map(|v| u64::from(v.lane_changes))
+            .sum::<u64>(),
+        d.traffic.contacts.len(),
+    ));
 }
 
 #[cfg(test)]
