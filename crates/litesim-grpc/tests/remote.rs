@@ -7,6 +7,9 @@ use litesim_ssp::testkit::{encode, mixed_scenario};
 use litesim_ssp::*;
 use std::net::SocketAddr;
 
+mod common;
+use common::health_status;
+
 type Server = litesim_grpc::LoopbackServer;
 
 fn start(cfg: ServerConfig) -> Server {
@@ -381,25 +384,7 @@ fn step_stream_lock_step() {
 #[test]
 fn health_reports_serving() {
     let server = start(ServerConfig::default());
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .unwrap();
-    let status = rt.block_on(async {
-        let ch = tonic::transport::Channel::from_shared(format!("http://{}", server.addr))
-            .unwrap()
-            .connect()
-            .await
-            .unwrap();
-        let mut h = tonic_health::pb::health_client::HealthClient::new(ch);
-        h.check(tonic_health::pb::HealthCheckRequest {
-            service: "litesim.ssp.v1.SimulatorSupport".into(),
-        })
-        .await
-        .unwrap()
-        .into_inner()
-        .status
-    });
+    let status = health_status(&server.addr.to_string());
     assert_eq!(
         status,
         tonic_health::pb::health_check_response::ServingStatus::Serving as i32

@@ -8,6 +8,9 @@ use litesim_grpc::{RemoteSsp, ServerConfig};
 use litesim_ssp::*;
 use std::time::{Duration, Instant};
 
+mod common;
+use common::health_status;
+
 fn start(cfg: ServerConfig) -> litesim_grpc::LoopbackServer {
     litesim_grpc::LoopbackServer::start(cfg, 2).unwrap()
 }
@@ -459,25 +462,7 @@ fn with_a_token_every_call_but_health_needs_it() {
     c.init(InitRequest::default()).unwrap();
     c.start_simulation(0).unwrap();
     // Health stays open.
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .unwrap();
-    let status = rt.block_on(async {
-        let ch = tonic::transport::Channel::from_shared(format!("http://{addr}"))
-            .unwrap()
-            .connect()
-            .await
-            .unwrap();
-        let mut h = tonic_health::pb::health_client::HealthClient::new(ch);
-        h.check(tonic_health::pb::HealthCheckRequest {
-            service: "litesim.ssp.v1.SimulatorSupport".into(),
-        })
-        .await
-        .unwrap()
-        .into_inner()
-        .status
-    });
+    let status = health_status(&addr);
     assert_eq!(
         status,
         tonic_health::pb::health_check_response::ServingStatus::Serving as i32

@@ -10,35 +10,14 @@
 
 use criterion::Criterion;
 use litesim_scenario::sut::{SutChoice, SutCommand};
-use litesim_scenario::{LoadOptions, Prepared, RunOptions, Stepped, prepare};
+use litesim_scenario::{Prepared, RunOptions, Stepped};
 use rayon::prelude::*;
-use std::collections::BTreeMap;
 use std::hint::black_box;
 use std::sync::Arc;
 
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::root;
-
-fn smoke() -> Prepared {
-    let env = BTreeMap::from([("FTX".to_string(), root().join("osc").display().to_string())]);
-    prepare(
-        &root().join("osc/env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc"),
-        &LoadOptions {
-            env: Some(env),
-            ..LoadOptions::default()
-        },
-    )
-    .unwrap()
-}
-
-fn cut_in() -> Prepared {
-    prepare(
-        &root().join("examples/scenarios/cut_in.osc"),
-        &LoadOptions::default(),
-    )
-    .unwrap()
-}
+use common::{example, smoke};
 
 fn main() {
     let mut c = Criterion::default().configure_from_args();
@@ -50,8 +29,8 @@ fn main() {
     g.sample_size(10);
     let tests = [
         ("smoke", smoke(), SutChoice::Planned),
-        ("cut_in_planned", cut_in(), SutChoice::Planned),
-        ("cut_in_acc", cut_in(), SutChoice::Acc),
+        ("cut_in_planned", example("cut_in"), SutChoice::Planned),
+        ("cut_in_acc", example("cut_in"), SutChoice::Acc),
     ];
     for (name, prep, sut) in tests {
         let shared: Result<Prepared, String> = Ok(prep);
@@ -75,7 +54,7 @@ fn main() {
     }
     g.finish();
 
-    let prep = Arc::new(cut_in());
+    let prep = Arc::new(example("cut_in"));
     let opts = |seed| RunOptions {
         seed: Some(seed),
         record: false,

@@ -8,30 +8,17 @@
 use criterion::Criterion;
 use litesim_scenario::{LoadOptions, Prepared, RunOptions, prepare, run};
 use rayon::prelude::*;
-use std::collections::BTreeMap;
 use std::hint::black_box;
 
 // The test binaries' helpers: the repository root, a test written beside
 // the examples, the traffic test (the many-actors test runs it too).
 #[path = "../tests/common/mod.rs"]
 mod common;
-use common::{example_file, root, traffic};
-
-fn load() -> Prepared {
-    let env = BTreeMap::from([("FTX".to_string(), root().join("osc").display().to_string())]);
-    prepare(
-        &root().join("osc/env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc"),
-        &LoadOptions {
-            env: Some(env),
-            ..LoadOptions::default()
-        },
-    )
-    .unwrap()
-}
+use common::{example_file, root, smoke, traffic};
 
 fn main() {
     let mut c = Criterion::default().configure_from_args();
-    let prep = load();
+    let prep = smoke();
     // The smoke test draws its duration from [3..6] s: take the first seed
     // whose run is (almost) 6 s, i.e. the 300 steps.
     let seed = (1..500)
@@ -57,7 +44,7 @@ fn main() {
     eprintln!("smoke seed {seed}: {} steps", r.summary.steps);
     c.bench_function("smoke_end_to_end_in_process", |b| {
         b.iter(|| {
-            let prep = load();
+            let prep = smoke();
             let r = run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap();
             let log = r.log.unwrap();
             black_box(serde_json::to_string(&r.summary).unwrap().len() + log.tick.len())
@@ -232,7 +219,7 @@ fn main() {
     g.sample_size(10);
     g.bench_function("smoke_end_to_end_over_grpc", |b| {
         b.iter(|| {
-            let prep = load();
+            let prep = smoke();
             let mut remote = litesim_grpc::RemoteSsp::connect(&addr).unwrap();
             let r = run(&prep, &mut remote, &opts).unwrap();
             let log = r.log.unwrap();

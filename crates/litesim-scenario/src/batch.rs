@@ -551,8 +551,9 @@ struct Sorted<'d> {
     counts: (u64, u64, u64, u64, crate::Verdict),
 }
 
-/// A file written beside its final name and renamed over it when done
-/// (what [`atomic`] does for a file made in one piece).
+/// A file written beside its final name (`.NAME.tmp`), flushed to disk
+/// and renamed over it when done: [`atomic`] for a file made in one
+/// piece, the sorted results for files written line by line.
 struct TempFile {
     path: PathBuf,
     tmp: PathBuf,
@@ -669,6 +670,13 @@ impl<'d> Sorted<'d> {
     }
 }
 
+/// A result line's job, read without the rest of the line.
+#[derive(Deserialize)]
+struct Key {
+    test: String,
+    seed: u64,
+}
+
 /// Sorts the results file of a batch in place, streaming: only each
 /// line's (test, seed) and place in the file are held, not the lines, so
 /// a batch's memory does not grow with its runs. The last line of a
@@ -681,11 +689,6 @@ fn sort_results_file(
     defs: &[(String, crate::coverage::ItemDef)],
 ) -> Result<(u64, u64, u64, u64, crate::Verdict), ScenarioError> {
     use std::io::{BufRead, Read, Seek};
-    #[derive(Deserialize)]
-    struct Key {
-        test: String,
-        seed: u64,
-    }
     let path = dir.join("results.jsonl");
     let io = |e: std::io::Error| ScenarioError::Io(format!("{}: {e}", path.display()));
     let mut places: BTreeMap<(usize, u64), (u64, usize)> = BTreeMap::new();
@@ -734,11 +737,6 @@ fn sort_results_file(
 /// order (what a resumed batch has done already).
 fn read_keys(path: &Path) -> Vec<(String, u64)> {
     use std::io::BufRead;
-    #[derive(Deserialize)]
-    struct Key {
-        test: String,
-        seed: u64,
-    }
     let Ok(f) = std::fs::File::open(path) else {
         return Vec::new();
     };
@@ -754,17 +752,9 @@ fn read_keys(path: &Path) -> Vec<(String, u64)> {
 /// (named `.NAME.tmp`), flushed to disk, then renamed over `path` — a
 /// reader sees the old file or the new one, never a part.
 pub fn atomic(path: &Path, text: &str) -> Result<(), ScenarioError> {
-    let name = path
-        .file_name()
-        .map_or("out".into(), |n| n.to_string_lossy().into_owned());
-    let tmp = path.with_file_name(format!(".{name}.tmp"));
-    let io = |e: std::io::Error| ScenarioError::Io(format!("{}: {e}", path.display()));
-    {
-        let mut f = std::fs::File::create(&tmp).map_err(io)?;
-        f.write_all(text.as_bytes()).map_err(io)?;
-        f.sync_all().map_err(io)?;
-    }
-    std::fs::rename(&tmp, path).map_err(io)
+    let mut f = TempFile::new(path.to_path_buf())?;
+    f.write(text)?;
+    f.finish()
 }
 
 /// Removes temporary files a killed run left in `dir`: litesim's own

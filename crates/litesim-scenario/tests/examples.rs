@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 mod common;
-use common::{example, example_file, root};
+use common::{example, example_file, root, smoke};
 
 fn go(name: &str, seed: u64, mode: DriveMode) -> RunResult {
     let prep = example(name);
@@ -447,18 +447,6 @@ fn contradictions_and_bad_tests_are_precise_errors() {
     let e = s.failures.join("; ");
     assert!(!s.pass && s.steps == 0, "{s:?}");
     assert!(e.contains("post-plan") && e.contains("strict speed"), "{e}");
-}
-
-fn smoke() -> Prepared {
-    let env = BTreeMap::from([("FTX".to_string(), root().join("osc").display().to_string())]);
-    prepare(
-        &root().join("osc/env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc"),
-        &LoadOptions {
-            env: Some(env),
-            ..LoadOptions::default()
-        },
-    )
-    .unwrap()
 }
 
 fn fnv(bytes: &[u8]) -> u64 {

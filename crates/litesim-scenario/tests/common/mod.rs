@@ -15,6 +15,23 @@ pub fn example(name: &str) -> Prepared {
     prepare(&p, &LoadOptions::default()).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
+/// The seed's smoke test (`dummy_smoke.osc`, its imports found through
+/// `$FTX` = litesim's `osc/`), prepared.
+pub fn smoke() -> Prepared {
+    let env = std::collections::BTreeMap::from([(
+        "FTX".to_string(),
+        root().join("osc").display().to_string(),
+    )]);
+    prepare(
+        &root().join("osc/env/basic/exe_platforms/model_ssp/test/dummy_smoke.osc"),
+        &LoadOptions {
+            env: Some(env),
+            ..LoadOptions::default()
+        },
+    )
+    .unwrap()
+}
+
 /// Writes `text` as a test in `examples/scenarios` (so that relative
 /// imports and map paths resolve like the examples'); removed when dropped.
 pub fn example_file(text: &str) -> tempfile::NamedTempFile {
