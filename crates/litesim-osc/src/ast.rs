@@ -279,6 +279,19 @@ pub enum DeclKind {
     Modifier,
 }
 
+impl DeclKind {
+    /// The kind with its article, for messages: "a struct", "an actor".
+    pub fn noun(self) -> &'static str {
+        match self {
+            DeclKind::Struct => "a struct",
+            DeclKind::Actor => "an actor",
+            DeclKind::Scenario => "a scenario",
+            DeclKind::Action => "an action",
+            DeclKind::Modifier => "a modifier",
+        }
+    }
+}
+
 /// Top-level declarations.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "decl")]

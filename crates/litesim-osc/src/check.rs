@@ -532,7 +532,8 @@ impl Checker<'_> {
             Expr::Bool { .. } => Ty::Bool,
             Expr::Physical { unit, span, .. } => match self.m.units.get(unit) {
                 Some(p) => Ty::Physical(p.clone()),
-                None if unit.contains('/') || unit.contains('*') => Ty::Unknown,
+                // A quoted unit (`80|foot/s|`) is a name like any other:
+                // unknown unless declared (`unit |foot/s| of speed …`).
                 None => {
                     self.unknown_unit(unit, *span);
                     Ty::Unknown
@@ -1764,6 +1765,7 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
     let mut enum_last: BTreeMap<String, i128> = BTreeMap::new();
     let mut physical: BTreeMap<String, Span> = BTreeMap::new();
     let mut units: BTreeMap<String, Span> = BTreeMap::new();
+    let mut globals: BTreeMap<String, Span> = BTreeMap::new();
     // (compound key) → member name → first span
     let mut members: BTreeMap<String, BTreeMap<String, Span>> = BTreeMap::new();
     let mut member_names = |key: String, ms: &[Member], out: &mut Vec<Diagnostic>| {
@@ -1874,6 +1876,19 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     target,
                     members: ms,
                 } => member_names(qual_key(target), ms, out),
+                Decl::Global(f) => {
+                    for n in &f.names {
+                        if let Some(first) = first_place(&mut globals, n) {
+                            out.push(twice(
+                                "E0352",
+                                n.span,
+                                format!("global '{}' is defined twice", n.text),
+                                first,
+                                "a global parameter is defined once: set its value with `keep` where it is used",
+                            ));
+                        }
+                    }
+                }
                 _ => {}
             }
         }
@@ -2081,11 +2096,7 @@ fn behaviour_dos(prog: &Program, out: &mut Vec<Diagnostic>) {
             continue; // an extend of an unknown type: reported elsewhere
         };
         if !matches!(kind, DeclKind::Scenario | DeclKind::Action) {
-            let what = match kind {
-                DeclKind::Struct => "a struct",
-                DeclKind::Actor => "an actor",
-                _ => "a modifier",
-            };
+            let what = kind.noun();
             for &at in spans {
                 out.push(
                     Diagnostic::error(
@@ -2199,6 +2210,61 @@ fn si_twice(args: &[Arg], out: &mut Vec<Diagnostic>) {
     }
 }
 
+/// Every name of the type namespace (physical types, enums, structs,
+/// actors, scenarios, actions; a behaviour declared on an actor by
+/// `actor.name`) and every modifier is declared once (E0307, with where it
+/// was first declared). Two declarations of one kind are E0330/E0333's
+/// (enums, physical types); two of different kinds are E0307's here.
+/// CARLA's entry point `scenario top` may sit beside the domain's `actor top`.
+fn declared_once(prog: &Program, carla: bool, out: &mut Vec<Diagnostic>) {
+    let mut seen: BTreeMap<String, (Span, &'static str)> = BTreeMap::new();
+    for (_, f) in &prog.files {
+        for d in &f.decls {
+            let (key, span, what) = match d {
+                Decl::PhysicalType { name, .. } => {
+                    (name.text.clone(), name.span, "a physical type")
+                }
+                Decl::Enum { name, .. } => (name.text.clone(), name.span, "an enum"),
+                Decl::Compound { name, kind, .. } => {
+                    let key = qual_key(name);
+                    let key = if *kind == DeclKind::Modifier {
+                        modifier_key(&key)
+                    } else {
+                        key
+                    };
+                    (key, name.name.span, kind.noun())
+                }
+                _ => continue,
+            };
+            let Some(&(first, first_what)) = seen.get(&key) else {
+                seen.insert(key, (span, what));
+                continue;
+            };
+            let same_kind_elsewhere =
+                first_what == what && matches!(d, Decl::PhysicalType { .. } | Decl::Enum { .. });
+            let carla_top = carla && key == "top" && what == "a scenario";
+            if same_kind_elsewhere || carla_top {
+                continue;
+            }
+            let shown = key.strip_prefix("modifier ").unwrap_or(&key);
+            let msg = if first_what == what {
+                format!("'{shown}' is declared twice")
+            } else {
+                format!("'{shown}' is declared twice: as {what} here, first as {first_what}")
+            };
+            out.push(
+                Diagnostic::error("E0307", span, msg)
+                    .with_hint(if first_what == what {
+                        "use `extend` to add to an existing declaration"
+                    } else {
+                        "types, behaviours and modifiers share one namespace: rename one of them"
+                    })
+                    .with_related(first, "first declared here"),
+            );
+        }
+    }
+}
+
 /// Semantic diagnostics of a loaded program.
 pub fn check(prog: &Program) -> Vec<Diagnostic> {
     let m = Model::collect(prog);
@@ -2212,7 +2278,7 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
         in_keep: false,
     };
     redefinitions(prog, &mut c.diags);
-    let mut seen: BTreeMap<String, Span> = BTreeMap::new();
+    declared_once(prog, carla, &mut c.diags);
     for (_, f) in &prog.files {
         for d in &f.decls {
             match d {
@@ -2223,31 +2289,6 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
                     of,
                     kind,
                 } => {
-                    let key = format!(
-                        "{}{}",
-                        name.actor
-                            .as_ref()
-                            .map_or(String::new(), |a| format!("{}.", a.text)),
-                        name.name.text
-                    );
-                    // CARLA's entry point `scenario top` beside the domain's `actor top`.
-                    let carla_top = carla && key == "top" && *kind == DeclKind::Scenario;
-                    match seen.get(&key) {
-                        Some(_) if carla_top => {}
-                        Some(first) if *kind != DeclKind::Modifier => c.diags.push(
-                            Diagnostic::error(
-                                "E0307",
-                                name.name.span,
-                                format!("'{key}' is declared twice"),
-                            )
-                            .with_hint("use `extend` to add to an existing declaration")
-                            .with_related(*first, "first declared here"),
-                        ),
-                        Some(_) => {}
-                        None => {
-                            seen.insert(key.clone(), name.name.span);
-                        }
-                    }
                     if let Some(a) = &name.actor
                         && !matches!(m.compounds.get(&a.text), Some((DeclKind::Actor, ..)))
                     {

@@ -26,6 +26,12 @@ const MAX_DEPTH: usize = 128;
 /// bounded where it is built.
 const MAX_BLOCKS: usize = 200;
 
+/// A name token: an identifier or a `|quoted identifier|` (which may
+/// stand wherever an identifier does, §3.1).
+fn is_name(t: &Tok) -> bool {
+    matches!(t, Tok::Ident(_) | Tok::Quoted(_))
+}
+
 fn describe(t: &Tok) -> String {
     match t {
         Tok::Ident(s) => format!("'{s}'"),
@@ -318,7 +324,7 @@ impl<'a> P<'a> {
 
     fn qual_name(&mut self, what: &str) -> Option<QualName> {
         let first = self.ident(what)?;
-        if self.is_p(".") && matches!(self.nth(1), Tok::Ident(_)) {
+        if self.is_p(".") && is_name(self.nth(1)) {
             self.bump();
             let name = self.ident(what)?;
             Some(QualName {
@@ -540,8 +546,7 @@ impl<'a> P<'a> {
             return out;
         }
         loop {
-            let named =
-                matches!(self.tok(), Tok::Ident(_)) && matches!(self.nth(1), Tok::Punct(":"));
+            let named = is_name(self.tok()) && matches!(self.nth(1), Tok::Punct(":"));
             let arg = if named {
                 let name = self.ident("an argument name");
                 self.bump();
@@ -626,7 +631,7 @@ impl<'a> P<'a> {
             }
             Tok::Ident(_) | Tok::Quoted(_) => {
                 let (w, _) = self.take_text();
-                if self.is_p("!") && matches!(self.nth(1), Tok::Ident(_)) {
+                if self.is_p("!") && is_name(self.nth(1)) {
                     self.bump();
                     let m = self
                         .ident("an enum member")
@@ -823,7 +828,7 @@ impl<'a> P<'a> {
     fn member(&mut self) -> Option<Member> {
         let start = self.span();
         let kw = match self.tok() {
-            Tok::Ident(_) => self.keyword(),
+            Tok::Ident(_) | Tok::Quoted(_) => self.keyword(),
             _ => {
                 self.error(
                     "E0110",
@@ -963,7 +968,7 @@ impl<'a> P<'a> {
                 self.end_line();
                 Some(Member::Until(e))
             }
-            "set" if !next_colon && matches!(self.nth(1), Tok::Ident(_)) => {
+            "set" if !next_colon && is_name(self.nth(1)) => {
                 self.bump();
                 let path = self.postfix();
                 self.expect_p("=");
@@ -974,7 +979,7 @@ impl<'a> P<'a> {
             }
             _ if next_colon => {
                 // `label: modifier(...)` or a field `name: type`.
-                let labelled = matches!(self.nth(2), Tok::Ident(_))
+                let labelled = is_name(self.nth(2))
                     && (matches!(self.nth(3), Tok::Punct("("))
                         || (matches!(self.nth(3), Tok::Punct("."))
                             && matches!(self.nth(5), Tok::Punct("("))));
@@ -1025,7 +1030,8 @@ impl<'a> P<'a> {
 
     fn do_member(&mut self) -> Option<DoMember> {
         let start = self.span();
-        let label = if matches!(self.tok(), Tok::Ident(w) if *w != "with")
+        let label = if (matches!(self.tok(), Tok::Ident(w) if *w != "with")
+            || matches!(self.tok(), Tok::Quoted(_)))
             && matches!(self.nth(1), Tok::Punct(":"))
             && !matches!(self.nth(2), Tok::Newline)
         {

@@ -8,6 +8,8 @@
 //! A file whose first line is `import "config.osc"` is loaded against
 //! litesim's `osc/domain` library and semantically checked; any other file
 //! is a syntax-level case (parsed alone, so it may use undeclared names).
+//! `corpus/lib/` holds files the cases import (a rule's "across an
+//! import" form); they are not cases themselves.
 //! Review changed snapshots with `cargo insta review` (or set
 //! `INSTA_UPDATE=always` and read the diff).
 
@@ -39,12 +41,15 @@ fn load(path: &Path) -> (serde_json::Value, SourceMap, Vec<Diagnostic>) {
         let root = prog.files.iter().find(|(id, _)| *id == 0).unwrap();
         let tree = serde_json::to_value(&root.1).unwrap();
         prog.sources.files[0].path = name;
-        // Library files too (notes point into them): machine-independent.
+        // Library files too (notes point into them): machine-independent,
+        // named by their folder (`domain/`, the corpus's own `lib/`).
         for f in prog.sources.files.iter_mut().skip(1) {
-            let base = Path::new(&f.path)
-                .file_name()
-                .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-            f.path = format!("domain/{base}");
+            let p = Path::new(&f.path);
+            let name = |p: Option<&Path>| {
+                p.and_then(Path::file_name)
+                    .map_or(String::new(), |n| n.to_string_lossy().into_owned())
+            };
+            f.path = format!("{}/{}", name(p.parent()), name(Some(p)));
         }
         (tree, prog.sources, prog.diagnostics)
     } else {
