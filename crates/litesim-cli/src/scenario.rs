@@ -43,7 +43,7 @@ pub struct Common {
     pub dialect: String,
     /// Folder of OpenDRIVE maps for a CARLA scenario's
     /// `path.set_map("Town04")` (Town04.xodr). Default: the test's folder,
-    /// its maps/ and ../maps/.
+    /// then maps/ in it and in each folder above it.
     #[arg(long, value_name = "DIR")]
     pub map_dir: Option<PathBuf>,
     /// Drive actors dynamically (pedals and steering) instead of

@@ -7,6 +7,7 @@
 //! |-----------------------------------------|------------------------------------------------|
 //! | `scenario top:` (fields, modifiers, do) | `extend top.main:`                             |
 //! | `ego_vehicle: Model3`                   | `sut.car` (every `ego_vehicle` renamed)        |
+//! | `scenario dut.name:` (no `top`)         | the entry point, `dut` in it renamed `sut.car` |
 //! | `path: Path`                            | `path: road`                                   |
 //! | `path.set_map("Town04")`                | the test's map: `Town04.xodr` in the map folder |
 //! | `path.path_min_driving_lanes(n)`        | `keep(path.min_lanes >= n)`                    |
@@ -37,6 +38,10 @@ pub struct CarlaInfo {
 
 /// The actor scenario_runner drives as the hero (litesim's `sut.car`).
 pub const EGO: &str = "ego_vehicle";
+
+/// The ego's actor type in scenario_runner's library: `scenario
+/// dut.name:` is a scenario of the ego, and `dut` in it is the ego.
+pub const DUT: &str = "dut";
 
 /// The simulator profile a CARLA scenario runs under (blueprint ids and
 /// bounding boxes, 20 Hz) unless it sets one.
@@ -114,7 +119,7 @@ fn sut_car(span: Span) -> Expr {
 /// Renames every `ego_vehicle` to `sut.car` in an expression.
 fn rename(e: &mut Expr) {
     match e {
-        Expr::Ident { name, span } if name == EGO => *e = sut_car(*span),
+        Expr::Ident { name, span } if name == EGO || name == DUT => *e = sut_car(*span),
         Expr::Unary { expr, .. } => rename(expr),
         Expr::Binary { lhs, rhs, .. } => {
             rename(lhs);
@@ -451,6 +456,29 @@ impl Lower<'_> {
     }
 }
 
+/// The scenarios declared on the ego in the user's files (`scenario
+/// dut.name:`), as (file, declaration) indexes.
+fn dut_scenarios(prog: &Program, user: &dyn Fn(&Program, u32) -> bool) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for (fi, (id, f)) in prog.files.iter().enumerate() {
+        if !user(prog, *id) {
+            continue;
+        }
+        for (di, d) in f.decls.iter().enumerate() {
+            if let Decl::Compound {
+                kind: DeclKind::Scenario,
+                name,
+                ..
+            } = d
+                && name.actor.as_ref().is_some_and(|a| a.text == DUT)
+            {
+                out.push((fi, di));
+            }
+        }
+    }
+    out
+}
+
 /// Lowers a checked CARLA-dialect program in place (see the module's
 /// table); returns the diagnostics of what it could not lower.
 pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
@@ -477,6 +505,38 @@ pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
             }
         }
     }
+    // Without a `top`, the one scenario declared on the ego (`scenario
+    // dut.name:`) is the entry point.
+    if tops.is_empty() {
+        tops = dut_scenarios(prog, &user);
+        if tops.len() > 1 {
+            let names: Vec<String> = tops
+                .iter()
+                .map(|&(fi, di)| match &prog.files[fi].1.decls[di] {
+                    Decl::Compound { name, .. } => format!("dut.{}", name.name.text),
+                    _ => String::new(),
+                })
+                .collect();
+            let at = prog.files.last().map_or(0, |(id, _)| *id);
+            diags.push(
+                Diagnostic::error(
+                    "E0601",
+                    Span {
+                        file: at,
+                        start: 0,
+                        end: 0,
+                    },
+                    format!(
+                        "a CARLA program without `scenario top:` runs its one scenario of the ego, and this one declares {}: {}",
+                        names.len(),
+                        names.join(", ")
+                    ),
+                )
+                .with_hint("add `scenario top:` that invokes the one to run, or keep one per file"),
+            );
+            return diags;
+        }
+    }
     let Some(&(fi, di)) = tops.first() else {
         let at = prog.files.last().map_or(0, |(id, _)| *id);
         diags.push(
@@ -487,7 +547,7 @@ pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
                     start: 0,
                     end: 0,
                 },
-                "a CARLA scenario needs `scenario top:`, scenario_runner's entry point",
+                "a CARLA scenario needs `scenario top:` (scenario_runner's entry point) or one `scenario dut.name:`",
             )
             .with_hint("or run it as a litesim program: --dialect litesim"),
         );

@@ -16,8 +16,9 @@
 
 use crate::ast::*;
 use crate::diag::Diagnostic;
-use crate::index::{DeclIndex, modifier_key};
+use crate::index::{DeclIndex, Dimension, dimension, modifier_key};
 use crate::loader::Program;
+use crate::precedence;
 use crate::source::Span;
 use rustc_hash::{FxHashMap, FxHashSet};
 use std::collections::{BTreeMap, BTreeSet};
@@ -78,6 +79,9 @@ impl Ty {
 #[derive(Default)]
 struct Model {
     physical: FxHashSet<String>,
+    /// CARLA's dialect: a physical type → the type of its dimension that
+    /// was declared first (`velocity` → `speed`); see `DeclIndex`.
+    physical_alias: FxHashMap<String, Sym>,
     units: FxHashMap<String, Sym>,
     enums: FxHashMap<String, BTreeSet<String>>,
     /// compound name (behaviours by their own name) → what it is
@@ -144,10 +148,18 @@ impl Model {
     fn from_index(ix: &DeclIndex<'_>) -> Self {
         let mut m = Model {
             physical: ix.physical.iter().cloned().collect(),
+            physical_alias: ix
+                .physical_alias
+                .iter()
+                .map(|(k, v)| (k.clone(), Sym::from(v.as_str())))
+                .collect(),
             units: ix
                 .units
                 .iter()
-                .map(|(k, u)| (k.clone(), Sym::from(u.of.as_str())))
+                .map(|(k, u)| {
+                    let of = ix.physical_alias.get(&u.of).unwrap_or(&u.of);
+                    (k.clone(), Sym::from(of.as_str()))
+                })
                 .collect(),
             enums: ix
                 .enums
@@ -267,7 +279,12 @@ impl Model {
             "int" | "uint" | "float" => Ty::Number,
             "bool" => Ty::Bool,
             "string" => Ty::Str,
-            _ if self.physical.contains(n) => Ty::Physical(n.into()),
+            _ if self.physical.contains(n) => Ty::Physical(
+                self.physical_alias
+                    .get(n)
+                    .cloned()
+                    .unwrap_or_else(|| n.into()),
+            ),
             _ if self.enums.contains_key(n) => Ty::Enum(n.into()),
             _ if self.compounds.contains_key(n) => Ty::Compound(n.into()),
             _ => Ty::Unknown,
@@ -1763,8 +1780,8 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
     let mut enums: BTreeMap<String, Span> = BTreeMap::new();
     let mut enum_members: BTreeMap<String, BTreeMap<String, Span>> = BTreeMap::new();
     let mut enum_last: BTreeMap<String, i128> = BTreeMap::new();
-    let mut physical: BTreeMap<String, Span> = BTreeMap::new();
-    let mut units: BTreeMap<String, Span> = BTreeMap::new();
+    let mut physical: BTreeMap<String, (Span, Dimension)> = BTreeMap::new();
+    let mut units: BTreeMap<String, (Span, precedence::UnitDef)> = BTreeMap::new();
     let mut globals: BTreeMap<String, Span> = BTreeMap::new();
     // (compound key) → member name → first span
     let mut members: BTreeMap<String, BTreeMap<String, Span>> = BTreeMap::new();
@@ -1779,6 +1796,10 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
             };
             for n in names {
                 if let Some(first) = first_place(seen, n) {
+                    if precedence::overrides(prog, first, n.span) {
+                        seen.insert(n.text.clone(), n.span);
+                        continue;
+                    }
                     out.push(twice(
                         "E0336",
                         n.span,
@@ -1794,7 +1815,13 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
         for d in &f.decls {
             match d {
                 Decl::Enum { name, members: ms } | Decl::ExtendEnum { name, members: ms } => {
-                    if matches!(d, Decl::Enum { .. })
+                    let builtin_enum = enums
+                        .get(&name.text)
+                        .is_some_and(|first| precedence::overrides(prog, *first, name.span));
+                    if builtin_enum {
+                        // CARLA's dialect: the file's enum adds to litesim's.
+                        enums.insert(name.text.clone(), name.span);
+                    } else if matches!(d, Decl::Enum { .. })
                         && let Some(first) = first_place(&mut enums, name)
                     {
                         out.push(twice(
@@ -1808,6 +1835,9 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     let seen = enum_members.entry(name.text.clone()).or_default();
                     for (m, value) in ms {
                         if let Some(first) = first_place(seen, m) {
+                            if precedence::overrides(prog, first, m.span) {
+                                continue; // the same member, as litesim's library has it
+                            }
                             out.push(twice(
                                 "E0331",
                                 m.span,
@@ -1843,26 +1873,46 @@ fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     }
                 }
                 Decl::PhysicalType { name, si } => {
-                    if let Some(first) = first_place(&mut physical, name) {
-                        out.push(twice(
+                    let dim = dimension(si);
+                    match physical.get(&name.text) {
+                        Some((first, first_dim))
+                            if precedence::overrides(prog, *first, name.span) =>
+                        {
+                            out.extend(precedence::physical_type(name, &dim, *first, first_dim));
+                            physical.insert(name.text.clone(), (name.span, dim));
+                        }
+                        Some((first, _)) => out.push(twice(
                             "E0333",
                             name.span,
                             format!("physical type '{}' is defined twice", name.text),
-                            first,
+                            *first,
                             "one `type … is SI(…)` per physical type",
-                        ));
+                        )),
+                        None => {
+                            physical.insert(name.text.clone(), (name.span, dim));
+                        }
                     }
                     si_twice(si, out);
                 }
                 Decl::Unit { name, args, .. } => {
-                    if let Some(first) = first_place(&mut units, name) {
-                        out.push(twice(
+                    let def = (dimension(args), crate::index::factor(args));
+                    match units.get(&name.text) {
+                        Some((first, first_def))
+                            if precedence::overrides(prog, *first, name.span) =>
+                        {
+                            out.extend(precedence::unit(name, &def, *first, first_def));
+                            units.insert(name.text.clone(), (name.span, def));
+                        }
+                        Some((first, _)) => out.push(twice(
                             "E0334",
                             name.span,
                             format!("unit '{}' is defined twice", name.text),
-                            first,
+                            *first,
                             "unit names are global: pick another name",
-                        ));
+                        )),
+                        None => {
+                            units.insert(name.text.clone(), (name.span, def));
+                        }
                     }
                     si_twice(args, out);
                 }
@@ -2216,34 +2266,55 @@ fn si_twice(args: &[Arg], out: &mut Vec<Diagnostic>) {
 /// was first declared). Two declarations of one kind are E0330/E0333's
 /// (enums, physical types); two of different kinds are E0307's here.
 /// CARLA's entry point `scenario top` may sit beside the domain's `actor top`.
-fn declared_once(prog: &Program, carla: bool, out: &mut Vec<Diagnostic>) {
-    let mut seen: BTreeMap<String, (Span, &'static str)> = BTreeMap::new();
+fn declared_once(prog: &Program, m: &Model, out: &mut Vec<Diagnostic>) {
+    let carla = prog.dialect == crate::Dialect::Carla;
+    let mut seen: BTreeMap<String, (Span, &'static str, Option<&str>)> = BTreeMap::new();
     for (_, f) in &prog.files {
         for d in &f.decls {
-            let (key, span, what) = match d {
+            let (key, span, what, base) = match d {
                 Decl::PhysicalType { name, .. } => {
-                    (name.text.clone(), name.span, "a physical type")
+                    (name.text.clone(), name.span, "a physical type", None)
                 }
-                Decl::Enum { name, .. } => (name.text.clone(), name.span, "an enum"),
-                Decl::Compound { name, kind, .. } => {
+                Decl::Enum { name, .. } => (name.text.clone(), name.span, "an enum", None),
+                Decl::Compound {
+                    name,
+                    kind,
+                    inherits,
+                    ..
+                } => {
                     let key = qual_key(name);
                     let key = if *kind == DeclKind::Modifier {
                         modifier_key(&key)
                     } else {
                         key
                     };
-                    (key, name.name.span, kind.noun())
+                    let base = inherits.as_ref().map(|(b, _)| b.name.text.as_str());
+                    (key, name.name.span, kind.noun(), base)
                 }
                 _ => continue,
             };
-            let Some(&(first, first_what)) = seen.get(&key) else {
-                seen.insert(key, (span, what));
+            let Some(&(first, first_what, first_base)) = seen.get(&key) else {
+                seen.insert(key, (span, what, base));
                 continue;
             };
+            let carla_top = carla && key == "top" && what == "a scenario";
+            if carla_top {
+                continue;
+            }
+            if precedence::overrides(prog, first, span) {
+                // CARLA's dialect: the file's own declaration is used.
+                if let Decl::Compound { name, .. } = d {
+                    let is_a = |a: &str, b: &str| m.is_a(a, b);
+                    out.extend(precedence::compound(
+                        name, what, base, first, first_what, first_base, &is_a,
+                    ));
+                }
+                seen.insert(key, (span, what, base.or(first_base)));
+                continue;
+            }
             let same_kind_elsewhere =
                 first_what == what && matches!(d, Decl::PhysicalType { .. } | Decl::Enum { .. });
-            let carla_top = carla && key == "top" && what == "a scenario";
-            if same_kind_elsewhere || carla_top {
+            if same_kind_elsewhere {
                 continue;
             }
             let shown = key.strip_prefix("modifier ").unwrap_or(&key);
@@ -2278,7 +2349,7 @@ pub fn check(prog: &Program) -> Vec<Diagnostic> {
         in_keep: false,
     };
     redefinitions(prog, &mut c.diags);
-    declared_once(prog, carla, &mut c.diags);
+    declared_once(prog, &m, &mut c.diags);
     for (_, f) in &prog.files {
         for d in &f.decls {
             match d {

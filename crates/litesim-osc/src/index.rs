@@ -43,6 +43,8 @@ pub struct CompoundDecl<'a> {
     pub owner: Option<String>,
     /// The members' syntax (declaration and extensions), for elaboration.
     pub body: Vec<&'a Member>,
+    /// Declared in litesim's built-in library (not in the user's files).
+    pub builtin: bool,
 }
 
 /// A unit: its physical type and SI factor.
@@ -59,6 +61,14 @@ pub struct UnitDecl {
 pub struct DeclIndex<'a> {
     /// Physical types.
     pub physical: BTreeSet<String>,
+    /// Each physical type's SI base exponents (`speed` → m: 1, s: -1),
+    /// the last declaration's (the user's, when it redeclares a built-in).
+    pub dimensions: BTreeMap<String, Dimension>,
+    /// Under CARLA's dialect, each physical type → the first declared type
+    /// of the same dimension (`velocity` → litesim's `speed`): a file's
+    /// own types of a known dimension are that dimension. Empty otherwise
+    /// (types are told apart by name).
+    pub physical_alias: BTreeMap<String, String>,
     /// Units by name.
     pub units: BTreeMap<String, UnitDecl>,
     /// Enum members by enum (extensions merged).
@@ -67,6 +77,34 @@ pub struct DeclIndex<'a> {
     pub compounds: BTreeMap<String, CompoundDecl<'a>>,
     /// Global parameters and their types.
     pub globals: BTreeMap<String, TypeRef>,
+}
+
+/// SI base exponents of a physical type or unit, without zeros, by base
+/// unit name (`m`, `s`, `kg`, `rad`, …).
+pub type Dimension = BTreeMap<String, i64>;
+
+/// The dimension `SI(m: 1, s: -1, factor: …)` gives (`factor` and
+/// `offset` are not exponents; an exponent that is not an integer literal
+/// counts as 0, the checker reports it elsewhere).
+pub fn dimension(si: &[crate::ast::Arg]) -> Dimension {
+    si.iter()
+        .filter_map(|a| {
+            let n = a.name.as_ref()?;
+            if n.text == "factor" || n.text == "offset" {
+                return None;
+            }
+            let v = const_num(&a.value)? as i64;
+            (v != 0).then(|| (n.text.clone(), v))
+        })
+        .collect()
+}
+
+/// The SI factor of a unit's `SI(…, factor: f)` (1 when not given).
+pub fn factor(si: &[crate::ast::Arg]) -> f64 {
+    si.iter()
+        .find(|a| a.name.as_ref().is_some_and(|n| n.text == "factor"))
+        .and_then(|a| const_num(&a.value))
+        .unwrap_or(1.0)
 }
 
 /// The index key of a modifier (modifiers and behaviours may share names).
@@ -121,18 +159,28 @@ impl<'a> DeclIndex<'a> {
     /// Collects the declarations of every file, then merges `extend`s.
     pub fn build(prog: &'a Program) -> Self {
         let mut ix = DeclIndex::default();
-        for (_, f) in &prog.files {
+        let carla = prog.dialect == crate::Dialect::Carla;
+        // Physical types in declaration order: the first of a dimension
+        // names it (litesim's library loads before the user's files).
+        let mut by_dimension: BTreeMap<Dimension, String> = BTreeMap::new();
+        for (id, f) in &prog.files {
+            let builtin =
+                crate::builtin::is_builtin(std::path::Path::new(&prog.sources.file(*id).path));
             for d in &f.decls {
                 match d {
-                    Decl::PhysicalType { name, .. } => {
+                    Decl::PhysicalType { name, si } => {
                         ix.physical.insert(name.text.clone());
+                        let dim = dimension(si);
+                        if carla {
+                            let canon = by_dimension
+                                .entry(dim.clone())
+                                .or_insert_with(|| name.text.clone());
+                            ix.physical_alias.insert(name.text.clone(), canon.clone());
+                        }
+                        ix.dimensions.insert(name.text.clone(), dim);
                     }
                     Decl::Unit { name, of, args } => {
-                        let factor = args
-                            .iter()
-                            .find(|a| a.name.as_ref().is_some_and(|n| n.text == "factor"))
-                            .and_then(|a| const_num(&a.value))
-                            .unwrap_or(1.0);
+                        let factor = factor(args);
                         ix.units.insert(
                             name.text.clone(),
                             UnitDecl {
@@ -159,13 +207,22 @@ impl<'a> DeclIndex<'a> {
                         } else {
                             name.name.text.clone()
                         };
-                        let entry = ix.compounds.entry(key).or_insert(CompoundDecl {
+                        let fresh = CompoundDecl {
                             kind: *kind,
                             members: Vec::new(),
                             base: None,
                             owner: None,
                             body: Vec::new(),
-                        });
+                            builtin,
+                        };
+                        // CARLA's dialect: a file's own declaration of a
+                        // built-in name of another kind replaces it (the
+                        // checker warns, W0212); one of the same kind adds
+                        // to it, its base (if it names one) taking over.
+                        let entry = ix.compounds.entry(key).or_insert_with(|| fresh.clone());
+                        if carla && entry.builtin && !builtin && entry.kind != *kind {
+                            *entry = fresh;
+                        }
                         entry.members.extend(members_of(members));
                         entry.body.extend(members.iter());
                         if let Some((b, _)) = inherits {

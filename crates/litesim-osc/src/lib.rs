@@ -19,6 +19,7 @@ pub mod index;
 pub mod lexer;
 pub mod loader;
 pub mod parser;
+mod precedence;
 pub mod source;
 
 pub use diag::{Diagnostic, Severity};

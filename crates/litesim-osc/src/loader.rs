@@ -195,8 +195,9 @@ impl Loader<'_> {
         }
         let found = candidates.into_iter().find(|c| c.is_file());
         // CARLA's `import basic.osc`: litesim's CARLA library when there is
-        // no such file, and in place of scenario_runner's own (whose
-        // declarations are for its Python runtime).
+        // no such file. scenario_runner's own (it declares `actor Path`) is
+        // read as written, after litesim's: its declarations take
+        // precedence over litesim's of the same names (`crate::precedence`).
         let carla_basic = self.dialect != Some(Dialect::Litesim)
             && rel.file_name().is_some_and(|f| f == "basic.osc")
             && rel.components().count() == 1;
@@ -206,20 +207,9 @@ impl Loader<'_> {
                 .and_then(|f| std::fs::read_to_string(f).ok())
                 .is_some_and(|t| declares_carla_path(&t));
             if found.is_none() || theirs {
-                if let Some(f) = found.filter(|_| theirs) {
-                    self.prog.diagnostics.push(
-                        Diagnostic::warning(
-                            "W0211",
-                            span,
-                            format!(
-                                "'{}' is a CARLA scenario_runner library: litesim's own CARLA library is used in its place",
-                                f.display()
-                            ),
-                        )
-                        .with_hint("see docs/carla.md for the names it declares"),
-                    );
-                }
                 self.load_builtin(&crate::builtin::path_of(crate::builtin::CARLA_BASIC), span);
+            }
+            if found.is_none() {
                 return;
             }
         }

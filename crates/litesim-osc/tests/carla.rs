@@ -174,9 +174,12 @@ fn a_litesim_program_stays_litesim() {
 
 #[test]
 fn every_carla_example_checks_clean() {
-    let dir = root().join("examples/carla");
     let mut n = 0;
-    for e in std::fs::read_dir(&dir).unwrap() {
+    let files = std::fs::read_dir(root().join("examples/carla"))
+        .unwrap()
+        .chain(std::fs::read_dir(root().join("examples/carla/runner")).unwrap())
+        .filter(|e| e.as_ref().unwrap().file_name() != "basic.osc");
+    for e in files {
         let f = e.unwrap().path();
         if f.extension().is_some_and(|x| x == "osc") {
             let p = litesim_osc::load(&f, &[], &|_| None).unwrap();
@@ -185,7 +188,8 @@ fn every_carla_example_checks_clean() {
             n += 1;
         }
     }
-    assert!(n >= 3, "examples/carla has {n} scenarios");
+    // examples/carla/runner's import scenario_runner's own library beside them.
+    assert!(n >= 9, "examples/carla has {n} scenarios");
 }
 
 #[test]
@@ -215,17 +219,151 @@ fn native_modifiers_take_arguments_in_carla_only() {
     assert_eq!(codes(&p), ["E0308"], "{:?}", errors(&p));
 }
 
+/// scenario_runner's library as its users have it: its own physical types
+/// and units, `actor dut`, `actor Path`, parameterless modifiers, vehicle
+/// blueprints; `deg` with the inverted factor some copies have.
+const THEIR_BASIC: &str = "type time is SI(s: 1)
+unit s of time is SI(s: 1, factor: 1)
+unit hour of time is SI(s: 1, factor: 3600)
+unit h of time is SI(s: 1, factor: 3600)
+unit minute of time is SI(s: 1, factor: 60)
+unit min of time is SI(s: 1, factor: 60)
+type length is SI(m: 1)
+unit m of length is SI(m: 1, factor: 1)
+unit meter of length is SI(m: 1, factor: 1)
+unit km of length is SI(m: 1, factor: 1000)
+type velocity is SI(m: 1, s: -1)
+unit mps of velocity is SI(m: 1, s: -1, factor: 1)
+unit kph of velocity is SI(m: 1, s: -1, factor: 0.277777778)
+unit kmph of velocity is SI(m: 1, s: -1, factor: 0.277777778)
+unit mph of velocity is SI(m: 1, s: -1, factor: 0.44704)
+type angle is SI(rad: 1)
+unit deg of angle is SI(rad: 1, factor: 57.295779513)
+unit rad of angle is SI(rad: 1, factor: 1)
+actor dut
+actor Path
+modifier Path.set_map
+modifier Path.path_min_driving_lanes
+actor Model3
+actor Rubicon
+";
+
 #[test]
-fn scenario_runners_own_basic_osc_is_replaced_with_a_warning() {
-    let theirs = "actor Path\nmodifier Path.set_map\n";
-    let p = load(CUT_IN, &[("basic.osc", theirs)], None);
+fn scenario_runners_own_basic_osc_is_read_as_written_and_takes_precedence() {
+    let p = load(CUT_IN, &[("basic.osc", THEIR_BASIC)], None);
+    assert_eq!(p.dialect, Dialect::Carla);
     assert_eq!(errors(&p), Vec::<String>::new());
-    assert_eq!(codes(&p), ["W0211"]);
+    // Everything that matches litesim's library is silent; the one unit
+    // that differs is used, with a warning that names both and ASAM's.
+    let warnings: Vec<String> = p.diagnostics.iter().map(|d| d.render(&p.sources)).collect();
+    insta::assert_snapshot!(warnings.join("\n"));
+    // The file is read, not replaced: its text is among the sources, and
+    // its `deg` is the program's.
+    assert!(p.sources.files.iter().any(|f| f.path == "basic.osc"));
+    let ix = litesim_osc::index::DeclIndex::build(&p);
+    assert!((ix.units["deg"].factor - 57.295779513).abs() < 1e-9);
+    assert!((ix.units["kph"].factor - 1.0 / 3.6).abs() < 1e-6);
+    // Its `velocity` is litesim's `speed`: `speed(30kph)` checks.
+    assert_eq!(ix.physical_alias["velocity"], "speed");
     // A basic.osc of the user's own (no `actor Path`) is theirs to keep.
     let mine = "import \"/nonexistent/config.osc\"\n";
     let p = load("import basic.osc\n", &[("basic.osc", mine)], None);
     assert_eq!(p.dialect, Dialect::Litesim);
     assert_eq!(codes(&p), ["E0202"]);
+}
+
+#[test]
+fn redeclarations_of_litesims_names_warn_when_they_differ_and_conflicts_of_the_users_own_are_errors()
+ {
+    // Another kind, another base: used, with a warning naming both.
+    let theirs = format!(
+        "{THEIR_BASIC}struct heading_spec:\n    x: int\nactor Wheels\nactor Mustang inherits Wheels\n"
+    );
+    let text = CUT_IN.replace("npc: Rubicon", "npc: Rubicon\n    hs: heading_spec");
+    let p = load(&text, &[("basic.osc", &theirs)], None);
+    let w: Vec<String> = p
+        .diagnostics
+        .iter()
+        .filter(|d| d.code == "W0212")
+        .map(|d| d.message.clone())
+        .collect();
+    assert!(w.iter().any(|m| m.contains("'deg'")), "{w:?}");
+    assert!(
+        w.iter()
+            .any(|m| m.contains("'Mustang' inherits 'Wheels' here, 'vehicle'")),
+        "{w:?}"
+    );
+    // Two declarations of one unit in the user's own files: an error
+    // (the second against the user's first, not litesim's).
+    let text = CUT_IN.replace(
+        "import basic.osc\n",
+        "import basic.osc\nunit deg of angle is SI(rad: 1, factor: 0.0174533)\n",
+    );
+    let p = load(&text, &[("basic.osc", THEIR_BASIC)], None);
+    assert_eq!(
+        codes(&p).iter().filter(|c| **c == "E0334").count(),
+        1,
+        "{:?}",
+        errors(&p)
+    );
+    let e = errors(&p).join("\n");
+    assert!(
+        e.contains("basic.osc:17:6: note: first defined here"),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_file_that_imports_itself_through_the_library_is_a_cycle() {
+    let theirs = format!("import t.osc\n{THEIR_BASIC}");
+    let p = load(CUT_IN, &[("basic.osc", &theirs)], None);
+    let e = errors(&p).join("\n");
+    assert!(
+        e.contains("E0203") && e.contains("t.osc → basic.osc → t.osc"),
+        "{e}"
+    );
+    let p = load(&format!("import t.osc\n{CUT_IN}"), &[], None);
+    let e = errors(&p).join("\n");
+    assert!(e.contains("E0203") && e.contains("t.osc → t.osc"), "{e}");
+}
+
+const DUT: &str = "import basic.osc
+
+scenario dut.overtake:
+    path: Path
+    path.set_map(\"Town04\")
+    npc: Rubicon
+    do serial:
+        a: parallel(duration: 5s):
+            dut.drive(path) with:
+                speed(60kph)
+                lane(1, at: start)
+            npc.drive(path) with:
+                change_lane(lane_changes: [1..2], side: left)
+";
+
+#[test]
+fn a_scenario_of_the_dut_is_the_entry_point_and_dut_is_the_ego() {
+    for lib in [None, Some(THEIR_BASIC)] {
+        let extra: Vec<(&str, &str)> = lib.iter().map(|t| ("basic.osc", *t)).collect();
+        let p = load(DUT, &extra, None);
+        assert_eq!(errors(&p), Vec::<String>::new());
+        let c = calls(top_main(&p));
+        assert!(c.iter().any(|x| x.starts_with("sut.car.drive")), "{c:?}");
+        assert!(!c.iter().any(|x| x.contains("dut")), "{c:?}");
+        assert!(c.iter().any(|x| x.starts_with("change_lane")), "{c:?}");
+    }
+    // Two scenarios of the dut and no top: which one runs is not guessed.
+    let two = format!(
+        "{DUT}\nscenario dut.other:\n    do serial:\n        dut.drive() with:\n            speed(10kph)\n"
+    );
+    let p = load(&two, &[], None);
+    assert_eq!(codes(&p), ["E0601"], "{:?}", errors(&p));
+    assert!(
+        errors(&p)[0].contains("dut.overtake, dut.other"),
+        "{:?}",
+        errors(&p)
+    );
 }
 
 #[test]

@@ -386,6 +386,28 @@ impl<'a> Lib<'a> {
             .collect()
     }
 
+    /// A range given for an `int`/`uint` parameter of `key` becomes the
+    /// list of its integers, so that a run draws one of them with its seed
+    /// (`change_lane(lane_changes: [1..2])`: 1 or 2, each as likely) rather
+    /// than a real number truncated. Ranges of more than 4096 integers stay
+    /// ranges.
+    fn ints_drawn(&self, key: &str, bound: &mut BTreeMap<String, CExpr>) {
+        for p in self.ix.params(key) {
+            if !matches!(p.ty.base.name.text.as_str(), "int" | "uint") || p.ty.list {
+                continue;
+            }
+            if let Some(CExpr::Range(Some(lo), Some(hi))) = bound.get(&p.name) {
+                let (lo, hi) = (lo.ceil(), hi.floor());
+                if lo <= hi && hi - lo < 4096.0 {
+                    let items = (lo as i64..=hi as i64)
+                        .map(|v| CExpr::Const(Value::Num(v as f64)))
+                        .collect();
+                    bound.insert(p.name.clone(), CExpr::List(items));
+                }
+            }
+        }
+    }
+
     /// The members of scenario `name` (declaration and `extend`s).
     fn scenario(&self, name: &str) -> Option<Vec<&'a Member>> {
         self.ix
@@ -997,9 +1019,12 @@ impl Elab<'_> {
                         Expr::Field { name, .. } => name.text.clone(),
                         _ => continue,
                     };
-                    let params = self.lib.params(&modifier_key(&name));
+                    let key = modifier_key(&name);
+                    let params = self.lib.params(&key);
+                    let mut bound = self.bind(args, &params, sc);
+                    self.lib.ints_drawn(&key, &mut bound);
                     out.push(Modifier {
-                        args: self.bind(args, &params, sc),
+                        args: bound,
                         name,
                         at: self.lib.at(*span),
                     });

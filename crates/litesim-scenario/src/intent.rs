@@ -327,7 +327,9 @@ impl Intent {
                 strict,
             },
             "change_lane" => Intent::ChangeLane {
-                lanes: num("num_of_lanes").unwrap_or(1.0) as i32,
+                lanes: num("lane_changes")
+                    .or_else(|| num("num_of_lanes"))
+                    .unwrap_or(1.0) as i32,
                 side: side(Side::Left),
                 at,
             },

@@ -58,12 +58,14 @@ pub struct LoadOptions {
     /// The OSC dialect (`--dialect`); `None` detects it.
     pub dialect: Option<litesim_osc::Dialect>,
     /// Where a CARLA scenario's `set_map("Town04")` finds `Town04.xodr`
-    /// (`--map-dir`); `None`: the test's folder, its `maps/` and `../maps/`.
+    /// (`--map-dir`); `None`: the test's folder, then `maps/` in it and in
+    /// each folder above it.
     pub map_dir: Option<PathBuf>,
 }
 
 /// The OpenDRIVE file of a CARLA map name: `NAME.xodr` in `map_dir`, or
-/// (without one) in the test's folder, its `maps/` or `../maps/`. The error
+/// (without one) in the test's folder or the `maps/` of it or of a folder
+/// above it. The error
 /// says where it looked.
 pub fn carla_map_file(test: &Path, name: &str, map_dir: Option<&Path>) -> Result<PathBuf, String> {
     let file = format!("{name}.xodr");
@@ -76,7 +78,17 @@ pub fn carla_map_file(test: &Path, name: &str, map_dir: Option<&Path>) -> Result
     let here = test.parent().unwrap_or(Path::new(".")).to_path_buf();
     let dirs: Vec<PathBuf> = match map_dir {
         Some(d) => vec![d.to_path_buf()],
-        None => vec![here.clone(), here.join("maps"), here.join("../maps")],
+        // The folder, then `maps/` in it and in each folder above it (as
+        // far as the path goes), nearest first: a scenario in a sub-folder
+        // of a project finds the project's maps.
+        None => std::iter::once(here.clone())
+            .chain(
+                std::iter::successors(Some(here.as_path()), |d| {
+                    d.parent().filter(|p| !p.as_os_str().is_empty())
+                })
+                .map(|d| d.join("maps")),
+            )
+            .collect(),
     };
     dirs.iter()
         .map(|d| d.join(&file))

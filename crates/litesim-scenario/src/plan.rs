@@ -1199,6 +1199,15 @@ fn plan_once(
         let mut reached: Option<(LanePos, litesim_core::Pose)> = None;
         for k in 0..n {
             let t = k as f64 * plan_dt;
+            // A lane change that ends now is done before the phases that
+            // start now are entered: a second `change_lane` right after a
+            // first starts from the lane the first reached.
+            if let Some((_, to, _, c1)) = mo.change
+                && c1 <= t + 1e-9
+            {
+                mo.pos.lane = to;
+                mo.change = None;
+            }
             // Phases that end now and asked to end on a road.
             along_end.retain(|(t1, road, at)| {
                 if *t1 > t + 1e-9 {

@@ -39,6 +39,64 @@ fn every_carla_example_runs_and_passes_as_planned_and_under_acc() {
     }
 }
 
+fn go_seed(test: &Path, sut: &str, seed: u64) -> litesim_scenario::RunResult {
+    let prep = prepare(test, &LoadOptions::default()).unwrap_or_else(|e| panic!("{e}"));
+    let opts = RunOptions {
+        npc: litesim_scenario::Npc::Planned,
+        record: true,
+        seed: Some(seed),
+        sut: litesim_scenario::sut::SutChoice::builtin(sut).unwrap(),
+        ..RunOptions::default()
+    };
+    run(&prep, &mut litesim_scenario::in_process(), &opts).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// examples/carla/runner: scenarios beside a library written as
+/// scenario_runner's is (its own units, `dut`, `Path`), read as it is.
+#[test]
+fn scenarios_with_scenario_runners_own_library_run_and_pass() {
+    let dir = root().join("examples/carla/runner");
+    let mut names: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "osc") && !p.ends_with("basic.osc"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 6, "{names:?}");
+    for test in &names {
+        for sut in ["planned", "acc"] {
+            for seed in 1..=3 {
+                let r = go_seed(test, sut, seed);
+                assert!(
+                    r.summary.pass,
+                    "{} --sut {sut} --seed {seed}: {:?} {:?}",
+                    test.display(),
+                    r.summary.failures,
+                    r.summary.invalid
+                );
+                assert_eq!(r.summary.profile, "carla-0.9.15");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_range_of_lane_changes_draws_each_count_with_the_seed() {
+    // The ego starts in the rightmost of three lanes and changes one or
+    // two lanes to the left: both counts appear over a few seeds, and a
+    // seed always draws the same.
+    let test = root().join("examples/carla/runner/lane_change_range.osc");
+    let end_y = |seed| {
+        let r = go_seed(&test, "planned", seed);
+        let log = r.log.unwrap();
+        let ego = log.tracks.iter().find(|t| t.id == "sut.car").unwrap();
+        (ego.state.y[ego.state.y.len() - 1] * 10.0).round() / 10.0
+    };
+    let ends: std::collections::BTreeSet<i64> = (1..=8).map(|s| (end_y(s) * 10.0) as i64).collect();
+    assert_eq!(ends.len(), 2, "{ends:?}");
+    assert_eq!(end_y(2), end_y(2));
+}
+
 #[test]
 fn blueprints_lanes_from_the_left_and_the_cut_in_happen() {
     let r = go(&carla("cut_in.osc"), "planned");
