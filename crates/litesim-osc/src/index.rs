@@ -163,6 +163,8 @@ impl<'a> DeclIndex<'a> {
         // Physical types in declaration order: the first of a dimension
         // names it (litesim's library loads before the user's files).
         let mut by_dimension: BTreeMap<Dimension, String> = BTreeMap::new();
+        // (compound, the base a user's file gives it) over a built-in base.
+        let mut user_bases: Vec<(String, String)> = Vec::new();
         for (id, f) in &prog.files {
             let builtin =
                 crate::builtin::is_builtin(std::path::Path::new(&prog.sources.file(*id).path));
@@ -215,13 +217,24 @@ impl<'a> DeclIndex<'a> {
                             body: Vec::new(),
                             builtin,
                         };
+                        let entry = ix.compounds.entry(key.clone()).or_insert(fresh);
                         // CARLA's dialect: a file's own declaration of a
-                        // built-in name of another kind replaces it (the
-                        // checker warns, W0212); one of the same kind adds
-                        // to it, its base (if it names one) taking over.
-                        let entry = ix.compounds.entry(key).or_insert_with(|| fresh.clone());
-                        if carla && entry.builtin && !builtin && entry.kind != *kind {
-                            *entry = fresh;
+                        // built-in name adds its members to litesim's; its
+                        // base is taken only if it is one of litesim's
+                        // base's kind (decided below, once every base is
+                        // known). litesim's library is written against its
+                        // own kinds and bases: the checker says when a
+                        // file's differ (W0212).
+                        let over = carla && entry.builtin && !builtin;
+                        if over && let Some((b, _)) = inherits {
+                            if entry.base.is_some() {
+                                user_bases.push((key, b.name.text.clone()));
+                            } else {
+                                entry.base = Some(b.name.text.clone());
+                            }
+                            entry.members.extend(members_of(members));
+                            entry.body.extend(members.iter());
+                            continue;
                         }
                         entry.members.extend(members_of(members));
                         entry.body.extend(members.iter());
@@ -238,6 +251,14 @@ impl<'a> DeclIndex<'a> {
                         }
                     }
                     _ => {}
+                }
+            }
+        }
+        for (key, base) in user_bases {
+            let kept = ix.compounds.get(&key).and_then(|c| c.base.clone());
+            if kept.is_some_and(|k| ix.is_a(&base, &k)) {
+                if let Some(c) = ix.compounds.get_mut(&key) {
+                    c.base = Some(base);
                 }
             }
         }

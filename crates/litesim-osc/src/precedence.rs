@@ -9,8 +9,13 @@
 //!
 //! - one that matches (same SI exponents and factor; the same kind and a
 //!   compatible base) is used silently;
-//! - one that differs is used, with warning W0212 naming both definitions
-//!   (and, for a unit of ASAM's standard library, what ASAM defines).
+//! - a physical type or unit that differs is used, with warning W0212
+//!   naming both definitions (and, for a unit of ASAM's standard library,
+//!   what ASAM defines);
+//! - an actor, struct or behaviour of another kind, or with a base that is
+//!   not of the built-in base's kind, adds its members to litesim's, whose
+//!   kind and base stay (litesim's library and runtime are written against
+//!   them), with warning W0212 saying so.
 //!
 //! Two declarations of one name in the user's own files remain an error,
 //! and outside the dialect nothing here applies.
@@ -153,9 +158,12 @@ pub(crate) fn unit(
     )))
 }
 
-/// A compound redeclared as another kind, or with a base that is not the
-/// built-in one or one of its kind (W0212), or nothing. `is_a` tells
-/// whether one type inherits another in the program as loaded.
+/// A compound redeclared as another kind, or with a base that is neither
+/// litesim's nor of its kind (W0212), or nothing. Unlike a unit or a
+/// type, litesim keeps its own kind and base then (its library and
+/// runtime are written against them) and adds the file's members; the
+/// warning says so. `is_a` tells whether one type inherits another in the
+/// program as loaded.
 pub(crate) fn compound(
     name: &QualName,
     what: &str,
@@ -166,21 +174,20 @@ pub(crate) fn compound(
     is_a: &dyn Fn(&str, &str) -> bool,
 ) -> Option<Diagnostic> {
     let shown = &name.name.text;
+    let kept = |msg: String| {
+        Diagnostic::warning("W0212", name.name.span, msg)
+            .with_hint("litesim's declaration is kept (its library and runtime are written against it) and the members declared here are added to it; rename this one to declare a type of your own")
+            .with_related(first, "litesim's built-in declaration")
+    };
     if what != first_what {
-        return Some(differs(
-            name.name.span,
-            format!("'{shown}' is {what} here, {first_what} in litesim's library"),
-            first,
-        ));
+        return Some(kept(format!(
+            "'{shown}' is {what} here, {first_what} in litesim's library"
+        )));
     }
     match (base, first_base) {
-        (Some(b), Some(fb)) if b != fb && !is_a(b, fb) => Some(differs(
-            name.name.span,
-            format!(
-                "'{shown}' inherits '{b}' here, '{fb}' in litesim's library: what '{fb}' declares (its actions, fields and modifiers) is not {shown}'s"
-            ),
-            first,
-        )),
+        (Some(b), Some(fb)) if b != fb && !is_a(b, fb) => Some(kept(format!(
+            "'{shown}' inherits '{b}' here, '{fb}' in litesim's library, and '{b}' is not a kind of '{fb}'"
+        ))),
         _ => None,
     }
 }

@@ -277,9 +277,9 @@ fn redeclarations_of_litesims_names_warn_when_they_differ_and_conflicts_of_the_u
  {
     // Another kind, another base: used, with a warning naming both.
     let theirs = format!(
-        "{THEIR_BASIC}struct heading_spec:\n    x: int\nactor Wheels\nactor Mustang inherits Wheels\n"
+        "{THEIR_BASIC}actor bounding_box:\n    x: int\nactor Wheels\nactor Mustang inherits Wheels\n"
     );
-    let text = CUT_IN.replace("npc: Rubicon", "npc: Rubicon\n    hs: heading_spec");
+    let text = CUT_IN.replace("npc: Rubicon", "npc: Rubicon\n    hs: bounding_box");
     let p = load(&text, &[("basic.osc", &theirs)], None);
     let w: Vec<String> = p
         .diagnostics
@@ -293,6 +293,12 @@ fn redeclarations_of_litesims_names_warn_when_they_differ_and_conflicts_of_the_u
             .any(|m| m.contains("'Mustang' inherits 'Wheels' here, 'vehicle'")),
         "{w:?}"
     );
+    assert!(
+        w.iter()
+            .any(|m| m.contains("'bounding_box' is an actor here, a struct in litesim's library")),
+        "{w:?}"
+    );
+    assert_eq!(errors(&p), Vec::<String>::new());
     // Two declarations of one unit in the user's own files: an error
     // (the second against the user's first, not litesim's).
     let text = CUT_IN.replace(
@@ -311,6 +317,50 @@ fn redeclarations_of_litesims_names_warn_when_they_differ_and_conflicts_of_the_u
         e.contains("basic.osc:17:6: note: first defined here"),
         "{e}"
     );
+}
+
+#[test]
+fn the_stand_in_library_declares_every_name_of_scenario_runners() {
+    // No basic.osc beside the scenario: litesim's stand-in has the units,
+    // types, actors and modifiers scenario_runner's library declares.
+    let text = "import basic.osc
+
+scenario dut.names:
+    path: Path
+    path.set_map(\"straight\")
+    path.path_min_driving_lanes(2)
+    a: Model3
+    b: Rubicon
+    t1: time = 1hour
+    t2: time = 1h
+    t3: time = 2minute
+    t4: time = 2min
+    t5: time = 3s
+    l1: length = 1km
+    l2: length = 2meter
+    l3: length = 3m
+    v1: velocity = 1mps
+    v2: velocity = 2kph
+    v3: velocity = 3kmph
+    v4: speed = 4mph
+    a1: angle = 1deg
+    a2: angle = 1rad
+    do serial:
+        dut.drive(path) with:
+            speed(v2)
+            change_lane(lane_changes: 1, side: left)
+";
+    let p = load(text, &[], None);
+    assert_eq!(p.dialect, Dialect::Carla);
+    assert_eq!(p.diagnostics.len(), 0, "{:?}", errors(&p));
+    // `velocity` is `speed` (the same dimension): the literal of the other
+    // name is not an error, a length is.
+    let p = load(
+        &text.replace("v4: speed = 4mph", "v4: velocity = 4m"),
+        &[],
+        None,
+    );
+    assert_eq!(codes(&p), ["E0303"], "{:?}", errors(&p));
 }
 
 #[test]
@@ -403,6 +453,11 @@ fn what_cannot_be_lowered_is_an_error_at_its_place() {
             "top_twice",
             "import basic.osc\nscenario top:\n    x: int\nscenario top:\n    y: int\n",
             "E0602",
+        ),
+        (
+            "two_dut_scenarios_and_no_top",
+            "import basic.osc\nscenario dut.a:\n    x: int\nscenario dut.b:\n    y: int\n",
+            "E0601",
         ),
     ];
     let mut all = String::new();
