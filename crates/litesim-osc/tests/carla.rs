@@ -482,4 +482,16 @@ fn lowering_never_panics_on_mangled_carla_programs() {
         }
         cut += 7;
     }
+    // The same for a scenario of the dut beside scenario_runner's library,
+    // and for every prefix of that library (redeclarations cut short).
+    let mut cut = 0;
+    while cut < DUT.len() {
+        let _ = load(&DUT[..cut], &[("basic.osc", THEIR_BASIC)], None);
+        cut += 5;
+    }
+    let mut cut = 0;
+    while cut < THEIR_BASIC.len() {
+        let _ = load(DUT, &[("basic.osc", &THEIR_BASIC[..cut])], None);
+        cut += 11;
+    }
 }

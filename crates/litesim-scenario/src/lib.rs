@@ -78,17 +78,24 @@ pub fn carla_map_file(test: &Path, name: &str, map_dir: Option<&Path>) -> Result
     let here = test.parent().unwrap_or(Path::new(".")).to_path_buf();
     let dirs: Vec<PathBuf> = match map_dir {
         Some(d) => vec![d.to_path_buf()],
-        // The folder, then `maps/` in it and in each folder above it (as
-        // far as the path goes), nearest first: a scenario in a sub-folder
-        // of a project finds the project's maps.
-        None => std::iter::once(here.clone())
-            .chain(
-                std::iter::successors(Some(here.as_path()), |d| {
-                    d.parent().filter(|p| !p.as_os_str().is_empty())
-                })
-                .map(|d| d.join("maps")),
-            )
-            .collect(),
+        // The folder, then `maps/` in it and in each folder above it,
+        // nearest first, written `../maps`, `../../maps` (a scenario in a
+        // sub-folder of a project finds the project's maps; the names stay
+        // as they were for the first levels, which runs record). As far up
+        // as the folder has parents, at most 8 levels.
+        None => {
+            let depth = here
+                .canonicalize()
+                .map_or(1, |c| c.ancestors().count().saturating_sub(1))
+                .min(8);
+            let mut dirs = vec![here.clone(), here.join("maps")];
+            let mut up = here.clone();
+            for _ in 0..depth {
+                up = up.join("..");
+                dirs.push(up.join("maps"));
+            }
+            dirs
+        }
     };
     dirs.iter()
         .map(|d| d.join(&file))
