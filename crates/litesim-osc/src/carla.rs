@@ -456,12 +456,13 @@ impl Lower<'_> {
     }
 }
 
-/// The scenarios declared on the ego in the user's files (`scenario
-/// dut.name:`), as (file, declaration) indexes.
-fn dut_scenarios(prog: &Program, user: &dyn Fn(&Program, u32) -> bool) -> Vec<(usize, usize)> {
+/// The scenarios of the user's files (not litesim's library) declared on
+/// actor `on` (`None`: on none) and, when given, named `named`, as (file,
+/// declaration) indexes: `scenario top` and `scenario dut.name`.
+fn user_scenarios(prog: &Program, on: Option<&str>, named: Option<&str>) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
     for (fi, (id, f)) in prog.files.iter().enumerate() {
-        if !user(prog, *id) {
+        if prog.is_builtin_file(*id) {
             continue;
         }
         for (di, d) in f.decls.iter().enumerate() {
@@ -470,7 +471,8 @@ fn dut_scenarios(prog: &Program, user: &dyn Fn(&Program, u32) -> bool) -> Vec<(u
                 name,
                 ..
             } = d
-                && name.actor.as_ref().is_some_and(|a| a.text == DUT)
+                && name.actor.as_ref().map(|a| a.text.as_str()) == on
+                && named.is_none_or(|n| name.name.text == n)
             {
                 out.push((fi, di));
             }
@@ -483,32 +485,11 @@ fn dut_scenarios(prog: &Program, user: &dyn Fn(&Program, u32) -> bool) -> Vec<(u
 /// table); returns the diagnostics of what it could not lower.
 pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
     let mut diags = Vec::new();
-    let user = |prog: &Program, file: u32| {
-        !crate::builtin::is_builtin(std::path::Path::new(&prog.sources.file(file).path))
-    };
-    // The entry point: `scenario top` in the user's files.
-    let mut tops: Vec<(usize, usize)> = Vec::new();
-    for (fi, (id, f)) in prog.files.iter().enumerate() {
-        if !user(prog, *id) {
-            continue;
-        }
-        for (di, d) in f.decls.iter().enumerate() {
-            if let Decl::Compound {
-                kind: DeclKind::Scenario,
-                name,
-                ..
-            } = d
-                && name.actor.is_none()
-                && name.name.text == "top"
-            {
-                tops.push((fi, di));
-            }
-        }
-    }
-    // Without a `top`, the one scenario declared on the ego (`scenario
-    // dut.name:`) is the entry point.
+    // The entry point: `scenario top` in the user's files; without one,
+    // the one scenario declared on the ego (`scenario dut.name:`).
+    let mut tops = user_scenarios(prog, None, Some("top"));
     if tops.is_empty() {
-        tops = dut_scenarios(prog, &user);
+        tops = user_scenarios(prog, Some(DUT), None);
         if tops.len() > 1 {
             let names: Vec<String> = tops
                 .iter()

@@ -166,8 +166,7 @@ impl<'a> DeclIndex<'a> {
         // (compound, the base a user's file gives it) over a built-in base.
         let mut user_bases: Vec<(String, String)> = Vec::new();
         for (id, f) in &prog.files {
-            let builtin =
-                crate::builtin::is_builtin(std::path::Path::new(&prog.sources.file(*id).path));
+            let builtin = prog.is_builtin_file(*id);
             for d in &f.decls {
                 match d {
                     Decl::PhysicalType { name, si } => {

@@ -62,6 +62,15 @@ fn declares_carla_path(text: &str) -> bool {
 }
 
 impl Program {
+    /// Whether file `file` is part of litesim's built-in library (not one
+    /// of the user's files).
+    pub fn is_builtin_file(&self, file: u32) -> bool {
+        self.sources
+            .files
+            .get(file as usize)
+            .is_some_and(|f| crate::builtin::is_builtin(Path::new(&f.path)))
+    }
+
     /// True when some diagnostic is an error.
     pub fn has_errors(&self) -> bool {
         self.diagnostics

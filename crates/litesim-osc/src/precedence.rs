@@ -54,21 +54,13 @@ const ASAM_UNITS: &[(&str, f64)] = &[
     ("ton", 1000.0),
 ];
 
-/// Whether file `file` is part of litesim's built-in library.
-fn builtin_file(prog: &Program, file: u32) -> bool {
-    prog.sources
-        .files
-        .get(file as usize)
-        .is_some_and(|f| crate::builtin::is_builtin(std::path::Path::new(&f.path)))
-}
-
 /// Whether the declaration at `later` is a CARLA-dialect file's own
 /// redeclaration of litesim's built-in declaration at `first`: then it
 /// takes precedence instead of being a redefinition error.
 pub(crate) fn overrides(prog: &Program, first: Span, later: Span) -> bool {
     prog.dialect == crate::Dialect::Carla
-        && builtin_file(prog, first.file)
-        && !builtin_file(prog, later.file)
+        && prog.is_builtin_file(first.file)
+        && !prog.is_builtin_file(later.file)
 }
 
 fn si(dim: &Dimension) -> String {
