@@ -255,10 +255,10 @@ impl<'a> DeclIndex<'a> {
         }
         for (key, base) in user_bases {
             let kept = ix.compounds.get(&key).and_then(|c| c.base.clone());
-            if kept.is_some_and(|k| ix.is_a(&base, &k)) {
-                if let Some(c) = ix.compounds.get_mut(&key) {
-                    c.base = Some(base);
-                }
+            if kept.is_some_and(|k| ix.is_a(&base, &k))
+                && let Some(c) = ix.compounds.get_mut(&key)
+            {
+                c.base = Some(base);
             }
         }
         for (_, f) in &prog.files {
