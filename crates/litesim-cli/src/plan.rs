@@ -33,12 +33,15 @@ pub fn matrix(dir: &Path, presets: &[String], tolerance: f64, check: bool) -> Re
     if check {
         let bad: Vec<String> = rows
             .iter()
-            .filter(|r| !litesim_plan::matrix::within_bounds(r))
+            .filter(|r| {
+                !litesim_plan::matrix::within_bounds(r)
+                    && !litesim_plan::matrix::proven_impossible(r)
+            })
             .map(|r| format!("{} × {}", r.example, r.preset))
             .collect();
         if !bad.is_empty() {
             return Err(anyhow!(
-                "{} of {} runs outside the bounds (goal within {tolerance} m, max xte ≤ {} m, mean ≤ {} m, no collision, not refused): {}",
+                "{} of {} runs outside the bounds (goal within {tolerance} m, max xte ≤ {} m, mean ≤ {} m, no collision, not refused unless proven impossible): {}",
                 bad.len(),
                 rows.len(),
                 litesim_plan::matrix::MAX_XTE,
@@ -100,6 +103,9 @@ pub fn run(
         wall.as_secs_f64() * 1000.0
     );
     println!("  path length      {:8.2} m ({})", r.path_length, r.planner);
+    if let Some(e) = &r.start_escape {
+        println!("  start            {e}");
+    }
     println!(
         "  cross-track      {:8.3} m max, {:.3} m mean{}",
         r.max_cross_track,

@@ -381,7 +381,18 @@ pub enum PlanError {
     /// The planned path cannot be driven by this vehicle.
     #[error("no feasible path for this vehicle: {0}")]
     Infeasible(String),
+    /// No run can exist: the body at the start overlaps an obstacle or
+    /// leaves the map, or a search that expanded every pose reachable from
+    /// the start (forwards and backwards, up to the vehicle's full
+    /// curvature) never reached the goal.
+    #[error("impossible for this vehicle: {0}")]
+    Impossible(String),
 }
+
+/// The exhaustive search that proves a cell impossible on the search's
+/// lattice: at most this many poses (a hard case exhausts its reachable
+/// poses in 50,000–70,000; a cap reached proves nothing and says so).
+pub const EXHAUSTIVE_POSES: usize = 2_000_000;
 
 /// Which planner made the path a run drove.
 #[derive(Clone, Debug, PartialEq)]
@@ -431,6 +442,40 @@ impl std::fmt::Display for PathPlanner {
     }
 }
 
+/// How a run left a start inside the margin ([`crate::escape`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StartEscape {
+    /// How far inside the margin the start was (m).
+    pub depth: f64,
+    /// The escape leg's length (m) …
+    pub length: f64,
+    /// … driven backwards.
+    pub reverse: bool,
+    /// Simulated time until the body kept the margin (s); `None` when it
+    /// never did.
+    pub inside_s: Option<f64>,
+}
+
+impl std::fmt::Display for StartEscape {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "inside the margin by {:.2} m: left along a {:.2} m leg {}",
+            self.depth,
+            self.length,
+            if self.reverse {
+                "backwards"
+            } else {
+                "forwards"
+            }
+        )?;
+        match self.inside_s {
+            Some(t) => write!(f, ", inside it for {t:.2} s"),
+            None => write!(f, ", and never out of it"),
+        }
+    }
+}
+
 /// What a run produced.
 #[derive(Clone, Debug)]
 pub struct ClosedLoopResult {
@@ -468,6 +513,9 @@ pub struct ClosedLoopResult {
     /// Which planner made the path (the log's `planner` meta says the
     /// same).
     pub planner: PathPlanner,
+    /// The start was inside the margin: how the vehicle left it (the log's
+    /// `start` meta says the same).
+    pub start_escape: Option<StartEscape>,
     /// The corridor: the legs joined, for display (the one leg itself
     /// when the path never reverses).
     pub corridor: Corridor,
@@ -619,6 +667,69 @@ fn legs_along<'g>(
     legs
 }
 
+/// Whether no path exists from `(from, yaw)` to within `end_within` of
+/// `goal` on the curvature-bounded search's lattice: a search forwards and
+/// backwards at the vehicle's full curvature `kappa_max` that expands every
+/// pose reachable from the start without reaching the goal (within
+/// [`EXHAUSTIVE_POSES`]). Run only where every other search failed; the
+/// text says what was searched.
+fn exhausted(
+    pgrid: &PlanningGrid,
+    from: Vec2,
+    yaw: f64,
+    goal: Vec2,
+    kappa_max: f64,
+    end_within: f64,
+) -> Option<String> {
+    let base = HybridConfig::new(kappa_max, pgrid.grid.resolution);
+    let hcfg = HybridConfig {
+        goal_tolerance: end_within,
+        reverse: true,
+        max_expansions: EXHAUSTIVE_POSES,
+        ..base
+    };
+    match hybrid_astar(pgrid, from, yaw, goal, &hcfg) {
+        Err(HybridError::NoPath { expansions, .. }) if expansions < EXHAUSTIVE_POSES => {
+            Some(format!(
+                "no path exists on the search's lattice: forwards and backwards at the full steering ({:.2} m turns), {:.2} m cells, {} headings, {:.2} m arcs, every one of the {expansions} poses reachable from the start was expanded and none came within {end_within:.2} m of the goal",
+                1.0 / kappa_max,
+                hcfg.cell,
+                hcfg.headings,
+                hcfg.step
+            ))
+        }
+        _ => None,
+    }
+}
+
+/// The escape leg out of the margin ([`crate::escape`]) as the path's
+/// first leg: it leaves along the start heading (turned around when it
+/// reverses), arrives along the leg's end heading and ends at rest, where
+/// the planned path starts.
+fn escape_leg<'g>(
+    e: &crate::escape::Escape,
+    yaw: f64,
+    grid_for: &dyn Fn(bool) -> &'g PlanningGrid,
+    ds: f64,
+    limits: &SpeedLimits,
+    speed: f64,
+) -> Leg {
+    let (_, turn) = turned_around(e.reverse);
+    let lim = SpeedLimits {
+        start_heading: Some(wrap_angle(yaw + turn)),
+        v_max: limits.v_max.min(REVERSE_SPEED_MAX),
+        v_start: speed.max(0.0),
+        ..*limits
+    };
+    let end_heading = Some(wrap_angle(e.end_yaw + turn));
+    Leg {
+        corridor: Corridor::along_to(&e.points, grid_for(e.reverse), ds, &lim, end_heading),
+        reverse: e.reverse,
+        limits: lim,
+        end_heading,
+    }
+}
+
 /// The legs as one corridor to look at: points, arc length and time run
 /// on; headings are the vehicle's (the direction of travel + π on a
 /// reversing leg) and speeds negative there. One forward leg is itself.
@@ -751,6 +862,27 @@ pub fn run_closed_loop_timed(
     );
     let start = Vec2::new(cfg.start.x, cfg.start.y);
     let goal = Vec2::new(cfg.goal.x, cfg.goal.y);
+    // A start inside the margin (the body free, but closer to an obstacle
+    // or the map's edge than the planners keep it) is left along one short
+    // leg, and the path planned from where that leg ends ([`crate::escape`]);
+    // a body that overlaps an obstacle or leaves the map is refused here.
+    let escape = crate::escape::from_start(
+        &pgrid,
+        start,
+        cfg.start.yaw,
+        0.8 * kappa_max,
+        0.5 * pgrid.grid.resolution,
+        crate::escape::max_escape(veh.length),
+    )
+    .map_err(|e| match e {
+        // A body that cannot stand where the vehicle starts: no planner
+        // can start there.
+        crate::escape::StartError::Overlap { .. } => PlanError::Impossible(e.to_string()),
+        _ => PlanError::Infeasible(e.to_string()),
+    })?;
+    let (from, from_yaw) = escape
+        .as_ref()
+        .map_or((start, cfg.start.yaw), |e| (e.end, e.end_yaw));
     let radius = match (pl.radius, pl.k_nearest) {
         (Some(r), _) => Radius::Fixed(r),
         (None, Some(k)) => Radius::KNearest(k),
@@ -761,13 +893,18 @@ pub fn run_closed_loop_timed(
         a_lat_max: veh.max_lat_accel,
         a_max: veh.max_accel * 0.8,
         d_max: veh.max_decel * 0.5,
-        v_start: cfg.start.speed.max(0.5),
+        // After an escape leg the vehicle has stopped where the path starts.
+        v_start: if escape.is_some() {
+            0.0
+        } else {
+            cfg.start.speed.max(0.5)
+        },
         // Half the steering rate: the other half is the controller's
         // to correct errors with.
         kappa_rate_max: 0.5 * veh.max_steer_rate / veh.wheelbase,
         kappa_max,
         jerk_max: JERK_MAX,
-        start_heading: Some(cfg.start.yaw),
+        start_heading: Some(from_yaw),
     };
     // A path the vehicle cannot drive is refused before it is driven: too
     // tight a turn, or a body that does not fit where the path goes.
@@ -803,7 +940,7 @@ pub fn run_closed_loop_timed(
     // arcs the vehicle can follow.
     let by_fmt = fmt_star(
         &pgrid,
-        start,
+        from,
         goal,
         &FmtConfig {
             samples: pl.samples,
@@ -865,7 +1002,7 @@ pub fn run_closed_loop_timed(
                 };
                 // The error, whether it is the start (which no other
                 // turning limit changes), and how close the search came.
-                hybrid_astar(&pgrid, start, cfg.start.yaw, goal, &hcfg)
+                hybrid_astar(&pgrid, from, from_yaw, goal, &hcfg)
                     .map_err(|e| {
                         let closest = match &e {
                             HybridError::NoPath { closest, .. } => Some(*closest),
@@ -930,7 +1067,7 @@ pub fn run_closed_loop_timed(
                     // positions after start and goal, its edges in
                     // expansion order (the exploration GIF replays them).
                     let n = h.explored.len();
-                    let mut samples = vec![start, goal];
+                    let mut samples = vec![from, goal];
                     samples.extend(&h.explored);
                     let mut cost = vec![0.0, h.length];
                     cost.resize(n + 2, f64::INFINITY);
@@ -957,14 +1094,33 @@ pub fn run_closed_loop_timed(
                         PlanError::Infeasible(m) => m,
                         e => e.to_string(),
                     };
-                    return Err(PlanError::Infeasible(format!(
+                    let why = format!(
                         "{first}; and a search within the turning limit found none: {second}"
-                    )));
+                    );
+                    return Err(
+                        match exhausted(&pgrid, from, from_yaw, goal, kappa_max, half) {
+                            Some(proof) => PlanError::Impossible(format!("{why}; {proof}")),
+                            None => PlanError::Infeasible(why),
+                        },
+                    );
                 }
             }
         }
         Err(e) => return Err(e),
     };
+    if let Some(e) = &escape {
+        legs.insert(
+            0,
+            escape_leg(
+                e,
+                cfg.start.yaw,
+                &grid_for,
+                pl.corridor_ds,
+                &limits,
+                cfg.start.speed,
+            ),
+        );
+    }
     timings.plan_s = clock() - t_plan;
 
     // The world: one vehicle on direct (acceleration, steering) control.
@@ -1037,7 +1193,9 @@ pub fn run_closed_loop_timed(
         if let Some(a) = w.actor("ego") {
             let p = a.state().pose;
             for q in footprint(&veh, p.position.x, p.position.y, p.yaw) {
-                if pgrid.layer(q) == Layer::Hard {
+                // On an obstacle or off the map, beyond touching (a body
+                // parked on the map's edge is not a collision).
+                if crate::escape::blocked(&pgrid, q) {
                     *collided = true;
                 }
                 let d = pgrid.clearance(q);
@@ -1158,12 +1316,23 @@ pub fn run_closed_loop_timed(
     // says nothing more about the controller).
     let mut steps = 0u64;
     let mut collision = None;
+    // A start inside the margin: until when the body stayed inside it.
+    let mut inside_until = None;
     for _ in 0..litesim_core::steps_for_horizon(sim.horizon, sim.dt) {
         control(&mut world);
         world.step();
         steps += 1;
         rec.record_world(&world);
         check(&world, &mut min_clear, &mut collided);
+        if escape.is_some()
+            && inside_until.is_none()
+            && let Some(a) = world.actor("ego")
+        {
+            let p = a.state().pose;
+            if pgrid.pose_free(p.position.xy(), p.yaw) {
+                inside_until = Some(world.time());
+            }
+        }
         if collided {
             let p = world.actor("ego").map(|a| a.state().pose.position.xy());
             collision = Some((world.time(), p.map_or([f64::NAN; 2], |p| [p.x, p.y])));
@@ -1226,6 +1395,15 @@ pub fn run_closed_loop_timed(
         reference_name: String::new(),
     });
     log.tracking = Some(tracking);
+    let start_escape = escape.as_ref().map(|e| StartEscape {
+        depth: e.depth,
+        length: e.length,
+        reverse: e.reverse,
+        inside_s: inside_until,
+    });
+    if let Some(e) = &start_escape {
+        log.meta.insert("start".into(), e.to_string());
+    }
     let result = ClosedLoopResult {
         time: world.time(),
         steps,
@@ -1245,6 +1423,7 @@ pub fn run_closed_loop_timed(
         legs,
         grid: pgrid,
         planner,
+        start_escape,
     };
     Ok((result, timings))
 }

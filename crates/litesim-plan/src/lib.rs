@@ -22,6 +22,7 @@
 
 pub mod closed_loop;
 pub mod corridor;
+pub mod escape;
 pub mod fmt;
 pub mod grid;
 pub mod hybrid;

@@ -148,6 +148,15 @@ pub fn within_bounds(r: &MatrixRow) -> bool {
     r.error.is_none() && r.reached && !r.collided && r.max_xte <= MAX_XTE && r.mean_xte <= MEAN_XTE
 }
 
+/// A row no run can exist for, proven ([`crate::PlanError::Impossible`]:
+/// the body cannot stand at the start, or an exhaustive search found no
+/// path): `--check` accepts it with its reason.
+pub fn proven_impossible(r: &MatrixRow) -> bool {
+    r.error
+        .as_deref()
+        .is_some_and(|e| e.starts_with("impossible for this vehicle: "))
+}
+
 fn median(v: &[f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
@@ -165,9 +174,14 @@ pub fn markdown(rows: &[MatrixRow]) -> String {
     for r in rows {
         if let Some(e) = &r.error {
             out.push_str(&format!(
-                "| {} | {} | **no run**: {} | | | | | | | |\n",
+                "| {} | {} | {}: {} | | | | | | | |\n",
                 r.example,
                 r.preset,
+                if proven_impossible(r) {
+                    "**impossible**"
+                } else {
+                    "**no run**"
+                },
                 e.replace('|', "/")
             ));
             continue;

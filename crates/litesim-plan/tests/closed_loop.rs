@@ -404,7 +404,11 @@ fn bad_configurations_are_clear_errors() {
     let e = run_closed_loop(&example("single_rect.toml"), all)
         .unwrap_err()
         .to_string();
-    assert!(e.contains("start (5.00, 20.00) is in collision"), "{e}");
+    // Refused before any planner runs, with the place and the overlap.
+    assert!(
+        e.contains("cannot stand at its start (5.00, 20.00)") && e.contains("overlaps an obstacle"),
+        "{e}"
+    );
 }
 
 /// A goal behind a car in a street too narrow to turn round in: no

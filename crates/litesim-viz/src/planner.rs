@@ -130,6 +130,12 @@ pub fn render_rgb(log: &SimulationLog, style: &Style) -> Result<(Vec<u8>, u32, u
                 p.radius,
             ),
         };
+        // A start inside the margin (the log's `start` meta): how far, up
+        // to how it was left (the summary has the rest).
+        let title = match log.meta.get("start") {
+            Some(m) => format!("{title}; start {}", m.split(':').next().unwrap_or(m)),
+            None => title,
+        };
         draw_plan(&root, log, style, usize::MAX, &title)?;
     }
     Ok((buf, w, h))
