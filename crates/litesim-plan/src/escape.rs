@@ -305,8 +305,10 @@ mod tests {
     #[test]
     fn a_bus_with_its_rear_on_the_maps_edge_drives_forwards_out_of_the_margin() {
         let g = yard();
-        // Heading north, rear bumper exactly on y = 0.
-        let e = from_start(&g, Vec2::new(5.0, 3.0), 1.5708, 0.05, 0.1, 12.0)
+        // Heading north (as the example configurations write it, 1.5708,
+        // a few micrometres off π/2), rear bumper on y = 0.
+        let north: f64 = "1.5708".parse().unwrap();
+        let e = from_start(&g, Vec2::new(5.0, 3.0), north, 0.05, 0.1, 12.0)
             .unwrap()
             .expect("inside the margin: an escape");
         assert!(!e.reverse && e.curvature == 0.0, "{e:?}");
