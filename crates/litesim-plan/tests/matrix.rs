@@ -6,9 +6,7 @@
 //! path). A run that starts and then collides, misses or wanders, or one
 //! refused without a proof, is a failure.
 
-use litesim_plan::matrix::{
-    MatrixRow, load_examples, markdown, proven_impossible, run_matrix, within_bounds,
-};
+use litesim_plan::matrix::{load_examples, markdown, proven_impossible, run_matrix, within_bounds};
 use std::path::PathBuf;
 
 fn examples() -> Vec<(
