@@ -191,6 +191,33 @@ pub fn overlap(grid: &PlanningGrid, p: Vec2, yaw: f64) -> Option<(Vec2, &'static
     worst
 }
 
+/// How far the pose is inside the margin by the planner's rule (m): the
+/// largest shortfall of a point of the body's outline (it needs the margin
+/// plus a cell's diagonal) or of its axis (half the width less the margin,
+/// plus the diagonal) against what [`PlanningGrid::body_free`] asks; a disc
+/// vehicle's covering circles against radius + margin.
+fn shortfall(grid: &PlanningGrid, p: Vec2, yaw: f64) -> f64 {
+    let Some([length, width, rear]) = grid.body else {
+        let (_, clearance, need) = grid.tightest_part(p, yaw);
+        return (need - clearance).max(0.0);
+    };
+    let s = grid.grid.resolution.max(1e-3);
+    let slack = s * std::f64::consts::SQRT_2;
+    let (_, outline, need) = grid.tightest_part(p, yaw);
+    let mut worst = need - outline;
+    let deep = 0.5 * width - grid.margin + slack;
+    let (c0, c1) = (grid.margin - rear, length - rear - grid.margin);
+    if deep > 0.0 && c1 >= c0 {
+        let f = Vec2::from_heading(yaw);
+        let inner = ((c1 - c0) / s).ceil().max(1.0) as usize;
+        for k in 0..=inner {
+            let a = c0 + (c1 - c0) * k as f64 / inner as f64;
+            worst = worst.max(deep - grid.clearance(p + f * a));
+        }
+    }
+    worst.max(0.0)
+}
+
 /// The pose after driving `len` m (negative: backwards) along curvature
 /// `k` from `(p, yaw)`.
 fn arc(p: Vec2, yaw: f64, k: f64, len: f64) -> (Vec2, f64) {
@@ -237,8 +264,7 @@ pub fn from_start(
     if grid.pose_free(p, yaw) {
         return Ok(None);
     }
-    let (_, clearance, need) = grid.tightest_part(p, yaw);
-    let depth = (need - clearance).max(0.0);
+    let depth = shortfall(grid, p, yaw);
     let check = if check.is_finite() && check > 0.0 {
         check
     } else {
