@@ -481,6 +481,16 @@ fn user_scenarios(prog: &Program, on: Option<&str>, named: Option<&str>) -> Vec<
     out
 }
 
+/// The start of the entry file (the last loaded): where a missing entry
+/// point is reported.
+fn entry_start(prog: &Program) -> Span {
+    Span {
+        file: prog.files.last().map_or(0, |(id, _)| *id),
+        start: 0,
+        end: 0,
+    }
+}
+
 /// Lowers a checked CARLA-dialect program in place (see the module's
 /// table); returns the diagnostics of what it could not lower.
 pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
@@ -498,15 +508,10 @@ pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
                     _ => String::new(),
                 })
                 .collect();
-            let at = prog.files.last().map_or(0, |(id, _)| *id);
             diags.push(
                 Diagnostic::error(
                     "E0601",
-                    Span {
-                        file: at,
-                        start: 0,
-                        end: 0,
-                    },
+                    entry_start(prog),
                     format!(
                         "a CARLA program without `scenario top:` runs its one scenario of the ego, and this one declares {}: {}",
                         names.len(),
@@ -519,15 +524,10 @@ pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
         }
     }
     let Some(&(fi, di)) = tops.first() else {
-        let at = prog.files.last().map_or(0, |(id, _)| *id);
         diags.push(
             Diagnostic::error(
                 "E0601",
-                Span {
-                    file: at,
-                    start: 0,
-                    end: 0,
-                },
+                entry_start(prog),
                 "a CARLA scenario needs `scenario top:` (scenario_runner's entry point) or one `scenario dut.name:`",
             )
             .with_hint("or run it as a litesim program: --dialect litesim"),

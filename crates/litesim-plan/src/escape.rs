@@ -22,6 +22,7 @@
 //! refused (with the place and by how much), or one with no such leg.
 
 use crate::grid::PlanningGrid;
+use crate::hybrid::arc;
 use litesim_core::Vec2;
 
 /// A point of the body this close outside the map or an obstacle cell
@@ -216,19 +217,6 @@ fn shortfall(grid: &PlanningGrid, p: Vec2, yaw: f64) -> f64 {
         }
     }
     worst.max(0.0)
-}
-
-/// The pose after driving `len` m (negative: backwards) along curvature
-/// `k` from `(p, yaw)`.
-fn arc(p: Vec2, yaw: f64, k: f64, len: f64) -> (Vec2, f64) {
-    if k.abs() < 1e-12 {
-        return (p + Vec2::from_heading(yaw) * len, yaw);
-    }
-    let y1 = yaw + k * len;
-    (
-        p + Vec2::new(y1.sin() - yaw.sin(), yaw.cos() - y1.cos()) * (1.0 / k),
-        y1,
-    )
 }
 
 /// The leg out of the margin from `(p, yaw)`, `None` when the start keeps

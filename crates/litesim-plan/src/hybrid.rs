@@ -159,8 +159,9 @@ pub struct HybridPath {
 /// hard search does not bloat the log.
 pub const TREE_CAP: usize = 20_000;
 
-/// The pose after driving `len` m along curvature `k` from `(p, yaw)`.
-fn arc(p: Vec2, yaw: f64, k: f64, len: f64) -> (Vec2, f64) {
+/// The pose after driving `len` m (negative: backwards) along curvature
+/// `k` from `(p, yaw)`.
+pub(crate) fn arc(p: Vec2, yaw: f64, k: f64, len: f64) -> (Vec2, f64) {
     if k.abs() < 1e-12 {
         return (p + Vec2::from_heading(yaw) * len, yaw);
     }
