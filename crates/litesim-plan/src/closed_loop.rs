@@ -667,6 +667,37 @@ fn legs_along<'g>(
     legs
 }
 
+/// A goal the reference point can be at: a finite point on the map, not
+/// inside an obstacle. One inside the margin is planned to (within the
+/// goal's tolerance, where the body keeps the margin); one that is not a
+/// place is refused with the place and why.
+fn goal_on_the_map(pgrid: &PlanningGrid, goal: Vec2) -> Result<(), PlanError> {
+    if !(goal.x.is_finite() && goal.y.is_finite()) {
+        return Err(PlanError::Config(format!(
+            "goal: ({}, {}) is not a finite point",
+            goal.x, goal.y
+        )));
+    }
+    let g = &pgrid.grid;
+    if g.cell(goal).is_none() {
+        let (x1, y1) = (
+            g.origin.x + g.width as f64 * g.resolution,
+            g.origin.y + g.height as f64 * g.resolution,
+        );
+        return Err(PlanError::Impossible(format!(
+            "the goal ({:.2}, {:.2}) is off the map, which spans x {:.1}..{x1:.1} m, y {:.1}..{y1:.1} m",
+            goal.x, goal.y, g.origin.x, g.origin.y
+        )));
+    }
+    if g.is_occupied(goal) {
+        return Err(PlanError::Impossible(format!(
+            "the goal ({:.2}, {:.2}) lies inside an obstacle",
+            goal.x, goal.y
+        )));
+    }
+    Ok(())
+}
+
 /// Whether no path exists from `(from, yaw)` to within `end_within` of
 /// `goal` on the curvature-bounded search's lattice: a search forwards and
 /// backwards at the vehicle's full curvature `kappa_max` that expands every
@@ -689,9 +720,13 @@ fn exhausted(
         ..base
     };
     match hybrid_astar(pgrid, from, yaw, goal, &hcfg) {
-        Err(HybridError::NoPath { expansions, .. }) if expansions < EXHAUSTIVE_POSES => {
+        // Every reachable pose expanded (and at least the start: a search
+        // pruned before it begins proves nothing).
+        Err(HybridError::NoPath { expansions, .. })
+            if expansions > 0 && expansions < EXHAUSTIVE_POSES =>
+        {
             Some(format!(
-                "no path exists on the search's lattice: forwards and backwards at the full steering ({:.2} m turns), {:.2} m cells, {} headings, {:.2} m arcs, every one of the {expansions} poses reachable from the start was expanded and none came within {end_within:.2} m of the goal",
+                "no path exists on the search's lattice: forwards and backwards at the full steering ({:.2} m turns), {:.2} m cells, {} headings, {:.2} m arcs, the body's covering circles keeping the margin, every one of the {expansions} poses reachable from the start was expanded and none came within {end_within:.2} m of the goal",
                 1.0 / kappa_max,
                 hcfg.cell,
                 hcfg.headings,
@@ -883,6 +918,7 @@ pub fn run_closed_loop_timed(
     let (from, from_yaw) = escape
         .as_ref()
         .map_or((start, cfg.start.yaw), |e| (e.end, e.end_yaw));
+    goal_on_the_map(&pgrid, goal)?;
     let radius = match (pl.radius, pl.k_nearest) {
         (Some(r), _) => Radius::Fixed(r),
         (None, Some(k)) => Radius::KNearest(k),
@@ -973,7 +1009,13 @@ pub fn run_closed_loop_timed(
             let legs = vec![Leg::forward(corridor, &limits)];
             (fmt, legs, used)
         }
-        Err(first @ (PlanError::Infeasible(_) | PlanError::Plan(FmtError::NoPath { .. }))) => {
+        // A goal inside the margin (on the map, not in an obstacle:
+        // checked above) is FMT*'s refusal, not the search's: its path may
+        // end within the goal's tolerance where the body keeps the margin.
+        Err(
+            first @ (PlanError::Infeasible(_)
+            | PlanError::Plan(FmtError::NoPath { .. } | FmtError::GoalInCollision(..))),
+        ) => {
             // Curves at 80 % of the limit, so that the controller keeps a
             // fifth of the steering to correct with; where that finds
             // nothing, at 95 %. When no shot reaches the goal itself, a
@@ -1004,8 +1046,15 @@ pub fn run_closed_loop_timed(
                 // turning limit changes), and how close the search came.
                 hybrid_astar(&pgrid, from, from_yaw, goal, &hcfg)
                     .map_err(|e| {
+                        // (A search pruned before it began — a goal
+                        // whose nearer end cells the body cannot reach —
+                        // says nothing of a wider end.)
                         let closest = match &e {
-                            HybridError::NoPath { closest, .. } => Some(*closest),
+                            HybridError::NoPath {
+                                closest,
+                                expansions,
+                                ..
+                            } if *expansions > 0 => Some(*closest),
                             _ => None,
                         };
                         (

@@ -290,7 +290,12 @@ fn shot(
 /// margin, less half their spacing: the point lies on the body's axis
 /// within half a spacing of a circle's centre). +∞ where the goal cannot
 /// be reached: a pose there is pruned.
-fn distance_to_goal(grid: &PlanningGrid, goal: Vec2) -> Vec<f64> {
+///
+/// A goal whose own cell the reference point cannot be in (a goal inside
+/// the margin) is reached within `end_within` of it: the sources are then
+/// the passable cells within that distance, each at its distance to the
+/// goal (for a goal the point can be at, the goal's cell alone, as ever).
+fn distance_to_goal(grid: &PlanningGrid, goal: Vec2, end_within: f64) -> Vec<f64> {
     let g = &grid.grid;
     let (w, h, res) = (g.width, g.height, g.resolution);
     let spacing = match grid.footprint.as_slice() {
@@ -310,6 +315,23 @@ fn distance_to_goal(grid: &PlanningGrid, goal: Vec2) -> Vec<f64> {
     dist[start] = 0.0;
     let mut heap = BinaryHeap::new();
     heap.push(Cheapest(0.0, start));
+    if !pass[start] && end_within > 0.0 {
+        let k = (end_within / res).ceil() as isize;
+        for dj in -k..=k {
+            for di in -k..=k {
+                let (ni, nj) = (gi as isize + di, gj as isize + dj);
+                if ni < 0 || nj < 0 || ni >= w as isize || nj >= h as isize {
+                    continue;
+                }
+                let nc = nj as usize * w + ni as usize;
+                let d = res * ((di * di + dj * dj) as f64).sqrt();
+                if pass[nc] && d <= end_within && d < dist[nc] {
+                    dist[nc] = d;
+                    heap.push(Cheapest(d, nc));
+                }
+            }
+        }
+    }
     let diag = res * std::f64::consts::SQRT_2;
     while let Some(Cheapest(d, c)) = heap.pop() {
         if d > dist[c] {
@@ -431,7 +453,7 @@ pub fn hybrid_astar(
         at_y: closest.1.y,
     };
     let g = &grid.grid;
-    let to_goal = distance_to_goal(grid, goal);
+    let to_goal = distance_to_goal(grid, goal, cfg.goal_tolerance);
     let h_of = |p: Vec2| -> f64 {
         match g.cell(p) {
             Some((i, j)) => to_goal[j * g.width + i].max(p.distance(goal)),

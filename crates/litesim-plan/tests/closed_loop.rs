@@ -356,7 +356,7 @@ fn bad_configurations_are_clear_errors() {
     let e = run_closed_loop(&cfg, grid_of(&cfg))
         .unwrap_err()
         .to_string();
-    assert!(e.contains("goal (500.00, 20.00) is in collision"), "{e}");
+    assert!(e.contains("the goal (500.00, 20.00) is off the map"), "{e}");
     let mut cfg = example("single_rect.toml");
     cfg.simulation.dt = 0.03;
     let e = run_closed_loop(&cfg, grid_of(&cfg))
@@ -502,4 +502,55 @@ fn a_bus_changes_gear_at_a_cusp_and_arrives_on_its_path() {
     assert!(c.speed[..n0].iter().all(|v| *v >= 0.0));
     assert!(c.speed[n0..].iter().all(|v| *v <= 0.0));
     assert!(c.s.windows(2).all(|w| w[1] >= w[0]));
+}
+
+/// Goals that are not a place the vehicle can be are refused before any
+/// planner runs, with the place and why (issue 50's bad input); a start
+/// inside the margin is left along its escape leg, which the result and
+/// the log's `start` meta describe.
+#[test]
+fn bad_goals_are_refused_with_their_place_and_a_start_inside_the_margin_is_left() {
+    let cfg = example("parking_lot.toml");
+    let run = |gx: f64, gy: f64| {
+        let mut c = cfg.clone();
+        c.goal.x = gx;
+        c.goal.y = gy;
+        run_closed_loop(&c, grid_of(&c))
+            .map(|_| ())
+            .unwrap_err()
+            .to_string()
+    };
+    let e = run(20.0, 10.0);
+    assert!(
+        e.contains("the goal (20.00, 10.00) lies inside an obstacle"),
+        "{e}"
+    );
+    let e = run(80.0, 10.0);
+    assert!(
+        e.contains("the goal (80.00, 10.00) is off the map, which spans x 0.0..50.0 m"),
+        "{e}"
+    );
+    let e = run(f64::NAN, 10.0);
+    assert!(e.contains("goal: (NaN, 10) is not a finite point"), "{e}");
+    // The bus of the parking lot: its rear on the map's edge.
+    let mut bus = cfg.clone();
+    bus.vehicle.preset = "bus".into();
+    bus.goal.tolerance = 0.5;
+    let r = run_closed_loop(&bus, grid_of(&bus)).unwrap();
+    assert!(r.reached_goal && !r.collided);
+    let esc = r
+        .start_escape
+        .clone()
+        .expect("the start is inside the margin");
+    assert!(
+        !esc.reverse && esc.depth > 0.5 && esc.length < 1.5,
+        "{esc:?}"
+    );
+    let t = esc.inside_s.expect("it left the margin");
+    assert!(t > 0.0 && t < 10.0, "{t}");
+    assert_eq!(r.log.meta.get("start"), Some(&esc.to_string()));
+    assert!(
+        esc.to_string()
+            .starts_with("inside the margin by 0.68 m: left along a 0.80 m leg forwards")
+    );
 }
