@@ -254,25 +254,45 @@ fn plan_matrix_prints_the_table_and_refuses_bad_input() {
         text.contains("| single_rect | compact | reached |"),
         "{text}"
     );
-    // --check fails while a run is refused: a bus whose body does not fit
-    // at the parking lot's start (its rear overhang is off the map).
+    // --check passes a bus that starts inside the margin (its rear on the
+    // parking lot's edge: it leaves along an escape leg and arrives) and
+    // one proven impossible (the forest's start puts its body off the map).
     let lot = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(workspace().join("examples/plan/parking_lot.toml"))
-        .unwrap()
-        .replace("preset = \"passenger\"", "preset = \"bus\"");
-    assert!(text.contains("preset = \"bus\""), "{text}");
-    std::fs::write(lot.path().join("parking_lot.toml"), text).unwrap();
+    for name in ["parking_lot.toml", "forest.toml"] {
+        let text = std::fs::read_to_string(workspace().join("examples/plan").join(name)).unwrap();
+        std::fs::write(lot.path().join(name), text).unwrap();
+    }
     let out = litesim()
         .args(["plan-matrix", "--check", "--presets", "bus"])
         .arg(lot.path())
         .output()
         .unwrap();
+    let table = String::from_utf8_lossy(&out.stdout);
+    assert_eq!(out.status.code(), Some(0), "{table}");
+    assert!(table.contains("| parking_lot | bus | reached |"), "{table}");
+    assert!(
+        table.contains("| forest | bus | **impossible**: ")
+            && table.contains("cannot stand at its start (3.00, 5.00)"),
+        "{table}"
+    );
+    // … and fails a run that misses its goal (a horizon too short to get
+    // there).
+    let text = std::fs::read_to_string(workspace().join("examples/plan/parking_lot.toml"))
+        .unwrap()
+        .replace("horizon = 70.0", "horizon = 3.0");
+    assert!(text.contains("horizon = 3.0"), "{text}");
+    std::fs::remove_file(lot.path().join("forest.toml")).unwrap();
+    std::fs::write(lot.path().join("parking_lot.toml"), text).unwrap();
+    let out = litesim()
+        .args(["plan-matrix", "--check", "--presets", "passenger"])
+        .arg(lot.path())
+        .output()
+        .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("parking_lot × bus"), "{err}");
+    assert!(err.contains("parking_lot × passenger"), "{err}");
     assert!(
-        String::from_utf8_lossy(&out.stdout)
-            .contains("the vehicle does not fit at its start (4.00, 3.00)"),
+        String::from_utf8_lossy(&out.stdout).contains("| parking_lot | passenger | **missed** |"),
         "{}",
         String::from_utf8_lossy(&out.stdout)
     );
