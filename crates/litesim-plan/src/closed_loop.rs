@@ -838,56 +838,35 @@ pub fn run_closed_loop(
     run_closed_loop_timed(cfg, grid, &|| 0.0).map(|(r, _)| r)
 }
 
-/// [`run_closed_loop`], also timing planning and each MPC solve with
-/// `clock` (seconds from any origin). The clock never influences results.
-pub fn run_closed_loop_timed(
+/// What planning made, before anything is driven.
+struct Planned {
+    /// The grid the planners used (the vehicle's footprint and margin).
+    pgrid: PlanningGrid,
+    /// The same for the body mirrored (reversing legs), made when needed.
+    rgrid: std::cell::OnceCell<PlanningGrid>,
+    /// The leg out of the margin, when the start was inside it.
+    escape: Option<crate::escape::Escape>,
+    /// FMT*'s output (or the search's path and tree in its shape).
+    fmt: FmtResult,
+    /// The legs to drive, in order.
+    legs: Vec<Leg>,
+    /// Which planner made the path.
+    planner: PathPlanner,
+}
+
+/// The planning chain of a closed-loop run: the start's escape from the
+/// margin, FMT*, and where its path cannot be driven the curvature-bounded
+/// search (forwards, then reversing; where none finds a path, the
+/// exhaustive search that may prove the run impossible); then the legs,
+/// each a corridor to track. `kappa_max` is the vehicle's tightest
+/// curvature (1/m).
+fn plan_path(
     cfg: &ClosedLoopConfig,
+    veh: &Vehicle,
     grid: OccupancyGrid,
-    clock: &dyn Fn() -> f64,
-) -> Result<(ClosedLoopResult, Timings), PlanError> {
-    let mut timings = Timings::default();
-    let veh = cfg.vehicle.resolve()?;
-    let sim = cfg.simulation;
-    if !(sim.dt.is_finite() && sim.dt > 0.0 && sim.horizon.is_finite() && sim.horizon > 0.0) {
-        return Err(PlanError::Config(format!(
-            "simulation: dt ({}) and horizon ({}) must be positive",
-            sim.dt, sim.horizon
-        )));
-    }
-    let ratio = cfg.tracker.dt / sim.dt;
-    if !(ratio.is_finite() && ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-6) {
-        return Err(PlanError::Config(format!(
-            "tracker.dt = {} s must be a whole multiple of simulation.dt = {} s",
-            cfg.tracker.dt, sim.dt
-        )));
-    }
-    let every = ratio.round() as u64;
-    let mut mpc = Mpc::new(MpcConfig {
-        horizon: cfg.tracker.horizon,
-        dt: cfg.tracker.dt,
-        wheelbase: veh.wheelbase,
-        q: cfg.tracker.q,
-        q_terminal: cfg.tracker.q_terminal,
-        r: cfg.tracker.r,
-        r_rate: cfg.tracker.r_rate,
-        max_steer: veh.max_steer,
-        max_steer_rate: veh.max_steer_rate,
-        min_accel: -veh.max_decel,
-        max_accel: veh.max_accel,
-        // Predict with the world's own integration step.
-        substeps: every as usize,
-    })?;
+    kappa_max: f64,
+) -> Result<Planned, PlanError> {
     let pl = &cfg.planner;
-    if !(pl.margin.is_finite() && pl.margin >= 0.0) {
-        return Err(PlanError::Config(format!(
-            "planner.margin must be ≥ 0, got {}",
-            pl.margin
-        )));
-    }
-    // The tightest turn the vehicle can drive (1/m): the corridor is
-    // shaped towards it, and a path beyond it is refused below.
-    let kappa_max = veh.max_steer.tan() / veh.wheelbase;
-    let t_plan = clock();
     let pgrid = PlanningGrid::with_footprint(
         grid,
         veh.length,
@@ -1170,6 +1149,84 @@ pub fn run_closed_loop_timed(
             ),
         );
     }
+    Ok(Planned {
+        pgrid,
+        rgrid,
+        escape,
+        fmt,
+        legs,
+        planner,
+    })
+}
+
+/// [`run_closed_loop`], also timing planning and each MPC solve with
+/// `clock` (seconds from any origin). The clock never influences results.
+pub fn run_closed_loop_timed(
+    cfg: &ClosedLoopConfig,
+    grid: OccupancyGrid,
+    clock: &dyn Fn() -> f64,
+) -> Result<(ClosedLoopResult, Timings), PlanError> {
+    let mut timings = Timings::default();
+    let veh = cfg.vehicle.resolve()?;
+    let sim = cfg.simulation;
+    if !(sim.dt.is_finite() && sim.dt > 0.0 && sim.horizon.is_finite() && sim.horizon > 0.0) {
+        return Err(PlanError::Config(format!(
+            "simulation: dt ({}) and horizon ({}) must be positive",
+            sim.dt, sim.horizon
+        )));
+    }
+    let ratio = cfg.tracker.dt / sim.dt;
+    if !(ratio.is_finite() && ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-6) {
+        return Err(PlanError::Config(format!(
+            "tracker.dt = {} s must be a whole multiple of simulation.dt = {} s",
+            cfg.tracker.dt, sim.dt
+        )));
+    }
+    let every = ratio.round() as u64;
+    let mut mpc = Mpc::new(MpcConfig {
+        horizon: cfg.tracker.horizon,
+        dt: cfg.tracker.dt,
+        wheelbase: veh.wheelbase,
+        q: cfg.tracker.q,
+        q_terminal: cfg.tracker.q_terminal,
+        r: cfg.tracker.r,
+        r_rate: cfg.tracker.r_rate,
+        max_steer: veh.max_steer,
+        max_steer_rate: veh.max_steer_rate,
+        min_accel: -veh.max_decel,
+        max_accel: veh.max_accel,
+        // Predict with the world's own integration step.
+        substeps: every as usize,
+    })?;
+    let pl = &cfg.planner;
+    if !(pl.margin.is_finite() && pl.margin >= 0.0) {
+        return Err(PlanError::Config(format!(
+            "planner.margin must be ≥ 0, got {}",
+            pl.margin
+        )));
+    }
+    // The tightest turn the vehicle can drive (1/m): the corridor is
+    // shaped towards it, and a path beyond it is refused below.
+    let kappa_max = veh.max_steer.tan() / veh.wheelbase;
+    let t_plan = clock();
+    let Planned {
+        pgrid,
+        rgrid,
+        escape,
+        fmt,
+        mut legs,
+        planner,
+    } = plan_path(cfg, &veh, grid, kappa_max)?;
+    let start = Vec2::new(cfg.start.x, cfg.start.y);
+    let goal = Vec2::new(cfg.goal.x, cfg.goal.y);
+    // The body mirrored, for stretches driven backwards.
+    let grid_for = |reverse: bool| {
+        if reverse {
+            rgrid.get_or_init(|| pgrid.reversed())
+        } else {
+            &pgrid
+        }
+    };
     timings.plan_s = clock() - t_plan;
 
     // The world: one vehicle on direct (acceleration, steering) control.
