@@ -389,6 +389,9 @@ pub enum PlanError {
     Impossible(String),
 }
 
+/// Poses the early reversing probe may expand ([`plan_path`]).
+pub const REVERSE_PROBE: usize = 20_000;
+
 /// The exhaustive search that proves a cell impossible on the search's
 /// lattice: at most this many poses (a hard case exhausts its reachable
 /// poses in 50,000–70,000; a cap reached proves nothing and says so).
@@ -1006,7 +1009,7 @@ fn plan_path(
             // ending 0.31 m from the goal of the S-bend).
             let half = 0.5 * cfg.goal.tolerance;
             let wide = cfg.goal.tolerance - 0.1;
-            let attempt = |share: f64, end_within: f64, reverse: bool| {
+            let attempt = |share: f64, end_within: f64, reverse: bool, budget: Option<usize>| {
                 let base = HybridConfig::new(share * kappa_max, pgrid.grid.resolution);
                 let hcfg = HybridConfig {
                     goal_tolerance: end_within,
@@ -1014,11 +1017,11 @@ fn plan_path(
                     // Reversing doubles the states, and a manoeuvre with
                     // several cusps lies deeper in them (the truck in the
                     // warehouse's aisles: 242,313 poses, seven cusps).
-                    max_expansions: if reverse {
+                    max_expansions: budget.unwrap_or(if reverse {
                         2 * base.max_expansions
                     } else {
                         base.max_expansions
-                    },
+                    }),
                     ..base
                 };
                 // The error, whether it is the start (which no other
@@ -1082,9 +1085,22 @@ fn plan_path(
                     if hopeless {
                         continue;
                     }
-                    found = attempt(share, end_within, reverse);
+                    found = attempt(share, end_within, reverse, None);
                     if end_within <= half {
                         came.push((share, closest_of(&found)));
+                    }
+                    // After the first forward search fails, a short probe
+                    // of the first reversing one: a manoeuvre with a cusp
+                    // near the start or the goal (backing into a corner
+                    // past a gap) is found in a few thousand poses, long
+                    // before the other forward searches give up. It is
+                    // the reversing search that would run last, stopped
+                    // early: what it finds is what that one would find.
+                    if !reverse && came.len() == 1 && found.is_err() {
+                        let probe = attempt(share, end_within, true, Some(REVERSE_PROBE));
+                        if probe.is_ok() {
+                            found = probe;
+                        }
                     }
                 }
             }
