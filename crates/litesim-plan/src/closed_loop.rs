@@ -1094,8 +1094,11 @@ fn plan_path(
                     // near the start or the goal (backing into a corner
                     // past a gap) is found in a few thousand poses, long
                     // before the other forward searches give up. It is
-                    // the reversing search that would run last, stopped
-                    // early: what it finds is what that one would find.
+                    // the first reversing search, stopped early (what it
+                    // finds, that search finds too). Where a later forward
+                    // try (tighter curvature, or an end farther from the
+                    // goal) would also have found a path, the probe's is
+                    // taken: none of the matrix's 49 cells is such a case.
                     if !reverse && came.len() == 1 && found.is_err() {
                         let probe = attempt(share, end_within, true, Some(REVERSE_PROBE));
                         if probe.is_ok() {
