@@ -389,7 +389,9 @@ pub enum PlanError {
     Impossible(String),
 }
 
-/// Poses the early reversing probe may expand ([`plan_path`]).
+/// Poses the early reversing probe may expand: after the first forward
+/// search fails, the first reversing search runs this far before the
+/// other forward searches ([`run_closed_loop`]).
 pub const REVERSE_PROBE: usize = 20_000;
 
 /// The exhaustive search that proves a cell impossible on the search's
