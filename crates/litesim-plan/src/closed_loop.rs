@@ -843,6 +843,181 @@ pub fn run_closed_loop(
     run_closed_loop_timed(cfg, grid, &|| 0.0).map(|(r, _)| r)
 }
 
+/// Where FMT*'s path cannot be driven (or FMT* found none, or its goal is
+/// inside the margin): the curvature-bounded search, forwards at 80 % then
+/// 95 % of the turning limit, ending within half the goal tolerance, then
+/// within it less 10 cm; where none finds a drivable path, the same
+/// reversing (after a probe of the first one); where none of those does,
+/// the exhaustive search that may prove the run impossible. Returns the
+/// search's path in FMT*'s shape (for the views), the legs, and the
+/// planner used; `first` is FMT*'s failure, which a refusal quotes.
+#[allow(clippy::too_many_arguments)]
+fn search_fallback<'g>(
+    pgrid: &'g PlanningGrid,
+    grid_for: &dyn Fn(bool) -> &'g PlanningGrid,
+    drivable: &dyn Fn(&Corridor, &PlanningGrid) -> Result<(), PlanError>,
+    (from, from_yaw, goal): (Vec2, f64, Vec2),
+    cfg: &ClosedLoopConfig,
+    kappa_max: f64,
+    limits: &SpeedLimits,
+    first: PlanError,
+) -> Result<(FmtResult, Vec<Leg>, PathPlanner), PlanError> {
+    let pl = &cfg.planner;
+    // Curves at 80 % of the limit, so that the controller keeps a
+    // fifth of the steering to correct with; where that finds
+    // nothing, at 95 %. When no shot reaches the goal itself, a
+    // path may end short of it: first within half the goal
+    // tolerance; where neither finds a drivable path, within the
+    // tolerance less 10 cm for tracking and stopping (the matrix's
+    // worst cross-track error is 21 mm) — a search that stops
+    // earlier, so it finds paths the first did not (a long truck
+    // ending 0.31 m from the goal of the S-bend).
+    let half = 0.5 * cfg.goal.tolerance;
+    let wide = cfg.goal.tolerance - 0.1;
+    let attempt = |share: f64, end_within: f64, reverse: bool, budget: Option<usize>| {
+        let base = HybridConfig::new(share * kappa_max, pgrid.grid.resolution);
+        let hcfg = HybridConfig {
+            goal_tolerance: end_within,
+            reverse,
+            // Reversing doubles the states, and a manoeuvre with
+            // several cusps lies deeper in them (the truck in the
+            // warehouse's aisles: 242,313 poses, seven cusps).
+            max_expansions: budget.unwrap_or(if reverse {
+                2 * base.max_expansions
+            } else {
+                base.max_expansions
+            }),
+            ..base
+        };
+        // The error, whether it is the start (which no other
+        // turning limit changes), and how close the search came.
+        hybrid_astar(pgrid, from, from_yaw, goal, &hcfg)
+            .map_err(|e| {
+                // (A search pruned before it began — a goal
+                // whose nearer end cells the body cannot reach —
+                // says nothing of a wider end.)
+                let closest = match &e {
+                    HybridError::NoPath {
+                        closest,
+                        expansions,
+                        ..
+                    } if *expansions > 0 => Some(*closest),
+                    _ => None,
+                };
+                (
+                    matches!(e, HybridError::StartBlocked { .. }),
+                    closest,
+                    e.to_string(),
+                )
+            })
+            .and_then(|h| {
+                let legs = legs_along(&h.segments, &grid_for, pl.corridor_ds, limits);
+                for leg in &legs {
+                    drivable(&leg.corridor, grid_for(leg.reverse))
+                        .map_err(|e| (false, None, e.to_string()))?;
+                }
+                Ok((h, legs, hcfg))
+            })
+    };
+    let mut tries = vec![(0.8, half), (0.95, half)];
+    if wide > half {
+        tries.extend([(0.8, wide), (0.95, wide)]);
+    }
+    // How close each curvature's first search came. A search with a
+    // wider end expands the same poses in the same order and stops
+    // at the first within its end, so it can only succeed where one
+    // came that close (or where the first found a path the vehicle
+    // could not drive): otherwise it is not run.
+    let closest_of = |r: &Result<_, (bool, Option<f64>, String)>| match r {
+        Err((_, c, _)) => *c,
+        Ok(_) => None,
+    };
+    let mut found = Err((false, None, String::new()));
+    // Forwards; where no forward search finds a path, the same
+    // searches also reversing (a manoeuvre with cusps: into a dead
+    // end and back out, a turn in three moves, backing into the
+    // goal).
+    for reverse in [false, true] {
+        let mut came: Vec<(f64, Option<f64>)> = Vec::new();
+        for &(share, end_within) in &tries {
+            // A start the body does not fit ends the search: no
+            // other turning limit or end changes it.
+            let Err((false, _, _)) = found else { break };
+            let hopeless = end_within > half
+                && came
+                    .iter()
+                    .any(|&(s, c)| s == share && c.is_some_and(|c| c > end_within));
+            if hopeless {
+                continue;
+            }
+            found = attempt(share, end_within, reverse, None);
+            if end_within <= half {
+                came.push((share, closest_of(&found)));
+            }
+            // After the first forward search fails, a short probe
+            // of the first reversing one: a manoeuvre with a cusp
+            // near the start or the goal (backing into a corner
+            // past a gap) is found in a few thousand poses, long
+            // before the other forward searches give up. It is
+            // the first reversing search, stopped early (what it
+            // finds, that search finds too). Where a later forward
+            // try (tighter curvature, or an end farther from the
+            // goal) would also have found a path, the probe's is
+            // taken: none of the matrix's 49 cells is such a case.
+            if !reverse && came.len() == 1 && found.is_err() {
+                let probe = attempt(share, end_within, true, Some(REVERSE_PROBE));
+                if probe.is_ok() {
+                    found = probe;
+                }
+            }
+        }
+    }
+    let found = found.map_err(|(_, _, e)| e);
+    Ok(match found {
+        Ok((h, legs, hcfg)) => {
+            // The search's tree in the planner views: its expanded
+            // positions after start and goal, its edges in
+            // expansion order (the exploration GIF replays them).
+            let n = h.explored.len();
+            let mut samples = vec![from, goal];
+            samples.extend(&h.explored);
+            let mut cost = vec![0.0, h.length];
+            cost.resize(n + 2, f64::INFINITY);
+            let fmt = FmtResult {
+                samples,
+                parent: vec![None; n + 2],
+                cost,
+                edges: h.tree.iter().map(|&(a, b)| (a + 2, b + 2)).collect(),
+                path: h.points,
+                path_cost: h.length,
+                radius: 0.0,
+                collision_checks: 0,
+            };
+            let used = PathPlanner::Hybrid {
+                radius: 1.0 / hcfg.kappa,
+                expansions: h.expansions,
+                cusps: h.segments.len().saturating_sub(1),
+                fmt_failure: first.to_string(),
+            };
+            (fmt, legs, used)
+        }
+        Err(second) => {
+            let first = match first {
+                PlanError::Infeasible(m) => m,
+                e => e.to_string(),
+            };
+            let why =
+                format!("{first}; and a search within the turning limit found none: {second}");
+            return Err(
+                match exhausted(pgrid, from, from_yaw, goal, kappa_max, half) {
+                    Some(proof) => PlanError::Impossible(format!("{why}; {proof}")),
+                    None => PlanError::Infeasible(why),
+                },
+            );
+        }
+    })
+}
+
 /// What planning made, before anything is driven.
 struct Planned {
     /// The grid the planners used (the vehicle's footprint and margin).
@@ -999,162 +1174,16 @@ fn plan_path(
         Err(
             first @ (PlanError::Infeasible(_)
             | PlanError::Plan(FmtError::NoPath { .. } | FmtError::GoalInCollision(..))),
-        ) => {
-            // Curves at 80 % of the limit, so that the controller keeps a
-            // fifth of the steering to correct with; where that finds
-            // nothing, at 95 %. When no shot reaches the goal itself, a
-            // path may end short of it: first within half the goal
-            // tolerance; where neither finds a drivable path, within the
-            // tolerance less 10 cm for tracking and stopping (the matrix's
-            // worst cross-track error is 21 mm) — a search that stops
-            // earlier, so it finds paths the first did not (a long truck
-            // ending 0.31 m from the goal of the S-bend).
-            let half = 0.5 * cfg.goal.tolerance;
-            let wide = cfg.goal.tolerance - 0.1;
-            let attempt = |share: f64, end_within: f64, reverse: bool, budget: Option<usize>| {
-                let base = HybridConfig::new(share * kappa_max, pgrid.grid.resolution);
-                let hcfg = HybridConfig {
-                    goal_tolerance: end_within,
-                    reverse,
-                    // Reversing doubles the states, and a manoeuvre with
-                    // several cusps lies deeper in them (the truck in the
-                    // warehouse's aisles: 242,313 poses, seven cusps).
-                    max_expansions: budget.unwrap_or(if reverse {
-                        2 * base.max_expansions
-                    } else {
-                        base.max_expansions
-                    }),
-                    ..base
-                };
-                // The error, whether it is the start (which no other
-                // turning limit changes), and how close the search came.
-                hybrid_astar(&pgrid, from, from_yaw, goal, &hcfg)
-                    .map_err(|e| {
-                        // (A search pruned before it began — a goal
-                        // whose nearer end cells the body cannot reach —
-                        // says nothing of a wider end.)
-                        let closest = match &e {
-                            HybridError::NoPath {
-                                closest,
-                                expansions,
-                                ..
-                            } if *expansions > 0 => Some(*closest),
-                            _ => None,
-                        };
-                        (
-                            matches!(e, HybridError::StartBlocked { .. }),
-                            closest,
-                            e.to_string(),
-                        )
-                    })
-                    .and_then(|h| {
-                        let legs = legs_along(&h.segments, &grid_for, pl.corridor_ds, &limits);
-                        for leg in &legs {
-                            drivable(&leg.corridor, grid_for(leg.reverse))
-                                .map_err(|e| (false, None, e.to_string()))?;
-                        }
-                        Ok((h, legs, hcfg))
-                    })
-            };
-            let mut tries = vec![(0.8, half), (0.95, half)];
-            if wide > half {
-                tries.extend([(0.8, wide), (0.95, wide)]);
-            }
-            // How close each curvature's first search came. A search with a
-            // wider end expands the same poses in the same order and stops
-            // at the first within its end, so it can only succeed where one
-            // came that close (or where the first found a path the vehicle
-            // could not drive): otherwise it is not run.
-            let closest_of = |r: &Result<_, (bool, Option<f64>, String)>| match r {
-                Err((_, c, _)) => *c,
-                Ok(_) => None,
-            };
-            let mut found = Err((false, None, String::new()));
-            // Forwards; where no forward search finds a path, the same
-            // searches also reversing (a manoeuvre with cusps: into a dead
-            // end and back out, a turn in three moves, backing into the
-            // goal).
-            for reverse in [false, true] {
-                let mut came: Vec<(f64, Option<f64>)> = Vec::new();
-                for &(share, end_within) in &tries {
-                    // A start the body does not fit ends the search: no
-                    // other turning limit or end changes it.
-                    let Err((false, _, _)) = found else { break };
-                    let hopeless = end_within > half
-                        && came
-                            .iter()
-                            .any(|&(s, c)| s == share && c.is_some_and(|c| c > end_within));
-                    if hopeless {
-                        continue;
-                    }
-                    found = attempt(share, end_within, reverse, None);
-                    if end_within <= half {
-                        came.push((share, closest_of(&found)));
-                    }
-                    // After the first forward search fails, a short probe
-                    // of the first reversing one: a manoeuvre with a cusp
-                    // near the start or the goal (backing into a corner
-                    // past a gap) is found in a few thousand poses, long
-                    // before the other forward searches give up. It is
-                    // the first reversing search, stopped early (what it
-                    // finds, that search finds too). Where a later forward
-                    // try (tighter curvature, or an end farther from the
-                    // goal) would also have found a path, the probe's is
-                    // taken: none of the matrix's 49 cells is such a case.
-                    if !reverse && came.len() == 1 && found.is_err() {
-                        let probe = attempt(share, end_within, true, Some(REVERSE_PROBE));
-                        if probe.is_ok() {
-                            found = probe;
-                        }
-                    }
-                }
-            }
-            let found = found.map_err(|(_, _, e)| e);
-            match found {
-                Ok((h, legs, hcfg)) => {
-                    // The search's tree in the planner views: its expanded
-                    // positions after start and goal, its edges in
-                    // expansion order (the exploration GIF replays them).
-                    let n = h.explored.len();
-                    let mut samples = vec![from, goal];
-                    samples.extend(&h.explored);
-                    let mut cost = vec![0.0, h.length];
-                    cost.resize(n + 2, f64::INFINITY);
-                    let fmt = FmtResult {
-                        samples,
-                        parent: vec![None; n + 2],
-                        cost,
-                        edges: h.tree.iter().map(|&(a, b)| (a + 2, b + 2)).collect(),
-                        path: h.points,
-                        path_cost: h.length,
-                        radius: 0.0,
-                        collision_checks: 0,
-                    };
-                    let used = PathPlanner::Hybrid {
-                        radius: 1.0 / hcfg.kappa,
-                        expansions: h.expansions,
-                        cusps: h.segments.len().saturating_sub(1),
-                        fmt_failure: first.to_string(),
-                    };
-                    (fmt, legs, used)
-                }
-                Err(second) => {
-                    let first = match first {
-                        PlanError::Infeasible(m) => m,
-                        e => e.to_string(),
-                    };
-                    let why = format!(
-                        "{first}; and a search within the turning limit found none: {second}"
-                    );
-                    return Err(
-                        match exhausted(&pgrid, from, from_yaw, goal, kappa_max, half) {
-                            Some(proof) => PlanError::Impossible(format!("{why}; {proof}")),
-                            None => PlanError::Infeasible(why),
-                        },
-                    );
-                }
-            }
-        }
+        ) => search_fallback(
+            &pgrid,
+            &grid_for,
+            &drivable,
+            (from, from_yaw, goal),
+            cfg,
+            kappa_max,
+            &limits,
+            first,
+        )?,
         Err(e) => return Err(e),
     };
     if let Some(e) = &escape {
