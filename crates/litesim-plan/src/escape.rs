@@ -198,25 +198,17 @@ pub fn overlap(grid: &PlanningGrid, p: Vec2, yaw: f64) -> Option<(Vec2, &'static
 /// plus the diagonal) against what [`PlanningGrid::body_free`] asks; a disc
 /// vehicle's covering circles against radius + margin.
 fn shortfall(grid: &PlanningGrid, p: Vec2, yaw: f64) -> f64 {
-    let Some([length, width, rear]) = grid.body else {
-        let (_, clearance, need) = grid.tightest_part(p, yaw);
-        return (need - clearance).max(0.0);
-    };
-    let s = grid.grid.resolution.max(1e-3);
-    let slack = s * std::f64::consts::SQRT_2;
-    let (_, outline, need) = grid.tightest_part(p, yaw);
-    let mut worst = need - outline;
-    let deep = 0.5 * width - grid.margin + slack;
-    let (c0, c1) = (grid.margin - rear, length - rear - grid.margin);
-    if deep > 0.0 && c1 >= c0 {
-        let f = Vec2::from_heading(yaw);
-        let inner = ((c1 - c0) / s).ceil().max(1.0) as usize;
-        for k in 0..=inner {
-            let a = c0 + (c1 - c0) * k as f64 / inner as f64;
-            worst = worst.max(deep - grid.clearance(p + f * a));
-        }
-    }
-    worst.max(0.0)
+    let (_, clearance, need) = grid.tightest_part(p, yaw);
+    let outline = need - clearance;
+    let axis = grid
+        .body
+        .and_then(|body| grid.axis(body, p, Vec2::from_heading(yaw)))
+        .map_or(f64::NEG_INFINITY, |(deep, points)| {
+            points
+                .map(|q| deep - grid.clearance(q))
+                .fold(f64::NEG_INFINITY, f64::max)
+        });
+    outline.max(axis).max(0.0)
 }
 
 /// The leg out of the margin from `(p, yaw)`, `None` when the start keeps

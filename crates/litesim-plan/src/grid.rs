@@ -282,23 +282,40 @@ impl PlanningGrid {
     /// The outline's rule is stricter than the circles' along the sides and
     /// looser at the bumpers, where the circles reach far beyond the body.
     pub fn body_free(&self, p: Vec2, f: Vec2, extra: f64) -> bool {
-        let Some(body @ [length, width, rear]) = self.body else {
+        let Some(body) = self.body else {
             return false;
         };
         let s = self.grid.resolution.max(1e-3);
-        let slack = s * std::f64::consts::SQRT_2;
-        let edge = self.margin + extra + slack;
-        let deep = 0.5 * width - self.margin + slack;
-        // The axis where an obstacle `margin` inside the outline can be.
-        let (c0, c1) = (self.margin - rear, length - rear - self.margin);
-        let inner = ((c1 - c0) / s).ceil().max(1.0) as usize;
+        let edge = self.margin + extra + s * std::f64::consts::SQRT_2;
         self.outline(body, p, f).all(|q| self.clearance(q) >= edge)
-            && (deep <= 0.0
-                || c1 < c0
-                || (0..=inner).all(|k| {
-                    let a = c0 + (c1 - c0) * k as f64 / inner as f64;
-                    self.clearance(p + f * a) > deep
-                }))
+            && self
+                .axis(body, p, f)
+                .is_none_or(|(deep, mut points)| points.all(|q| self.clearance(q) > deep))
+    }
+
+    /// The axis rule of [`Self::body_free`]: the clearance an axis point
+    /// must exceed (half the width less the margin, plus a cell's
+    /// diagonal) and the points of the axis where an obstacle `margin`
+    /// inside the outline can be, at most a cell apart; `None` where the
+    /// rule asks nothing (a body narrower than twice its margin, or
+    /// shorter).
+    pub fn axis(
+        &self,
+        [length, width, rear]: [f64; 3],
+        p: Vec2,
+        f: Vec2,
+    ) -> Option<(f64, impl Iterator<Item = Vec2>)> {
+        let s = self.grid.resolution.max(1e-3);
+        let deep = 0.5 * width - self.margin + s * std::f64::consts::SQRT_2;
+        let (c0, c1) = (self.margin - rear, length - rear - self.margin);
+        if deep <= 0.0 || c1 < c0 {
+            return None;
+        }
+        let inner = ((c1 - c0) / s).ceil().max(1.0) as usize;
+        Some((
+            deep,
+            (0..=inner).map(move |k| p + f * (c0 + (c1 - c0) * k as f64 / inner as f64)),
+        ))
     }
 
     /// Points of the outline of `body` ([`Self::body`]) at `p` heading
