@@ -389,11 +389,6 @@ pub enum PlanError {
     Impossible(String),
 }
 
-/// Poses the early reversing probe may expand: after the first forward
-/// search fails, the first reversing search runs this far before the
-/// other forward searches ([`run_closed_loop`]).
-pub const REVERSE_PROBE: usize = 20_000;
-
 /// The exhaustive search that proves a cell impossible on the search's
 /// lattice: at most this many poses (a hard case exhausts its reachable
 /// poses in 50,000–70,000; a cap reached proves nothing and says so).
@@ -847,7 +842,7 @@ pub fn run_closed_loop(
 /// inside the margin): the curvature-bounded search, forwards at 80 % then
 /// 95 % of the turning limit, ending within half the goal tolerance, then
 /// within it less 10 cm; where none finds a drivable path, the same
-/// reversing (after a probe of the first one); where none of those does,
+/// reversing; where none of those does,
 /// the exhaustive search that may prove the run impossible. Returns the
 /// search's path in FMT*'s shape (for the views), the legs, and the
 /// planner used; `first` is FMT*'s failure, which a refusal quotes.
@@ -874,7 +869,7 @@ fn search_fallback<'g>(
     // ending 0.31 m from the goal of the S-bend).
     let half = 0.5 * cfg.goal.tolerance;
     let wide = cfg.goal.tolerance - 0.1;
-    let attempt = |share: f64, end_within: f64, reverse: bool, budget: Option<usize>| {
+    let attempt = |share: f64, end_within: f64, reverse: bool| {
         let base = HybridConfig::new(share * kappa_max, pgrid.grid.resolution);
         let hcfg = HybridConfig {
             goal_tolerance: end_within,
@@ -882,11 +877,11 @@ fn search_fallback<'g>(
             // Reversing doubles the states, and a manoeuvre with
             // several cusps lies deeper in them (the truck in the
             // warehouse's aisles: 242,313 poses, seven cusps).
-            max_expansions: budget.unwrap_or(if reverse {
+            max_expansions: if reverse {
                 2 * base.max_expansions
             } else {
                 base.max_expansions
-            }),
+            },
             ..base
         };
         // The error, whether it is the start (which no other
@@ -950,25 +945,9 @@ fn search_fallback<'g>(
             if hopeless {
                 continue;
             }
-            found = attempt(share, end_within, reverse, None);
+            found = attempt(share, end_within, reverse);
             if end_within <= half {
                 came.push((share, closest_of(&found)));
-            }
-            // After the first forward search fails, a short probe
-            // of the first reversing one: a manoeuvre with a cusp
-            // near the start or the goal (backing into a corner
-            // past a gap) is found in a few thousand poses, long
-            // before the other forward searches give up. It is
-            // the first reversing search, stopped early (what it
-            // finds, that search finds too). Where a later forward
-            // try (tighter curvature, or an end farther from the
-            // goal) would also have found a path, the probe's is
-            // taken: none of the matrix's 49 cells is such a case.
-            if !reverse && came.len() == 1 && found.is_err() {
-                let probe = attempt(share, end_within, true, Some(REVERSE_PROBE));
-                if probe.is_ok() {
-                    found = probe;
-                }
             }
         }
     }
