@@ -61,9 +61,6 @@ pub struct UnitDecl {
 pub struct DeclIndex<'a> {
     /// Physical types.
     pub physical: BTreeSet<String>,
-    /// Each physical type's SI base exponents (`speed` → m: 1, s: -1),
-    /// the last declaration's (the user's, when it redeclares a built-in).
-    pub dimensions: BTreeMap<String, Dimension>,
     /// Under CARLA's dialect, each physical type → the first declared type
     /// of the same dimension (`velocity` → litesim's `speed`): a file's
     /// own types of a known dimension are that dimension. Empty otherwise
@@ -171,14 +168,12 @@ impl<'a> DeclIndex<'a> {
                 match d {
                     Decl::PhysicalType { name, si } => {
                         ix.physical.insert(name.text.clone());
-                        let dim = dimension(si);
                         if carla {
                             let canon = by_dimension
-                                .entry(dim.clone())
+                                .entry(dimension(si))
                                 .or_insert_with(|| name.text.clone());
                             ix.physical_alias.insert(name.text.clone(), canon.clone());
                         }
-                        ix.dimensions.insert(name.text.clone(), dim);
                     }
                     Decl::Unit { name, of, args } => {
                         let factor = factor(args);
