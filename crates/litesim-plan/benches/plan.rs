@@ -1,8 +1,8 @@
 //! Planner and controller benchmarks (`cargo bench -p litesim-plan --bench plan`):
 //! FMT* on an 80 × 40 m map at 0.2 m with one large rectangle (n = 2,000 and
 //! 50,000), the distance transform of a 400 × 200 grid, one MPC solve at
-//! N = 20 (structured solver, and Clarabel on the same QP), and a 150-step
-//! closed loop with MPC.
+//! N = 20 (structured solver, and Clarabel on the same QP), a 150-step
+//! closed loop with MPC, and the plan-matrix's slowest cells planned.
 
 use criterion::Criterion;
 use litesim_core::Vec2;
@@ -124,6 +124,34 @@ fn main() {
     g.bench_function("150_steps_with_mpc_incl_planning", |b| {
         b.iter(|| run_closed_loop(&cl, yard()).unwrap())
     });
+    g.finish();
+
+    // The plan-matrix's slowest cells (the curvature-bounded search over
+    // forward and reversing motion, and the escape from the margin): each
+    // run one step long, so that the time is the planning.
+    let examples = litesim_plan::matrix::load_examples(std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../examples/plan"
+    )))
+    .unwrap();
+    let mut g = c.benchmark_group("matrix_plan");
+    g.sample_size(10);
+    for (example, preset) in [
+        ("s_bend", "bus"),
+        ("s_bend", "truck"),
+        ("narrow_passage", "truck"),
+        ("warehouse", "van"),
+        ("parking_lot", "bus"),
+    ] {
+        let (_, cfg, grid) = examples.iter().find(|(n, ..)| n == example).unwrap();
+        let mut cfg = cfg.clone();
+        cfg.vehicle.preset = preset.into();
+        cfg.goal.tolerance = 0.5;
+        cfg.simulation.horizon = cfg.simulation.dt;
+        g.bench_function(format!("{example}_{preset}"), |b| {
+            b.iter(|| run_closed_loop(&cfg, grid.clone()).unwrap())
+        });
+    }
     g.finish();
     c.final_summary();
 }

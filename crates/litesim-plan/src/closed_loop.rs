@@ -717,6 +717,7 @@ fn exhausted(
         goal_tolerance: end_within,
         reverse: true,
         max_expansions: EXHAUSTIVE_POSES,
+        steering_in_state: true,
         ..base
     };
     match hybrid_astar(pgrid, from, yaw, goal, &hcfg) {
@@ -839,11 +840,11 @@ pub fn run_closed_loop(
 }
 
 /// Where FMT*'s path cannot be driven (or FMT* found none, or its goal is
-/// inside the margin): the curvature-bounded search, forwards at 80 % then
-/// 95 % of the turning limit, ending within half the goal tolerance, then
-/// within it less 10 cm; where none finds a drivable path, the same
-/// reversing; where none of those does,
-/// the exhaustive search that may prove the run impossible. Returns the
+/// inside the margin): the curvature-bounded search over forward and
+/// reversing motion (a cusp and a metre backwards cost more than one
+/// forwards), at 80 % then 95 % of the turning limit, ending within half
+/// the goal tolerance, then within it less 10 cm; where none finds a
+/// drivable path, the exhaustive search that may prove the run impossible. Returns the
 /// search's path in FMT*'s shape (for the views), the legs, and the
 /// planner used; `first` is FMT*'s failure, which a refusal quotes.
 #[allow(clippy::too_many_arguments)]
@@ -869,19 +870,14 @@ fn search_fallback<'g>(
     // ending 0.31 m from the goal of the S-bend).
     let half = 0.5 * cfg.goal.tolerance;
     let wide = cfg.goal.tolerance - 0.1;
-    let attempt = |share: f64, end_within: f64, reverse: bool| {
+    let attempt = |share: f64, end_within: f64| {
         let base = HybridConfig::new(share * kappa_max, pgrid.grid.resolution);
         let hcfg = HybridConfig {
             goal_tolerance: end_within,
-            reverse,
+            reverse: true,
             // Reversing doubles the states, and a manoeuvre with
-            // several cusps lies deeper in them (the truck in the
-            // warehouse's aisles: 242,313 poses, seven cusps).
-            max_expansions: if reverse {
-                2 * base.max_expansions
-            } else {
-                base.max_expansions
-            },
+            // several cusps lies deeper in them.
+            max_expansions: 2 * base.max_expansions,
             ..base
         };
         // The error, whether it is the start (which no other
@@ -928,27 +924,26 @@ fn search_fallback<'g>(
         Ok(_) => None,
     };
     let mut found = Err((false, None, String::new()));
-    // Forwards; where no forward search finds a path, the same
-    // searches also reversing (a manoeuvre with cusps: into a dead
-    // end and back out, a turn in three moves, backing into the
-    // goal).
-    for reverse in [false, true] {
-        let mut came: Vec<(f64, Option<f64>)> = Vec::new();
-        for &(share, end_within) in &tries {
-            // A start the body does not fit ends the search: no
-            // other turning limit or end changes it.
-            let Err((false, _, _)) = found else { break };
-            let hopeless = end_within > half
-                && came
-                    .iter()
-                    .any(|&(s, c)| s == share && c.is_some_and(|c| c > end_within));
-            if hopeless {
-                continue;
-            }
-            found = attempt(share, end_within, reverse);
-            if end_within <= half {
-                came.push((share, closest_of(&found)));
-            }
+    // One search over forward and reversing motion: a cusp and every
+    // metre backwards cost more than driving on, so a forward path is
+    // taken wherever one costs less, and a manoeuvre with cusps (into a
+    // dead end and back out, a turn in three moves, backing into the
+    // goal) is found without waiting for forward searches to fail.
+    let mut came: Vec<(f64, Option<f64>)> = Vec::new();
+    for &(share, end_within) in &tries {
+        // A start the body does not fit ends the search: no other
+        // turning limit or end changes it.
+        let Err((false, _, _)) = found else { break };
+        let hopeless = end_within > half
+            && came
+                .iter()
+                .any(|&(s, c)| s == share && c.is_some_and(|c| c > end_within));
+        if hopeless {
+            continue;
+        }
+        found = attempt(share, end_within);
+        if end_within <= half {
+            came.push((share, closest_of(&found)));
         }
     }
     let found = found.map_err(|(_, _, e)| e);

@@ -9,11 +9,16 @@
 //! free space around it allows. This search moves a pose (x, y, heading)
 //! along arcs no tighter than the vehicle can drive, checks the whole
 //! footprint along each arc, and keeps the cheapest pose per cell of
-//! (x, y, heading). It is guided by the obstacle-aware distance to the goal
-//! (Dijkstra over the grid for the reference point) and finishes with an
-//! analytic shot — one arc at the planning curvature, then a straight line —
-//! whenever that reaches the goal free. Deterministic: no randomness, ties
-//! broken by insertion order.
+//! (x, y, heading[, direction]). It is guided by the larger of two lower
+//! bounds: the obstacle-aware distance to the goal (Dijkstra over the grid
+//! for the reference point) and the turning limit's shortest way to the
+//! goal without obstacles ([`crate::reach`]). It finishes with an analytic
+//! shot — one arc at the planning curvature, then a straight line, forwards
+//! or backwards — whenever that reaches the goal free. Reversing, a way in
+//! is kept, not taken at once, until no pose left could beat it by more
+//! than [`HybridConfig::accept_within`]: a cusp and each metre backwards
+//! cost more, so a forward way is taken wherever it costs less.
+//! Deterministic: no randomness, ties broken by insertion order.
 
 use crate::fmt::Cheapest;
 use crate::grid::PlanningGrid;
@@ -49,6 +54,17 @@ pub struct HybridConfig {
     /// reverse, times `reverse_factor` like the arc it starts): the vehicle
     /// stops, steers at standstill and starts again.
     pub switch_cost: f64,
+    /// Reversing, a way into the goal is taken once no pose left to
+    /// expand could be cheaper by more than this factor (1: the cheapest
+    /// on the lattice; more: sooner, at most that much dearer).
+    pub accept_within: f64,
+    /// The steering level is part of the closed set's state (5× the
+    /// states): a pose reached with the wheels turned one way does not
+    /// close the cell for a later arrival with them turned the other. The
+    /// exhaustive search that proves a run impossible needs it; the
+    /// planning search keys poses on position, heading and direction
+    /// (each pose still keeps its level, and its arcs change it by one).
+    pub steering_in_state: bool,
 }
 
 impl HybridConfig {
@@ -69,6 +85,8 @@ impl HybridConfig {
             reverse: false,
             reverse_factor: 2.0,
             switch_cost: 10.0,
+            accept_within: 1.25,
+            steering_in_state: false,
         }
     }
 }
@@ -366,17 +384,25 @@ fn distance_to_goal(grid: &PlanningGrid, goal: Vec2, end_within: f64) -> Vec<f64
     dist
 }
 
+/// A way into the goal: (cost, the node it leaves from, the shot from
+/// there as (curvature, arc length, straight length), none when the node
+/// itself is within the goal tolerance).
+type WayIn = (f64, u32, Option<(f64, f64, f64)>);
+
 struct Node {
     p: Vec2,
     yaw: f64,
     g: f64,
     parent: u32,
     /// Curvature level of the arc that led here.
-    level: usize,
+    level: u8,
     /// Direction of the arc that led here: 1 forwards, −1 backwards.
-    dir: f64,
+    dir: i8,
     /// Index in the tree kept for display (u32::MAX: not in it).
     shown: u32,
+    /// The arc from the parent is not checked yet (a change of direction:
+    /// most are never expanded, so each is checked when it is).
+    unchecked: bool,
 }
 
 /// Plans a path from `(start, yaw)` to `goal` (any final heading) whose
@@ -400,6 +426,8 @@ pub fn hybrid_astar(
         reverse,
         reverse_factor,
         switch_cost,
+        accept_within,
+        steering_in_state,
     } = *cfg;
     if !(kappa.is_finite() && kappa > 0.0) {
         return Err(HybridError::BadConfig(format!(
@@ -412,6 +440,11 @@ pub fn hybrid_astar(
                 "{name} must be positive, got {v}"
             )));
         }
+    }
+    if !(accept_within.is_finite() && accept_within >= 1.0) {
+        return Err(HybridError::BadConfig(format!(
+            "accept_within must be a number ≥ 1, got {accept_within}"
+        )));
     }
     for (name, v) in [
         ("reverse_factor", reverse_factor),
@@ -454,31 +487,55 @@ pub fn hybrid_astar(
     };
     let g = &grid.grid;
     let to_goal = distance_to_goal(grid, goal, cfg.goal_tolerance);
-    let h_of = |p: Vec2| -> f64 {
-        match g.cell(p) {
-            Some((i, j)) => to_goal[j * g.width + i].max(p.distance(goal)),
-            None => f64::INFINITY,
-        }
+    // The larger of two lower bounds: around the walls for the reference
+    // point, and the turning limit's for a heading without walls
+    // ([`crate::reach`]). Reversing, a path goes on in the direction it
+    // came or has a cusp (at least `switch_cost` more).
+    let h_of = |p: Vec2, yaw: f64, dir: f64| -> f64 {
+        let Some((i, j)) = g.cell(p) else {
+            return f64::INFINITY;
+        };
+        let v = goal - p;
+        let f = Vec2::from_heading(yaw);
+        let (x, y) = (v.dot(f), f.cross(v));
+        let turning = if !reverse {
+            crate::reach::forward_to_point(x, y, radius)
+        } else {
+            let on = if dir > 0.0 {
+                crate::reach::forward_to_point(x, y, radius)
+            } else {
+                reverse_factor * crate::reach::backward_to_point(x, y, radius)
+            };
+            on.min(v.norm() + switch_cost)
+        };
+        let turning = (turning - goal_tolerance).max(0.0);
+        to_goal[j * g.width + i].max(v.norm()).max(turning)
     };
     let extent = Vec2::new(g.width as f64, g.height as f64) * g.resolution;
     let (nx, ny) = (
         (extent.x / cell).ceil().max(1.0) as usize,
         (extent.y / cell).ceil().max(1.0) as usize,
     );
-    if nx.saturating_mul(ny).saturating_mul(headings) > 16 << 20 {
+    // Curvature levels −κ, −κ/2, 0, κ/2, κ; an arc changes the level by at
+    // most one (steering moves at a finite rate, and a path whose
+    // curvature jumps is one no vehicle follows exactly). The level is
+    // part of the state only where asked (`steering_in_state`).
+    let ks = [-kappa, -0.5 * kappa, 0.0, 0.5 * kappa, kappa];
+    let levels = ks.len();
+    let keyed_levels = if steering_in_state { levels } else { 1 };
+    // Reversing doubles the states: a pose reached backwards is not one
+    // reached forwards (a change of direction costs).
+    let dirs = if reverse { 2 } else { 1 };
+    if nx
+        .saturating_mul(ny)
+        .saturating_mul(headings)
+        .saturating_mul(keyed_levels * dirs)
+        > 64 << 20
+    {
         return Err(HybridError::BadConfig(format!(
             "{nx} × {ny} cells × {headings} headings is too fine for this map: use larger cells"
         )));
     }
-    // Curvature levels −κ, −κ/2, 0, κ/2, κ; an arc changes the level by at
-    // most one (steering moves at a finite rate, and a path whose
-    // curvature jumps is one no vehicle follows exactly). The level is
-    // part of the state.
-    let ks = [-kappa, -0.5 * kappa, 0.0, 0.5 * kappa, kappa];
-    let levels = ks.len();
-    // Reversing doubles the states: a pose reached backwards is not one
-    // reached forwards (a change of direction costs).
-    let dirs = if reverse { 2 } else { 1 };
     let key = |p: Vec2, yaw: f64, level: usize, dir: f64| -> Option<usize> {
         let u = (p.x - g.origin.x) / cell;
         let v = (p.y - g.origin.y) / cell;
@@ -492,48 +549,94 @@ pub fn hybrid_astar(
         let t = yaw.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU;
         let b = ((t * headings as f64) as usize).min(headings - 1);
         let d = usize::from(dir < 0.0);
-        Some((((j * nx + i) * headings + b) * levels + level) * dirs + d)
+        let level = if steering_in_state { level } else { 0 };
+        Some((((j * nx + i) * headings + b) * keyed_levels + level) * dirs + d)
     };
-    let states = nx * ny * headings * levels * dirs;
+    let states = nx * ny * headings * keyed_levels * dirs;
+    // The cheapest cost seen per state; −∞ once the state is expanded
+    // (closed): one array, not two, since a search's memory is mostly the
+    // pages it touches.
     let mut best = vec![f64::INFINITY; states];
-    let mut closed = vec![false; states];
     // The vehicle starts with its wheels straight.
-    let mut nodes = vec![Node {
+    // Each expansion adds up to eight poses: room for those of the first
+    // 64k expansions up front, so that a long search does not copy its
+    // poses and its heap on every doubling (untouched room costs nothing).
+    let room = 8 * max_expansions.clamp(1, 1 << 16);
+    let mut nodes = Vec::with_capacity(room);
+    nodes.push(Node {
         p: start,
         yaw,
         g: 0.0,
         parent: u32::MAX,
         level: 2,
-        dir: 1.0,
+        dir: 1,
         shown: u32::MAX,
-    }];
+        unchecked: false,
+    });
     let mut explored: Vec<Vec2> = Vec::new();
     let mut tree: Vec<(usize, usize)> = Vec::new();
-    let mut heap = BinaryHeap::new();
-    let h0 = h_of(start);
+    let mut heap = BinaryHeap::with_capacity(room);
+    let h0 = h_of(start, yaw, 1.0);
     if !h0.is_finite() {
         return Err(exhausted(0, (start.distance(goal), start)));
     }
     heap.push(Cheapest(h0, 0));
     let mut expansions = 0usize;
     let mut closest = (start.distance(goal), start);
-    // Shots are tried on every expansion near the goal, on every 16th away
-    // (a shot from afar is long to check and rarely free).
+    // Shots are tried on every 4th expansion near the goal, on every 16th
+    // away (a shot is long to check, and from afar rarely free; near the
+    // goal consecutive expansions are neighbours, whose shots differ
+    // little).
     let near = 2.0 * radius + 5.0;
     // How far from its start the body is checked exactly: a body length.
     let leave = grid.body.map_or(0.0, |[length, ..]| length);
-    while let Some(Cheapest(_, id)) = heap.pop() {
+    // Reversing, the first way in is not taken at once: a shot backwards
+    // from a pose reached cheaply may cost more (reversing, a cusp) than a
+    // forward way found a little later. The cheapest way in so far is
+    // kept, (cost, node, shot), and returned once no pose left to expand
+    // could beat it.
+    let mut way_in: Option<WayIn> = None;
+    let done = |way_in: Option<WayIn>,
+                nodes: &[Node],
+                explored: Vec<Vec2>,
+                tree: Vec<(usize, usize)>,
+                expansions: usize| {
+        way_in.map(|(_, id, shot)| HybridPath {
+            explored,
+            tree,
+            ..reconstruct(
+                nodes,
+                &ks,
+                id,
+                step,
+                check,
+                shot.map(|(k, turn, straight)| (k, turn, straight, goal)),
+                expansions,
+            )
+        })
+    };
+    while let Some(Cheapest(f, id)) = heap.pop() {
+        if way_in.is_some_and(|w| f * accept_within >= w.0) {
+            break;
+        }
         let (p, yaw, gc, lc, dc) = {
             let n = &nodes[id as usize];
-            (n.p, n.yaw, n.g, n.level, n.dir)
+            (n.p, n.yaw, n.g, usize::from(n.level), f64::from(n.dir))
         };
         let Some(kk) = key(p, yaw, lc, dc) else {
             continue;
         };
-        if closed[kk] || gc > best[kk] {
+        if gc > best[kk] {
             continue;
         }
-        closed[kk] = true;
+        let n = &nodes[id as usize];
+        if n.unchecked {
+            let a = &nodes[n.parent as usize];
+            if !arc_free(grid, a.p, a.yaw, ks[lc], dc * step, check, a.g < leave) {
+                continue;
+            }
+        }
+        best[kk] = f64::NEG_INFINITY;
         expansions += 1;
         if explored.len() < TREE_CAP {
             let at = explored.len();
@@ -547,7 +650,8 @@ pub fn hybrid_astar(
             }
         }
         if expansions > max_expansions {
-            return Err(exhausted(expansions - 1, closest));
+            return done(way_in, &nodes, explored, tree, expansions - 1)
+                .ok_or_else(|| exhausted(expansions - 1, closest));
         }
         let d = p.distance(goal);
         if d < closest.0 {
@@ -556,35 +660,46 @@ pub fn hybrid_astar(
         // A reversing search also shoots from its start: a goal straight
         // behind is reached backwards, not after a few metres forwards.
         let first = reverse && expansions == 1;
-        if d < near || expansions.is_multiple_of(16) || first {
-            // Forwards first; reversing, also backwards (a shot against
-            // the direction the pose was reached in adds a cusp there).
-            let mut found = shot(grid, p, yaw, goal, kappa, check, 1.0);
-            if found.is_none() && reverse {
-                found = shot(grid, p, yaw, goal, kappa, check, -1.0);
+        let mut shot_here = false;
+        // (A shot is at least as long as the straight line: none from
+        // here can beat a way in that costs less than that.)
+        let worth = way_in.is_none_or(|w| gc + d < w.0);
+        if worth
+            && ((d < near && expansions.is_multiple_of(4))
+                || expansions.is_multiple_of(16)
+                || first)
+        {
+            // Forwards, and reversing also backwards (a shot against the
+            // direction the pose was reached in adds a cusp there); the
+            // cheaper by the search's costs.
+            let mut shots = vec![shot(grid, p, yaw, goal, kappa, check, 1.0)];
+            if reverse {
+                shots.push(shot(grid, p, yaw, goal, kappa, check, -1.0));
             }
-            if let Some((k, turn, straight)) = found {
-                return Ok(HybridPath {
-                    explored,
-                    tree,
-                    ..reconstruct(
-                        &nodes,
-                        &ks,
-                        id,
-                        step,
-                        check,
-                        Some((k, turn, straight, goal)),
-                        expansions,
-                    )
-                });
+            for (k, turn, straight) in shots.into_iter().flatten() {
+                shot_here = true;
+                let back = turn < 0.0 || straight < 0.0;
+                let mut cost = turn.abs() * 1.05 + straight.abs();
+                if back != (dc < 0.0) {
+                    cost += switch_cost;
+                }
+                if back {
+                    cost *= reverse_factor;
+                }
+                let total = gc + cost;
+                if way_in.is_none_or(|w| total < w.0) {
+                    way_in = Some((total, id, Some((k, turn, straight))));
+                }
             }
         }
-        if d <= goal_tolerance {
-            return Ok(HybridPath {
-                explored,
-                tree,
-                ..reconstruct(&nodes, &ks, id, step, check, None, expansions)
-            });
+        // Ending short of the goal where no shot reaches it from here.
+        if !shot_here && d <= goal_tolerance && way_in.is_none_or(|w| gc < w.0) {
+            way_in = Some((gc, id, None));
+        }
+        // Forwards only, the first way in is the path (the search as it
+        // always was).
+        if !reverse && way_in.is_some() {
+            break;
         }
         let lo = lc.saturating_sub(1);
         let same = (lo..(lc + 2).min(levels)).map(|l| (l, dc));
@@ -597,14 +712,15 @@ pub fn hybrid_astar(
             // A start the circles do not fit (a long body near a wall or
             // the map's edge) is left with the body checked exactly; the
             // rest of the search keeps the circles' room.
-            if !arc_free(grid, p, yaw, k, len, check, gc < leave) {
+            let lazy = dir != dc;
+            if !lazy && !arc_free(grid, p, yaw, k, len, check, gc < leave) {
                 continue;
             }
             let (q, qy) = arc(p, yaw, k, len);
             let Some(qk) = key(q, qy, level, dir) else {
                 continue;
             };
-            if closed[qk] {
+            if best[qk] == f64::NEG_INFINITY {
                 continue;
             }
             // Length, a little more for turning and for changing the
@@ -625,24 +741,29 @@ pub fn hybrid_astar(
             if ng >= best[qk] {
                 continue;
             }
-            let h = h_of(q);
+            let h = h_of(q, qy, dir);
             if !h.is_finite() {
                 continue;
             }
-            best[qk] = ng;
+            // (An arc not yet checked claims no cell: were it blocked, it
+            // would have turned away a dearer arrival that is free.)
+            if !lazy {
+                best[qk] = ng;
+            }
             nodes.push(Node {
                 p: q,
                 yaw: qy,
                 g: ng,
                 parent: id,
-                level,
-                dir,
+                level: level as u8,
+                dir: dir as i8,
                 shown: u32::MAX,
+                unchecked: lazy,
             });
             heap.push(Cheapest(ng + h, (nodes.len() - 1) as u32));
         }
     }
-    Err(exhausted(expansions, closest))
+    done(way_in, &nodes, explored, tree, expansions).ok_or_else(|| exhausted(expansions, closest))
 }
 
 /// The points from the start to node `id`, then the shot (curvature, arc
@@ -675,7 +796,13 @@ fn reconstruct(
     };
     for w in chain.windows(2) {
         let (a, b) = (&nodes[w[0] as usize], &nodes[w[1] as usize]);
-        follow(&mut points, a.p, a.yaw, ks[b.level], b.dir * step);
+        follow(
+            &mut points,
+            a.p,
+            a.yaw,
+            ks[usize::from(b.level)],
+            f64::from(b.dir) * step,
+        );
     }
     if let Some((k, turn, straight, goal)) = shot {
         let end = &nodes[id as usize];
@@ -782,6 +909,49 @@ mod tests {
             assert!(p < c && c < a.explored.len(), "({p}, {c})");
             let d = a.explored[p].distance(a.explored[c]);
             assert!(d <= cfg.step + 1e-9 && d > 0.5 * cfg.step, "{d}");
+        }
+    }
+
+    /// Allowed to reverse, the search still drives forwards where a
+    /// forward way costs less: round the wall as the forward-only search
+    /// does, no cusp, within `accept_within` of the forward path's cost;
+    /// and `accept_within` = 1 gives a way no dearer than the default's.
+    #[test]
+    fn reversing_allowed_a_forward_way_is_still_taken() {
+        let grid = yard(&[Obstacle::Rect {
+            min: [25.0, 0.0],
+            max: [28.0, 20.0],
+        }]);
+        let (start, goal) = (Vec2::new(5.0, 5.0), Vec2::new(50.0, 5.0));
+        let fwd = HybridConfig::new(0.8 / 4.0, 0.2);
+        let only = hybrid_astar(&grid, start, 0.0, goal, &fwd).unwrap();
+        let both = HybridConfig {
+            reverse: true,
+            ..fwd
+        };
+        let p = hybrid_astar(&grid, start, 0.0, goal, &both).unwrap();
+        assert_eq!(p.segments.len(), 1, "{:?}", p.segments.len());
+        assert!(!p.segments[0].reverse);
+        assert!(
+            p.length <= 1.25 * only.length + 1e-9,
+            "{} vs {}",
+            p.length,
+            only.length
+        );
+        let exact = HybridConfig {
+            accept_within: 1.0,
+            ..both
+        };
+        let q = hybrid_astar(&grid, start, 0.0, goal, &exact).unwrap();
+        assert!(q.segments.iter().all(|s| !s.reverse));
+        assert!(q.length <= p.length + 1e-9, "{} vs {}", q.length, p.length);
+        for bad in [0.5, f64::NAN, f64::INFINITY] {
+            let cfg = HybridConfig {
+                accept_within: bad,
+                ..both
+            };
+            let e = hybrid_astar(&grid, start, 0.0, goal, &cfg).unwrap_err();
+            assert!(e.to_string().contains("accept_within"), "{e}");
         }
     }
 

@@ -29,6 +29,7 @@ pub mod hybrid;
 pub mod matrix;
 pub mod mpc;
 pub mod qp;
+pub mod reach;
 /// The seeded generator lives in `litesim-core` (shared with the scenario engine).
 pub use litesim_core::rng;
 
