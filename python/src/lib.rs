@@ -176,7 +176,7 @@ fn road_dict<'py>(py: Python<'py>, r: &RoadPos) -> PyResult<Bound<'py, PyDict>> 
 }
 
 /// A command for `sut.car`: `Command.pedals(throttle, brake, steering)`,
-/// `Command.accel(acceleration, curvature)` or
+/// `Command.accel(acceleration, curvature, reverse=False)` or
 /// `Command.physical(drive_force_n, brake_force_n, steering_wheel_angle_rad)`.
 #[pyclass(name = "Command", module = "litesim", frozen)]
 #[derive(Clone)]
@@ -196,13 +196,16 @@ impl PyCommand {
             steering,
         })
     }
-    /// Target acceleration (m/s²) and path curvature (1/m, + = left).
+    /// Target acceleration (m/s², along the direction of travel) and the
+    /// wheels' curvature (1/m, + = left); `reverse=True` drives backwards
+    /// (the vehicle is braked to rest before the gear changes).
     #[staticmethod]
-    #[pyo3(signature = (acceleration=0.0, curvature=0.0))]
-    fn accel(acceleration: f64, curvature: f64) -> PyResult<Self> {
+    #[pyo3(signature = (acceleration=0.0, curvature=0.0, reverse=false))]
+    fn accel(acceleration: f64, curvature: f64, reverse: bool) -> PyResult<Self> {
         checked(SutCommand::Accel {
             acceleration,
             curvature,
+            reverse,
         })
     }
     /// Drive and brake force (N) and steering-wheel angle (rad).
@@ -248,10 +251,21 @@ fn command_of(v: &Bound<'_, PyAny>) -> Result<SutCommand, String> {
                     .map_err(|_| format!("step() returned a dict whose '{k}' is not a number")),
             }
         };
-        let cmd = if get("acceleration")?.is_some() || get("curvature")?.is_some() {
+        let reverse = match d.get_item("reverse").map_err(|e| e.to_string())? {
+            None => None,
+            Some(x) => Some(
+                x.extract::<bool>()
+                    .map_err(|_| "step() returned a dict whose 'reverse' is not a bool".to_string())?,
+            ),
+        };
+        let cmd = if get("acceleration")?.is_some()
+            || get("curvature")?.is_some()
+            || reverse.is_some()
+        {
             SutCommand::Accel {
                 acceleration: get("acceleration")?.unwrap_or(0.0),
                 curvature: get("curvature")?.unwrap_or(0.0),
+                reverse: reverse.unwrap_or(false),
             }
         } else {
             SutCommand::Pedals {

@@ -2,7 +2,7 @@
 
 use litesim_core::{
     ActuatorLag, KinematicBicycle, NormalizedPedals, ReferencePoint, SspDynamics, VehicleInput,
-    VehicleModel, VehicleState,
+    VehicleModel, VehicleModelKind, VehicleState,
 };
 
 fn pedals(throttle: f64, brake: f64, steering: f64) -> VehicleInput {
@@ -262,4 +262,54 @@ fn bicycle_reverses_in_reverse_gear_and_stops_at_zero() {
     }
     assert_eq!(st.v, 0.0);
     assert_eq!(st.x, 0.0);
+}
+
+/// The seed's model in reverse gear (litesim's addition): the speed runs
+/// from 0 down to −max_linear_velocity; a Direct acceleration is the rate
+/// of change of the signed speed; braking stops it at zero; the batch
+/// loops leave a reversing vehicle to the one-by-one step; out of reverse
+/// the model is the seed's again.
+#[test]
+fn ssp_model_reverses_in_reverse_gear_and_stops_at_zero() {
+    let direct = |acceleration: f64, steering_angle: f64| VehicleInput::Direct {
+        acceleration,
+        steering_angle,
+    };
+    let mut m = SspDynamics::for_length(4.5);
+    m.max_linear_velocity = 2.0;
+    m.reverse = true;
+    let dt = 0.01;
+    let mut st = VehicleState::default();
+    assert!(m.compile(&direct(-1.0, 0.0), &st, dt).is_none());
+    // 1 s at −1 m/s²: v = −1; the seed moves with the new speed, so
+    // x = −(0.01 + 0.02 + … + 1.00) · 0.01 = −0.505.
+    for _ in 0..100 {
+        m.step(&mut st, &direct(-1.0, 0.0), dt);
+    }
+    assert!((st.v + 1.0).abs() < 1e-9, "{}", st.v);
+    assert!((st.x + 0.505).abs() < 1e-9, "{}", st.x);
+    // Capped at −max_linear_velocity, then braked to rest, never forwards.
+    for _ in 0..300 {
+        m.step(&mut st, &direct(-50.0, 0.0), dt);
+    }
+    assert_eq!(st.v, -2.0);
+    for _ in 0..300 {
+        m.step(&mut st, &direct(8.0, 0.0), dt);
+    }
+    assert_eq!(st.v, 0.0);
+    // Throttle pushes backwards; wheels left while reversing turn the
+    // heading right.
+    for _ in 0..100 {
+        m.step(&mut st, &pedals(0.2, 0.0, 0.5), dt);
+    }
+    assert!(st.v < 0.0 && st.yaw < 0.0, "v {} yaw {}", st.v, st.yaw);
+    // The gear through the model kind: Lag has none.
+    let kind = VehicleModelKind::Ssp(m.clone());
+    assert_eq!(kind.reverse(), Some(true));
+    let fwd = kind.with_reverse(false).unwrap();
+    assert_eq!(fwd.reverse(), Some(false));
+    let VehicleModelKind::Ssp(back) = fwd else {
+        panic!("{fwd:?}")
+    };
+    assert!(!back.reverse && back.max_linear_velocity == 2.0);
 }

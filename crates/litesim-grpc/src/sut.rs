@@ -396,6 +396,7 @@ pub fn from_pb_command(c: pb::Command) -> Result<SutCommand, SutError> {
         Some(C::Accel(a)) => Ok(SutCommand::Accel {
             acceleration: a.acceleration,
             curvature: a.curvature,
+            reverse: a.reverse,
         }),
         None => Err(SutError(
             "it returned an empty command (set one of pedals, physical, accel)".into(),
@@ -429,9 +430,11 @@ fn to_pb_command(c: SutCommand) -> pb::Command {
             SutCommand::Accel {
                 acceleration,
                 curvature,
+                reverse,
             } => C::Accel(pb::Accel {
                 acceleration,
                 curvature,
+                reverse,
             }),
         }),
     }

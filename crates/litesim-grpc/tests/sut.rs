@@ -81,6 +81,7 @@ fn wrong_answers_are_sut_errors() {
     let accel = Some(pb::command::Command::Accel(pb::Accel {
         acceleration: 0.0,
         curvature: 0.0,
+        reverse: false,
     }));
     for (reply, want) in [
         (

@@ -8,8 +8,9 @@
 //! integration. The MPC's model uses the tracker's dt and the vehicle's
 //! wheelbase — both named in the configuration, never guessed.
 
-use crate::corridor::{Corridor, RefState, SpeedLimits, TURN_HALF_ARC, TURN_SLACK};
+use crate::corridor::{Corridor, SpeedLimits, TURN_HALF_ARC, TURN_SLACK};
 use crate::fmt::{FmtConfig, FmtError, FmtResult, Radius, fmt_star};
+use crate::follow::{FollowerVehicle, Grids, LegFollower};
 use crate::grid::{Layer, PlanningGrid};
 use crate::hybrid::{HybridConfig, HybridError, hybrid_astar};
 use crate::mpc::{Mpc, MpcConfig, MpcError};
@@ -558,7 +559,7 @@ impl Leg {
     /// its body fits along the result: the vehicle stops a centimetre or
     /// two off the cusp and turned by a hundredth of a radian, which a leg
     /// that starts slowly would otherwise carry for metres.
-    fn restarted_at(
+    pub(crate) fn restarted_at(
         &self,
         at: Vec2,
         travel: f64,
@@ -593,18 +594,13 @@ impl Leg {
 /// How the vehicle turned around drives a leg: (sign of its speed,
 /// acceleration and steering; what its heading gains) — (−1, π) on a
 /// reversing leg, (1, 0) on a forward one.
-fn turned_around(reverse: bool) -> (f64, f64) {
+pub(crate) fn turned_around(reverse: bool) -> (f64, f64) {
     if reverse {
         (-1.0, std::f64::consts::PI)
     } else {
         (1.0, 0.0)
     }
 }
-
-/// A leg is driven when the vehicle is this close to its end (m) …
-const LEG_END: f64 = 0.1;
-/// … and this slow (m/s).
-const LEG_STOP: f64 = 0.1;
 
 /// Top speed driving backwards (m/s): a walking pace and a half, as
 /// drivers reverse (and what keeps a long body's swing small).
@@ -994,10 +990,9 @@ fn search_fallback<'g>(
 
 /// What planning made, before anything is driven.
 struct Planned {
-    /// The grid the planners used (the vehicle's footprint and margin).
-    pgrid: PlanningGrid,
-    /// The same for the body mirrored (reversing legs), made when needed.
-    rgrid: std::cell::OnceCell<PlanningGrid>,
+    /// The grids the planners used (the vehicle's footprint and margin;
+    /// the body mirrored for reversing legs).
+    grids: Grids,
     /// The leg out of the margin, when the start was inside it.
     escape: Option<crate::escape::Escape>,
     /// FMT*'s output (or the search's path and tree in its shape).
@@ -1125,14 +1120,9 @@ fn plan_path(
     });
     // The body mirrored, for stretches driven backwards (made only when a
     // path reverses).
-    let rgrid = std::cell::OnceCell::new();
-    let grid_for = |reverse: bool| {
-        if reverse {
-            rgrid.get_or_init(|| pgrid.reversed())
-        } else {
-            &pgrid
-        }
-    };
+    let grids = Grids::new(pgrid);
+    let pgrid = &grids.forward;
+    let grid_for = |reverse: bool| grids.for_direction(reverse);
     let (fmt, mut legs, planner) = match by_fmt {
         Ok((fmt, corridor)) => {
             let used = PathPlanner::Fmt {
@@ -1149,7 +1139,7 @@ fn plan_path(
             first @ (PlanError::Infeasible(_)
             | PlanError::Plan(FmtError::NoPath { .. } | FmtError::GoalInCollision(..))),
         ) => search_fallback(
-            &pgrid,
+            pgrid,
             &grid_for,
             &drivable,
             (from, from_yaw, goal),
@@ -1174,8 +1164,7 @@ fn plan_path(
         );
     }
     Ok(Planned {
-        pgrid,
-        rgrid,
+        grids,
         escape,
         fmt,
         legs,
@@ -1234,23 +1223,15 @@ pub fn run_closed_loop_timed(
     let kappa_max = veh.max_steer.tan() / veh.wheelbase;
     let t_plan = clock();
     let Planned {
-        pgrid,
-        rgrid,
+        grids,
         escape,
         fmt,
-        mut legs,
+        legs,
         planner,
     } = plan_path(cfg, &veh, grid, kappa_max)?;
+    let pgrid = &grids.forward;
     let start = Vec2::new(cfg.start.x, cfg.start.y);
     let goal = Vec2::new(cfg.goal.x, cfg.goal.y);
-    // The body mirrored, for stretches driven backwards.
-    let grid_for = |reverse: bool| {
-        if reverse {
-            rgrid.get_or_init(|| pgrid.reversed())
-        } else {
-            &pgrid
-        }
-    };
     timings.plan_s = clock() - t_plan;
 
     // The world: one vehicle on direct (acceleration, steering) control.
@@ -1298,16 +1279,6 @@ pub fn run_closed_loop_timed(
     rec.meta("vehicle", &cfg.vehicle.preset);
     rec.record_world(&world);
     let mut tracking = TrackingColumns::default();
-    let mut hint = 0usize;
-    // The leg being driven, the arc length of the legs before it, and
-    // the controller's steps spent stopped near its end.
-    let mut leg = 0usize;
-    let mut before = 0.0;
-    let mut stalled = 0u32;
-    // Time the reference still waits at a leg's start (s): the wheels
-    // turn at standstill to the leg's first curvature before it moves.
-    let mut dwell = 0.0f64;
-    let mut prev_cmd = [0.0, 0.0];
     let mut mpc_error: Option<MpcError> = None;
     let mut collided = false;
     let mut min_clear = f64::INFINITY;
@@ -1317,7 +1288,6 @@ pub fn run_closed_loop_timed(
         radius: cfg.goal.tolerance,
         speed_threshold: cfg.goal.stop_speed,
     };
-    let n_h = cfg.tracker.horizon;
     let tdt = cfg.tracker.dt;
     let check = |w: &World, min_clear: &mut f64, collided: &mut bool| {
         if let Some(a) = w.actor("ego") {
@@ -1325,7 +1295,7 @@ pub fn run_closed_loop_timed(
             for q in footprint(&veh, p.position.x, p.position.y, p.yaw) {
                 // On an obstacle or off the map, beyond touching (a body
                 // parked on the map's edge is not a collision).
-                if crate::escape::blocked(&pgrid, q) {
+                if crate::escape::blocked(pgrid, q) {
                     *collided = true;
                 }
                 let d = pgrid.clearance(q);
@@ -1335,104 +1305,47 @@ pub fn run_closed_loop_timed(
             }
         }
     };
+    let mut follower = LegFollower::new(
+        legs,
+        FollowerVehicle {
+            wheelbase: veh.wheelbase,
+            max_steer: veh.max_steer,
+            max_steer_rate: veh.max_steer_rate,
+        },
+        pl.corridor_ds,
+    );
     let mut control = |w: &mut World| {
         if !w.tick().is_multiple_of(every) || mpc_error.is_some() {
             return;
         }
         let Some(a) = w.actor("ego") else { return };
         let st = a.state();
-        let p = st.pose;
-        let pos = p.position.xy();
-        // The next leg once this one is driven: the vehicle stopped at its
-        // end (or stalled within half a metre of it for a second). The
-        // gear changes with it.
-        let (mut s, mut lat, mut i) = legs[leg].corridor.project(pos, hint);
-        while leg + 1 < legs.len() {
-            let left = legs[leg].corridor.length() - s;
-            if left <= LEG_END && st.speed.abs() <= LEG_STOP {
-                stalled = 0;
-            } else if left <= 0.5 && st.speed.abs() <= LEG_STOP {
-                stalled += 1;
-                if stalled < 10 {
-                    break;
+        let state = (st.pose.position.xy(), st.pose.yaw, st.speed);
+        match follower.command(&grids, &mut mpc, state, tdt, clock) {
+            Ok(steer) => {
+                timings.mpc_s.push(steer.solve_s);
+                // The gear changes with the leg.
+                if steer.gear_changed {
+                    let mut geared = bike.clone();
+                    geared.reverse = steer.reverse;
+                    let _ = w.set_model("ego", VehicleModelKind::Bicycle(geared));
                 }
-                stalled = 0;
-            } else {
-                stalled = 0;
-                break;
-            }
-            before += legs[leg].corridor.length();
-            leg += 1;
-            hint = 0;
-            let mut geared = bike.clone();
-            geared.reverse = legs[leg].reverse;
-            let _ = w.set_model("ego", VehicleModelKind::Bicycle(geared));
-            let (sign, turn) = turned_around(legs[leg].reverse);
-            let g = grid_for(legs[leg].reverse);
-            if let Some(c) =
-                legs[leg].restarted_at(pos, wrap_angle(p.yaw + turn), g, pl.corridor_ds)
-            {
-                legs[leg].corridor = c;
-            }
-            (s, lat, i) = legs[leg].corridor.project(pos, hint);
-            let k0 = legs[leg].corridor.curvature.first().copied().unwrap_or(0.0);
-            let need = sign
-                * (veh.wheelbase * k0)
-                    .atan()
-                    .clamp(-veh.max_steer, veh.max_steer);
-            dwell = (need - prev_cmd[1]).abs() / veh.max_steer_rate + tdt;
-        }
-        hint = i;
-        let Leg {
-            corridor, reverse, ..
-        } = &legs[leg];
-        // Backwards: the vehicle turned around (heading + π, speed and
-        // commands negated) drives the leg forwards.
-        let (flip, turn) = turned_around(*reverse);
-        let yaw = if *reverse {
-            wrap_angle(p.yaw + turn)
-        } else {
-            p.yaw
-        };
-        let z0 = [p.position.x, p.position.y, yaw, flip * st.speed];
-        let t0 = corridor.time_at_s(s);
-        let refs: Vec<RefState> = (0..=n_h)
-            .map(|k| corridor.at_time(t0 + k as f64 * tdt - dwell))
-            .collect();
-        dwell = (dwell - tdt).max(0.0);
-        let t_mpc = clock();
-        let solved = mpc.solve(z0, &refs, [flip * prev_cmd[0], flip * prev_cmd[1]]);
-        timings.mpc_s.push(clock() - t_mpc);
-        match solved {
-            Ok(sol) => {
-                let (acceleration, steering) = (flip * sol.acceleration, flip * sol.steering);
-                prev_cmd = [acceleration, steering];
-                if let Some(why) = &sol.fallback {
+                if let Some(why) = &steer.fallback {
                     tracking.fallback.push((w.tick(), why.clone()));
                 }
                 tracking.tick.push(w.tick());
-                tracking.lateral_error.push(lat);
-                tracking
-                    .heading_error
-                    .push(wrap_angle(yaw - corridor.heading_at_s(s)));
-                tracking.progress.push(before + s);
-                tracking.cmd_acceleration.push(acceleration);
-                tracking.cmd_steering.push(steering);
-                let predicted = if *reverse {
-                    sol.predicted
-                        .iter()
-                        .map(|&[x, y, h, v]| [x, y, wrap_angle(h + turn), -v])
-                        .collect()
-                } else {
-                    sol.predicted.clone()
-                };
-                tracking.predictions.push(predicted);
+                tracking.lateral_error.push(steer.lateral_error);
+                tracking.heading_error.push(steer.heading_error);
+                tracking.progress.push(steer.progress);
+                tracking.cmd_acceleration.push(steer.acceleration);
+                tracking.cmd_steering.push(steer.steering);
+                tracking.predictions.push(steer.predicted);
                 let _ = w.set_mode(
                     "ego",
                     ControlMode::Dynamic {
                         input: VehicleInput::Direct {
-                            acceleration,
-                            steering_angle: steering,
+                            acceleration: steer.acceleration,
+                            steering_angle: steer.steering,
                         },
                         valid_until_tick: None,
                     },
@@ -1481,6 +1394,7 @@ pub fn run_closed_loop_timed(
     if let Some(e) = mpc_error {
         return Err(PlanError::Mpc(e));
     }
+    let legs = follower.into_legs();
     let reached = stop.reached(&world);
     let (goal_distance, final_speed) = world.actor("ego").map_or((f64::NAN, f64::NAN), |a| {
         let st = a.state();
@@ -1551,7 +1465,7 @@ pub fn run_closed_loop_timed(
         fmt,
         corridor,
         legs,
-        grid: pgrid,
+        grid: grids.into_forward(),
         planner,
         start_escape,
     };

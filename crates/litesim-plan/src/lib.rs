@@ -24,6 +24,7 @@ pub mod closed_loop;
 pub mod corridor;
 pub mod escape;
 pub mod fmt;
+pub mod follow;
 pub mod grid;
 pub mod hybrid;
 pub mod matrix;

@@ -220,6 +220,7 @@ impl Sut for Bad {
             "nan" if obs.tick >= 10 => Ok(SutCommand::Accel {
                 acceleration: f64::NAN,
                 curvature: 0.0,
+                reverse: false,
             }),
             "inf" if obs.tick >= 5 => Ok(SutCommand::Physical {
                 drive_force_n: f64::INFINITY,
@@ -236,10 +237,12 @@ impl Sut for Bad {
             "sprint" if obs.tick >= 300 => Ok(SutCommand::Accel {
                 acceleration: 3.0,
                 curvature: 0.0,
+                reverse: false,
             }),
             _ => Ok(SutCommand::Accel {
                 acceleration: 0.0,
                 curvature: 0.0,
+                reverse: false,
             }),
         }
     }
@@ -422,6 +425,7 @@ fn a_sut_that_leaves_the_road_fails_the_run() {
             Ok(SutCommand::Accel {
                 acceleration: 0.0,
                 curvature: -0.05,
+                reverse: false,
             })
         }
     }
@@ -472,6 +476,7 @@ fn observations_carry_the_object_list_route_and_road() {
             Ok(SutCommand::Accel {
                 acceleration: 0.0,
                 curvature: 0.0,
+                reverse: false,
             })
         }
     }

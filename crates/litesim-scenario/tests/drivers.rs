@@ -308,6 +308,7 @@ impl litesim_scenario::sut::Sut for BrakesEarly {
                 litesim_scenario::sut::SutCommand::Accel {
                     acceleration: -6.0,
                     curvature,
+                    reverse: false,
                 }
             }
             c => c,

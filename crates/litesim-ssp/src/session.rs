@@ -957,6 +957,36 @@ impl Ssp for Session {
                 })?;
             friction = Some(v);
         }
+        // The gear drives the vehicle model: R backwards, D or a forward
+        // gear number forwards (P and N are reported, the model keeps its
+        // direction). A model with no reverse gear refuses R.
+        let reverse = match controls.as_ref().map(|c| c.gear.as_str()) {
+            Some("R") => Some(true),
+            Some("D") => Some(false),
+            Some(g) => g.parse::<i32>().ok().filter(|n| *n > 0).map(|_| false),
+            None => None,
+        };
+        if let (Some(reverse), Some(w)) = (reverse, self.world.as_mut()) {
+            let current = w
+                .actor(actor_id)
+                .and_then(|a| a.model().cloned())
+                .ok_or_else(|| {
+                    SspError::invalid(format!(
+                        "controls.gear: actor '{actor_id}' has no vehicle model to put in gear"
+                    ))
+                })?;
+            // (A model with no reverse gear is always in drive.)
+            if current.reverse().unwrap_or(false) != reverse {
+                let geared = current.with_reverse(reverse).ok_or_else(|| {
+                    SspError::invalid(format!(
+                        "controls.gear = 'R': actor '{actor_id}''s model ({}) has no reverse gear",
+                        litesim_core::VehicleModel::name(&current)
+                    ))
+                })?;
+                w.set_model(actor_id, geared)
+                    .map_err(|e| SspError::invalid(e.to_string()))?;
+            }
+        }
         let i = self.slot(actor_id)?;
         let m = &mut self.meta[i];
         m.actual.properties.extend(params.clone());

@@ -77,3 +77,60 @@ fn the_van_reaches_40_m_s_and_brakes_at_30_m_s2_under_the_dummy_model() {
             .any(|m| m.name() == "dummy" && m.summary().contains("brake 30 m/s²"))
     );
 }
+
+/// `controls.gear` drives the model: R backs the van up under throttle,
+/// braking stops it at rest, D drives forwards again; P and N are
+/// reported only; a bad gear is refused and changes nothing.
+#[test]
+fn the_gear_r_reverses_and_d_drives_forwards() {
+    let mut s = running("dummy");
+    s.create_actor(CreateActor {
+        actor_id: "van".into(),
+        spec: ActorSpec {
+            model_id: "van.delivery".into(),
+            ..ActorSpec::default()
+        },
+        position: Coord6::xy_yaw(0.0, 0.0, 0.0),
+        ..CreateActor::default()
+    })
+    .unwrap();
+    let gear = |s: &mut Session, g: &str| {
+        s.set_actor_params(
+            "van",
+            Default::default(),
+            Some(ActorControls {
+                gear: g.into(),
+                ..ActorControls::default()
+            }),
+        )
+    };
+    gear(&mut s, "R").unwrap();
+    pedals(&mut s, 0.5, 0.0);
+    let mut v = 0.0;
+    for _ in 0..50 {
+        v = speed(&mut s);
+    }
+    assert!(v < -0.5, "reversing speed {v}");
+    let (_, actors) = s.step(None, &ActorFilter::default()).unwrap();
+    assert!(actors[0].pose.position.x < 0.0, "{:?}", actors[0].pose);
+    pedals(&mut s, 0.0, 1.0);
+    for _ in 0..50 {
+        v = speed(&mut s);
+    }
+    assert_eq!(v, 0.0);
+    // Neutral is reported and changes nothing: still reversing.
+    gear(&mut s, "N").unwrap();
+    pedals(&mut s, 0.5, 0.0);
+    assert!(speed(&mut s) < 0.0);
+    assert!(gear(&mut s, "X").is_err());
+    gear(&mut s, "D").unwrap();
+    pedals(&mut s, 0.0, 1.0);
+    for _ in 0..50 {
+        speed(&mut s);
+    }
+    pedals(&mut s, 0.5, 0.0);
+    for _ in 0..10 {
+        v = speed(&mut s);
+    }
+    assert!(v > 0.0, "forwards again {v}");
+}

@@ -227,6 +227,10 @@ impl SspDynamics {
         state: &VehicleState,
         dt: f64,
     ) -> Option<Compiled> {
+        // The loops drive forwards only; reversing is stepped one by one.
+        if self.reverse {
+            return None;
+        }
         let t = self.terms(input);
         let (acceleration, coast) = match t.accel {
             SspAccel::Fixed(a) => (a, false),

@@ -129,6 +129,29 @@ impl VehicleModelKind {
     }
 }
 
+impl VehicleModelKind {
+    /// The gear: backwards (`true`) or forwards; `None` for a model with
+    /// no reverse gear (the actuator-lag model).
+    pub fn reverse(&self) -> Option<bool> {
+        match self {
+            VehicleModelKind::Ssp(m) => Some(m.reverse),
+            VehicleModelKind::Bicycle(m) => Some(m.reverse),
+            VehicleModelKind::Lag(_) => None,
+        }
+    }
+
+    /// The same model in the other gear, or `None` when it has no reverse.
+    pub fn with_reverse(&self, reverse: bool) -> Option<Self> {
+        let mut m = self.clone();
+        match &mut m {
+            VehicleModelKind::Ssp(x) => x.reverse = reverse,
+            VehicleModelKind::Bicycle(x) => x.reverse = reverse,
+            VehicleModelKind::Lag(_) => return None,
+        }
+        Some(m)
+    }
+}
+
 impl VehicleModel for VehicleModelKind {
     #[inline]
     fn step(&mut self, state: &mut VehicleState, input: &VehicleInput, dt: f64) {

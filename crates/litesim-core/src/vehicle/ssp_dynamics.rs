@@ -51,6 +51,14 @@ pub struct SspDynamics {
     pub free_deceleration: f64,
     /// Speed cap (m/s); the seed's 40.
     pub max_linear_velocity: f64,
+    /// Reverse gear (not in the seed, whose vehicles only go forwards):
+    /// the speed runs between −`max_linear_velocity` and 0. A `Direct`
+    /// acceleration stays the rate of change of the signed speed, limited
+    /// to `max_acceleration` speeding up (negative) and the brakes'
+    /// deceleration slowing down; pedals push backwards. Off (the
+    /// default), the seed's model exactly.
+    #[serde(default)]
+    pub reverse: bool,
     // Caches: (wheel angle, wheelbase, curvature sin / L, radius L / sin) of
     // the last steering command (the wheelbase is in the key because it is a
     // public field), and (sin, cos) of the last heading. They only skip
@@ -82,6 +90,7 @@ impl SspDynamics {
             brake_deceleration: BRAKE_DECELERATION,
             free_deceleration: 2.0,
             max_linear_velocity: MAX_LINEAR_VELOCITY,
+            reverse: false,
             cache_wheels: None,
             cache_yaw: SinCosCache::default(),
             cache_steering: None,
@@ -226,15 +235,39 @@ impl VehicleModel for SspDynamics {
             Some(r) => v / r,
             None => 0.0,
         };
-        let (v_new, yaw, applied) = ssp_advance(
-            v,
-            st.yaw,
-            acceleration,
-            angular_velocity,
-            self.max_linear_velocity,
-            dt,
-            wrap_angle,
-        );
+        let (v_new, yaw, applied) = if self.reverse {
+            // Backwards: pedals push the other way; a stop is a stop (the
+            // gear does not flip by itself).
+            let a = match (input, terms.accel) {
+                (VehicleInput::Pedals(_), SspAccel::Fixed(a)) => -a,
+                // Speeding up is the engine's limit, slowing down the
+                // brakes' (the forward clamp the other way round).
+                (VehicleInput::Direct { acceleration, .. }, _) => math::clamp(
+                    *acceleration,
+                    -self.max_acceleration,
+                    self.brake_deceleration,
+                ),
+                _ => acceleration,
+            };
+            let v_free = v + a * dt;
+            let v_new = v_free.max(-self.max_linear_velocity).min(0.0);
+            let yaw = if angular_velocity == 0.0 {
+                st.yaw
+            } else {
+                wrap_angle(st.yaw + angular_velocity * dt)
+            };
+            (v_new, yaw, applied_acceleration(a, v, v_free, v_new, dt))
+        } else {
+            ssp_advance(
+                v,
+                st.yaw,
+                acceleration,
+                angular_velocity,
+                self.max_linear_velocity,
+                dt,
+                wrap_angle,
+            )
+        };
         let (s, c) = self.cache_yaw.get(yaw);
         st.x += v_new * c * dt;
         st.y += v_new * s * dt;

@@ -414,6 +414,7 @@ impl Sut for Acc {
         Ok(SutCommand::Accel {
             acceleration: a,
             curvature: kappa.clamp(-1.0, 1.0),
+            reverse: false,
         })
     }
 

@@ -269,6 +269,7 @@ impl Sut for FmtMpc {
         Ok(SutCommand::Accel {
             acceleration: a,
             curvature: kappa.clamp(-1.0, 1.0),
+            reverse: false,
         })
     }
 }

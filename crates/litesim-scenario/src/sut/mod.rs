@@ -153,12 +153,19 @@ pub enum SutCommand {
         /// Steering-wheel angle (rad, + = left).
         steering_wheel_angle_rad: f64,
     },
-    /// Target acceleration and path curvature.
+    /// Target acceleration and path curvature, in a gear.
     Accel {
-        /// Acceleration (m/s²).
+        /// Acceleration (m/s²) along the direction of travel: reversing, a
+        /// positive one speeds the vehicle up backwards.
         acceleration: f64,
-        /// Curvature (1/m, + = left).
+        /// Curvature of the wheels (1/m, tan δ / L, + = left): reversing
+        /// with it positive, the heading turns right.
         curvature: f64,
+        /// Reverse gear: the vehicle drives backwards (its speed ≤ 0). The
+        /// gear changes when the command's does; a vehicle moving the other
+        /// way is braked to rest first.
+        #[serde(default)]
+        reverse: bool,
     },
 }
 
@@ -201,6 +208,7 @@ impl SutCommand {
             SutCommand::Accel {
                 acceleration,
                 curvature,
+                ..
             } => {
                 check("acceleration", acceleration, -100.0, 100.0)?;
                 check("curvature", curvature, -10.0, 10.0)

@@ -39,6 +39,9 @@ pub(crate) struct SutSeam<'s> {
     /// The last command as the SUT sent it, as (acceleration, road-wheel
     /// angle): what the log's command columns show.
     pub last: Option<(f64, f64)>,
+    /// sut.car's gear: backwards (the SUT's last `Accel` asked for reverse
+    /// and the vehicle has stopped to change).
+    reverse: bool,
 }
 
 impl<'s> SutSeam<'s> {
@@ -59,6 +62,7 @@ impl<'s> SutSeam<'s> {
             mirror,
             mass,
             last: None,
+            reverse: false,
         }
     }
 
@@ -80,10 +84,15 @@ impl<'s> SutSeam<'s> {
     /// without the steering ratio: NaN).
     fn as_accel(&self, c: &SutCommand) -> (f64, f64) {
         match *c {
+            // The signed speed's rate: backwards, the travel's negated.
             SutCommand::Accel {
                 acceleration,
                 curvature,
-            } => (acceleration, self.wheel_angle(curvature)),
+                reverse,
+            } => (
+                if reverse { -acceleration } else { acceleration },
+                self.wheel_angle(curvature),
+            ),
             SutCommand::Pedals {
                 throttle,
                 brake,
@@ -151,6 +160,7 @@ impl Controller for SutSeam<'_> {
             Ok(c) => {
                 self.last = Some(self.as_accel(&c));
                 let id = &see.plan.actors[self.ego].id;
+                let c = self.geared(act.ssp, id, c, see.world.obs.ego.speed)?;
                 let control = &mut act.controls[self.ego];
                 send_sut(act.ssp, id, c, self, control)?;
                 Ok(Flow::Go)
@@ -160,7 +170,54 @@ impl Controller for SutSeam<'_> {
     }
 }
 
-/// Sends the SUT's command to `sut.car` as a dynamic move.
+impl SutSeam<'_> {
+    /// The gear an `Accel` command asks for. Where it is not the one
+    /// engaged, the vehicle is braked to rest first (at the command's
+    /// rate, at least 1 m/s², at most its brakes'), then the gear changes
+    /// (`controls.gear` R or D) and the command drives. Returns the
+    /// command to send this step, as the signed speed's rate.
+    fn geared(
+        &mut self,
+        ssp: &mut dyn Ssp,
+        id: &str,
+        c: SutCommand,
+        speed: f64,
+    ) -> Result<SutCommand, ScenarioError> {
+        let SutCommand::Accel {
+            acceleration,
+            curvature,
+            reverse,
+        } = c
+        else {
+            return Ok(c);
+        };
+        if reverse != self.reverse {
+            if speed.abs() > 1e-3 {
+                let brake = acceleration.abs().clamp(1.0, self.lim.max_decel.max(1.0));
+                return Ok(SutCommand::Accel {
+                    acceleration: -brake * speed.signum(),
+                    curvature,
+                    reverse: false,
+                });
+            }
+            let controls = litesim_ssp::api::ActorControls {
+                gear: if reverse { "R" } else { "D" }.into(),
+                ..Default::default()
+            };
+            ssp.set_actor_params(id, Default::default(), Some(controls))
+                .map_err(ssp_err)?;
+            self.reverse = reverse;
+        }
+        Ok(SutCommand::Accel {
+            acceleration: if reverse { -acceleration } else { acceleration },
+            curvature,
+            reverse: false,
+        })
+    }
+}
+
+/// Sends the SUT's command to `sut.car` as a dynamic move (an `Accel`
+/// already as the signed speed's rate: [`SutSeam::geared`]).
 fn send_sut(
     ssp: &mut dyn Ssp,
     id: &str,
@@ -190,6 +247,7 @@ fn send_sut(
         SutCommand::Accel {
             acceleration,
             curvature,
+            ..
         } => {
             let delta = seam.wheel_angle(curvature);
             *control = ControlSample {
