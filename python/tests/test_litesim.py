@@ -91,6 +91,30 @@ def test_a_python_object_drives_sut_car():
     assert ego["speed"].iloc[-1] > 5.0
 
 
+def test_a_python_sut_can_reverse():
+    """Reverse gear from Python: the car is braked to rest, then backs up;
+    a dict says the same with "reverse", and a "reverse" that is not a
+    bool is an error naming it."""
+
+    class Back:
+        def __init__(self, as_dict):
+            self.as_dict = as_dict
+
+        def step(self, o):
+            if self.as_dict:
+                return {"acceleration": 8.0, "reverse": True}
+            return litesim.Command.accel(8.0, 0.0, reverse=True)
+
+    for as_dict in (False, True):
+        r = litesim.run(CUT_IN, seed=1, sut=Back(as_dict))
+        v = r.log[r.log["actor"] == "sut.car"]["speed"].to_numpy()
+        assert v[0] > 1.0 and v.min() < -1.0
+        first = int(np.argmax(v < 0.0))
+        assert abs(v[first - 1]) < 1e-9 and (v[:first] >= 0.0).all()
+    r = litesim.run(CUT_IN, seed=1, sut=type("Odd", (), {"step": lambda self, o: {"reverse": "yes"}})())
+    assert r.verdict == "error" and "'reverse' is not a bool" in r.failures[0]
+
+
 def test_a_sut_that_raises_ends_the_run_with_its_traceback():
     class Broken:
         def step(self, o):

@@ -228,32 +228,9 @@ fn bicycle_reverses_in_reverse_gear_and_stops_at_zero() {
     m.max_speed = 2.0;
     m.reverse = true;
     let dt = 0.01;
-    let mut st = VehicleState::default();
-    // 1 s at −1 m/s² straight back: v = −1, x = −½ (exact up to the
-    // explicit Euler step: x += v·dt with v before the update).
-    for _ in 0..100 {
-        m.step(&mut st, &direct(-1.0, 0.0), dt);
-    }
-    assert!((st.v + 1.0).abs() < 1e-9, "{}", st.v);
-    assert!((st.x + 0.495).abs() < 1e-9, "{}", st.x);
-    assert_eq!(st.y, 0.0);
-    // Faster than the engine allows is cut to max_acceleration; the speed
-    // is capped at −max_speed.
-    for _ in 0..300 {
-        m.step(&mut st, &direct(-50.0, 0.0), dt);
-    }
-    assert_eq!(st.v, -2.0);
-    // Braking (a > 0) ends at rest, never forwards.
-    for _ in 0..300 {
-        m.step(&mut st, &direct(8.0, 0.0), dt);
-    }
-    assert_eq!(st.v, 0.0);
-    // Throttle pushes backwards; steering left while reversing turns the
-    // heading the other way than driving forwards does.
-    for _ in 0..100 {
-        m.step(&mut st, &pedals(0.2, 0.0, 0.5), dt);
-    }
-    assert!(st.v < 0.0 && st.yaw < 0.0, "v {} yaw {}", st.v, st.yaw);
+    // x = −½ after 1 s, up to the explicit Euler step (x += v·dt with v
+    // before the update): −0.495.
+    reverse_sequence(&mut m, -0.495);
     // In drive the same braking stops at zero from the other side.
     let mut fwd = KinematicBicycle::new(3.0);
     let mut st = VehicleState::default();
@@ -271,38 +248,16 @@ fn bicycle_reverses_in_reverse_gear_and_stops_at_zero() {
 /// the model is the seed's again.
 #[test]
 fn ssp_model_reverses_in_reverse_gear_and_stops_at_zero() {
-    let direct = |acceleration: f64, steering_angle: f64| VehicleInput::Direct {
-        acceleration,
-        steering_angle,
-    };
     let mut m = SspDynamics::for_length(4.5);
     m.max_linear_velocity = 2.0;
     m.reverse = true;
-    let dt = 0.01;
-    let mut st = VehicleState::default();
-    assert!(m.compile(&direct(-1.0, 0.0), &st, dt).is_none());
-    // 1 s at −1 m/s²: v = −1; the seed moves with the new speed, so
-    // x = −(0.01 + 0.02 + … + 1.00) · 0.01 = −0.505.
-    for _ in 0..100 {
-        m.step(&mut st, &direct(-1.0, 0.0), dt);
-    }
-    assert!((st.v + 1.0).abs() < 1e-9, "{}", st.v);
-    assert!((st.x + 0.505).abs() < 1e-9, "{}", st.x);
-    // Capped at −max_linear_velocity, then braked to rest, never forwards.
-    for _ in 0..300 {
-        m.step(&mut st, &direct(-50.0, 0.0), dt);
-    }
-    assert_eq!(st.v, -2.0);
-    for _ in 0..300 {
-        m.step(&mut st, &direct(8.0, 0.0), dt);
-    }
-    assert_eq!(st.v, 0.0);
-    // Throttle pushes backwards; wheels left while reversing turn the
-    // heading right.
-    for _ in 0..100 {
-        m.step(&mut st, &pedals(0.2, 0.0, 0.5), dt);
-    }
-    assert!(st.v < 0.0 && st.yaw < 0.0, "v {} yaw {}", st.v, st.yaw);
+    let input = VehicleInput::Direct {
+        acceleration: -1.0,
+        steering_angle: 0.0,
+    };
+    assert!(m.compile(&input, &VehicleState::default(), 0.01).is_none());
+    // The seed moves with the new speed: x = −(0.01 + … + 1.00) · 0.01.
+    reverse_sequence(&mut m, -0.505);
     // The gear through the model kind: Lag has none.
     let kind = VehicleModelKind::Ssp(m.clone());
     assert_eq!(kind.reverse(), Some(true));
@@ -312,4 +267,37 @@ fn ssp_model_reverses_in_reverse_gear_and_stops_at_zero() {
         panic!("{fwd:?}")
     };
     assert!(!back.reverse && back.max_linear_velocity == 2.0);
+}
+
+/// The reverse-gear sequence both models share, for a model whose speed
+/// limit is 2 m/s, stepped at 10 ms: 1 s at −1 m/s² straight back (v = −1,
+/// and x = `x_after_1s`, which depends on the model's integration), then
+/// far beyond the engine (capped at −2 m/s), then braking (at rest, never
+/// forwards), then throttle with the wheels left (backwards, the heading
+/// turning right).
+fn reverse_sequence(m: &mut dyn VehicleModel, x_after_1s: f64) {
+    let direct = |acceleration: f64, steering_angle: f64| VehicleInput::Direct {
+        acceleration,
+        steering_angle,
+    };
+    let dt = 0.01;
+    let mut st = VehicleState::default();
+    for _ in 0..100 {
+        m.step(&mut st, &direct(-1.0, 0.0), dt);
+    }
+    assert!((st.v + 1.0).abs() < 1e-9, "{}", st.v);
+    assert!((st.x - x_after_1s).abs() < 1e-9, "{}", st.x);
+    assert_eq!(st.y, 0.0);
+    for _ in 0..300 {
+        m.step(&mut st, &direct(-50.0, 0.0), dt);
+    }
+    assert_eq!(st.v, -2.0);
+    for _ in 0..300 {
+        m.step(&mut st, &direct(8.0, 0.0), dt);
+    }
+    assert_eq!(st.v, 0.0);
+    for _ in 0..100 {
+        m.step(&mut st, &pedals(0.2, 0.0, 0.5), dt);
+    }
+    assert!(st.v < 0.0 && st.yaw < 0.0, "v {} yaw {}", st.v, st.yaw);
 }

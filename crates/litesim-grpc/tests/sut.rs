@@ -181,3 +181,37 @@ fn a_sut_behind_tls_and_a_token_is_reached_with_its_ca_and_token() {
         r.summary.failures
     );
 }
+
+/// The reverse gear over a real socket: a SUT that answers every step
+/// with "8 m/s² in reverse" has sut.car braked to rest first (it starts
+/// moving forwards; at the command's rate), then backing up, faster and
+/// faster (at most the model's acceleration).
+#[test]
+fn a_sut_over_grpc_can_put_the_car_in_reverse() {
+    let reply = pb::Command {
+        actor_id: String::new(),
+        command: Some(pb::command::Command::Accel(pb::Accel {
+            acceleration: 8.0,
+            curvature: 0.0,
+            reverse: true,
+        })),
+    };
+    let addr = serve_fixed(reply);
+    let f = GrpcSutFactory::new(&format!("grpc://{addr}")).unwrap();
+    let r = cut_in(SutChoice::External(Arc::new(f)));
+    let log = r.log.as_ref().unwrap();
+    let ego = log.tracks.iter().find(|t| t.id == "sut.car").unwrap();
+    let v = &ego.state.speed;
+    assert!(v[0] > 1.0, "starts moving forwards: {}", v[0]);
+    let first_back = v
+        .iter()
+        .position(|&v| v < 0.0)
+        .unwrap_or_else(|| panic!("never reversed: {:?} {:?}", &v[..5], r.summary.failures));
+    // At rest before backwards: no step jumps from forwards to backwards.
+    assert!(v[..first_back].iter().all(|&v| v >= 0.0));
+    assert!(v[first_back - 1].abs() < 1e-9, "{}", v[first_back - 1]);
+    // Then speeding up backwards, monotonically.
+    let back = &v[first_back..];
+    assert!(back.windows(2).all(|w| w[1] <= w[0] + 1e-12));
+    assert!(*back.last().unwrap() < -1.0, "{}", back.last().unwrap());
+}

@@ -989,18 +989,32 @@ fn search_fallback<'g>(
 }
 
 /// What planning made, before anything is driven.
-struct Planned {
+#[derive(Debug)]
+pub struct Planned {
     /// The grids the planners used (the vehicle's footprint and margin;
     /// the body mirrored for reversing legs).
-    grids: Grids,
+    pub grids: Grids,
     /// The leg out of the margin, when the start was inside it.
-    escape: Option<crate::escape::Escape>,
+    pub escape: Option<crate::escape::Escape>,
     /// FMT*'s output (or the search's path and tree in its shape).
-    fmt: FmtResult,
-    /// The legs to drive, in order.
-    legs: Vec<Leg>,
+    pub fmt: FmtResult,
+    /// The legs to drive, in order (the escape's first).
+    pub legs: Vec<Leg>,
     /// Which planner made the path.
-    planner: PathPlanner,
+    pub planner: PathPlanner,
+}
+
+/// The planning chain of [`run_closed_loop`] alone, from the
+/// configuration's start (pose and speed) to its goal on `grid`: the
+/// escape from the margin, FMT*, the curvature-bounded search over
+/// forward and reversing motion where FMT*'s path cannot be driven, the
+/// exhaustive search that may prove the run impossible; then the legs to
+/// drive ([`crate::follow::LegFollower`]). What a system under test that
+/// plans for itself calls (the `fmt-mpc` SUT of scenarios).
+pub fn plan(cfg: &ClosedLoopConfig, grid: OccupancyGrid) -> Result<Planned, PlanError> {
+    let veh = cfg.vehicle.resolve()?;
+    let kappa_max = veh.max_steer.tan() / veh.wheelbase;
+    plan_path(cfg, &veh, grid, kappa_max)
 }
 
 /// The planning chain of a closed-loop run: the start's escape from the
@@ -1016,6 +1030,12 @@ fn plan_path(
     kappa_max: f64,
 ) -> Result<Planned, PlanError> {
     let pl = &cfg.planner;
+    if !(pl.margin.is_finite() && pl.margin >= 0.0) {
+        return Err(PlanError::Config(format!(
+            "planner.margin must be ≥ 0, got {}",
+            pl.margin
+        )));
+    }
     let pgrid = PlanningGrid::with_footprint(
         grid,
         veh.length,
@@ -1212,12 +1232,6 @@ pub fn run_closed_loop_timed(
         substeps: every as usize,
     })?;
     let pl = &cfg.planner;
-    if !(pl.margin.is_finite() && pl.margin >= 0.0) {
-        return Err(PlanError::Config(format!(
-            "planner.margin must be ≥ 0, got {}",
-            pl.margin
-        )));
-    }
     // The tightest turn the vehicle can drive (1/m): the corridor is
     // shaped towards it, and a path beyond it is refused below.
     let kappa_max = veh.max_steer.tan() / veh.wheelbase;

@@ -134,6 +134,16 @@ fn main() {
     g.bench_function("obstacle_goal_fmt_mpc_run_400_steps", |b| {
         b.iter(|| black_box(run(&obstacle, &mut litesim_scenario::in_process(), &fm).unwrap()))
     });
+    // A van backing into a bay under fmt-mpc: one plan (hybrid A* with
+    // reversing), 3,000 steps with gear changes.
+    let bay = prepare(
+        &root().join("examples/scenarios/parking_bay.osc"),
+        &LoadOptions::default(),
+    )
+    .unwrap();
+    g.bench_function("parking_bay_fmt_mpc_run_3000_steps", |b| {
+        b.iter(|| black_box(run(&bay, &mut litesim_scenario::in_process(), &fm).unwrap()))
+    });
     g.finish();
     // Scale: a 10 s test of n vehicles in three lanes, 8 m apart, all at
     // 30 kph (written beside the examples so its imports resolve).

@@ -180,6 +180,45 @@ fn a_standing_obstacle_acc_stops_and_fmt_mpc_goes_round_to_the_goal() {
     assert!(spread > 2.0, "lateral move {spread}");
 }
 
+/// Parking into a bay by the kerb (`examples/scenarios/parking_bay.osc`):
+/// FMT*'s path is not one the van can drive into the gap between the two
+/// parked cars, so `fmt-mpc`'s planning chain backs it in (the
+/// curvature-bounded search with reversing), the SUT changes gear at the cusps (the van's
+/// speed goes below zero, then it stops), and it ends at rest on its goal
+/// without touching either car. `acc` stops behind the rear car (short of
+/// the goal); `planned` drives through it.
+#[test]
+fn a_van_backs_into_a_bay_under_fmt_mpc() {
+    let fm = go("parking_bay", SutChoice::FmtMpc);
+    assert!(fm.summary.pass, "{:?}", fm.summary.failures);
+    let ego = fm.summary.ego.as_ref().unwrap();
+    assert!(
+        ego.distance_to_goal < 1.5 && ego.final_speed < 0.1,
+        "{ego:?}"
+    );
+    for other in ["front", "rear"] {
+        let p = pair(&fm, "sut.car", other);
+        assert!(p.collision_at.is_none() && p.min_distance > 0.1, "{p:?}");
+    }
+    // Reverse gear: driven backwards for a while (a signed speed below
+    // −0.3 m/s), and the note says how the plan was made.
+    let v = &track(&fm, "sut.car").state.speed;
+    assert!(v.iter().any(|&v| v < -0.3), "never reversed");
+    assert!(
+        fm.summary
+            .notes
+            .iter()
+            .any(|n| n.contains("hybrid A*") && n.contains("reverse gear")),
+        "{:?}",
+        fm.summary.notes
+    );
+    let acc = go("parking_bay", SutChoice::Acc);
+    assert!(!acc.summary.pass);
+    assert!(pair(&acc, "sut.car", "rear").collision_at.is_none());
+    let planned = go("parking_bay", SutChoice::Planned);
+    assert!(pair(&planned, "sut.car", "rear").collision_at.is_some());
+}
+
 #[test]
 fn planned_keeps_the_scenario_players_results() {
     // `--sut planned` is the default and is the first wave's player: the

@@ -12,6 +12,22 @@ fn running(model: &str) -> Session {
     s
 }
 
+/// A running session with the catalogue's delivery van at the origin.
+fn with_van(model: &str) -> Session {
+    let mut s = running(model);
+    s.create_actor(CreateActor {
+        actor_id: "van".into(),
+        spec: ActorSpec {
+            model_id: "van.delivery".into(),
+            ..ActorSpec::default()
+        },
+        position: Coord6::xy_yaw(0.0, 0.0, 0.0),
+        ..CreateActor::default()
+    })
+    .unwrap();
+    s
+}
+
 fn pedals(s: &mut Session, throttle: f64, brake: f64) {
     s.set_dynamic_move(
         "van",
@@ -31,17 +47,7 @@ fn speed(s: &mut Session) -> f64 {
 
 #[test]
 fn the_van_reaches_40_m_s_and_brakes_at_30_m_s2_under_the_dummy_model() {
-    let mut s = running("dummy");
-    s.create_actor(CreateActor {
-        actor_id: "van".into(),
-        spec: ActorSpec {
-            model_id: "van.delivery".into(),
-            ..ActorSpec::default()
-        },
-        position: Coord6::xy_yaw(0.0, 0.0, 0.0),
-        ..CreateActor::default()
-    })
-    .unwrap();
+    let mut s = with_van("dummy");
     // Full throttle for 60 s: the van (catalogue max_speed 35 m/s) reaches
     // the seed's 40 m/s and stays there.
     pedals(&mut s, 1.0, 0.0);
@@ -83,17 +89,7 @@ fn the_van_reaches_40_m_s_and_brakes_at_30_m_s2_under_the_dummy_model() {
 /// reported only; a bad gear is refused and changes nothing.
 #[test]
 fn the_gear_r_reverses_and_d_drives_forwards() {
-    let mut s = running("dummy");
-    s.create_actor(CreateActor {
-        actor_id: "van".into(),
-        spec: ActorSpec {
-            model_id: "van.delivery".into(),
-            ..ActorSpec::default()
-        },
-        position: Coord6::xy_yaw(0.0, 0.0, 0.0),
-        ..CreateActor::default()
-    })
-    .unwrap();
+    let mut s = with_van("dummy");
     let gear = |s: &mut Session, g: &str| {
         s.set_actor_params(
             "van",
