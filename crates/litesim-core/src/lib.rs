@@ -41,6 +41,6 @@ pub use run::{StopCondition, run_loop, steps_for_horizon};
 pub use trajectory::{TimedPoint, Trajectory, TrajectoryError};
 pub use vehicle::{
     ActuatorLag, Derived, KinematicBicycle, ReferencePoint, SspDynamics, VehicleInput,
-    VehicleModel, VehicleModelKind, VehicleState,
+    VehicleModel, VehicleModelKind, VehicleState, seed_wheelbase,
 };
 pub use world::{Actor, ActorRef, ControlMode, World, WorldError};

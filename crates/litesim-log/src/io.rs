@@ -46,8 +46,66 @@ fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> LogError + '_ {
     }
 }
 
-/// Writes `fill`'s output to `path` atomically: a temporary file in the
-/// same folder, synced, made an ordinary 0644 file and renamed over `path`.
+/// A file written beside its final name and put in place only when done: a
+/// temporary file in the same folder (`.tmpXXXXXX`), synced to disk, made an
+/// ordinary 0644 file and renamed over the name — a reader sees the old file
+/// or the new one, never a part, and a crash leaves no named, empty file.
+/// The one implementation of atomic writes: the log, the MCAP, the pictures
+/// and a batch's files all go through it. Dropped without
+/// [`AtomicFile::commit`], the temporary file is removed.
+#[derive(Debug)]
+pub struct AtomicFile {
+    path: PathBuf,
+    tmp: tempfile::NamedTempFile,
+}
+
+impl AtomicFile {
+    /// Starts `path` (its folder made if missing).
+    pub fn create(path: &Path) -> Result<Self, LogError> {
+        let dir = match path.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        std::fs::create_dir_all(&dir).map_err(io_err(path))?;
+        let tmp = tempfile::NamedTempFile::new_in(&dir).map_err(io_err(path))?;
+        Ok(Self {
+            path: path.to_path_buf(),
+            tmp,
+        })
+    }
+
+    /// The final name.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The temporary file, to write into.
+    pub fn file(&mut self) -> &mut std::fs::File {
+        self.tmp.as_file_mut()
+    }
+
+    /// Syncs the file to disk and renames it over the final name.
+    pub fn commit(self) -> Result<(), LogError> {
+        let path = self.path;
+        self.tmp.as_file().sync_all().map_err(io_err(&path))?;
+        // Temporary files are created private (0600); a result is an
+        // ordinary file.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let _ = self
+                .tmp
+                .as_file()
+                .set_permissions(std::fs::Permissions::from_mode(0o644));
+        }
+        self.tmp
+            .persist(&path)
+            .map_err(|e| io_err(&path)(e.error))?;
+        Ok(())
+    }
+}
+
+/// Writes `fill`'s output to `path` atomically ([`AtomicFile`]).
 pub fn write_atomic(
     path: &Path,
     fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
@@ -63,28 +121,13 @@ pub fn write_atomic_seekable(
     path: &Path,
     fill: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> std::io::Result<()>,
 ) -> Result<(), LogError> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&dir).map_err(io_err(path))?;
-    let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(io_err(path))?;
+    let mut out = AtomicFile::create(path)?;
     {
-        let mut w = std::io::BufWriter::with_capacity(1 << 16, tmp.as_file_mut());
+        let mut w = std::io::BufWriter::with_capacity(1 << 16, out.file());
         fill(&mut w).map_err(io_err(path))?;
         w.flush().map_err(io_err(path))?;
     }
-    tmp.as_file().sync_all().map_err(io_err(path))?;
-    // Temporary files are created private (0600); a result is an ordinary file.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = tmp
-            .as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    tmp.persist(path).map_err(|e| io_err(path)(e.error))?;
-    Ok(())
+    out.commit()
 }
 
 fn num(x: f64) -> String {
@@ -270,5 +313,39 @@ fn csv_field(s: &str) -> String {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_string()
+    }
+}
+
+#[cfg(test)]
+mod atomic_tests {
+    use super::AtomicFile;
+    use std::io::Write;
+
+    /// Nothing under the name until the commit, then all of it, as an
+    /// ordinary file; a file dropped uncommitted leaves nothing behind.
+    #[test]
+    fn a_file_appears_whole_or_not_at_all() {
+        let d = tempfile::tempdir().unwrap();
+        let path = d.path().join("sub/out.txt");
+        let mut f = AtomicFile::create(&path).unwrap();
+        f.file().write_all(b"hello").unwrap();
+        assert!(!path.exists());
+        f.commit().unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"hello");
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+            assert_eq!(mode & 0o777, 0o644);
+        }
+        let mut g = AtomicFile::create(&path).unwrap();
+        g.file().write_all(b"half").unwrap();
+        drop(g);
+        assert_eq!(std::fs::read(&path).unwrap(), b"hello");
+        let left: Vec<_> = std::fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(left.len(), 1, "{left:?}");
     }
 }

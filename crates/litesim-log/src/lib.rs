@@ -18,7 +18,7 @@
 mod io;
 mod log;
 
-pub use io::{LogError, write_atomic, write_atomic_seekable};
+pub use io::{AtomicFile, LogError, write_atomic, write_atomic_seekable};
 pub use log::{
     ActorSample, ActorTrack, ControlColumns, ControlSample, DerivedColumns, GridRecord,
     LogRecorder, PlanRecord, SimulationLog, StateColumns, TrackingColumns,

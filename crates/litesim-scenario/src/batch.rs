@@ -551,27 +551,31 @@ struct Sorted<'d> {
     counts: (u64, u64, u64, u64, crate::Verdict),
 }
 
-/// A file written beside its final name (`.NAME.tmp`), flushed to disk
-/// and renamed over it when done: [`atomic`] for a file made in one
-/// piece, the sorted results for files written line by line.
+/// A file written line by line and put in place when done
+/// ([`litesim_log::AtomicFile`]): the sorted results, and [`atomic`] for a
+/// file made in one piece.
 struct TempFile {
     path: PathBuf,
-    tmp: PathBuf,
     out: std::io::BufWriter<std::fs::File>,
+    file: litesim_log::AtomicFile,
+}
+
+/// A log crate I/O error as a batch's.
+fn log_io(e: litesim_log::LogError) -> ScenarioError {
+    ScenarioError::Io(e.to_string())
 }
 
 impl TempFile {
     fn new(path: PathBuf) -> Result<Self, ScenarioError> {
-        let name = path
-            .file_name()
-            .map_or("out".into(), |n| n.to_string_lossy().into_owned());
-        let tmp = path.with_file_name(format!(".{name}.tmp"));
-        let f = std::fs::File::create(&tmp)
+        let mut file = litesim_log::AtomicFile::create(&path).map_err(log_io)?;
+        let f = file
+            .file()
+            .try_clone()
             .map_err(|e| ScenarioError::Io(format!("{}: {e}", path.display())))?;
         Ok(TempFile {
             path,
-            tmp,
             out: std::io::BufWriter::new(f),
+            file,
         })
     }
 
@@ -583,9 +587,8 @@ impl TempFile {
 
     fn finish(self) -> Result<(), ScenarioError> {
         let io = |e: std::io::Error| ScenarioError::Io(format!("{}: {e}", self.path.display()));
-        let f = self.out.into_inner().map_err(|e| io(e.into_error()))?;
-        f.sync_all().map_err(io)?;
-        std::fs::rename(&self.tmp, &self.path).map_err(io)
+        self.out.into_inner().map_err(|e| io(e.into_error()))?;
+        self.file.commit().map_err(log_io)
     }
 }
 
@@ -748,8 +751,7 @@ fn read_keys(path: &Path) -> Vec<(String, u64)> {
         .collect()
 }
 
-/// Writes `text` to `path` atomically: a temporary file in the same folder
-/// (named `.NAME.tmp`), flushed to disk, then renamed over `path` — a
+/// Writes `text` to `path` atomically ([`litesim_log::AtomicFile`]): a
 /// reader sees the old file or the new one, never a part.
 pub fn atomic(path: &Path, text: &str) -> Result<(), ScenarioError> {
     let mut f = TempFile::new(path.to_path_buf())?;
@@ -758,8 +760,8 @@ pub fn atomic(path: &Path, text: &str) -> Result<(), ScenarioError> {
 }
 
 /// Removes temporary files a killed run left in `dir`: litesim's own
-/// (`.NAME.tmp` from [`atomic`], `.tmpXXXX…` from the picture and log
-/// writers, `results.tmp` from older versions) and nothing else — every
+/// (`.tmpXXXX…` from every writer, [`litesim_log::AtomicFile`];
+/// `.NAME.tmp` and `results.tmp` from older versions) and nothing else — every
 /// writer renames its temporary into place, so one that is still there
 /// belongs to a run that did not finish. A user's own files are left alone.
 pub fn clean_temporaries(dir: &Path) {

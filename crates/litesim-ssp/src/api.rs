@@ -182,7 +182,7 @@ impl CatalogEntry {
         if self.wheelbase > 0.0 {
             self.wheelbase
         } else {
-            0.6 * self.length
+            litesim_core::seed_wheelbase(self.length)
         }
     }
 }

@@ -42,7 +42,7 @@ impl Model for DummyModel {
         // (40 m/s) hold for all (the catalogue's max_decel and max_speed
         // apply in the bicycle and lag models).
         VehicleModelKind::Ssp(SspDynamics::new(
-            0.6 * entry.length,
+            litesim_core::seed_wheelbase(entry.length),
             entry.max_accel,
             entry.max_steer_angle_deg,
         ))

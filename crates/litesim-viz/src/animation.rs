@@ -9,7 +9,7 @@
 
 use crate::draw::{draw_track_vehicle, ego, map_chart, series_panel, world_bounds};
 use crate::style::Style;
-use crate::{VizError, check_size, draw_err, fonts, temp_sibling};
+use crate::{VizError, check_size, draw_err, fonts};
 use litesim_log::SimulationLog;
 use plotters::prelude::*;
 use std::path::Path;
@@ -54,13 +54,12 @@ pub fn write_gif(
     let n = t.len();
     let (stride, delay) = frame_timing(log.dt, n, max_frames)?;
     let bounds = world_bounds(log);
-    let tmp = temp_sibling(path)?;
     let time_of = crate::draw::time_of(log);
     let times = crate::draw::times(&time_of, &t.tick, log.dt);
     let x_range = times.first().zip(times.last()).map(|(a, b)| (*a, *b));
     let mut frames = 0;
     {
-        let mut out = crate::gif_out::GifOut::create(&tmp, w, h, delay, style)?;
+        let mut out = crate::gif_out::GifOut::create(path, w, h, delay, style)?;
         let mut buf = vec![0u8; (w * h * 3) as usize];
         let mut i = 0;
         while i < n {
@@ -136,11 +135,7 @@ pub fn write_gif(
             frames += 1;
             i += stride;
         }
+        out.finish()?;
     }
-    crate::sync_path(&tmp, path)?;
-    tmp.persist(path).map_err(|e| VizError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
     Ok(frames)
 }

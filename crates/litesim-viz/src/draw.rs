@@ -100,7 +100,7 @@ pub fn vehicle_shapes(
     let (s, c) = litesim_core::math::sin_cos(yaw);
     let at = |along: f64, across: f64| (x + along * c - across * s, y + along * s + across * c);
     let rear = 0.2 * length;
-    let wb = 0.6 * length;
+    let wb = litesim_core::seed_wheelbase(length);
     let body = vec![
         at(-rear, -width / 2.0),
         at(length - rear, -width / 2.0),

@@ -13,9 +13,11 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
-/// Writes frames (RGB buffers) into a GIF.
+/// Writes frames (RGB buffers) into a GIF, put in place atomically by
+/// [`GifOut::finish`].
 pub struct GifOut {
     enc: gif::Encoder<BufWriter<File>>,
+    out: litesim_log::AtomicFile,
     width: u16,
     height: u16,
     delay_cs: u16,
@@ -30,7 +32,8 @@ fn bucket(r: u8, g: u8, b: u8) -> usize {
 }
 
 impl GifOut {
-    /// Opens `path` for a GIF of `w × h` frames shown `delay_ms` each.
+    /// Starts `path` (atomically: [`litesim_log::AtomicFile`]) for a GIF of
+    /// `w × h` frames shown `delay_ms` each.
     pub fn create(
         path: &Path,
         w: u32,
@@ -107,7 +110,8 @@ impl GifOut {
             flagged[bucket(p[0], p[1], p[2])] = true;
         }
         let flat: Vec<u8> = palette.iter().flatten().copied().collect();
-        let file = File::create(path).map_err(|e| VizError::Io {
+        let mut out = litesim_log::AtomicFile::create(path).map_err(crate::log_io)?;
+        let file = out.file().try_clone().map_err(|e| VizError::Io {
             path: path.display().to_string(),
             message: e.to_string(),
         })?;
@@ -120,6 +124,7 @@ impl GifOut {
         enc.set_repeat(gif::Repeat::Infinite).map_err(draw_err)?;
         Ok(Self {
             enc,
+            out,
             width,
             height,
             delay_cs: (delay_ms / 10).clamp(1, u16::MAX as u32) as u16,
@@ -148,5 +153,20 @@ impl GifOut {
         frame.delay = self.delay_cs;
         self.enc.write_frame(&frame).map_err(draw_err)?;
         Ok(())
+    }
+}
+
+impl GifOut {
+    /// Ends the GIF (its trailer written, the buffer flushed, errors
+    /// reported rather than dropped) and puts the file in place.
+    pub fn finish(self) -> Result<(), VizError> {
+        let path = self.out.path().display().to_string();
+        let io = |e: std::io::Error| VizError::Io {
+            path: path.clone(),
+            message: e.to_string(),
+        };
+        let w = self.enc.into_inner().map_err(io)?;
+        w.into_inner().map_err(|e| io(e.into_error()))?;
+        self.out.commit().map_err(crate::log_io)
     }
 }

@@ -87,74 +87,28 @@ pub fn encode_png(rgb: &[u8], width: u32, height: u32) -> Result<Vec<u8>, VizErr
     Ok(out)
 }
 
-/// Writes bytes atomically (temporary file in the same folder, flushed to
-/// disk, then renamed).
+/// Writes bytes atomically ([`litesim_log::AtomicFile`]).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), VizError> {
-    let io = |e: std::io::Error| VizError::Io {
+    let mut out = litesim_log::AtomicFile::create(path).map_err(log_io)?;
+    std::io::Write::write_all(out.file(), bytes).map_err(|e| VizError::Io {
         path: path.display().to_string(),
         message: e.to_string(),
-    };
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&dir).map_err(io)?;
-    let mut tmp = tempfile::NamedTempFile::new_in(&dir).map_err(io)?;
-    std::io::Write::write_all(&mut tmp, bytes).map_err(io)?;
-    // On disk before the rename: a crash never leaves a named, empty picture.
-    tmp.as_file().sync_all().map_err(io)?;
-    // Temporary files are created private (0600); a result is an ordinary file.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = tmp
-            .as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
-}
-
-/// Flushes a finished temporary file to disk before it is renamed into
-/// place (GIF writers hold only its path).
-pub(crate) fn sync_path(tmp: &Path, target: &Path) -> Result<(), VizError> {
-    std::fs::File::open(tmp)
-        .and_then(|f| f.sync_all())
-        .map_err(|e| VizError::Io {
-            path: target.display().to_string(),
-            message: e.to_string(),
-        })
-}
-
-/// A temporary path next to `path` for writers that need a file name (GIF);
-/// rename it over `path` when done.
-pub(crate) fn temp_sibling(path: &Path) -> Result<tempfile::TempPath, VizError> {
-    let t = temp_sibling_raw(path)?;
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let _ = std::fs::set_permissions(&t, std::fs::Permissions::from_mode(0o644));
-    }
-    Ok(t)
-}
-
-fn temp_sibling_raw(path: &Path) -> Result<tempfile::TempPath, VizError> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&dir).map_err(|e| VizError::Io {
-        path: dir.display().to_string(),
-        message: e.to_string(),
     })?;
-    tempfile::Builder::new()
-        .suffix(".gif")
-        .tempfile_in(&dir)
-        .map(|f| f.into_temp_path())
-        .map_err(|e| VizError::Io {
+    out.commit().map_err(log_io)
+}
+
+/// A log crate I/O error as this crate's.
+pub(crate) fn log_io(e: litesim_log::LogError) -> VizError {
+    match e {
+        litesim_log::LogError::Io { path, source } => VizError::Io {
             path: path.display().to_string(),
-            message: e.to_string(),
-        })
+            message: source.to_string(),
+        },
+        other => VizError::Io {
+            path: String::new(),
+            message: other.to_string(),
+        },
+    }
 }
 
 pub(crate) fn check_size(w: u32, h: u32) -> Result<(), VizError> {

@@ -6,7 +6,7 @@
 
 use crate::draw::map_chart;
 use crate::style::Style;
-use crate::{VizError, check_size, draw_err, encode_png, fonts, temp_sibling, write_atomic};
+use crate::{VizError, check_size, draw_err, encode_png, fonts, write_atomic};
 use litesim_log::{PlanRecord, SimulationLog};
 use plotters::prelude::*;
 use std::path::Path;
@@ -161,10 +161,9 @@ pub fn write_exploration_gif(
     check_size(w, h)?;
     let frames = max_frames.clamp(2, 1000);
     let per = p.edges.len().div_ceil(frames - 1).max(1);
-    let tmp = temp_sibling(path)?;
     let mut n = 0;
     {
-        let mut out = crate::gif_out::GifOut::create(&tmp, w, h, 200, style)?;
+        let mut out = crate::gif_out::GifOut::create(path, w, h, 200, style)?;
         let mut buf = vec![0u8; (w * h * 3) as usize];
         let mut upto = 0;
         loop {
@@ -194,11 +193,7 @@ pub fn write_exploration_gif(
                 break;
             }
         }
+        out.finish()?;
     }
-    crate::sync_path(&tmp, path)?;
-    tmp.persist(path).map_err(|e| VizError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
     Ok(n)
 }

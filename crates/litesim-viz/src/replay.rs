@@ -4,7 +4,7 @@
 use crate::animation::frame_timing;
 use crate::draw::{Range2, draw_track_vehicle, equal_aspect, path_bounds, world_bounds};
 use crate::style::Style;
-use crate::{VizError, check_size, draw_err, encode_png, fonts, temp_sibling, write_atomic};
+use crate::{VizError, check_size, draw_err, encode_png, fonts, write_atomic};
 use litesim_log::SimulationLog;
 use plotters::prelude::*;
 use std::path::Path;
@@ -471,10 +471,9 @@ pub fn write_gif(
         ));
     }
     let (stride, delay) = frame_timing(log.dt, log.tick.len(), max_frames)?;
-    let tmp = temp_sibling(path)?;
     let mut n = 0;
     {
-        let mut out = crate::gif_out::GifOut::create(&tmp, w, h, delay, style)?;
+        let mut out = crate::gif_out::GifOut::create(path, w, h, delay, style)?;
         let mut buf = vec![0u8; (w * h * 3) as usize];
         for (tick, time) in log.tick.iter().zip(&log.time).step_by(stride) {
             {
@@ -491,12 +490,8 @@ pub fn write_gif(
             out.push(&buf)?;
             n += 1;
         }
+        out.finish()?;
     }
-    crate::sync_path(&tmp, path)?;
-    tmp.persist(path).map_err(|e| VizError::Io {
-        path: path.display().to_string(),
-        message: e.to_string(),
-    })?;
     Ok(n)
 }
 

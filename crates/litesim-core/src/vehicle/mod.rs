@@ -20,7 +20,7 @@ pub use bicycle::{KinematicBicycle, ReferencePoint};
 pub use derived::Derived;
 pub use lag::ActuatorLag;
 pub use ssp_dynamics::{
-    BRAKE_DECELERATION, MAX_LINEAR_VELOCITY, MAX_STEERING_WHEEL_ANGLE, SspDynamics,
+    BRAKE_DECELERATION, MAX_LINEAR_VELOCITY, MAX_STEERING_WHEEL_ANGLE, SspDynamics, seed_wheelbase,
 };
 
 use crate::control::NormalizedPedals;

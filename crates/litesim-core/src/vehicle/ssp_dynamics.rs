@@ -73,11 +73,19 @@ pub struct SspDynamics {
     cache_steering: Option<(f64, f64, f64)>,
 }
 
+/// The seed's wheelbase rule: 60 % of the vehicle's length (m). The seed's
+/// model always uses it; elsewhere it is the wheelbase of a vehicle that
+/// gives none (a catalogue entry without one, a drawing, a log's steering
+/// read back). The one place the rule is written.
+pub fn seed_wheelbase(length: f64) -> f64 {
+    0.6 * length
+}
+
 impl SspDynamics {
     /// The seed's model for a vehicle of the given length (m), with the
     /// defaults documented at module level.
     pub fn for_length(length: f64) -> Self {
-        Self::new(0.6 * length, 4.0, 35.0)
+        Self::new(seed_wheelbase(length), 4.0, 35.0)
     }
 
     /// A model with explicit wheelbase (m), max acceleration (m/s²) and max

@@ -526,8 +526,10 @@ impl Tracking {
         } else {
             0.0
         };
-        c_.cmd_steering
-            .push(sut.map_or(math::atan(0.6 * a.length * kappa), |c| c.1));
+        c_.cmd_steering.push(sut.map_or(
+            math::atan(litesim_core::seed_wheelbase(a.length) * kappa),
+            |c| c.1,
+        ));
         c_.predictions.push(ahead);
         self.tick.push(tick);
     }

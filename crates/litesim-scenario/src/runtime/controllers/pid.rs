@@ -25,7 +25,9 @@ impl Limits {
     /// The limits of catalogue entry `e` (the defaults without one).
     pub fn of(e: Option<&CatalogEntry>, length: f64) -> Self {
         Limits {
-            wheelbase: e.map_or(0.6 * length, |e| e.effective_wheelbase()),
+            wheelbase: e.map_or(litesim_core::seed_wheelbase(length), |e| {
+                e.effective_wheelbase()
+            }),
             max_steer: e.map_or(35f64, |e| e.max_steer_angle_deg).to_radians(),
             max_accel: e.map_or(4.0, |e| e.max_accel),
             max_decel: e.map_or(8.0, |e| e.max_decel),
