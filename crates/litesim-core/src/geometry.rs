@@ -149,6 +149,55 @@ impl Pose {
     }
 }
 
+/// A rectangle in the plane: its centre, heading, length along the
+/// heading and width across it. The one place a box's corners and a
+/// point's distance to a box are computed (the KPIs, the SUTs' obstacle
+/// checks).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OrientedBox {
+    /// Centre x (m).
+    pub x: f64,
+    /// Centre y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub yaw: f64,
+    /// Length along the heading (m).
+    pub length: f64,
+    /// Width across it (m).
+    pub width: f64,
+}
+
+impl OrientedBox {
+    /// The corners, front-left, rear-left, rear-right, front-right, given
+    /// `sin_cos` of the heading (callers that keep it computed pass it).
+    pub fn corners_with(&self, (s, c): (f64, f64)) -> [Vec2; 4] {
+        let (hl, hw) = (self.length / 2.0, self.width / 2.0);
+        let p = |u: f64, v: f64| Vec2::new(self.x + u * c - v * s, self.y + u * s + v * c);
+        [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)]
+    }
+
+    /// The corners ([`OrientedBox::corners_with`]).
+    pub fn corners(&self) -> [Vec2; 4] {
+        self.corners_with(crate::math::sin_cos(self.yaw))
+    }
+
+    /// How far `p` lies beyond the box along its heading and across it (0
+    /// within the box's extent that way).
+    pub fn outside(&self, p: Vec2) -> (f64, f64) {
+        let (s, c) = crate::math::sin_cos(self.yaw);
+        let (dx, dy) = (p.x - self.x, p.y - self.y);
+        let along = ((dx * c + dy * s).abs() - 0.5 * self.length).max(0.0);
+        let across = ((-dx * s + dy * c).abs() - 0.5 * self.width).max(0.0);
+        (along, across)
+    }
+
+    /// Distance from `p` to the box (0 inside).
+    pub fn distance(&self, p: Vec2) -> f64 {
+        let (along, across) = self.outside(p);
+        crate::math::hypot(along, across)
+    }
+}
+
 /// Wraps an angle into `(−π, π]`.
 ///
 /// Headings change by a little per step, so the common cases (already in
@@ -300,6 +349,31 @@ impl Polyline {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_oriented_box_has_its_corners_and_distances() {
+        let b = OrientedBox {
+            x: 1.0,
+            y: 2.0,
+            yaw: std::f64::consts::FRAC_PI_2,
+            length: 4.0,
+            width: 2.0,
+        };
+        // Heading +y: front-left is ahead (+y) and to the left (−x).
+        let c = b.corners();
+        let want = [(0.0, 4.0), (0.0, 0.0), (2.0, 0.0), (2.0, 4.0)];
+        for (p, w) in c.iter().zip(want) {
+            assert!(
+                (p.x - w.0).abs() < 1e-12 && (p.y - w.1).abs() < 1e-12,
+                "{p:?}"
+            );
+        }
+        assert_eq!(b.distance(Vec2::new(1.5, 3.0)), 0.0);
+        assert!((b.distance(Vec2::new(1.0, 7.0)) - 3.0).abs() < 1e-12);
+        assert!((b.distance(Vec2::new(5.0, 2.0)) - 3.0).abs() < 1e-12);
+        assert!((b.distance(Vec2::new(5.0, 7.0)) - 18f64.sqrt()).abs() < 1e-12);
+        assert_eq!(b.outside(Vec2::new(1.0, 7.0)).1, 0.0);
+    }
 
     #[test]
     fn wrap_angle_range() {

@@ -305,12 +305,17 @@ fn step_for(k: f64, tol: f64, max: f64) -> f64 {
 }
 
 impl RoadNetwork {
-    /// Loads an `.xodr` file.
-    ///
-    /// Only a regular file of at most [`MAX_MAP_BYTES`] is read: a FIFO, a
-    /// device (`/dev/zero`) or a directory is refused at once, before it is
-    /// opened (opening a FIFO would wait for a writer).
+    /// Loads an `.xodr` file ([`RoadNetwork::read_text`], then
+    /// [`RoadNetwork::from_xodr`]).
     pub fn load(path: &std::path::Path) -> Result<Self, MapError> {
+        Self::from_xodr(&Self::read_text(path)?, &path.display().to_string())
+    }
+
+    /// Reads a map file's text, the one guarded read of a map: only a
+    /// regular file of at most [`MAX_MAP_BYTES`] is read: a FIFO, a device
+    /// (`/dev/zero`) or a directory is refused at once, before it is opened
+    /// (opening a FIFO would wait for a writer).
+    pub fn read_text(path: &std::path::Path) -> Result<String, MapError> {
         let fail = |message: String| MapError {
             file: path.display().to_string(),
             line: 0,
@@ -343,7 +348,7 @@ impl RoadNetwork {
         if text.len() as u64 > MAX_MAP_BYTES {
             return Err(fail(format!("more than {MAX_MAP_BYTES} bytes")));
         }
-        Self::from_xodr(&text, &path.display().to_string())
+        Ok(text)
     }
 
     /// Builds a network from OpenDRIVE text; `file` names it in messages.

@@ -18,16 +18,8 @@ pub enum ScenarioError {
     /// The map is missing or named wrongly.
     #[error("map: {0}")]
     Map(String),
-    /// The map file could not be read.
-    #[error("map {path}")]
-    MapRead {
-        /// The file.
-        path: String,
-        /// Why.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The map file is not valid OpenDRIVE.
+    /// The map file could not be read (missing, not a regular file, larger
+    /// than the map reader takes) or is not valid OpenDRIVE.
     #[error("map {name}")]
     MapParse {
         /// The file.

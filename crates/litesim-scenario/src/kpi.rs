@@ -63,11 +63,22 @@ impl Shape {
     }
 }
 
+impl BoxState {
+    /// The rectangle of the box ([`litesim_core::OrientedBox`]).
+    fn rect(&self) -> litesim_core::OrientedBox {
+        litesim_core::OrientedBox {
+            x: self.x,
+            y: self.y,
+            yaw: self.yaw,
+            length: self.length,
+            width: self.width,
+        }
+    }
+}
+
 /// A box's corners, given `sin_cos` of its heading.
-fn corners(b: &BoxState, (s, c): (f64, f64)) -> [(f64, f64); 4] {
-    let (hl, hw) = (b.length / 2.0, b.width / 2.0);
-    let p = |u: f64, v: f64| (b.x + u * c - v * s, b.y + u * s + v * c);
-    [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)]
+fn corners(b: &BoxState, sc: (f64, f64)) -> [(f64, f64); 4] {
+    b.rect().corners_with(sc).map(|p| (p.x, p.y))
 }
 
 /// The interval a box's corners cover along the axis (ux, uy).
@@ -1067,10 +1078,7 @@ const PET_RANGE_M: f64 = 100.0;
 
 /// Whether `b`'s box comes within `r` of `c`.
 fn box_within(b: &BoxState, c: litesim_core::Vec2, r: f64) -> bool {
-    let (s, co) = math::sin_cos(b.yaw);
-    let (dx, dy) = (c.x - b.x, c.y - b.y);
-    let along = ((dx * co + dy * s).abs() - 0.5 * b.length).max(0.0);
-    let across = ((-dx * s + dy * co).abs() - 0.5 * b.width).max(0.0);
+    let (along, across) = b.rect().outside(c);
     along * along + across * across <= r * r
 }
 

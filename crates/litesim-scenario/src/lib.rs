@@ -259,11 +259,12 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
     };
     let (net, map_text, map_name) = match map_path {
         Some(p) => {
-            let text = std::fs::read_to_string(&p).map_err(|source| ScenarioError::MapRead {
-                path: p.display().to_string(),
+            let name = p.display().to_string();
+            // The guarded read (a regular file, at most MAX_MAP_BYTES).
+            let text = RoadNetwork::read_text(&p).map_err(|source| ScenarioError::MapParse {
+                name: name.clone(),
                 source,
             })?;
-            let name = p.display().to_string();
             let net =
                 RoadNetwork::from_xodr(&text, &name).map_err(|source| ScenarioError::MapParse {
                     name: name.clone(),

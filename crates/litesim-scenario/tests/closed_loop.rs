@@ -795,6 +795,18 @@ fn errors_keep_their_causes() {
         text.starts_with("map ") && text.contains("no_such_map.xodr: "),
         "{text}"
     );
+    // The map is read as the map reader reads it (one guarded read): a
+    // folder or a device is refused before it is read.
+    for (map, why) in [
+        ("../maps", "not a regular file (a directory)"),
+        ("/dev/zero", "not a regular file (a FIFO, socket or device)"),
+    ] {
+        let f = example_file(&format!(
+            "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"{map}\"\nextend top.main:\n    do sut.car.drive()\n"
+        ));
+        let e = prepare(f.path(), &LoadOptions::default()).unwrap_err();
+        assert!(e.chain().contains(why), "{}", e.chain());
+    }
 }
 
 /// sut.car, `a` 30 m ahead in its lane, `b` 30 m behind, and `c` abreast

@@ -75,20 +75,15 @@ impl std::fmt::Debug for FmtMpc {
     }
 }
 
-/// Distance from a point to an object's box (0 inside).
-fn box_distance(o: &ObjectState, x: f64, y: f64) -> f64 {
-    let (s, c) = math::sin_cos(o.yaw);
-    let (dx, dy) = (x - o.x, y - o.y);
-    let lx = (dx * c + dy * s).abs() - 0.5 * o.length;
-    let ly = (-dx * s + dy * c).abs() - 0.5 * o.width;
-    math::hypot(lx.max(0.0), ly.max(0.0))
-}
-
-fn box_quad(o: &ObjectState) -> [Vec2; 4] {
-    let (s, c) = math::sin_cos(o.yaw);
-    let (hl, hw) = (0.5 * o.length, 0.5 * o.width);
-    let p = |a: f64, b: f64| Vec2::new(o.x + a * c - b * s, o.y + a * s + b * c);
-    [p(hl, hw), p(-hl, hw), p(-hl, -hw), p(hl, -hw)]
+/// An object's box.
+fn rect(o: &ObjectState) -> litesim_core::OrientedBox {
+    litesim_core::OrientedBox {
+        x: o.x,
+        y: o.y,
+        yaw: o.yaw,
+        length: o.length,
+        width: o.width,
+    }
 }
 
 impl FmtMpc {
@@ -124,7 +119,7 @@ impl FmtMpc {
                     .zip(&c.s)
                     .map(|(p, s)| (p, before + s))
                     .filter(|(_, s)| *s >= 0.0 && *s <= LOOK_AHEAD)
-                    .any(|(p, _)| box_distance(o, p.x, p.y) < clear);
+                    .any(|(p, _)| rect(o).distance(*p) < clear);
                 before += c.length();
                 hit
             })
@@ -142,7 +137,7 @@ impl FmtMpc {
         self.in_grid.clear();
         let standing: Vec<ObjectState> = self.standing(obs).cloned().collect();
         for o in &standing {
-            grid.fill_quad(box_quad(o), true);
+            grid.fill_quad(rect(o).corners(), true);
             self.in_grid.push((o.x, o.y));
         }
         let goal = self
