@@ -149,6 +149,21 @@ impl Pose {
     }
 }
 
+/// Where on the segment from `a` along `d` (to `a + d`) the point nearest
+/// `p` lies, as the fraction u ∈ [0, 1] of `d` (0 for a segment of no
+/// length). The one place the projection onto a segment is written: the
+/// polylines, the corridors, the road network's locate and the SUT's route
+/// all use it.
+#[inline]
+pub fn segment_fraction(p: Vec2, a: Vec2, d: Vec2) -> f64 {
+    let len2 = d.dot(d);
+    if len2 > 0.0 {
+        ((p - a).dot(d) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    }
+}
+
 /// A rectangle in the plane: its centre, heading, length along the
 /// heading and width across it. The one place a box's corners and a
 /// point's distance to a box are computed (the KPIs, the SUTs' obstacle
@@ -314,7 +329,7 @@ impl Polyline {
             let (a, b) = (w[0], w[1]);
             let d = b - a;
             let len2 = d.dot(d);
-            let u = ((p - a).dot(d) / len2).clamp(0.0, 1.0);
+            let u = segment_fraction(p, a, d);
             let foot = a + d * u;
             let dist2 = {
                 let e = p - foot;

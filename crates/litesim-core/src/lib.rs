@@ -35,7 +35,9 @@ pub use control::{
     ActuatorLimits, ControlError, DynamicCommand, NormalizedPedals, PedalInput, RangePolicy,
     SteeringInput, normalize_command,
 };
-pub use geometry::{OrientedBox, Polyline, Pose, Projection, Vec2, Vec3, wrap_angle};
+pub use geometry::{
+    OrientedBox, Polyline, Pose, Projection, Vec2, Vec3, segment_fraction, wrap_angle,
+};
 pub use rng::Rng;
 pub use run::{StopCondition, run_loop, steps_for_horizon};
 pub use trajectory::{TimedPoint, Trajectory, TrajectoryError};

@@ -267,12 +267,7 @@ pub const MAX_REFINED_PIECES: usize = 50_000;
 /// Distance from `p` to the segment `a`–`b`.
 fn seg_distance(p: Vec2, a: Vec2, b: Vec2) -> f64 {
     let (dx, dy) = (b.x - a.x, b.y - a.y);
-    let l2 = dx * dx + dy * dy;
-    let u = if l2 > 0.0 {
-        (((p.x - a.x) * dx + (p.y - a.y) * dy) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
+    let u = litesim_core::segment_fraction(p, a, b - a);
     let (fx, fy) = (a.x + dx * u, a.y + dy * u);
     ((p.x - fx).powi(2) + (p.y - fy).powi(2)).sqrt()
 }
@@ -513,12 +508,7 @@ impl RoadNetwork {
         for &k in &self.segments.cells[cell] {
             let sg = &self.segments.segments[k as usize];
             let d = sg.b - sg.a;
-            let len2 = d.dot(d);
-            let u = if len2 > 0.0 {
-                ((p - sg.a).dot(d) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            let u = litesim_core::segment_fraction(p, sg.a, d);
             let foot = sg.a + d * u;
             let e = p - foot;
             let dist2 = e.dot(e);

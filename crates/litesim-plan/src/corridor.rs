@@ -803,11 +803,7 @@ impl Corridor {
             let (a, b) = (self.points[i], self.points[i + 1]);
             let d = b - a;
             let l2 = d.dot(d);
-            let u = if l2 > 0.0 {
-                ((p - a).dot(d) / l2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            let u = litesim_core::segment_fraction(p, a, d);
             let e = p - (a + d * u);
             let dist = e.dot(e);
             if dist < best.0 {

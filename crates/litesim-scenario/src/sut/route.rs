@@ -1,6 +1,6 @@
 //! The ego's route: its planned path with the speed the scenario asks for.
 
-use litesim_core::math;
+use litesim_core::{Vec2, math};
 use serde::{Deserialize, Serialize};
 
 /// A route: points with arc length and requested speed.
@@ -77,12 +77,11 @@ impl Route {
         let seg = |i: usize| -> (f64, f64) {
             let (a, b) = (self.points[i], self.points[i + 1]);
             let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-            let len2 = dx * dx + dy * dy;
-            let u = if len2 > 0.0 {
-                (((x - a[0]) * dx + (y - a[1]) * dy) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
+            let u = litesim_core::segment_fraction(
+                Vec2::new(x, y),
+                Vec2::new(a[0], a[1]),
+                Vec2::new(dx, dy),
+            );
             let (fx, fy) = (a[0] + dx * u, a[1] + dy * u);
             ((x - fx) * (x - fx) + (y - fy) * (y - fy), u)
         };
