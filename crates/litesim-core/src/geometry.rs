@@ -149,6 +149,14 @@ impl Pose {
     }
 }
 
+/// How far `p` lies ahead of `from` along heading `yaw` (negative behind):
+/// the one "gap along a heading", which the planner's gap goals and their
+/// re-solving against the actual actors both measure with.
+#[inline]
+pub fn ahead_along(from: Vec2, yaw: f64, p: Vec2) -> f64 {
+    (p - from).dot(Vec2::from_heading(yaw))
+}
+
 /// Where on the segment from `a` along `d` (to `a + d`) the point nearest
 /// `p` lies, as the fraction u ∈ [0, 1] of `d` (0 for a segment of no
 /// length). The one place the projection onto a segment is written: the

@@ -36,7 +36,7 @@ pub use control::{
     SteeringInput, normalize_command,
 };
 pub use geometry::{
-    OrientedBox, Polyline, Pose, Projection, Vec2, Vec3, segment_fraction, wrap_angle,
+    OrientedBox, Polyline, Pose, Projection, Vec2, Vec3, ahead_along, segment_fraction, wrap_angle,
 };
 pub use rng::Rng;
 pub use run::{StopCondition, run_loop, steps_for_horizon};

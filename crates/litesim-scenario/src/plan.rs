@@ -1297,9 +1297,11 @@ fn plan_once(
                                 let me = net.lane_pos_pose(mo.pos, 0.0);
                                 let here_other = op.at(t, plan_dt);
                                 // Distance the other covers plus the change of gap.
-                                let (so, co) = math::sin_cos(here_other.yaw);
-                                let now_gap = (me.position.x - here_other.x) * co
-                                    + (me.position.y - here_other.y) * so;
+                                let now_gap = litesim_core::ahead_along(
+                                    litesim_core::Vec2::new(here_other.x, here_other.y),
+                                    here_other.yaw,
+                                    litesim_core::Vec2::new(me.position.x, me.position.y),
+                                );
                                 let other_travel = travel(op, t, l.t1, plan_dt);
                                 let need = other_travel + sign * gap - now_gap;
                                 let dur = (l.t1 - t).max(plan_dt);

@@ -138,8 +138,11 @@ pub struct Body {
 /// The gap of `me` to `reference` along the reference's heading, bumper to
 /// bumper, positive on the goal's side.
 pub fn gap(goal: &GapGoal, me: &Body, reference: &Body) -> f64 {
-    let (s, c) = math::sin_cos(reference.yaw);
-    let along = (me.x - reference.x) * c + (me.y - reference.y) * s;
+    let along = litesim_core::ahead_along(
+        litesim_core::Vec2::new(reference.x, reference.y),
+        reference.yaw,
+        litesim_core::Vec2::new(me.x, me.y),
+    );
     goal.sign * along - 0.5 * (me.length + reference.length)
 }
 
