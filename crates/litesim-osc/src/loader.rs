@@ -290,13 +290,40 @@ fn first_invalid(e: &std::string::FromUtf8Error) -> (usize, usize, u8) {
     (line, col, bytes.get(at).copied().unwrap_or(0))
 }
 
+/// Why the entry file of a program could not be read at all (everything
+/// after that — imports, syntax, types — is a diagnostic of the
+/// [`Program`], never an error here).
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    /// The file could not be read.
+    #[error("{path}: {cause}")]
+    Read {
+        /// The file.
+        path: String,
+        /// Why (not a source: the message already says it).
+        cause: std::io::Error,
+    },
+    /// The file is not UTF-8 text.
+    #[error("{path}:{line}:{column}: not UTF-8 text (byte 0x{byte:02X}; save the file as UTF-8)")]
+    NotUtf8 {
+        /// The file.
+        path: String,
+        /// Line of the first byte that is not UTF-8 (1-based).
+        line: usize,
+        /// Its column, in characters (1-based).
+        column: usize,
+        /// The byte.
+        byte: u8,
+    },
+}
+
 /// Loads `entry` and its imports. `env` looks up environment variables.
 /// The dialect is detected (see [`load_with`]).
 pub fn load(
     entry: &Path,
     search: &[PathBuf],
     env: &dyn Fn(&str) -> Option<String>,
-) -> Result<Program, String> {
+) -> Result<Program, LoadError> {
     load_with(entry, search, env, None)
 }
 
@@ -309,14 +336,19 @@ pub fn load_with(
     search: &[PathBuf],
     env: &dyn Fn(&str) -> Option<String>,
     dialect: Option<Dialect>,
-) -> Result<Program, String> {
-    let bytes = std::fs::read(entry).map_err(|e| format!("{}: {e}", entry.display()))?;
+) -> Result<Program, LoadError> {
+    let bytes = std::fs::read(entry).map_err(|cause| LoadError::Read {
+        path: entry.display().to_string(),
+        cause,
+    })?;
     let text = String::from_utf8(bytes).map_err(|e| {
-        let (line, col, byte) = first_invalid(&e);
-        format!(
-            "{}:{line}:{col}: not UTF-8 text (byte 0x{byte:02X}; save the file as UTF-8)",
-            entry.display()
-        )
+        let (line, column, byte) = first_invalid(&e);
+        LoadError::NotUtf8 {
+            path: entry.display().to_string(),
+            line,
+            column,
+            byte,
+        }
     })?;
     let mut l = Loader {
         prog: Program::default(),

@@ -23,7 +23,12 @@ fn limit() -> Duration {
     }
 }
 
-fn load(path: &Path) -> (Result<litesim_osc::Program, String>, Duration) {
+fn load(
+    path: &Path,
+) -> (
+    Result<litesim_osc::Program, litesim_osc::LoadError>,
+    Duration,
+) {
     let t = Instant::now();
     let r = litesim_osc::load(path, &domain(), &|_| None);
     (r, t.elapsed())
@@ -116,7 +121,20 @@ fn invalid_utf8_names_the_file_and_the_place() {
     let path = dir.path().join("latin1.osc");
     std::fs::write(&path, b"scenario sut.s:\n    # caf\xe9\n").unwrap();
     let (r, took) = load(&path);
-    let e = r.unwrap_err();
+    let err = r.unwrap_err();
+    // Typed: where and which byte, and the same words as ever.
+    assert!(
+        matches!(
+            err,
+            litesim_osc::LoadError::NotUtf8 {
+                line: 2,
+                byte: 0xE9,
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    let e = err.to_string();
     assert!(
         e.contains("latin1.osc:2:") && e.contains("not UTF-8 text"),
         "{e}"
@@ -134,4 +152,17 @@ fn invalid_utf8_names_the_file_and_the_place() {
             && s.contains("not UTF-8 text")),
         "{shown:?}"
     );
+}
+
+#[test]
+fn a_missing_entry_file_is_a_typed_read_error_naming_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("nowhere.osc");
+    let (r, _) = load(&path);
+    let err = r.unwrap_err();
+    assert!(
+        matches!(&err, litesim_osc::LoadError::Read { path: p, cause } if p.ends_with("nowhere.osc") && cause.kind() == std::io::ErrorKind::NotFound),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("nowhere.osc: "), "{err}");
 }

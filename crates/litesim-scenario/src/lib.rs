@@ -207,7 +207,7 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
         None => std::env::var(k).ok(),
     };
     let prog = litesim_osc::load_with(path, &opts.include, &env, opts.dialect)
-        .map_err(ScenarioError::Load)?;
+        .map_err(|e| ScenarioError::Load(e.to_string()))?;
     let source_hash = {
         let mut all = Vec::new();
         for f in &prog.sources.files {
