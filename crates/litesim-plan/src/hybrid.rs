@@ -557,12 +557,12 @@ pub fn hybrid_astar(
     // (closed): one array, not two, since a search's memory is mostly the
     // pages it touches.
     let mut best = vec![f64::INFINITY; states];
-    // The vehicle starts with its wheels straight.
     // Each expansion adds up to eight poses: room for those of the first
     // 64k expansions up front, so that a long search does not copy its
     // poses and its heap on every doubling (untouched room costs nothing).
     let room = 8 * max_expansions.clamp(1, 1 << 16);
     let mut nodes = Vec::with_capacity(room);
+    // The vehicle starts with its wheels straight.
     nodes.push(Node {
         p: start,
         yaw,
@@ -594,7 +594,7 @@ pub fn hybrid_astar(
     // from a pose reached cheaply may cost more (reversing, a cusp) than a
     // forward way found a little later. The cheapest way in so far is
     // kept, (cost, node, shot), and returned once no pose left to expand
-    // could beat it.
+    // could beat it by more than `accept_within`.
     let mut way_in: Option<WayIn> = None;
     let done = |way_in: Option<WayIn>,
                 nodes: &[Node],
