@@ -596,6 +596,18 @@ pub fn hybrid_astar(
     // kept, (cost, node, shot), and returned once no pose left to expand
     // could beat it by more than `accept_within`.
     let mut way_in: Option<WayIn> = None;
+    // What a motion of cost `cost` costs driven forwards or (`back`)
+    // backwards after one driven the other way or not (`was_back`): a
+    // change of direction adds `switch_cost`, and backwards all of it
+    // costs `reverse_factor` times. One rule for the arcs and the shots.
+    let directed = |cost: f64, back: bool, was_back: bool| {
+        let cost = if back != was_back {
+            cost + switch_cost
+        } else {
+            cost
+        };
+        if back { cost * reverse_factor } else { cost }
+    };
     let done = |way_in: Option<WayIn>,
                 nodes: &[Node],
                 explored: Vec<Vec2>,
@@ -672,21 +684,18 @@ pub fn hybrid_astar(
             // Forwards, and reversing also backwards (a shot against the
             // direction the pose was reached in adds a cusp there); the
             // cheaper by the search's costs.
-            let mut shots = vec![shot(grid, p, yaw, goal, kappa, check, 1.0)];
-            if reverse {
-                shots.push(shot(grid, p, yaw, goal, kappa, check, -1.0));
-            }
+            let shots = [
+                shot(grid, p, yaw, goal, kappa, check, 1.0),
+                reverse
+                    .then(|| shot(grid, p, yaw, goal, kappa, check, -1.0))
+                    .flatten(),
+            ];
             for (k, turn, straight) in shots.into_iter().flatten() {
                 shot_here = true;
                 let back = turn < 0.0 || straight < 0.0;
-                let mut cost = turn.abs() * 1.05 + straight.abs();
-                if back != (dc < 0.0) {
-                    cost += switch_cost;
-                }
-                if back {
-                    cost *= reverse_factor;
-                }
-                let total = gc + cost;
+                // The arc at the full planning curvature, as an arc of
+                // the search costs it (1 + 0.05 per metre).
+                let total = gc + directed(turn.abs() * 1.05 + straight.abs(), back, dc < 0.0);
                 if way_in.is_none_or(|w| total < w.0) {
                     way_in = Some((total, id, Some((k, turn, straight))));
                 }
@@ -723,21 +732,14 @@ pub fn hybrid_astar(
             if best[qk] == f64::NEG_INFINITY {
                 continue;
             }
-            // Length, a little more for turning and for changing the
-            // turn (smoother paths are cheaper to track), or `switch_cost`
-            // for a change of direction; a backwards arc costs
-            // `reverse_factor` times all that (a change into reverse
-            // included).
+            // Length, a little more for turning and, going on in the same
+            // direction, for changing the turn (smoother paths are cheaper
+            // to track); then the direction's rule (`directed`).
             let mut cost = step * (1.0 + 0.05 * k.abs() / kappa);
             if dir == dc {
                 cost += 0.1 * step * (level.abs_diff(lc) as f64);
-            } else {
-                cost += switch_cost;
             }
-            if dir < 0.0 {
-                cost *= reverse_factor;
-            }
-            let ng = gc + cost;
+            let ng = gc + directed(cost, dir < 0.0, dc < 0.0);
             if ng >= best[qk] {
                 continue;
             }

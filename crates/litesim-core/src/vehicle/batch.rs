@@ -582,7 +582,7 @@ fn ssp_loop(
         let (v0, fixed, free, radius) = (v[i], acc[i], free[i], radius[i]);
         let a = if coast[i] { -free.copysign(v0) } else { fixed };
         let w = if turning[i] { v0 / radius } else { 0.0 };
-        let (v_new, h, applied) = ssp_advance(v0, yaw[i], a, w, vmax[i], dt, wrap_once);
+        let (v_new, h, applied) = ssp_advance(v0, yaw[i], a, w, (0.0, vmax[i]), dt, wrap_once);
         let (s, c) = math::sin_cos_reduced(h);
         x[i] += v_new * c * dt;
         y[i] += v_new * s * dt;

@@ -162,15 +162,19 @@ pub(crate) struct SspTerms {
 }
 
 impl SspDynamics {
-    /// The command's terms (seed steps 1 and 2 up to the speed).
+    /// The command's terms (seed steps 1 and 2 up to the speed). In reverse
+    /// gear the pedals push backwards, and a direct acceleration (the
+    /// signed speed's rate) is limited the other way round: speeding up
+    /// backwards by the engine, slowing down by the brakes.
     #[inline]
     pub(crate) fn terms(&mut self, input: &VehicleInput) -> SspTerms {
+        let gear = if self.reverse { -1.0 } else { 1.0 };
         let (accel, wheels_deg) = match *input {
             VehicleInput::Pedals(p) => {
                 let a = if p.brake > 0.0 {
-                    SspAccel::Fixed(-p.brake * self.brake_deceleration)
+                    SspAccel::Fixed(gear * -p.brake * self.brake_deceleration)
                 } else if p.throttle > 0.0 {
-                    SspAccel::Fixed(p.throttle * self.max_acceleration)
+                    SspAccel::Fixed(gear * p.throttle * self.max_acceleration)
                 } else {
                     SspAccel::Coast
                 };
@@ -180,11 +184,19 @@ impl SspDynamics {
                 acceleration,
                 steering_angle,
             } => (
-                SspAccel::Fixed(math::clamp(
-                    acceleration,
-                    -self.brake_deceleration,
-                    self.max_acceleration,
-                )),
+                SspAccel::Fixed(if self.reverse {
+                    math::clamp(
+                        acceleration,
+                        -self.max_acceleration,
+                        self.brake_deceleration,
+                    )
+                } else {
+                    math::clamp(
+                        acceleration,
+                        -self.brake_deceleration,
+                        self.max_acceleration,
+                    )
+                }),
                 math::clamp(
                     steering_angle.to_degrees(),
                     -self.max_wheels_angle_deg,
@@ -210,22 +222,23 @@ impl SspDynamics {
 }
 
 /// Seed step 3 up to the position, from speed `v` and heading `yaw` under
-/// acceleration `a` and angular velocity `w`: `(v_new, heading, applied
-/// acceleration)`. `wrap` is `wrap_angle`, or in the batch loops its
-/// one-correction form (exactly `wrap_angle` for the headings they accept);
-/// one body for both, so they cannot drift apart.
+/// acceleration `a` and angular velocity `w`, the speed kept within
+/// `(v_min, v_max)` (`(0, cap)` in drive, `(−cap, 0)` in reverse):
+/// `(v_new, heading, applied acceleration)`. `wrap` is `wrap_angle`, or in
+/// the batch loops its one-correction form (exactly `wrap_angle` for the
+/// headings they accept); one body for both, so they cannot drift apart.
 #[inline(always)]
 pub(crate) fn ssp_advance(
     v: f64,
     yaw: f64,
     a: f64,
     w: f64,
-    v_cap: f64,
+    (v_min, v_max): (f64, f64),
     dt: f64,
     wrap: impl Fn(f64) -> f64,
 ) -> (f64, f64, f64) {
     let v_free = v + a * dt;
-    let v_new = v_free.min(v_cap).max(0.0);
+    let v_new = v_free.min(v_max).max(v_min);
     let yaw = if w == 0.0 { yaw } else { wrap(yaw + w * dt) };
     (v_new, yaw, applied_acceleration(a, v, v_free, v_new, dt))
 }
@@ -243,39 +256,21 @@ impl VehicleModel for SspDynamics {
             Some(r) => v / r,
             None => 0.0,
         };
-        let (v_new, yaw, applied) = if self.reverse {
-            // Backwards: pedals push the other way; a stop is a stop (the
-            // gear does not flip by itself).
-            let a = match (input, terms.accel) {
-                (VehicleInput::Pedals(_), SspAccel::Fixed(a)) => -a,
-                // Speeding up is the engine's limit, slowing down the
-                // brakes' (the forward clamp the other way round).
-                (VehicleInput::Direct { acceleration, .. }, _) => math::clamp(
-                    *acceleration,
-                    -self.max_acceleration,
-                    self.brake_deceleration,
-                ),
-                _ => acceleration,
-            };
-            let v_free = v + a * dt;
-            let v_new = v_free.max(-self.max_linear_velocity).min(0.0);
-            let yaw = if angular_velocity == 0.0 {
-                st.yaw
-            } else {
-                wrap_angle(st.yaw + angular_velocity * dt)
-            };
-            (v_new, yaw, applied_acceleration(a, v, v_free, v_new, dt))
+        // A stop is a stop: the gear does not flip by itself.
+        let speeds = if self.reverse {
+            (-self.max_linear_velocity, 0.0)
         } else {
-            ssp_advance(
-                v,
-                st.yaw,
-                acceleration,
-                angular_velocity,
-                self.max_linear_velocity,
-                dt,
-                wrap_angle,
-            )
+            (0.0, self.max_linear_velocity)
         };
+        let (v_new, yaw, applied) = ssp_advance(
+            v,
+            st.yaw,
+            acceleration,
+            angular_velocity,
+            speeds,
+            dt,
+            wrap_angle,
+        );
         let (s, c) = self.cache_yaw.get(yaw);
         st.x += v_new * c * dt;
         st.y += v_new * s * dt;

@@ -75,6 +75,13 @@ impl std::fmt::Debug for FmtMpc {
     }
 }
 
+/// The wheelbase the plan, the MPC and the command's curvature all use:
+/// the catalogue's, kept shorter than the body (the planner refuses a
+/// wheelbase as long as the vehicle).
+fn wheelbase(info: &SutInfo) -> f64 {
+    info.wheelbase.min(0.95 * info.length)
+}
+
 /// An object's box.
 fn rect(o: &ObjectState) -> litesim_core::OrientedBox {
     litesim_core::OrientedBox {
@@ -178,7 +185,7 @@ impl FmtMpc {
             }
         };
         // Sample density: about one sample per 2 m² of the area in play.
-        let free = grid.occupied.iter().filter(|o| !**o).count() as f64;
+        let free = grid.free_cells() as f64;
         let samples = ((free * grid.resolution * grid.resolution / 2.0) as usize).clamp(400, 3000);
         let cfg = ClosedLoopConfig {
             map: MapConfig {
@@ -205,7 +212,7 @@ impl FmtMpc {
                 preset: "passenger".into(),
                 length: Some(info.length),
                 width: Some(info.width),
-                wheelbase: Some(info.wheelbase.min(0.95 * info.length)),
+                wheelbase: Some(wheelbase(info)),
                 mass: None,
                 max_steer_deg: Some(info.max_steer.to_degrees()),
                 max_steer_rate_deg: Some(STEER_RATE.to_degrees()),
@@ -238,13 +245,13 @@ impl FmtMpc {
         };
         let planned = litesim_plan::closed_loop::plan(&cfg, grid)
             .map_err(|e| SutError(format!("fmt-mpc: planning at t={:.2} s: {e}", obs.time)))?;
-        let cusps = planned.legs.iter().filter(|l| l.reverse).count();
+        let backwards = planned.legs.iter().filter(|l| l.reverse).count();
         self.notes.push(format!(
             "fmt-mpc planned at t={:.2} s: {}{}",
             obs.time,
             planned.planner,
-            if cusps > 0 {
-                format!(", {} leg(s) in reverse gear", cusps)
+            if backwards > 0 {
+                format!(", {backwards} leg(s) in reverse gear")
             } else {
                 String::new()
             }
@@ -252,7 +259,7 @@ impl FmtMpc {
         let follower = LegFollower::new(
             planned.legs,
             FollowerVehicle {
-                wheelbase: cfg.vehicle.wheelbase.unwrap_or(info.wheelbase),
+                wheelbase: wheelbase(info),
                 max_steer: info.max_steer,
                 max_steer_rate: STEER_RATE,
             },
@@ -304,7 +311,7 @@ impl Sut for FmtMpc {
         let mpc = Mpc::new(MpcConfig {
             horizon: 20,
             dt: CYCLE,
-            wheelbase: info.wheelbase.min(0.95 * info.length),
+            wheelbase: wheelbase(info),
             max_steer: info.max_steer,
             max_steer_rate: STEER_RATE,
             min_accel: -info.max_decel.max(0.1),
@@ -349,7 +356,7 @@ impl Sut for FmtMpc {
             } else {
                 steer.acceleration
             };
-            let kappa = math::tan(steer.steering) / self.info.wheelbase.max(0.1);
+            let kappa = math::tan(steer.steering) / wheelbase(&self.info);
             self.prev = (along, kappa, steer.reverse);
         }
         let (mut a, kappa, reverse) = self.prev;
