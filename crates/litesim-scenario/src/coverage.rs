@@ -10,6 +10,7 @@
 //! whatever the threads or shards.
 
 use crate::elab::CExpr;
+use crate::expr::{Field, Pair, Scope, Val};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -170,90 +171,53 @@ impl LiveActor {
 /// actor fields (`speed`, `acceleration`, `position.x`/`.y`, `yaw`,
 /// `lane`) and `a.gap_to(b)` (box to box, m) / `a.ttc_to(b)` (s; none
 /// when they never meet within [`crate::kpi::TTC_HORIZON`]) from
-/// `actor(id)`; numbers come back in the item's unit.
+/// `actor(id)`; numbers come back in the item's unit, truth values as
+/// the words `true`/`false`.
 pub fn evaluate(
     item: &CoverItem,
     ids: &BTreeMap<String, String>,
     values: &BTreeMap<String, crate::elab::Value>,
     actor: &dyn Fn(&str) -> Option<LiveActor>,
 ) -> Option<SampleValue> {
-    match eval(&item.expr, ids, values, actor)? {
-        V::Num(x) => Some(SampleValue::Num(x / item.factor)),
-        V::Word(w) => Some(SampleValue::Word(w)),
+    match crate::expr::value(&item.expr, ids, &CoverScope { values, actor })? {
+        Val::Num(x) => Some(SampleValue::Num(x / item.factor)),
+        Val::Bool(b) => Some(SampleValue::Word(b.to_string())),
+        Val::Word(w) => Some(SampleValue::Word(w)),
     }
 }
 
-enum V {
-    Num(f64),
-    Word(String),
+/// The live actors and the scenario's parameters, as coverage reads them.
+struct CoverScope<'a> {
+    values: &'a BTreeMap<String, crate::elab::Value>,
+    actor: &'a dyn Fn(&str) -> Option<LiveActor>,
 }
 
-fn eval(
-    e: &CExpr,
-    ids: &BTreeMap<String, String>,
-    values: &BTreeMap<String, crate::elab::Value>,
-    actor: &dyn Fn(&str) -> Option<LiveActor>,
-) -> Option<V> {
-    use crate::elab::Value;
-    let num = |e: &CExpr| match eval(e, ids, values, actor)? {
-        V::Num(x) => Some(x),
-        V::Word(_) => None,
-    };
-    Some(match e {
-        CExpr::Const(Value::Num(x)) => V::Num(*x),
-        CExpr::Const(Value::Bool(b)) => V::Word(b.to_string()),
-        CExpr::Const(Value::Enum(w) | Value::Str(w)) => V::Word(w.clone()),
-        CExpr::Unary(op, x) if op == "-" => V::Num(-num(x)?),
-        CExpr::Binary(op, a, b) if op == "gap_to" || op == "ttc_to" => {
-            let live = |e: &CExpr| match e {
-                CExpr::Var(p) => actor(ids.get(p).map_or(p.as_str(), String::as_str)),
-                _ => None,
-            };
-            let (a, b) = (live(a)?.bx(), live(b)?.bx());
-            V::Num(if op == "gap_to" {
-                crate::kpi::distance(&a, &b)
-            } else {
-                crate::kpi::time_to_collision(&a, &b).filter(|t| *t <= crate::kpi::TTC_HORIZON)?
-            })
-        }
-        CExpr::Binary(op, a, b) if ["+", "-", "*", "/"].contains(&op.as_str()) => {
-            let (a, b) = (num(a)?, num(b)?);
-            V::Num(match op.as_str() {
-                "+" => a + b,
-                "-" => a - b,
-                "*" => a * b,
-                _ => a / b,
-            })
-        }
-        CExpr::Var(path) => {
-            if let Some(v) = values.get(path) {
-                return eval(&CExpr::Const(v.clone()), ids, values, actor);
+impl Scope for CoverScope<'_> {
+    fn field(&self, id: &str, field: Field) -> Option<f64> {
+        let s = (self.actor)(id)?;
+        Some(match field {
+            Field::Speed => s.speed,
+            Field::Acceleration => s.acceleration,
+            Field::X => s.x,
+            Field::Y => s.y,
+            Field::Yaw => s.yaw,
+            Field::Lane => f64::from(s.lane?),
+        })
+    }
+
+    fn pair(&self, pair: Pair, a: &str, b: &str) -> Option<f64> {
+        let (a, b) = ((self.actor)(a)?.bx(), (self.actor)(b)?.bx());
+        match pair {
+            Pair::Gap => Some(crate::kpi::distance(&a, &b)),
+            Pair::Ttc => {
+                crate::kpi::time_to_collision(&a, &b).filter(|t| *t <= crate::kpi::TTC_HORIZON)
             }
-            for (suffix, f) in [
-                (".speed", 0),
-                (".acceleration", 1),
-                (".position.x", 2),
-                (".position.y", 3),
-                (".yaw", 4),
-                (".lane", 5),
-            ] {
-                if let Some(a) = path.strip_suffix(suffix) {
-                    let id = ids.get(a).map_or(a, String::as_str);
-                    let s = actor(id)?;
-                    return Some(V::Num(match f {
-                        0 => s.speed,
-                        1 => s.acceleration,
-                        2 => s.x,
-                        3 => s.y,
-                        4 => s.yaw,
-                        _ => f64::from(s.lane?),
-                    }));
-                }
-            }
-            return None;
         }
-        _ => return None,
-    })
+    }
+
+    fn param(&self, path: &str) -> Option<&crate::elab::Value> {
+        self.values.get(path)
+    }
 }
 
 /// How many buckets a numeric item may have (range / every); beyond, the

@@ -21,6 +21,7 @@ pub mod calibrate;
 pub mod coverage;
 pub mod elab;
 pub mod error;
+pub mod expr;
 pub mod intent;
 pub mod judge;
 pub mod kpi;

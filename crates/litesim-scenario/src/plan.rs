@@ -21,6 +21,7 @@
 
 use crate::elab::{ActorDef, ActorKind, CExpr, Modifier, Node, Test, Value};
 use crate::error::ScenarioError;
+use crate::expr::{Edge, Field, Scope};
 use crate::intent::{Action, At, Intent, LaneRelation, RefKind, Side};
 use crate::solve::{Solution, sample};
 use litesim_core::geometry::wrap_angle;
@@ -319,28 +320,15 @@ pub struct Condition {
 }
 
 impl Condition {
-    /// `rise`/`fall`/`hold` and the inner condition.
-    pub fn edge(&self) -> (&str, &CExpr) {
-        edge_of(&self.cond)
+    /// The edge (`rise`/`fall`/hold) and the condition under it.
+    pub fn edge(&self) -> (Edge, &CExpr) {
+        Edge::of(&self.cond)
     }
 
-    /// Whether the inner condition holds with actor attributes from
-    /// `sample(id, field)` (field 0 speed, 1 acceleration, 2 x, 3 y);
-    /// `None` when it reads something else.
-    pub fn holds(
-        &self,
-        ids: &BTreeMap<String, String>,
-        sample: &dyn Fn(&str, usize) -> Option<f64>,
-    ) -> Option<bool> {
-        cond_truth(self.edge().1, ids, sample).ok()
-    }
-}
-
-/// `rise`, `fall` or `hold`, and the condition under the edge.
-fn edge_of(c: &CExpr) -> (&str, &CExpr) {
-    match c {
-        CExpr::Unary(op, x) if op == "rise" || op == "fall" => (op.as_str(), &**x),
-        c => ("hold", c),
+    /// Whether the condition under the edge holds in `scope`; `None` when
+    /// it reads something the scope cannot show.
+    pub fn holds(&self, ids: &BTreeMap<String, String>, scope: &dyn Scope) -> Option<bool> {
+        crate::expr::truth(self.edge().1, ids, scope)
     }
 }
 
@@ -777,80 +765,24 @@ pub fn plan_with(
     unreachable!("the loop returns on its last round")
 }
 
-/// The value of a number or an actor attribute (`a.speed`,
-/// `a.acceleration`, `a.position.x`, `a.position.y`) read through
-/// `sample(id, field)`: from the plan when planning, from the simulated
-/// state in closed loop.
-fn cond_value(
-    e: &CExpr,
-    ids: &BTreeMap<String, String>,
-    sample: &dyn Fn(&str, usize) -> Option<f64>,
-) -> Result<f64, ()> {
-    match e {
-        CExpr::Const(Value::Num(v)) => Ok(*v),
-        CExpr::Unary(op, x) if op == "-" => Ok(-cond_value(x, ids, sample)?),
-        CExpr::Binary(op, a, b) if ["+", "-", "*", "/"].contains(&op.as_str()) => {
-            let (a, b) = (cond_value(a, ids, sample)?, cond_value(b, ids, sample)?);
-            Ok(match op.as_str() {
-                "+" => a + b,
-                "-" => a - b,
-                "*" => a * b,
-                _ => a / b,
-            })
-        }
-        CExpr::Var(path) => {
-            for (suffix, field) in [
-                (".speed", 0),
-                (".acceleration", 1),
-                (".position.x", 2),
-                (".position.y", 3),
-            ] {
-                if let Some(actor) = path.strip_suffix(suffix) {
-                    let id = ids.get(actor).map_or(actor, String::as_str);
-                    return sample(id, field).ok_or(());
-                }
-            }
-            Err(())
-        }
-        _ => Err(()),
-    }
+/// Reads actor attributes from the plan at time `t` (the plan has no
+/// yaw or lane to show).
+struct PlanScope<'a> {
+    plan: &'a Plan,
+    t: f64,
 }
 
-/// Whether a condition holds, with attributes read through `sample`.
-fn cond_truth(
-    e: &CExpr,
-    ids: &BTreeMap<String, String>,
-    sample: &dyn Fn(&str, usize) -> Option<f64>,
-) -> Result<bool, ()> {
-    match e {
-        CExpr::Const(Value::Bool(b)) => Ok(*b),
-        CExpr::Unary(op, x) if op == "not" => Ok(!cond_truth(x, ids, sample)?),
-        CExpr::Binary(op, a, b) if op == "and" || op == "or" => {
-            let (a, b) = (cond_truth(a, ids, sample)?, cond_truth(b, ids, sample)?);
-            Ok(if op == "and" { a && b } else { a || b })
+impl Scope for PlanScope<'_> {
+    fn field(&self, id: &str, field: Field) -> Option<f64> {
+        let a = self.plan.actors.iter().find(|a| a.id == id)?;
+        let s = a.at(self.t, self.plan.dt);
+        match field {
+            Field::Speed => Some(s.v),
+            Field::Acceleration => Some(s.a),
+            Field::X => Some(s.x),
+            Field::Y => Some(s.y),
+            Field::Yaw | Field::Lane => None,
         }
-        CExpr::Binary(op, a, b) => {
-            let (a, b) = (cond_value(a, ids, sample)?, cond_value(b, ids, sample)?);
-            match op.as_str() {
-                "<" => Ok(a < b),
-                "<=" => Ok(a <= b),
-                ">" => Ok(a > b),
-                ">=" => Ok(a >= b),
-                "==" => Ok((a - b).abs() < 1e-9),
-                "!=" => Ok((a - b).abs() >= 1e-9),
-                _ => Err(()),
-            }
-        }
-        _ => Err(()),
-    }
-}
-
-/// Reads actor attributes from the plan at time `t`.
-fn plan_sample(p: &Plan, t: f64) -> impl Fn(&str, usize) -> Option<f64> + '_ {
-    move |id, field| {
-        let a = p.actors.iter().find(|a| a.id == id)?;
-        let s = a.at(t, p.dt);
-        Some([s.v, s.a, s.x, s.y][field])
     }
 }
 
@@ -863,7 +795,7 @@ fn cond_time(
     p: &Plan,
     ids: &BTreeMap<String, String>,
 ) -> Result<Option<f64>, ()> {
-    let (edge, inner) = edge_of(c);
+    let (edge, inner) = Edge::of(c);
     let n = (p.duration / p.dt).ceil() as usize + 1;
     let mut prev: Option<bool> = None;
     for k in 0..n {
@@ -871,13 +803,8 @@ fn cond_time(
         if t < t0 - 1e-9 {
             continue;
         }
-        let v = cond_truth(inner, ids, &plan_sample(p, t))?;
-        let hit = match edge {
-            "rise" => prev == Some(false) && v,
-            "fall" => prev == Some(true) && !v,
-            _ => v,
-        };
-        if hit {
+        let v = crate::expr::truth(inner, ids, &PlanScope { plan: p, t }).ok_or(())?;
+        if edge.fires(prev, v) {
             return Ok(Some(t));
         }
         prev = Some(v);

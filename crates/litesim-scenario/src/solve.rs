@@ -9,6 +9,7 @@
 
 use crate::elab::{CExpr, RoadKind, Test, Value};
 use crate::error::ScenarioError;
+use crate::expr::show;
 use litesim_core::rng::Rng;
 use litesim_map::RoadNetwork;
 use serde::Serialize;
@@ -248,19 +249,6 @@ impl Solver<'_> {
             d.why[..d.why.len() - 1].join(", "),
             d.describe()
         )))
-    }
-}
-
-fn show(e: &CExpr) -> String {
-    match e {
-        CExpr::Const(Value::Num(v)) => format!("{v}"),
-        CExpr::Const(v) => format!("{v:?}"),
-        CExpr::Range(a, b) => format!(
-            "[{}..{}]",
-            a.map_or(String::new(), |v| v.to_string()),
-            b.map_or(String::new(), |v| v.to_string())
-        ),
-        other => format!("{other:?}"),
     }
 }
 

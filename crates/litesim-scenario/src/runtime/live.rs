@@ -5,6 +5,7 @@
 
 use super::observe::World;
 use super::{LiveEvent, POSTPONE_S};
+use crate::expr::{Field, Scope, show};
 use crate::plan::Plan;
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -44,31 +45,22 @@ impl Live {
     /// now while the world does not, gets its time fixed (or postponed by
     /// [`POSTPONE_S`]). Returns whether the plan must be made again.
     pub fn check(&mut self, plan: &Plan, world: &World, t: f64) -> bool {
-        let sample = |id: &str, field: usize| {
-            let i = plan.actors.iter().position(|a| a.id == id)?;
-            let o = world.get(i);
-            Some([o.speed, o.acceleration, o.x, o.y][field])
-        };
+        let scope = WorldScope { plan, world };
         let mut changed = false;
         for c in &plan.conditions {
             if self.settled.contains(&c.key) || t < c.t0 - 1e-9 {
                 continue;
             }
-            let Some(now) = c.holds(&plan.ids, &sample) else {
+            let Some(now) = c.holds(&plan.ids, &scope) else {
                 // Not something the state shows: the plan's time stands.
                 self.settled.insert(c.key.clone());
                 continue;
             };
             let before = self.last_truth.insert(c.key.clone(), now);
-            let hit = match c.edge().0 {
-                "rise" => before == Some(false) && now,
-                "fall" => before == Some(true) && !now,
-                _ => now,
-            };
-            if hit {
+            if c.edge().0.fires(before, now) {
                 self.settled.insert(c.key.clone());
                 self.events.push(LiveEvent {
-                    condition: describe(&c.cond),
+                    condition: show(&c.cond),
                     planned: self.first_plan.get(&c.key).copied().flatten(),
                     live: t,
                 });
@@ -98,21 +90,31 @@ impl Live {
                     Some(t) => format!("the plan had it at {t:.2} s"),
                     None => "the plan did not have it hold".to_string(),
                 };
-                format!("the condition {} never held ({when})", describe(&c.cond))
+                format!("the condition {} never held ({when})", show(&c.cond))
             })
             .collect()
     }
 }
 
-/// A condition as text, for summaries.
-fn describe(e: &crate::elab::CExpr) -> String {
-    use crate::elab::{CExpr, Value};
-    match e {
-        CExpr::Const(Value::Num(v)) => format!("{v}"),
-        CExpr::Const(v) => format!("{v:?}"),
-        CExpr::Var(p) => p.clone(),
-        CExpr::Unary(op, x) => format!("{op}({})", describe(x)),
-        CExpr::Binary(op, a, b) => format!("{} {op} {}", describe(a), describe(b)),
-        other => format!("{other:?}"),
+/// The simulated state as conditions read it: the fields the plan's
+/// conditions read (speed, acceleration, position).
+struct WorldScope<'a> {
+    plan: &'a Plan,
+    world: &'a World,
+}
+
+impl Scope for WorldScope<'_> {
+    fn field(&self, id: &str, field: Field) -> Option<f64> {
+        let i = self.plan.actors.iter().position(|a| a.id == id)?;
+        let o = self.world.get(i);
+        match field {
+            Field::Speed => Some(o.speed),
+            Field::Acceleration => Some(o.acceleration),
+            Field::X => Some(o.x),
+            Field::Y => Some(o.y),
+            // What planning cannot show either: the same conditions are
+            // evaluable in both places.
+            Field::Yaw | Field::Lane => None,
+        }
     }
 }
