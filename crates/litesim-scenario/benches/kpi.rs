@@ -5,18 +5,19 @@
 #![allow(missing_docs)]
 
 use criterion::Criterion;
-use litesim_scenario::kpi::{BoxState, Kpis};
+use litesim_scenario::kpi::Kpis;
+use litesim_scenario::state::BodyState;
 use std::hint::black_box;
 
 /// n vehicles in six lanes, 12 m apart, speeds 20–30 m/s (both directions).
-fn traffic(n: usize, k: usize) -> Vec<BoxState> {
+fn traffic(n: usize, k: usize) -> Vec<BodyState> {
     (0..n)
         .map(|i| {
             let lane = i % 6;
             let dir = if lane < 3 { 1.0 } else { -1.0 };
             let v = dir * (20.0 + (i % 11) as f64);
             let x0 = (i / 6) as f64 * 12.0 * dir;
-            BoxState {
+            BodyState {
                 x: x0 + v * 0.02 * k as f64,
                 y: lane as f64 * 3.5,
                 yaw: if dir > 0.0 { 0.0 } else { std::f64::consts::PI },
@@ -24,6 +25,8 @@ fn traffic(n: usize, k: usize) -> Vec<BoxState> {
                 width: 1.9,
                 vx: v,
                 vy: 0.0,
+                speed: v.abs(),
+                acceleration: 0.0,
             }
         })
         .collect()
@@ -34,16 +37,15 @@ fn main() {
     let mut g = c.benchmark_group("kpi_10s");
     g.sample_size(10);
     for n in [10usize, 100, 1000] {
-        let frames: Vec<Vec<BoxState>> = (0..500).map(|k| traffic(n, k)).collect();
+        let frames: Vec<Vec<BodyState>> = (0..500).map(|k| traffic(n, k)).collect();
         let ids: Vec<String> = (0..n).map(|i| format!("v{i}")).collect();
-        let speeds: Vec<f64> = frames[0].iter().map(|b| b.vx.abs()).collect();
         let planned: Vec<(f64, f64, f64)> = vec![(0.0, 0.0, 0.0); n];
         let off = vec![false; n];
         g.bench_function(format!("{n}_vehicles_500_steps"), |b| {
             b.iter(|| {
                 let mut k = Kpis::new(&ids);
                 for (s, f) in frames.iter().enumerate() {
-                    k.step(s as f64 * 0.02, f, &speeds, &planned, &off);
+                    k.step(s as f64 * 0.02, f, &planned, &off);
                 }
                 k.finish();
                 black_box(k.pairs.len())

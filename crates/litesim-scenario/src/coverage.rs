@@ -11,6 +11,7 @@
 
 use crate::elab::CExpr;
 use crate::expr::{Field, Pair, Scope, Val};
+use crate::state::BodyState;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -79,20 +80,6 @@ pub struct ItemDef {
 }
 
 impl CoverItem {
-    /// Whether its expression reads an actor's lane (a map lookup).
-    pub fn reads_lane(&self) -> bool {
-        fn walk(e: &CExpr) -> bool {
-            match e {
-                CExpr::Var(p) => p.ends_with(".lane"),
-                CExpr::Unary(_, x) => walk(x),
-                CExpr::Binary(_, a, b) => walk(a) || walk(b),
-                CExpr::List(xs) => xs.iter().any(walk),
-                _ => false,
-            }
-        }
-        walk(&self.expr)
-    }
-
     /// Its batch-level definition.
     pub fn def(&self) -> ItemDef {
         ItemDef {
@@ -128,58 +115,26 @@ pub struct Sample {
     pub t: f64,
 }
 
-/// An actor's live state, as sampling reads it.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct LiveActor {
-    /// Speed (m/s).
-    pub speed: f64,
-    /// Longitudinal acceleration (m/s²).
-    pub acceleration: f64,
-    /// Position (m).
-    pub x: f64,
-    /// Position (m).
-    pub y: f64,
-    /// Heading (rad).
-    pub yaw: f64,
-    /// Lane id on the map, if on a lane.
-    pub lane: Option<i32>,
-    /// Box length (m).
-    pub length: f64,
-    /// Box width (m).
-    pub width: f64,
-    /// World velocity (m/s).
-    pub vx: f64,
-    /// World velocity (m/s).
-    pub vy: f64,
-}
-
-impl LiveActor {
-    fn bx(&self) -> crate::kpi::BoxState {
-        crate::kpi::BoxState {
-            x: self.x,
-            y: self.y,
-            yaw: self.yaw,
-            length: self.length,
-            width: self.width,
-            vx: self.vx,
-            vy: self.vy,
-        }
-    }
-}
-
 /// Evaluates an item's expression: scenario parameters from `values`,
 /// actor fields (`speed`, `acceleration`, `position.x`/`.y`, `yaw`,
 /// `lane`) and `a.gap_to(b)` (box to box, m) / `a.ttc_to(b)` (s; none
 /// when they never meet within [`crate::kpi::TTC_HORIZON`]) from
-/// `actor(id)`; numbers come back in the item's unit, truth values as
-/// the words `true`/`false`.
+/// `actor(id)`, lanes from `lane_of` (asked only by items that read one);
+/// numbers come back in the item's unit, truth values as the words
+/// `true`/`false`.
 pub fn evaluate(
     item: &CoverItem,
     ids: &BTreeMap<String, String>,
     values: &BTreeMap<String, crate::elab::Value>,
-    actor: &dyn Fn(&str) -> Option<LiveActor>,
+    actor: &dyn Fn(&str) -> Option<BodyState>,
+    lane_of: &dyn Fn(&BodyState) -> Option<i32>,
 ) -> Option<SampleValue> {
-    match crate::expr::value(&item.expr, ids, &CoverScope { values, actor })? {
+    let scope = CoverScope {
+        values,
+        actor,
+        lane_of,
+    };
+    match crate::expr::value(&item.expr, ids, &scope)? {
         Val::Num(x) => Some(SampleValue::Num(x / item.factor)),
         Val::Bool(b) => Some(SampleValue::Word(b.to_string())),
         Val::Word(w) => Some(SampleValue::Word(w)),
@@ -189,7 +144,8 @@ pub fn evaluate(
 /// The live actors and the scenario's parameters, as coverage reads them.
 struct CoverScope<'a> {
     values: &'a BTreeMap<String, crate::elab::Value>,
-    actor: &'a dyn Fn(&str) -> Option<LiveActor>,
+    actor: &'a dyn Fn(&str) -> Option<BodyState>,
+    lane_of: &'a dyn Fn(&BodyState) -> Option<i32>,
 }
 
 impl Scope for CoverScope<'_> {
@@ -201,12 +157,12 @@ impl Scope for CoverScope<'_> {
             Field::X => s.x,
             Field::Y => s.y,
             Field::Yaw => s.yaw,
-            Field::Lane => f64::from(s.lane?),
+            Field::Lane => f64::from((self.lane_of)(&s)?),
         })
     }
 
     fn pair(&self, pair: Pair, a: &str, b: &str) -> Option<f64> {
-        let (a, b) = ((self.actor)(a)?.bx(), (self.actor)(b)?.bx());
+        let (a, b) = ((self.actor)(a)?, (self.actor)(b)?);
         match pair {
             Pair::Gap => Some(crate::kpi::distance(&a, &b)),
             Pair::Ttc => {

@@ -3,29 +3,11 @@
 //! (box to box) and time to collision per pair (constant velocities, swept
 //! boxes), and speed and path errors against the plan.
 
+use crate::state::BodyState;
 use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
 use serde::Serialize;
 use std::collections::BTreeMap;
-
-/// One actor's box at one step.
-#[derive(Clone, Copy, Debug)]
-pub struct BoxState {
-    /// Centre x (m).
-    pub x: f64,
-    /// Centre y (m).
-    pub y: f64,
-    /// Heading (rad).
-    pub yaw: f64,
-    /// Length (m).
-    pub length: f64,
-    /// Width (m).
-    pub width: f64,
-    /// World velocity x (m/s).
-    pub vx: f64,
-    /// World velocity y (m/s).
-    pub vy: f64,
-}
 
 /// A box's corners and the trig of its heading, computed once per box and
 /// step and shared by every pair test it takes part in.
@@ -45,12 +27,12 @@ struct Shape {
 }
 
 impl Shape {
-    fn of(b: &BoxState) -> Self {
+    fn of(b: &BodyState) -> Self {
         Self::with(b, math::sin_cos(b.yaw))
     }
 
     /// The shape of `b` whose heading's `sin_cos` is `sc`.
-    fn with(b: &BoxState, sc: (f64, f64)) -> Self {
+    fn with(b: &BodyState, sc: (f64, f64)) -> Self {
         let (hl, hw) = (b.length / 2.0, b.width / 2.0);
         Shape {
             corners: corners(b, sc),
@@ -63,7 +45,7 @@ impl Shape {
     }
 }
 
-impl BoxState {
+impl BodyState {
     /// The rectangle of the box ([`litesim_core::OrientedBox`]).
     fn rect(&self) -> litesim_core::OrientedBox {
         litesim_core::OrientedBox {
@@ -77,7 +59,7 @@ impl BoxState {
 }
 
 /// A box's corners, given `sin_cos` of its heading.
-fn corners(b: &BoxState, sc: (f64, f64)) -> [(f64, f64); 4] {
+fn corners(b: &BodyState, sc: (f64, f64)) -> [(f64, f64); 4] {
     b.rect().corners_with(sc).map(|p| (p.x, p.y))
 }
 
@@ -91,7 +73,7 @@ fn interval(c: &[(f64, f64); 4], ux: f64, uy: f64) -> (f64, f64) {
 }
 
 /// Whether two oriented boxes overlap (separating axis theorem).
-pub fn overlap(a: &BoxState, b: &BoxState) -> bool {
+pub fn overlap(a: &BodyState, b: &BodyState) -> bool {
     overlap_shapes(&Shape::of(a), &Shape::of(b))
 }
 
@@ -135,7 +117,7 @@ fn point_box_sq(p: (f64, f64), b: &Shape) -> f64 {
 }
 
 /// Distance between two boxes (0 when they overlap).
-pub fn distance(a: &BoxState, b: &BoxState) -> f64 {
+pub fn distance(a: &BodyState, b: &BodyState) -> f64 {
     distance_shapes(&Shape::of(a), &Shape::of(b))
 }
 
@@ -237,7 +219,7 @@ pub const CUT_IN_SPEED: f64 = 0.3;
 
 /// Where `other`'s centre lies seen from `me`: the part of `me` facing it
 /// (its half extents set the diagonals that part the four sides).
-fn part_facing(me: &BoxState, other: &BoxState) -> Part {
+fn part_facing(me: &BodyState, other: &BodyState) -> Part {
     let (s, c) = math::sin_cos(me.yaw);
     let (dx, dy) = (other.x - me.x, other.y - me.y);
     let along = (dx * c + dy * s) / (0.5 * me.length).max(1e-6);
@@ -256,7 +238,7 @@ fn part_facing(me: &BoxState, other: &BoxState) -> Part {
 }
 
 /// `me`'s speed across `other`'s heading, towards `other` (m/s).
-fn sideways_towards(me: &BoxState, other: &BoxState) -> f64 {
+fn sideways_towards(me: &BodyState, other: &BodyState) -> f64 {
     let (s, c) = math::sin_cos(other.yaw);
     let lateral_v = -me.vx * s + me.vy * c;
     let lateral_p = -(other.x - me.x) * s + (other.y - me.y) * c;
@@ -265,7 +247,7 @@ fn sideways_towards(me: &BoxState, other: &BoxState) -> f64 {
 
 /// The geometry and attribution of a contact between `a` and `b` (ids
 /// `ida`, `idb`).
-pub fn contact(a: &BoxState, b: &BoxState, ida: &str, idb: &str) -> Contact {
+pub fn contact(a: &BodyState, b: &BodyState, ida: &str, idb: &str) -> Contact {
     let (part_a, part_b) = (part_facing(a, b), part_facing(b, a));
     let alpha = wrap_angle(b.yaw - a.yaw).abs();
     let kind = if alpha >= 150f64.to_radians() {
@@ -348,7 +330,7 @@ pub const TTC_HORIZON: f64 = 5.0;
 /// separating-axis test (for translating convex polygons the edge normals
 /// of both are the only candidate axes). `None` when they never touch,
 /// `Some(0)` when they overlap now.
-pub fn time_to_collision(a: &BoxState, b: &BoxState) -> Option<f64> {
+pub fn time_to_collision(a: &BodyState, b: &BodyState) -> Option<f64> {
     ttc_shapes(&Shape::of(a), &Shape::of(b), b.vx - a.vx, b.vy - a.vy)
 }
 
@@ -652,12 +634,11 @@ impl Kpis {
         self.pairs = near.into_iter().map(|e| e.kpi).collect();
     }
 
-    /// Adds one step: boxes, speeds, planned positions and speeds, on-road flags.
+    /// Adds one step: states, planned positions and speeds, on-road flags.
     pub fn step(
         &mut self,
         t: f64,
-        boxes: &[BoxState],
-        speeds: &[f64],
+        boxes: &[BodyState],
         planned: &[(f64, f64, f64)],
         off_road: &[bool],
     ) {
@@ -793,10 +774,10 @@ impl Kpis {
             let e = ((b.x - px).powi(2) + (b.y - py).powi(2)).sqrt();
             a.max_path_error = a.max_path_error.max(e);
             self.sq[i] += e * e;
-            let ev = speeds[i] - pv;
+            let ev = b.speed - pv;
             a.max_speed_error = a.max_speed_error.max(ev.abs());
             self.sq_v[i] += ev * ev;
-            a.max_speed = a.max_speed.max(speeds[i]);
+            a.max_speed = a.max_speed.max(b.speed);
             if off_road[i] && a.off_road_at.is_none() {
                 a.off_road_at = Some(t);
             }
@@ -809,7 +790,7 @@ impl Kpis {
 
     /// Actor `i`'s half diagonal (its box's corners' distance from its
     /// centre), made again only when its box's size changes.
-    fn radius(&mut self, i: usize, b: &BoxState) -> f64 {
+    fn radius(&mut self, i: usize, b: &BodyState) -> f64 {
         let (l, w, r) = self.radii[i];
         if l == b.length && w == b.width {
             return r;
@@ -826,7 +807,7 @@ impl Kpis {
     /// meet within the horizon only where the boxes swept along v − c
     /// meet — and traffic that moves together sweeps (almost) nothing.
     /// (Made for actor `x`, box `b`, once per step: see `bounds_at`.)
-    fn bounds(&mut self, x: usize, b: &BoxState) {
+    fn bounds(&mut self, x: usize, b: &BodyState) {
         if self.bounds_at[x] == self.n {
             return;
         }
@@ -861,7 +842,7 @@ impl Kpis {
     /// The broad phase (sort-and-sweep on the `swept` bounds grown by
     /// [`SKIN`]/2): rebuilds the candidate list and notes each actor's
     /// drift, yaw and relative velocity it was built for.
-    fn sweep(&mut self, boxes: &[BoxState], (cx, cy): (f64, f64)) {
+    fn sweep(&mut self, boxes: &[BodyState], (cx, cy): (f64, f64)) {
         self.swept_once = true;
         self.at_sweep.clear();
         for (b, d) in boxes.iter().zip(&self.drift_pos) {
@@ -926,7 +907,7 @@ impl Kpis {
     /// The narrow phase of one candidate pair (i < j).
     /// Returns the tracked pair and the distance it measured, or a lower
     /// bound of it (None: not near and cannot meet; nothing done).
-    fn pair(&mut self, t: f64, i: usize, j: usize, boxes: &[BoxState]) -> Option<(usize, f64)> {
+    fn pair(&mut self, t: f64, i: usize, j: usize, boxes: &[BodyState]) -> Option<(usize, f64)> {
         let meets = |u: &[f64; 4], v: &[f64; 4]| {
             !(u[0] > v[1] || v[0] > u[1] || u[2] > v[3] || v[2] > u[3])
         };
@@ -1077,7 +1058,7 @@ pub struct PetKpi {
 const PET_RANGE_M: f64 = 100.0;
 
 /// Whether `b`'s box comes within `r` of `c`.
-fn box_within(b: &BoxState, c: litesim_core::Vec2, r: f64) -> bool {
+fn box_within(b: &BodyState, c: litesim_core::Vec2, r: f64) -> bool {
     let (along, across) = b.rect().outside(c);
     along * along + across * across <= r * r
 }
@@ -1198,7 +1179,7 @@ impl EgoKpi {
 
     /// Each actor near sut.car (`boxes[e]`) entering or leaving a conflict
     /// area: its first passage through each.
-    fn pass(&mut self, t: f64, e: usize, boxes: &[BoxState]) {
+    fn pass(&mut self, t: f64, e: usize, boxes: &[BodyState]) {
         if self.areas.is_empty() {
             return;
         }
@@ -1232,20 +1213,19 @@ impl EgoKpi {
         }
     }
 
-    /// sut.car (`boxes[e]`, at `speeds[e]`) against every actor ahead of it
+    /// sut.car (`boxes[e]`) against every actor ahead of it
     /// in its path and heading the same way (within 45°): time headway and
     /// DRAC; `id(j)` names actor `j`.
     pub fn follow<'a>(
         &mut self,
         t: f64,
         e: usize,
-        boxes: &[BoxState],
-        speeds: &[f64],
+        boxes: &[BodyState],
         id: impl Fn(usize) -> &'a str,
     ) {
         self.pass(t, e, boxes);
         let me = &boxes[e];
-        let v = speeds[e];
+        let v = me.speed;
         if me.yaw.to_bits() != self.trig.0.to_bits() {
             self.trig = (me.yaw, math::sin_cos(me.yaw));
         }
@@ -1360,8 +1340,8 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    fn bx(x: f64, y: f64, yaw: f64, vx: f64, vy: f64) -> BoxState {
-        BoxState {
+    fn bx(x: f64, y: f64, yaw: f64, vx: f64, vy: f64) -> BodyState {
+        BodyState {
             x,
             y,
             yaw,
@@ -1369,6 +1349,8 @@ mod tests {
             width: 2.0,
             vx,
             vy,
+            speed: vx.hypot(vy),
+            acceleration: 0.0,
         }
     }
 
@@ -1383,9 +1365,8 @@ mod tests {
             bx(10.0, 3.5, 0.0, 10.0, 0.0),
             bx(-20.0, 0.0, 0.0, 30.0, 0.0),
         ];
-        let speeds = [20.0, 10.0, 10.0, 30.0];
         let ids = ["sut.car", "lead", "beside", "behind"];
-        k.follow(1.0, 0, &boxes, &speeds, |j| ids[j]);
+        k.follow(1.0, 0, &boxes, |j| ids[j]);
         k.finish(0.0, 0.0);
         assert_eq!(k.leads.len(), 1);
         let l = &k.leads[0];
@@ -1446,7 +1427,7 @@ mod tests {
 
     /// Distance by brute force: every corner of each box to every edge of
     /// the other (0 when they overlap).
-    fn brute(a: &BoxState, b: &BoxState) -> f64 {
+    fn brute(a: &BodyState, b: &BodyState) -> f64 {
         if overlap(a, b) {
             return 0.0;
         }
@@ -1486,7 +1467,7 @@ mod tests {
     /// and speeds from a seeded generator, each step a random acceleration
     /// and yaw rate (some vehicles keep a constant velocity, like traffic
     /// that moves together).
-    fn random_traffic(seed: u64, n: usize, steps: usize) -> Vec<Vec<BoxState>> {
+    fn random_traffic(seed: u64, n: usize, steps: usize) -> Vec<Vec<BodyState>> {
         let mut x = seed
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
@@ -1518,7 +1499,7 @@ mod tests {
         for _ in 0..steps {
             frames.push(
                 st.iter()
-                    .map(|&(x, y, yaw, v, _)| BoxState {
+                    .map(|&(x, y, yaw, v, _)| BodyState {
                         x,
                         y,
                         yaw,
@@ -1526,6 +1507,8 @@ mod tests {
                         width: 1.9,
                         vx: v * yaw.cos(),
                         vy: v * yaw.sin(),
+                        speed: v,
+                        acceleration: 0.0,
                     })
                     .collect(),
             );
@@ -1553,7 +1536,7 @@ mod tests {
     fn agrees_with_exact(
         k: &Kpis,
         ids: &[String],
-        frames: &[Vec<BoxState>],
+        frames: &[Vec<BodyState>],
         dt: f64,
     ) -> Result<(), TestCaseError> {
         let n = ids.len();
@@ -1607,7 +1590,7 @@ mod tests {
             let ids: Vec<String> = (0..n).map(|i| format!("v{i:02}")).collect();
             let mut k = Kpis::new(&ids);
             for (s, f) in frames.iter().enumerate() {
-                k.step(s as f64 * 0.05, f, &vec![0.0; n], &vec![(0.0, 0.0, 0.0); n], &vec![false; n]);
+                k.step(s as f64 * 0.05, f, &vec![(0.0, 0.0, 0.0); n], &vec![false; n]);
             }
             k.finish();
             agrees_with_exact(&k, &ids, &frames, 0.05)?;
@@ -1649,7 +1632,7 @@ mod tests {
             let ids: Vec<String> = (0..n).map(|i| format!("v{i:02}")).collect();
             let mut k = Kpis::new(&ids);
             for (s, f) in frames.iter().enumerate() {
-                k.step(s as f64 * dt, f, &vec![0.0; n], &vec![(0.0, 0.0, 0.0); n], &vec![false; n]);
+                k.step(s as f64 * dt, f, &vec![(0.0, 0.0, 0.0); n], &vec![false; n]);
             }
             k.finish();
             agrees_with_exact(&k, &ids, &frames, dt)?;
@@ -1683,7 +1666,7 @@ mod tests {
             bx(15.0, 0.0, 0.0, 10.0, 0.0),
             bx(500.0, 0.0, 0.0, 10.0, 0.0),
         ];
-        k.step(0.0, &boxes, &[10.0; 3], &[(0.0, 0.0, 10.0); 3], &[false; 3]);
+        k.step(0.0, &boxes, &[(0.0, 0.0, 10.0); 3], &[false; 3]);
         k.finish();
         assert_eq!(k.pairs.len(), 1);
         assert_eq!((k.pairs[0].a.as_str(), k.pairs[0].b.as_str()), ("a", "b"));

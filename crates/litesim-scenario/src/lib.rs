@@ -31,6 +31,7 @@ pub mod reactive;
 pub mod realtime;
 pub mod runtime;
 pub mod solve;
+pub mod state;
 pub mod stepped;
 pub mod sut;
 

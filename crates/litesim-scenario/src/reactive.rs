@@ -13,6 +13,7 @@
 //! for bit.
 
 use crate::plan::{ActorPlan, GapGoal};
+use crate::state::BodyState;
 use litesim_core::math;
 use serde::Serialize;
 
@@ -120,24 +121,9 @@ impl Warp {
     }
 }
 
-/// Pose and speed of an actor as the goal controller reads it.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Body {
-    /// Centre x (m).
-    pub x: f64,
-    /// Centre y (m).
-    pub y: f64,
-    /// Heading (rad).
-    pub yaw: f64,
-    /// Speed (m/s).
-    pub speed: f64,
-    /// Length (m).
-    pub length: f64,
-}
-
 /// The gap of `me` to `reference` along the reference's heading, bumper to
 /// bumper, positive on the goal's side.
-pub fn gap(goal: &GapGoal, me: &Body, reference: &Body) -> f64 {
+pub fn gap(goal: &GapGoal, me: &BodyState, reference: &BodyState) -> f64 {
     let along = litesim_core::ahead_along(
         litesim_core::Vec2::new(reference.x, reference.y),
         reference.yaw,
@@ -173,7 +159,7 @@ impl Warp {
         plan_dt: f64,
         t: f64,
         dt: f64,
-        goal: Option<(&GapGoal, &Body, &Body, f64)>,
+        goal: Option<(&GapGoal, &BodyState, &BodyState, f64)>,
     ) {
         let tau = self.tau(t);
         let v_plan = plan.at(tau, plan_dt).v;

@@ -47,14 +47,13 @@ fn min_gap_after(r: &RunResult, a: &str, b: &str, t0: f64) -> f64 {
         if *t < t0 {
             continue;
         }
-        let bx = |tr: &litesim_log::ActorTrack| litesim_scenario::kpi::BoxState {
+        let bx = |tr: &litesim_log::ActorTrack| litesim_scenario::state::BodyState {
             x: tr.state.x[k],
             y: tr.state.y[k],
             yaw: tr.state.yaw[k],
             length: tr.length,
             width: tr.width,
-            vx: 0.0,
-            vy: 0.0,
+            ..Default::default()
         };
         let (s, c) = (ta.state.yaw[k].sin(), ta.state.yaw[k].cos());
         let side = -(tb.state.x[k] - ta.state.x[k]) * s + (tb.state.y[k] - ta.state.y[k]) * c;

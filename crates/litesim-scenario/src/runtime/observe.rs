@@ -8,7 +8,7 @@
 
 use super::lights::Lights;
 use crate::plan::{ActorPlan, Plan};
-use crate::reactive::Body;
+use crate::state::BodyState;
 use crate::sut::{ObjectState, Observation, RoadPos, Route};
 use litesim_core::math;
 use litesim_map::RoadNetwork;
@@ -85,15 +85,19 @@ impl World {
         }
     }
 
-    /// Actor `i` as the reactive gap reads it.
-    pub fn body(&self, i: usize) -> Body {
+    /// Actor `i`'s state (plan order).
+    pub fn state(&self, i: usize) -> BodyState {
         let o = self.get(i);
-        Body {
+        BodyState {
             x: o.x,
             y: o.y,
             yaw: o.yaw,
-            speed: o.speed,
             length: o.length,
+            width: o.width,
+            vx: o.vx,
+            vy: o.vy,
+            speed: o.speed,
+            acceleration: o.acceleration,
         }
     }
 }

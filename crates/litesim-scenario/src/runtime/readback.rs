@@ -1,5 +1,5 @@
 //! Reading steps back: each step's reported states become the checks'
-//! inputs (boxes, speeds, planned points, on-road flags), the log's samples,
+//! inputs (actor states, planned points, on-road flags), the log's samples,
 //! the world the controllers observe, coverage samples and the gap and lane
 //! goals judged at their phase ends.
 //!
@@ -15,12 +15,13 @@ use super::ExecConfig;
 use super::controllers::planned::Sent;
 use super::lights::Lights;
 use super::observe::World;
-use super::sample::{due_time, live_state, sample_items};
+use super::sample::{due_time, sample_items};
 use crate::error::ScenarioError;
 use crate::intent::{LaneRelation, Order};
-use crate::kpi::{BoxState, EgoKpi, Kpis};
+use crate::kpi::{EgoKpi, Kpis};
 use crate::plan::Plan;
-use crate::reactive::{Body, GoalResult, LaneResult, Warp, shifted};
+use crate::reactive::{GoalResult, LaneResult, Warp, shifted};
+use crate::state::BodyState;
 use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
 use litesim_log::{ActorSample, ControlSample, LogRecorder};
@@ -72,9 +73,8 @@ pub(crate) struct ReadEnv<'e> {
 
 /// What reading steps back changes: the checks, the log, the last states.
 pub(crate) struct Readback {
-    pub boxes: Vec<BoxState>,
-    pub speeds: Vec<f64>,
-    pub accels: Vec<f64>,
+    /// Every actor's state at the step being read (plan order).
+    pub states: Vec<BodyState>,
     pub planned: Vec<(f64, f64, f64)>,
     pub off: Vec<bool>,
     pub kpis: Kpis,
@@ -93,7 +93,6 @@ pub(crate) struct Readback {
     slot_ids: Vec<litesim_ssp::SmolStr>,
     pub ego_kpi: Option<EgoKpi>,
     pub last_t: f64,
-    pub live: Vec<crate::coverage::LiveActor>,
     pub samples: Vec<Option<crate::coverage::Sample>>,
     pub next_due: f64,
     pub next_goal: usize,
@@ -119,9 +118,7 @@ impl Readback {
         let n = ids.len();
         let samples = vec![None; cfg.covers.len()];
         Readback {
-            boxes: Vec::with_capacity(n),
-            speeds: Vec::with_capacity(n),
-            accels: Vec::new(),
+            states: Vec::with_capacity(n),
             planned: Vec::with_capacity(n),
             off: Vec::with_capacity(n),
             kpis: Kpis::new(ids),
@@ -133,7 +130,6 @@ impl Readback {
             slot_ids: Vec::new(),
             ego_kpi,
             last_t: 0.0,
-            live: Vec::new(),
             next_due: due_time(cfg, plan, &samples),
             samples,
             next_goal: 0,
@@ -180,30 +176,26 @@ impl Readback {
         for (k, info) in got.infos.iter().enumerate() {
             let step = got.step(k);
             let t = info.sim_time_ms as f64 / 1000.0;
-            self.boxes.clear();
-            self.speeds.clear();
-            self.accels.clear();
+            self.states.clear();
             self.planned.clear();
             self.off.clear();
             for i in 0..env.plan.actors.len() {
                 self.read_actor(env, world, i, &step[self.slots[i]], info);
             }
-            self.kpis
-                .step(t, &self.boxes, &self.speeds, &self.planned, &self.off);
+            self.kpis.step(t, &self.states, &self.planned, &self.off);
             self.note_braking(env, step, t);
             if let (Some(e), Some(ek)) = (env.ego_index, self.ego_kpi.as_mut()) {
                 let actors = &env.plan.actors;
-                ek.follow(t, e, &self.boxes, &self.speeds, |j| &actors[j].id);
+                ek.follow(t, e, &self.states, |j| &actors[j].id);
             }
             self.last_t = t;
             if env.sampling && t >= self.next_due - 1e-9 {
                 let cfg = env.cfg;
-                live_state(&self.boxes, &self.speeds, &self.accels, &mut self.live);
                 sample_items(
                     cfg,
                     env.plan,
                     env.net,
-                    &self.live,
+                    &self.states,
                     t,
                     false,
                     &mut self.samples,
@@ -266,7 +258,9 @@ impl Readback {
                 (p.x, p.y, p.v)
             }
         };
-        self.boxes.push(BoxState {
+        // The acceleration along the heading, for coverage and the world.
+        let accel = (env.sampling || env.observed).then(|| along_heading(st));
+        self.states.push(BodyState {
             x: st.pose.position.x,
             y: st.pose.position.y,
             yaw: st.pose.yaw,
@@ -274,13 +268,9 @@ impl Readback {
             width: dims[i].1,
             vx: st.velocity.x,
             vy: st.velocity.y,
+            speed: st.speed,
+            acceleration: accel.unwrap_or_default(),
         });
-        self.speeds.push(st.speed);
-        // The acceleration along the heading, for coverage and the world.
-        let accel = (env.sampling || env.observed).then(|| along_heading(st));
-        if let (true, Some(a)) = (env.sampling, accel) {
-            self.accels.push(a);
-        }
         self.planned.push(p);
         self.check_road(env, i, st, t);
         if self.rec.is_some() {
@@ -394,8 +384,8 @@ impl Readback {
             let (Some(m), Some(r), Some(net)) = (idx(&g.actor), idx(&g.reference), env.net) else {
                 continue;
             };
-            let boxes = &self.boxes;
-            let on = |j: usize| net.to_road(litesim_core::Vec2::new(boxes[j].x, boxes[j].y));
+            let states = &self.states;
+            let on = |j: usize| net.to_road(litesim_core::Vec2::new(states[j].x, states[j].y));
             let got = on(m).map(|p| p.lane);
             let wanted = on(r).and_then(|p| {
                 let road = net.roads().iter().position(|x| x.id == p.road)?;
@@ -433,14 +423,7 @@ impl Readback {
             let Some((m, r)) = ix else {
                 continue;
             };
-            let bx = |j: usize| Body {
-                x: self.boxes[j].x,
-                y: self.boxes[j].y,
-                yaw: self.boxes[j].yaw,
-                speed: self.speeds[j],
-                length: self.boxes[j].length,
-            };
-            let got = crate::reactive::gap(g, &bx(m), &bx(r));
+            let got = crate::reactive::gap(g, &self.states[m], &self.states[r]);
             self.goal_results.push(GoalResult {
                 actor: g.actor.clone(),
                 reference: g.reference.clone(),

@@ -21,7 +21,7 @@ use super::lights::Lights;
 use super::live::Live;
 use super::observe::{Observer, World};
 use super::readback::{ReadEnv, Readback};
-use super::sample::{due_time, live_state, sample_items};
+use super::sample::{due_time, sample_items};
 use super::traffic::driven::Driven;
 use super::{DriveMode, ExecConfig, Executed, Replan};
 use crate::error::ScenarioError;
@@ -580,15 +580,12 @@ impl<'a> Runtime<'a> {
         };
         self.ssp.get().end_simulation(reason).map_err(ssp_err)?;
         let Readback {
-            boxes,
-            speeds,
-            accels,
+            states,
             mut kpis,
             rec,
             tracking,
             mut ego_kpi,
             last_t,
-            mut live,
             mut samples,
             goal_results,
             lane_results,
@@ -599,9 +596,8 @@ impl<'a> Runtime<'a> {
         let never_held = self.live.never_held(&plan);
         kpis.finish();
         if !self.cfg.covers.is_empty() {
-            live_state(&boxes, &speeds, &accels, &mut live);
             let net = self.cfg.map.as_deref();
-            sample_items(&self.cfg, &plan, net, &live, last_t, true, &mut samples);
+            sample_items(&self.cfg, &plan, net, &states, last_t, true, &mut samples);
         }
         if let (Some(ek), Some(e)) = (ego_kpi.as_mut(), self.ego_index) {
             let last = plan.actors[e].samples.last().copied().unwrap_or_default();

@@ -2,34 +2,9 @@
 //! state at their events (the start, a phase's end, the run's end).
 
 use super::ExecConfig;
-use crate::kpi::BoxState;
 use crate::plan::Plan;
+use crate::state::BodyState;
 use litesim_map::RoadNetwork;
-
-/// The step's state as coverage items read it (lanes are looked up only
-/// by items that read one).
-pub(crate) fn live_state(
-    boxes: &[BoxState],
-    speeds: &[f64],
-    accels: &[f64],
-    live: &mut Vec<crate::coverage::LiveActor>,
-) {
-    live.clear();
-    for (i, b) in boxes.iter().enumerate() {
-        live.push(crate::coverage::LiveActor {
-            speed: speeds[i],
-            acceleration: accels.get(i).copied().unwrap_or(0.0),
-            x: b.x,
-            y: b.y,
-            yaw: b.yaw,
-            lane: None,
-            length: b.length,
-            width: b.width,
-            vx: b.vx,
-            vy: b.vy,
-        });
-    }
-}
 
 /// When the next item not sampled yet is due (s; infinite: at the end).
 pub(crate) fn due_time(
@@ -71,7 +46,7 @@ pub(crate) fn sample_items(
     cfg: &ExecConfig,
     plan: &Plan,
     net: Option<&RoadNetwork>,
-    live: &[crate::coverage::LiveActor],
+    states: &[BodyState],
     t: f64,
     end: bool,
     out: &mut [Option<crate::coverage::Sample>],
@@ -81,21 +56,17 @@ pub(crate) fn sample_items(
         if slot.is_some() || !(end || t >= item_due(item, plan) - 1e-9) {
             continue;
         }
-        // The map lookup only for items that read a lane.
-        let lane = item.reads_lane();
         let actor = |id: &str| {
             let i = plan.actors.iter().position(|a| a.id == id)?;
-            let mut a = *live.get(i)?;
-            if lane {
-                a.lane = net
-                    .and_then(|n| n.to_road(litesim_core::Vec2::new(a.x, a.y)))
-                    .map(|p| p.lane);
-            }
-            Some(a)
+            states.get(i).copied()
+        };
+        let lane = |a: &BodyState| {
+            net.and_then(|n| n.to_road(litesim_core::Vec2::new(a.x, a.y)))
+                .map(|p| p.lane)
         };
         *slot = Some(Sample {
             item: item.name.clone(),
-            value: evaluate(item, &plan.ids, &cfg.values, &actor),
+            value: evaluate(item, &plan.ids, &cfg.values, &actor, &lane),
             t,
         });
     }

@@ -14,7 +14,8 @@ use super::pid::{Pid, send_dynamic};
 use super::{Act, Controller, Flow, See, ssp_err, to_sim};
 use crate::error::ScenarioError;
 use crate::plan::{ActorPlan, Plan};
-use crate::reactive::{Body, Warp, shifted};
+use crate::reactive::{Warp, shifted};
+use crate::state::BodyState;
 use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
 use litesim_ssp::api::{Coord6, XyTrajectory};
@@ -228,16 +229,17 @@ impl Planned {
                 let ta = (t + 1.0).min(g.t1);
                 let pb = |j: usize| {
                     let p = plan.actors[j].at(ta, plan.dt);
-                    Body {
+                    BodyState {
                         x: p.x,
                         y: p.y,
                         yaw: p.yaw,
                         speed: p.v,
                         length: see.dims[j].0,
+                        ..BodyState::default()
                     }
                 };
                 let planned = crate::reactive::gap(g, &pb(i), &pb(r));
-                (g, see.world.body(i), see.world.body(r), planned)
+                (g, see.world.state(i), see.world.state(r), planned)
             });
             self.warps[i].advance(
                 a,

@@ -18,7 +18,8 @@ use super::{LaneGraph, Obstacle, StopLine, TRACK_TAU_S, Traffic};
 use crate::elab::{ActorKind, TrafficDecl};
 use crate::error::ScenarioError;
 use crate::plan::{ActorPlan, Plan, PlanSample};
-use crate::reactive::{Body, gap};
+use crate::reactive::gap;
+use crate::state::BodyState;
 use litesim_core::Vec2;
 use litesim_core::geometry::Pose;
 use litesim_core::rng::Rng;
@@ -49,8 +50,8 @@ const LANE_LOOKAHEAD_S: f64 = 1.5;
 /// the time left asks.
 fn gap_pursuit(
     g: &crate::plan::GapGoal,
-    me: &Body,
-    reference: &Body,
+    me: &BodyState,
+    reference: &BodyState,
     a_ref: f64,
     left: f64,
 ) -> f64 {
@@ -364,12 +365,13 @@ impl Driven {
                 };
                 let body = |j: usize| {
                     let (xy, yaw, speed, length) = states[j];
-                    Body {
+                    BodyState {
                         x: xy.x,
                         y: xy.y,
                         yaw,
                         speed,
                         length,
+                        ..BodyState::default()
                     }
                 };
                 let (me, reference) = (body(i), body(r));
