@@ -51,6 +51,35 @@ impl ActorKind {
     pub fn is_vehicle(self) -> bool {
         matches!(self, ActorKind::Vehicle(_))
     }
+
+    /// The kind without a vehicle's category.
+    pub fn class(self) -> ActorClass {
+        match self {
+            ActorKind::Vehicle(_) => ActorClass::Vehicle,
+            ActorKind::Person => ActorClass::Person,
+            ActorKind::Cyclist => ActorClass::Cyclist,
+            ActorKind::Animal => ActorClass::Animal,
+            ActorKind::StationaryObject => ActorClass::Stationary,
+        }
+    }
+}
+
+/// What kind of thing an actor is, without a vehicle's category: what a
+/// scenario declares (`vehicle`, `person`, …) before a model is chosen.
+/// [`ActorKind`] is the same with the category ([`ActorKind::class`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ActorClass {
+    /// A vehicle (cars, trucks, …; the ego is one).
+    Vehicle,
+    /// A pedestrian.
+    Person,
+    /// A cyclist.
+    Cyclist,
+    /// An animal.
+    Animal,
+    /// A stationary object (obstacle, cone, parked box).
+    Stationary,
 }
 
 /// An actor's description, given at creation.
@@ -140,5 +169,24 @@ impl ActorState {
             && self.yaw_rate.is_finite()
             && self.speed.is_finite()
             && self.long_acceleration.is_finite()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_class_is_the_kind_without_category_and_keeps_the_scenario_words() {
+        let kinds = [
+            (ActorKind::Vehicle(VehicleCategory::Bus), "\"vehicle\""),
+            (ActorKind::Person, "\"person\""),
+            (ActorKind::Cyclist, "\"cyclist\""),
+            (ActorKind::Animal, "\"animal\""),
+            (ActorKind::StationaryObject, "\"stationary\""),
+        ];
+        for (kind, word) in kinds {
+            assert_eq!(serde_json::to_string(&kind.class()).unwrap(), word);
+        }
     }
 }

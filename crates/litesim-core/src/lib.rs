@@ -29,7 +29,7 @@ pub mod vehicle;
 pub mod world;
 
 pub use actor::{
-    ActorDescription, ActorId, ActorKind, ActorState, TrajectoryStatus, VehicleCategory,
+    ActorClass, ActorDescription, ActorId, ActorKind, ActorState, TrajectoryStatus, VehicleCategory,
 };
 pub use control::{
     ActuatorLimits, ControlError, DynamicCommand, NormalizedPedals, PedalInput, RangePolicy,

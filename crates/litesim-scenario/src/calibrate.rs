@@ -11,9 +11,9 @@
 //! is the `[calibration]` table a profile uses, written as TOML.
 
 use crate::ScenarioError;
-use crate::elab::ActorKind;
 use crate::plan::{ActorPlan, Plan, PlanSample};
 use crate::runtime::{DriveMode, ExecConfig, execute};
+use litesim_core::ActorClass;
 use litesim_core::math;
 use litesim_ssp::profile::{Calibration, Profile};
 use serde::Serialize;
@@ -188,7 +188,7 @@ pub fn reference_plan(m: Manoeuvre, step_s: f64) -> Plan {
             samples,
             ..ActorPlan::new(
                 "calibration".into(),
-                ActorKind::Vehicle,
+                ActorClass::Vehicle,
                 true,
                 "car".into(),
                 (4.6, 1.9),

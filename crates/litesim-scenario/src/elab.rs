@@ -9,6 +9,7 @@
 //! the invocation's `with:` block become [`Constraint`]s over paths.
 
 use crate::error::ScenarioError;
+use litesim_core::ActorClass;
 use litesim_osc::ast::{Arg, Decl, DeclKind, DoKind, DoMember, Expr, Member};
 use litesim_osc::index::{DeclIndex, modifier_key};
 use litesim_osc::{Program, Span};
@@ -84,22 +85,6 @@ pub struct Constraint {
     pub at: String,
 }
 
-/// What kind of thing an actor is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum ActorKind {
-    /// A vehicle (cars, trucks, …; the ego is one).
-    Vehicle,
-    /// A pedestrian.
-    Person,
-    /// A cyclist.
-    Cyclist,
-    /// An animal.
-    Animal,
-    /// A stationary object (obstacle, cone, parked box).
-    Stationary,
-}
-
 /// An actor of the test.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ActorDef {
@@ -110,7 +95,7 @@ pub struct ActorDef {
     /// Declared type (`vehicle`, `person`, `fire_truck`).
     pub type_name: String,
     /// Kind.
-    pub kind: ActorKind,
+    pub kind: ActorClass,
     /// The system under test's car.
     pub ego: bool,
 }
@@ -471,7 +456,7 @@ pub fn elaborate(prog: &Program) -> Result<Test, ScenarioError> {
         id: "sut.car".into(),
         path: "sut.car".into(),
         type_name: "vehicle".into(),
-        kind: ActorKind::Vehicle,
+        kind: ActorClass::Vehicle,
         ego: true,
     });
     e.actor_ids.insert("sut.car".into(), "sut.car".into());
@@ -731,12 +716,12 @@ impl Elab<'_> {
             for n in &f.names {
                 let path = format!("{}.{}", sc.ns, n.text);
                 let kind = [
-                    ("vehicle", ActorKind::Vehicle),
-                    ("person", ActorKind::Person),
-                    ("cyclist", ActorKind::Cyclist),
-                    ("animal", ActorKind::Animal),
-                    ("stationary_object", ActorKind::Stationary),
-                    ("physical_object", ActorKind::Stationary),
+                    ("vehicle", ActorClass::Vehicle),
+                    ("person", ActorClass::Person),
+                    ("cyclist", ActorClass::Cyclist),
+                    ("animal", ActorClass::Animal),
+                    ("stationary_object", ActorClass::Stationary),
+                    ("physical_object", ActorClass::Stationary),
                 ]
                 .into_iter()
                 .find(|(b, _)| self.lib.is_a(&t, b))

@@ -19,11 +19,12 @@
 //! - a person with `lateral(d, side_of: x, side: …)` starts d beside x's
 //!   lane centre and walks across, perpendicular to the lane.
 
-use crate::elab::{ActorDef, ActorKind, CExpr, Modifier, Node, Test, Value};
+use crate::elab::{ActorDef, CExpr, Modifier, Node, Test, Value};
 use crate::error::ScenarioError;
 use crate::expr::{Edge, Field, Scope};
 use crate::intent::{Action, At, Intent, LaneRelation, RefKind, Side};
 use crate::solve::{Solution, sample};
+use litesim_core::ActorClass;
 use litesim_core::geometry::wrap_angle;
 use litesim_core::math;
 use litesim_core::rng::Rng;
@@ -65,7 +66,7 @@ pub struct ActorPlan {
     /// Id.
     pub id: String,
     /// Kind.
-    pub kind: ActorKind,
+    pub kind: ActorClass,
     /// The ego.
     pub ego: bool,
     /// Vehicle category asked for (`car`, `truck`, …).
@@ -106,7 +107,13 @@ impl std::fmt::Debug for HeadingTrig {
 
 impl ActorPlan {
     /// A plan without samples yet.
-    pub fn new(id: String, kind: ActorKind, ego: bool, category: String, size: (f64, f64)) -> Self {
+    pub fn new(
+        id: String,
+        kind: ActorClass,
+        ego: bool,
+        category: String,
+        size: (f64, f64),
+    ) -> Self {
         ActorPlan {
             id,
             kind,
@@ -970,26 +977,26 @@ fn plan_once(
                 .and_then(|v| v.text().map(String::from))
                 .unwrap_or_else(|| {
                     match a.kind {
-                        ActorKind::Vehicle => "car",
-                        ActorKind::Person => "pedestrian",
-                        ActorKind::Cyclist => "bicycle",
-                        ActorKind::Animal => "animal",
-                        ActorKind::Stationary => "static",
+                        ActorClass::Vehicle => "car",
+                        ActorClass::Person => "pedestrian",
+                        ActorClass::Cyclist => "bicycle",
+                        ActorClass::Animal => "animal",
+                        ActorClass::Stationary => "static",
                     }
                     .into()
                 });
             let (dl, dw) = match a.kind {
-                ActorKind::Vehicle => match category.as_str() {
+                ActorClass::Vehicle => match category.as_str() {
                     "truck" | "semitrailer" => (10.0, 2.5),
                     "bus" => (12.0, 2.55),
                     "van" => (5.2, 2.0),
                     "motorbike" => (2.2, 0.8),
                     _ => (4.6, 1.9),
                 },
-                ActorKind::Person => (0.5, 0.5),
-                ActorKind::Cyclist => (1.8, 0.6),
-                ActorKind::Animal => (1.2, 0.5),
-                ActorKind::Stationary => (1.0, 1.0),
+                ActorClass::Person => (0.5, 0.5),
+                ActorClass::Cyclist => (1.8, 0.6),
+                ActorClass::Animal => (1.2, 0.5),
+                ActorClass::Stationary => (1.0, 1.0),
             };
             let length = attr(a, "bbox.length").and_then(|v| v.num()).unwrap_or(dl);
             let width = attr(a, "bbox.width").and_then(|v| v.num()).unwrap_or(dw);
@@ -1376,7 +1383,7 @@ fn plan_once(
             } else if mo.v > 0.1 && lat_rate != 0.0 {
                 yaw = wrap_angle(p.yaw + math::atan(lat_rate / mo.v));
             }
-            if plans[i].kind == ActorKind::Stationary {
+            if plans[i].kind == ActorClass::Stationary {
                 yaw = p.yaw;
             }
             samples.push(PlanSample {
@@ -1757,7 +1764,7 @@ fn place(
     }) {
         let sgn = if side == Side::Left { 1.0 } else { -1.0 };
         mo.lateral = sgn * d;
-        if me.kind == ActorKind::Person || me.kind == ActorKind::Animal {
+        if me.kind == ActorClass::Person || me.kind == ActorClass::Animal {
             mo.across = -sgn; // walk towards and across the lane
         }
     }
@@ -1773,8 +1780,8 @@ fn place(
     });
     mo.v = match (v0, me.kind) {
         (Some(v), _) => v,
-        (None, ActorKind::Stationary) => 0.0,
-        (None, ActorKind::Person | ActorKind::Animal) => WALK_SPEED,
+        (None, ActorClass::Stationary) => 0.0,
+        (None, ActorClass::Person | ActorClass::Animal) => WALK_SPEED,
         (None, _) => match &reference {
             Some(o) if placed.contains_key(o) => placed[o].v,
             _ => sample(30.0 / 3.6, 50.0 / 3.6, rng),
@@ -1877,7 +1884,7 @@ mod tests {
             samples,
             ..ActorPlan::new(
                 "a".into(),
-                ActorKind::Vehicle,
+                ActorClass::Vehicle,
                 true,
                 "car".into(),
                 (4.6, 1.9),

@@ -5,8 +5,8 @@
 //! modifiers the plan could not honour are reported. Each violation names
 //! the actor, the time and the numbers.
 
-use crate::elab::ActorKind;
 use crate::plan::{ActorPlan, Plan};
+use litesim_core::ActorClass;
 use litesim_core::geometry::wrap_angle;
 use litesim_map::RoadNetwork;
 use litesim_ssp::Profile;
@@ -18,7 +18,7 @@ pub fn check(plan: &Plan, profile: Option<&Profile>, net: Option<&RoadNetwork>) 
     let vehicles: Vec<&ActorPlan> = plan
         .actors
         .iter()
-        .filter(|a| a.kind == ActorKind::Vehicle)
+        .filter(|a| a.kind == ActorClass::Vehicle)
         .collect();
     // Each vehicle's checks read only its own plan: many are checked on
     // all cores, the reports gathered in actor order (the same list).

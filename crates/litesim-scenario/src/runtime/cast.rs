@@ -87,16 +87,16 @@ pub(crate) struct Cast {
 
 /// How an actor is created: its category and the type the simulator sees.
 fn category(a: &ActorPlan) -> (ActorCategory, &'static str) {
-    use crate::elab::ActorKind;
+    use litesim_core::ActorClass;
     match a.kind {
-        ActorKind::Vehicle => (
+        ActorClass::Vehicle => (
             ActorCategory::Vehicle,
             if a.ego { "Ego" } else { "Vehicle" },
         ),
-        ActorKind::Person => (ActorCategory::Pedestrian, "Pedestrian"),
-        ActorKind::Cyclist => (ActorCategory::Cyclist, "Cyclist"),
-        ActorKind::Animal => (ActorCategory::Animal, "Animal"),
-        ActorKind::Stationary => (ActorCategory::StaticObject, "Object"),
+        ActorClass::Person => (ActorCategory::Pedestrian, "Pedestrian"),
+        ActorClass::Cyclist => (ActorCategory::Cyclist, "Cyclist"),
+        ActorClass::Animal => (ActorCategory::Animal, "Animal"),
+        ActorClass::Stationary => (ActorCategory::StaticObject, "Object"),
     }
 }
 

@@ -298,7 +298,7 @@ impl Readback {
     /// on).
     fn check_road(&mut self, env: &ReadEnv<'_>, i: usize, st: &Kinematics, t: f64) {
         let net = env.net;
-        let vehicle = env.plan.actors[i].kind == crate::elab::ActorKind::Vehicle;
+        let vehicle = env.plan.actors[i].kind == litesim_core::ActorClass::Vehicle;
         let here = st.pose.position.xy();
         if self.on_road_until[i].is_some_and(|z| z.contains(here)) {
             self.off.push(false);

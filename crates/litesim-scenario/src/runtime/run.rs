@@ -159,7 +159,7 @@ fn pedal_driven(plan: &Plan, cfg: &ExecConfig, ego_i: Option<usize>, driven: &[b
             Some(i) != ego_i
                 && !driven[i]
                 && cfg.mode == DriveMode::Dynamic
-                && a.kind == crate::elab::ActorKind::Vehicle
+                && a.kind == litesim_core::ActorClass::Vehicle
                 && a.samples.iter().any(|s| s.v > 0.0)
         })
         .collect()

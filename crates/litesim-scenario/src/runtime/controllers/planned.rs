@@ -436,10 +436,10 @@ impl Controller for Planned {
 
 /// Walks on its plan and may yield: a person, cyclist or animal that moves.
 pub(crate) fn yields(a: &ActorPlan) -> bool {
-    use crate::elab::ActorKind;
+    use litesim_core::ActorClass;
     matches!(
         a.kind,
-        ActorKind::Person | ActorKind::Cyclist | ActorKind::Animal
+        ActorClass::Person | ActorClass::Cyclist | ActorClass::Animal
     ) && a.samples.iter().any(|s| s.v > 0.0)
 }
 
@@ -461,7 +461,7 @@ fn hold_people(see: &See<'_>, other: &[bool], warps: &mut [Warp]) {
             continue;
         }
         let blocked = (0..plan.actors.len()).any(|j| {
-            if j == i || plan.actors[j].kind != crate::elab::ActorKind::Vehicle {
+            if j == i || plan.actors[j].kind != litesim_core::ActorClass::Vehicle {
                 return false;
             }
             let b = see.world.get(j);

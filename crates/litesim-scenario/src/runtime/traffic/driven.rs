@@ -15,11 +15,12 @@
 
 use super::spawn::{Density, fill};
 use super::{LaneGraph, Obstacle, StopLine, TRACK_TAU_S, Traffic};
-use crate::elab::{ActorKind, TrafficDecl};
+use crate::elab::TrafficDecl;
 use crate::error::ScenarioError;
 use crate::plan::{ActorPlan, Plan, PlanSample};
 use crate::reactive::gap;
 use crate::state::BodyState;
+use litesim_core::ActorClass;
 use litesim_core::Vec2;
 use litesim_core::geometry::Pose;
 use litesim_core::rng::Rng;
@@ -229,7 +230,7 @@ impl Driven {
             me.actor_of.push(plan.actors.len() + n);
             actors.push(ActorPlan {
                 id: format!("traffic.{n}"),
-                kind: ActorKind::Vehicle,
+                kind: ActorClass::Vehicle,
                 ego: false,
                 category: "car".into(),
                 model: None,
@@ -256,7 +257,7 @@ impl Driven {
     /// keep their plans, with a note).
     fn place_npcs(&mut self, net: &RoadNetwork, plan: &Plan) {
         for (i, a) in plan.actors.iter().enumerate() {
-            if a.ego || a.kind != ActorKind::Vehicle || a.samples.iter().all(|s| s.v <= 0.0) {
+            if a.ego || a.kind != ActorClass::Vehicle || a.samples.iter().all(|s| s.v <= 0.0) {
                 continue;
             }
             let s0 = a.samples[0];
