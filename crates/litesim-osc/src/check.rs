@@ -251,23 +251,20 @@ impl Model {
             || self.enums.contains_key(t)
             || self.compounds.contains_key(t)
     }
-    /// Parameters of a compound including inherited ones (own first).
-    fn params(&self, name: &str) -> Vec<(String, TypeRef)> {
-        let mut out = Vec::new();
-        for n in self.lineage(name) {
-            if let Some((_, p, _)) = self.compounds.get(n) {
-                out.extend(p.iter().cloned());
-            }
-        }
-        out
+    /// The names a compound's fields and its bases' go by (own first), for
+    /// "did you mean" hints.
+    fn member_names(&self, name: &str) -> Vec<String> {
+        self.lineage(name)
+            .filter_map(|n| self.compounds.get(n))
+            .flat_map(|(_, p, _)| p.iter().map(|(n, _)| n.clone()))
+            .collect()
     }
-    /// A compound and the ones it inherits from, nearest first; at most 64,
-    /// so an inheritance cycle (E0339 reports it) cannot loop.
+    /// A compound and the ones it inherits from, nearest first (an
+    /// inheritance cycle, which E0339 reports, cannot loop).
     fn lineage<'m>(&'m self, start: &'m str) -> impl Iterator<Item = &'m str> + 'm {
-        std::iter::successors(Some(start), |c| {
-            self.compounds.get(*c).and_then(|c| c.2.as_deref())
+        crate::index::lineage(start, |c| {
+            self.compounds.get(c).and_then(|c| c.2.as_deref())
         })
-        .take(64)
     }
     /// `sub` is `sup` or inherits from it (directly or not).
     fn is_a(&self, sub: &str, sup: &str) -> bool {
@@ -509,7 +506,7 @@ impl Checker<'_> {
         }
         let mut visible: Vec<String> = self.scope.locals.iter().map(|(n, _)| n.clone()).collect();
         if let Some(this) = &self.scope.this {
-            visible.extend(self.m.params(this).into_iter().map(|(n, _)| n));
+            visible.extend(self.m.member_names(this));
         }
         let hint = close_names(name, visible.iter());
         let place = self
@@ -520,13 +517,8 @@ impl Checker<'_> {
         // In a struct (a configuration such as test_config), the fields it
         // has are the answer: all of them, after the close ones.
         let fields = self.scope.this.as_ref().and_then(|t| {
-            matches!(self.m.compounds.get(&**t), Some((DeclKind::Struct, ..))).then(|| {
-                self.m
-                    .params(t)
-                    .into_iter()
-                    .map(|(n, _)| n)
-                    .collect::<Vec<_>>()
-            })
+            matches!(self.m.compounds.get(&**t), Some((DeclKind::Struct, ..)))
+                .then(|| self.m.member_names(t))
         });
         let hint = match (hint.is_empty(), fields) {
             (true, Some(f)) => Some(format!("its fields: {}", f.join(", "))),
@@ -661,8 +653,7 @@ impl Checker<'_> {
                             Ty::Unknown
                         }
                         None => {
-                            let names: Vec<String> =
-                                self.m.params(&c).into_iter().map(|(n, _)| n).collect();
+                            let names: Vec<String> = self.m.member_names(&c);
                             let hint = close_names(&name.text, names.iter());
                             self.err(
                                 "E0310",

@@ -104,6 +104,20 @@ pub fn factor(si: &[crate::ast::Arg]) -> f64 {
         .unwrap_or(1.0)
 }
 
+/// The most bases an inheritance walk follows: a cycle (the checker
+/// reports it) cannot make it loop.
+pub const MAX_LINEAGE: usize = 64;
+
+/// A compound and the ones it inherits from, nearest first, with
+/// `base_of` naming each one's base; at most [`MAX_LINEAGE`] names. The one
+/// walk of an inheritance chain, for the index and the checker's model.
+pub fn lineage<'a>(
+    start: &'a str,
+    base_of: impl Fn(&'a str) -> Option<&'a str> + 'a,
+) -> impl Iterator<Item = &'a str> + 'a {
+    std::iter::successors(Some(start), move |c| base_of(c)).take(MAX_LINEAGE)
+}
+
 /// The index key of a modifier (modifiers and behaviours may share names).
 pub fn modifier_key(name: &str) -> String {
     format!("modifier {name}")
@@ -272,16 +286,18 @@ impl<'a> DeclIndex<'a> {
     /// Named members of a compound and its bases (own first), each of
     /// `kinds`; an inheritance cycle stops the walk (the checker reports it).
     pub fn members(&self, key: &str, kinds: &[MemberKind]) -> Vec<&MemberDecl> {
-        let mut out = Vec::new();
-        let mut cur = Some(key);
-        for _ in 0..64 {
-            let Some(c) = cur.and_then(|n| self.compounds.get(n)) else {
-                break;
-            };
-            out.extend(c.members.iter().filter(|m| kinds.contains(&m.kind)));
-            cur = c.base.as_deref();
-        }
-        out
+        self.lineage(key)
+            .map_while(|n| self.compounds.get(n))
+            .flat_map(|c| c.members.iter().filter(|m| kinds.contains(&m.kind)))
+            .collect()
+    }
+
+    /// A compound and the ones it inherits from, nearest first (see
+    /// [`lineage`]).
+    pub fn lineage<'s>(&'s self, start: &'s str) -> impl Iterator<Item = &'s str> + 's {
+        lineage(start, |c| {
+            self.compounds.get(c).and_then(|c| c.base.as_deref())
+        })
     }
 
     /// The parameters of an action, modifier or scenario (its fields,
@@ -293,15 +309,7 @@ impl<'a> DeclIndex<'a> {
 
     /// `sub` is `sup` or inherits from it (directly or not).
     pub fn is_a(&self, sub: &str, sup: &str) -> bool {
-        let mut cur = Some(sub);
-        for _ in 0..64 {
-            match cur {
-                Some(n) if n == sup => return true,
-                Some(n) => cur = self.compounds.get(n).and_then(|c| c.base.as_deref()),
-                None => return false,
-            }
-        }
-        false
+        self.lineage(sub).any(|n| n == sup)
     }
 
     /// Whether `name` is a member of some enum.
