@@ -1,0 +1,615 @@
+//! Each actor's motion, sampled every plan step: speed, lane changes,
+//! walking across, the goals its phases set.
+
+use super::*;
+
+/// Per-actor motion state while sampling.
+#[derive(Clone, Debug)]
+pub(super) struct Motion {
+    pub(super) pos: LanePos,
+    pub(super) v: f64,
+    /// Lateral offset from the lane centre (persons beside the road).
+    pub(super) lateral: f64,
+    /// Walking direction across the lane (+1 left, −1 right, 0 along).
+    pub(super) across: f64,
+    /// Lane change in progress: (from lane, to lane, t start, t end).
+    pub(super) change: Option<(i32, i32, f64, f64)>,
+}
+
+pub(super) fn at_kind(m: &Modifier) -> String {
+    match m.args.get("at") {
+        Some(CExpr::Const(v)) => v.text().unwrap_or("all").to_string(),
+        _ => "all".into(),
+    }
+}
+
+pub(super) fn actor_ref(e: Option<&CExpr>, ids: &BTreeMap<String, String>) -> Option<String> {
+    match e? {
+        CExpr::Var(p) => ids.get(p).cloned().or_else(|| {
+            // `sut.car` is its own id; ids are also paths' last segments.
+            ids.values().find(|v| *v == p).cloned()
+        }),
+        _ => None,
+    }
+}
+
+/// A leaf with its modifiers decoded and their arguments evaluated.
+pub(super) struct RLeaf {
+    pub(super) actor: String,
+    pub(super) action: Action,
+    pub(super) label: Option<String>,
+    pub(super) t0: f64,
+    pub(super) t1: f64,
+    pub(super) at: String,
+    pub(super) mods: Vec<Intent>,
+    /// Where each of `mods` is written (`file:line:col`).
+    pub(super) mod_at: Vec<String>,
+}
+
+/// Resolves each leaf's modifier arguments once, in time order (seeded):
+/// actor references to ids, the rest evaluated on the solution.
+pub(super) fn resolve_leaves(
+    mut leaves: Vec<Leaf<'_>>,
+    ids: &BTreeMap<String, String>,
+    sol: &Solution,
+    rng: &mut Rng,
+) -> Vec<RLeaf> {
+    leaves.sort_by(|a, b| a.t0.total_cmp(&b.t0).then(a.actor.cmp(&b.actor)));
+    let mut rleaves = Vec::with_capacity(leaves.len());
+    for l in &leaves {
+        let mut mods = Vec::new();
+        let mut mod_at = Vec::new();
+        for m in &l.mods {
+            let mut vals = BTreeMap::new();
+            let mut refs = BTreeMap::new();
+            for (k, e) in &m.args {
+                if let Some(a) = actor_ref(Some(e), ids) {
+                    refs.insert(k.clone(), a);
+                } else if let Some(v) = eval(e, sol, rng) {
+                    vals.insert(k.clone(), v);
+                }
+            }
+            if let Some(i) = Intent::decode(&m.name, &at_kind(m), &vals, &refs) {
+                mods.push(i);
+                mod_at.push(m.at.clone());
+            }
+        }
+        rleaves.push(RLeaf {
+            actor: l.actor.clone(),
+            action: l.action,
+            label: l.label.clone(),
+            t0: l.t0,
+            t1: l.t1,
+            at: l.at.clone(),
+            mods,
+            mod_at,
+        });
+    }
+    rleaves
+}
+
+/// One actor's planned motion and what planning it found.
+#[derive(Default)]
+pub(super) struct Moved {
+    pub(super) samples: Vec<PlanSample>,
+    pub(super) violations: Vec<String>,
+    pub(super) notes: Vec<String>,
+    pub(super) goals: Vec<GapGoal>,
+    pub(super) lane_goals: Vec<LaneGoal>,
+    pub(super) side_follows: Vec<SideFollow>,
+}
+
+/// What every actor's motion reads: the map, the leaves, where each actor
+/// starts, the plan's step and length.
+pub(super) struct MoveCx<'a> {
+    pub(super) net: &'a RoadNetwork,
+    pub(super) rleaves: &'a [RLeaf],
+    pub(super) placed: &'a BTreeMap<String, Motion>,
+    /// Plan step (s).
+    pub(super) dt: f64,
+    /// Samples per actor.
+    pub(super) n: usize,
+}
+
+/// Samples every active actor's motion in `order` into `plans` and gathers
+/// what planning found. The first `free` actors read no other actor's plan
+/// (no `position(…, at: end)`): they move on all cores when there are many,
+/// their outputs gathered in order; the others follow one by one. The same
+/// results either way.
+pub(super) fn move_all(
+    cx: &MoveCx<'_>,
+    plans: &mut [ActorPlan],
+    order: &[usize],
+    free: usize,
+) -> Result<Moved, ScenarioError> {
+    let mut all = Moved::default();
+    let mut gather = |i: usize, plans: &mut [ActorPlan], m: Moved| {
+        plans[i].samples = m.samples;
+        all.violations.extend(m.violations);
+        all.notes.extend(m.notes);
+        all.goals.extend(m.goals);
+        all.lane_goals.extend(m.lane_goals);
+        all.side_follows.extend(m.side_follows);
+    };
+    let moved: Vec<Result<Moved, ScenarioError>> = if free >= crate::PARALLEL_ACTORS {
+        use rayon::prelude::*;
+        order[..free]
+            .par_iter()
+            .map(|&i| Mover::new(cx, i, plans).run(plans))
+            .collect()
+    } else {
+        order[..free]
+            .iter()
+            .map(|&i| Mover::new(cx, i, plans).run(plans))
+            .collect()
+    };
+    for (&i, m) in order[..free].iter().zip(moved) {
+        gather(i, plans, m?);
+    }
+    for &i in &order[free..] {
+        let m = Mover::new(cx, i, plans).run(plans)?;
+        gather(i, plans, m);
+    }
+    Ok(all)
+}
+
+/// Whether actor `i`'s motion reads another actor's plan (a `position(…,
+/// at: end)` goal): it must move after the others.
+pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
+    rleaves
+        .iter()
+        .filter(|l| l.actor == id)
+        .flat_map(|l| l.mods.iter())
+        .any(|m| {
+            matches!(
+                m,
+                Intent::Position {
+                    reference: Some(_),
+                    at: At::End,
+                    ..
+                }
+            )
+        })
+}
+
+/// One actor's motion being sampled.
+struct Mover<'a> {
+    cx: &'a MoveCx<'a>,
+    i: usize,
+    id: String,
+    mo: Motion,
+    my: Vec<&'a RLeaf>,
+    leaf_i: usize,
+    /// Target speed.
+    target: Option<f64>,
+    accel_up: f64,
+    accel_down: f64,
+    /// A linear speed change to reach by a time: (v0, v1, t1).
+    end_speed: Option<(f64, f64, f64)>,
+    /// A strict speed not reached yet, with its place.
+    strict_speed: Option<(f64, String)>,
+    stationary: bool,
+    /// Reached a lane end with no continuation: stands there from then on.
+    dead_end: bool,
+    /// The phase entered last.
+    started: Option<usize>,
+    /// `along(road, at: end)`: (phase end, road id, place) to verify.
+    along_end: Vec<(f64, String, String)>,
+    /// The lane-centre pose the last move computed at the place it reached
+    /// (reused where the next sample starts from that place).
+    reached: Option<(LanePos, litesim_core::Pose)>,
+    out: Moved,
+}
+
+impl<'a> Mover<'a> {
+    fn new(cx: &'a MoveCx<'a>, i: usize, plans: &[ActorPlan]) -> Self {
+        let id = plans[i].id.clone();
+        Mover {
+            cx,
+            i,
+            mo: cx.placed[&id].clone(),
+            my: cx.rleaves.iter().filter(|l| l.actor == id).collect(),
+            id,
+            leaf_i: 0,
+            target: None,
+            accel_up: ACCEL_UP,
+            accel_down: ACCEL_DOWN,
+            end_speed: None,
+            strict_speed: None,
+            stationary: false,
+            dead_end: false,
+            started: None,
+            along_end: Vec::new(),
+            reached: None,
+            out: Moved {
+                samples: Vec::with_capacity(cx.n),
+                ..Moved::default()
+            },
+        }
+    }
+
+    /// Samples the actor over the whole plan (`plans`: the others' plans so
+    /// far, read by `position(…, at: end)`).
+    fn run(mut self, plans: &[ActorPlan]) -> Result<Moved, ScenarioError> {
+        for k in 0..self.cx.n {
+            let t = k as f64 * self.cx.dt;
+            // A lane change that ends now is done before the phases that
+            // start now are entered: a second `change_lane` right after a
+            // first starts from the lane the first reached.
+            if let Some((_, to, _, c1)) = self.mo.change
+                && c1 <= t + 1e-9
+            {
+                self.mo.pos.lane = to;
+                self.mo.change = None;
+            }
+            self.check_along_end(t);
+            // Enter phases that start now.
+            while self.leaf_i < self.my.len() && self.my[self.leaf_i].t0 <= t + 1e-9 {
+                self.enter(k, t, plans)?;
+                self.leaf_i += 1;
+            }
+            let prev_v = self.mo.v;
+            self.speed(t);
+            let (sample, centre) = self.pose(t, prev_v, plans[self.i].kind);
+            self.out.samples.push(sample);
+            self.advance(t, centre);
+        }
+        if let Some((v, at)) = self.strict_speed {
+            self.out.violations.push(format!(
+                "{at}: {} does not reach the strict speed {:.2} m/s within its phase at {ACCEL_UP}/{ACCEL_DOWN} m/s² (use run_mode: best_effort or an acceleration modifier)",
+                self.id, v
+            ));
+        }
+        Ok(self.out)
+    }
+
+    /// Phases that end now and asked to end on a road.
+    fn check_along_end(&mut self, t: f64) {
+        let net = self.cx.net;
+        let (id, pos, violations) = (&self.id, self.mo.pos, &mut self.out.violations);
+        self.along_end.retain(|(t1, road, at)| {
+            if *t1 > t + 1e-9 {
+                return true;
+            }
+            let here = &net.roads()[pos.road].id;
+            if here != road {
+                violations.push(format!(
+                    "{at}: {id} should end its phase on road {road} (along …, at: end) but is on road {here} at t = {t:.1} s"
+                ));
+            }
+            false
+        });
+    }
+
+    /// Enters the phase `my[leaf_i]` at sample `k` (time `t`): its
+    /// modifiers set the speed profile, lane changes and goals.
+    fn enter(&mut self, k: usize, t: f64, plans: &[ActorPlan]) -> Result<(), ScenarioError> {
+        let l = self.my[self.leaf_i];
+        self.started = Some(self.leaf_i);
+        self.stationary = l.action == Action::RemainStationary;
+        self.end_speed = None;
+        self.accel_up = ACCEL_UP;
+        self.accel_down = ACCEL_DOWN;
+        let first = self.leaf_i == 0;
+        for m in &l.mods {
+            match m {
+                Intent::Along {
+                    road: Some(road),
+                    at: At::End,
+                    ..
+                } => {
+                    self.along_end.push((l.t1, road.clone(), l.at.clone()));
+                }
+                Intent::Lateral {
+                    side_of: Some(o),
+                    at,
+                    ..
+                } if *at != At::End => self.out.side_follows.push(SideFollow {
+                    actor: self.id.clone(),
+                    reference: o.clone(),
+                    t0: l.t0,
+                    t1: l.t1,
+                }),
+                Intent::Acceleration { accel, .. } => {
+                    self.accel_up = accel.abs().max(0.1);
+                    self.accel_down = accel.abs().max(0.1);
+                }
+                &Intent::Speed {
+                    speed: v,
+                    at,
+                    strict,
+                    ..
+                } => match at {
+                    At::End => self.end_speed = Some((self.mo.v, v, l.t1)),
+                    _ => {
+                        if first || (at == At::Start && k == 0) {
+                            self.mo.v = v;
+                        }
+                        self.target = Some(v);
+                        if strict && !first {
+                            self.strict_speed = Some((v, l.at.clone()));
+                        }
+                    }
+                },
+                Intent::Position {
+                    distance,
+                    reference: Some((order, o)),
+                    at: At::End,
+                    strict,
+                    ..
+                } => self.gap_goal(l, t, plans, (*distance, order.sign(), o, *strict)),
+                &Intent::ChangeLane {
+                    lanes: nl, side, ..
+                } => self.change_lane(l, nl, side)?,
+                Intent::Lane {
+                    lane,
+                    reference,
+                    at: At::End,
+                    strict,
+                } => self.lane_goal(l, *lane, reference.as_ref(), *strict),
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// `position(d, ahead_of/behind: o, at: end)`: a gap goal, and the
+    /// speed change that reaches it by the phase's end on `o`'s plan.
+    fn gap_goal(
+        &mut self,
+        l: &RLeaf,
+        t: f64,
+        plans: &[ActorPlan],
+        (distance, sign, o, strict): (Option<f64>, f64, &String, bool),
+    ) {
+        let Some(op) = plans.iter().find(|p| p.id == *o) else {
+            return;
+        };
+        if op.samples.is_empty() {
+            return;
+        }
+        let (net, dt) = (self.cx.net, self.cx.dt);
+        let distance = distance.unwrap_or(5.0);
+        self.out.goals.push(GapGoal {
+            actor: self.id.clone(),
+            reference: o.clone(),
+            distance,
+            sign,
+            t0: l.t0,
+            t1: l.t1,
+            strict,
+            at: l.at.clone(),
+            label: l.label.clone(),
+        });
+        let gap = distance + (op.length + plans[self.i].length) / 2.0;
+        let me = net.lane_pos_pose(self.mo.pos, 0.0);
+        let here_other = op.at(t, dt);
+        // Distance the other covers plus the change of gap.
+        let now_gap = litesim_core::ahead_along(
+            litesim_core::Vec2::new(here_other.x, here_other.y),
+            here_other.yaw,
+            litesim_core::Vec2::new(me.position.x, me.position.y),
+        );
+        let other_travel = travel(op, t, l.t1, dt);
+        let need = other_travel + sign * gap - now_gap;
+        let dur = (l.t1 - t).max(dt);
+        let v1 = (2.0 * need / dur - self.mo.v).max(0.0);
+        self.end_speed = Some((self.mo.v, v1, l.t1));
+    }
+
+    /// `change_lane(n, side)`: a change to the lane `n` over, taking the
+    /// phase clipped to [2 s, 6 s].
+    fn change_lane(&mut self, l: &RLeaf, nl: i32, side: Side) -> Result<(), ScenarioError> {
+        let net = self.cx.net;
+        let mo = &mut self.mo;
+        let d = if side == Side::Right { -nl } else { nl };
+        let to = net.lane_beside(mo.pos, d).ok_or_else(|| {
+            ScenarioError::Plan(format!(
+                "{}: {} cannot change {nl} lane(s) to the {} on road {} (lane {})",
+                l.at,
+                self.id,
+                if side == Side::Right { "right" } else { "left" },
+                net.roads()[mo.pos.road].id,
+                mo.pos.lane
+            ))
+        })?;
+        if to != mo.pos.lane {
+            let len = (l.t1 - l.t0).clamp(2.0, 6.0);
+            mo.change = Some((mo.pos.lane, to, l.t0, l.t0 + len));
+        }
+        Ok(())
+    }
+
+    /// `lane(…, at: end)`: a lane goal against a reference (judged on the
+    /// simulated state), and the change to that lane or to lane `lane`.
+    fn lane_goal(
+        &mut self,
+        l: &RLeaf,
+        lane: Option<f64>,
+        reference: Option<&(LaneRelation, String)>,
+        strict: bool,
+    ) {
+        let (net, placed) = (self.cx.net, self.cx.placed);
+        if let Some((rel, o)) = reference {
+            self.out.lane_goals.push(LaneGoal {
+                actor: self.id.clone(),
+                reference: o.clone(),
+                relation: *rel,
+                t0: l.t0,
+                t1: l.t1,
+                strict,
+                at: l.at.clone(),
+            });
+        }
+        let mo = &mut self.mo;
+        let to = match reference {
+            Some((rel, o)) => placed.get(o).map(|m| m.pos).and_then(|olp| {
+                let base = LanePos {
+                    s: mo.pos.s,
+                    road: mo.pos.road,
+                    lane: olp.lane,
+                };
+                match rel {
+                    LaneRelation::SameAs => Some(olp.lane),
+                    r => net.lane_beside(base, r.offset()),
+                }
+            }),
+            None => lane.and_then(|n| {
+                let lanes = net.lanes_same_way(mo.pos.road, mo.pos.s, net.travels_forward(mo.pos));
+                lanes.get(lane_index(lanes.len(), n)).copied()
+            }),
+        };
+        if let Some(to) = to
+            && to != mo.pos.lane
+        {
+            let len = (l.t1 - l.t0).clamp(2.0, 6.0);
+            mo.change = Some((mo.pos.lane, to, l.t0, l.t0 + len));
+        }
+    }
+
+    /// The speed of the sample at `t`.
+    fn speed(&mut self, t: f64) {
+        let mo = &mut self.mo;
+        if self.stationary || self.dead_end {
+            mo.v = 0.0;
+        } else if let Some((v0, v1, t1)) = self.end_speed {
+            let l = &self.my[self.started.unwrap_or(0)];
+            let u = ((t - l.t0) / (t1 - l.t0).max(1e-9)).clamp(0.0, 1.0);
+            mo.v = v0 + (v1 - v0) * u;
+            if u >= 1.0 {
+                self.end_speed = None;
+                self.target = Some(v1);
+            }
+        } else if let Some(v) = self.target {
+            let dv = v - mo.v;
+            let step = if dv > 0.0 {
+                self.accel_up
+            } else {
+                self.accel_down
+            } * self.cx.dt;
+            mo.v += dv.clamp(-step, step);
+            if let Some((sv, _)) = &self.strict_speed
+                && (mo.v - sv).abs() < 1e-6
+            {
+                self.strict_speed = None;
+            }
+        }
+    }
+
+    /// The sample at `t` (speed `prev_v` at the last one): the lane-centre
+    /// pose, through a lane change in progress, shifted sideways for a
+    /// person beside the road; and the lane-centre pose at the actor's place
+    /// when this sample computed it (the move reuses it).
+    fn pose(
+        &mut self,
+        t: f64,
+        prev_v: f64,
+        kind: ActorClass,
+    ) -> (PlanSample, Option<litesim_core::Pose>) {
+        let net = self.cx.net;
+        let mo = &mut self.mo;
+        let mut lat_rate = 0.0;
+        let mut centre = None;
+        let p = if let Some((from, to, c0, c1)) = mo.change {
+            let u = ((t - c0) / (c1 - c0)).clamp(0.0, 1.0);
+            let sm = u * u * (3.0 - 2.0 * u);
+            let a = net.lane_pos_pose(
+                LanePos {
+                    lane: from,
+                    ..mo.pos
+                },
+                0.0,
+            );
+            let b = net.lane_pos_pose(LanePos { lane: to, ..mo.pos }, 0.0);
+            let width = a.position.xy().distance(b.position.xy());
+            lat_rate = width * 6.0 * u * (1.0 - u) / (c1 - c0);
+            if b.yaw.is_finite() {
+                let (sa, ca) = math::sin_cos(a.yaw);
+                let side = ((b.position.x - a.position.x) * -sa
+                    + (b.position.y - a.position.y) * ca)
+                    .signum();
+                lat_rate *= side;
+            }
+            if u >= 1.0 {
+                mo.pos.lane = to;
+                mo.change = None;
+            }
+            let mut q = a;
+            q.position.x = a.position.x + (b.position.x - a.position.x) * sm;
+            q.position.y = a.position.y + (b.position.y - a.position.y) * sm;
+            q
+        } else {
+            let c = match self.reached {
+                Some((at, c)) if at == mo.pos => c,
+                _ => net.lane_pos_pose(mo.pos, 0.0),
+            };
+            centre = Some(c);
+            c
+        };
+        let (s_yaw, c_yaw) = math::sin_cos(p.yaw);
+        let x = p.position.x - s_yaw * mo.lateral;
+        let y = p.position.y + c_yaw * mo.lateral;
+        let mut yaw = p.yaw;
+        if mo.across != 0.0 {
+            yaw = wrap_angle(p.yaw + mo.across * std::f64::consts::FRAC_PI_2);
+        } else if mo.v > 0.1 && lat_rate != 0.0 {
+            yaw = wrap_angle(p.yaw + math::atan(lat_rate / mo.v));
+        }
+        if kind == ActorClass::Stationary {
+            yaw = p.yaw;
+        }
+        let sample = PlanSample {
+            t,
+            x,
+            y,
+            yaw,
+            v: mo.v,
+            a: (mo.v - prev_v) / self.cx.dt,
+        };
+        (sample, centre)
+    }
+
+    /// Moves one plan step at the sample's speed: along the lane, or
+    /// across it for a person walking across.
+    fn advance(&mut self, t: f64, centre: Option<litesim_core::Pose>) {
+        let net = self.cx.net;
+        let mo = &mut self.mo;
+        if mo.across != 0.0 {
+            mo.lateral += mo.across * mo.v * self.cx.dt;
+            return;
+        }
+        let before = mo.pos;
+        let (to, pose) = net.advance_path_pose(mo.pos, mo.v * self.cx.dt, centre);
+        mo.pos = to;
+        self.reached = pose.map(|c| (to, c));
+        if mo.v > 0.0 && mo.pos == before && !self.dead_end {
+            self.dead_end = true;
+            self.out.notes.push(format!(
+                "{} reaches the end of road {} lane {} at t = {t:.1} s: no lane continues, it stops there",
+                self.id,
+                net.roads()[mo.pos.road].id,
+                mo.pos.lane
+            ));
+        }
+    }
+}
+
+pub(super) fn plans_index(plans: &[ActorPlan]) -> BTreeMap<String, usize> {
+    plans
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (p.id.clone(), i))
+        .collect()
+}
+
+/// Distance an actor's plan covers between two times.
+pub(super) fn travel(p: &ActorPlan, t0: f64, t1: f64, dt: f64) -> f64 {
+    let mut d = 0.0;
+    let mut t = t0;
+    while t < t1 - 1e-9 {
+        let h = dt.min(t1 - t);
+        d += p.at(t, dt).v * h;
+        t += h;
+    }
+    d
+}

@@ -1,0 +1,403 @@
+//! The behaviour tree in time: each leaf's start and end (serial,
+//! parallel with overlap, one_of, durations, waits and untils) and the
+//! arguments evaluated from the solution.
+
+use super::*;
+
+pub(super) struct Leaf<'a> {
+    pub(super) actor: String,
+    pub(super) action: Action,
+    pub(super) label: Option<String>,
+    pub(super) mods: Vec<&'a Modifier>,
+    pub(super) at: String,
+    pub(super) t0: f64,
+    pub(super) t1: f64,
+}
+
+pub(super) struct Timer<'a> {
+    /// The first `duration(…)` out of range, as an error message.
+    pub(super) bad_duration: Option<String>,
+    pub(super) rng: Rng,
+    pub(super) sol: &'a Solution,
+    pub(super) leaves: Vec<Leaf<'a>>,
+    /// Event times known from the previous pass (labels' start/end, emits).
+    pub(super) events: BTreeMap<String, f64>,
+    /// Event times of this pass.
+    pub(super) seen: BTreeMap<String, f64>,
+    /// `one_of` choices and `until elapsed` values, drawn once and kept
+    /// across passes so that the passes converge.
+    pub(super) choice: BTreeMap<*const Node, usize>,
+    pub(super) until_after: BTreeMap<*const Node, Option<f64>>,
+    /// Traffic-light switches: time, light path, colour, place.
+    pub(super) switches: Vec<(f64, String, &'a CExpr, String)>,
+    /// Times at which state conditions hold, from the previous plan.
+    pub(super) cond_events: &'a BTreeMap<String, f64>,
+    /// State conditions met in this layout: key, start time, condition.
+    pub(super) conds: Vec<(String, f64, &'a CExpr)>,
+}
+
+/// Evaluates an argument to a value: variables from the solution, ranges sampled.
+pub fn eval(e: &CExpr, sol: &Solution, rng: &mut Rng) -> Option<Value> {
+    match e {
+        CExpr::Const(v) => Some(v.clone()),
+        CExpr::Var(p) => sol
+            .values
+            .get(p)
+            .cloned()
+            .or_else(|| sol.roads.get(p).map(|r| Value::Str(r.clone()))),
+        CExpr::Range(a, b) => Some(Value::Num(sample(
+            a.unwrap_or(f64::NEG_INFINITY),
+            b.unwrap_or(f64::INFINITY),
+            rng,
+        ))),
+        CExpr::List(items) if !items.is_empty() => {
+            let i = (rng.next_u64() % items.len() as u64) as usize;
+            eval(&items[i], sol, rng)
+        }
+        CExpr::Unary(op, x) if op == "-" => eval(x, sol, rng)?.num().map(|v| Value::Num(-v)),
+        _ => None,
+    }
+}
+
+pub(super) fn mods_of(n: &Node) -> &[Modifier] {
+    match n {
+        Node::Serial { mods, .. }
+        | Node::Parallel { mods, .. }
+        | Node::OneOf { mods, .. }
+        | Node::Action { mods, .. } => mods,
+        _ => &[],
+    }
+}
+
+impl<'a> Timer<'a> {
+    pub(super) fn explicit(&mut self, n: &Node) -> Option<f64> {
+        let m = mods_of(n).iter().find(|m| m.name == "duration")?;
+        let e = m.args.get("duration")?;
+        let d = eval(e, self.sol, &mut self.rng)?.num()?;
+        // A phase lasts longer than nothing and at most the test's limit:
+        // `duration(-5s)` or `duration(0s)` is a mistake to report, not a
+        // phase to skip (the first one found is reported).
+        if !(d > 0.0 && d <= MAX_DURATION_S) && self.bad_duration.is_none() {
+            self.bad_duration = Some(format!(
+                "{}: duration({d} s) is out of range: a phase lasts more than 0 s and at most {MAX_DURATION_S} s",
+                m.at
+            ));
+        }
+        Some(d).filter(|d| *d >= 0.0)
+    }
+
+    /// Natural duration: explicit, or from the children.
+    pub(super) fn natural(
+        &mut self,
+        n: &Node,
+        memo: &mut BTreeMap<*const Node, Option<f64>>,
+    ) -> Option<f64> {
+        let key = n as *const Node;
+        if let Some(v) = memo.get(&key) {
+            return *v;
+        }
+        let v = if let Some(d) = self.explicit(n) {
+            Some(d)
+        } else {
+            match n {
+                Node::Serial { children, .. } => {
+                    let mut sum = 0.0;
+                    let mut any = false;
+                    for c in children {
+                        if let Some(d) = self.natural(c, memo) {
+                            sum += d;
+                            any = true;
+                        }
+                    }
+                    any.then_some(sum)
+                }
+                Node::Parallel { children, .. } | Node::OneOf { children, .. } => children
+                    .iter()
+                    .filter_map(|c| self.natural(c, memo))
+                    .reduce(f64::max),
+                Node::Wait { duration, .. } => duration
+                    .as_ref()
+                    .and_then(|e| eval(e, self.sol, &mut self.rng))
+                    .and_then(|v| v.num()),
+                Node::Emit { .. } | Node::Switch { .. } => Some(0.0),
+                Node::Action { .. } => None,
+            }
+        };
+        memo.insert(key, v);
+        v
+    }
+
+    /// Lays `n` out from `t0`; `forced` is the duration a parent imposes.
+    pub(super) fn assign(
+        &mut self,
+        n: &'a Node,
+        t0: f64,
+        forced: Option<f64>,
+        memo: &mut BTreeMap<*const Node, Option<f64>>,
+    ) -> f64 {
+        let own = memo.get(&(n as *const Node)).copied().flatten();
+        let mut dur = forced.or(own);
+        // `until`: an event's planned time or an elapsed time ends the node early.
+        for m in mods_of(n).iter().filter(|m| m.name == "until") {
+            let cut = if let Some(CExpr::Const(Value::Str(e))) = m.args.get("event") {
+                self.events.get(e).map(|te| te - t0).filter(|d| *d >= 0.0)
+            } else if let Some(e) = m.args.get("elapsed") {
+                let key = n as *const Node;
+                if !self.until_after.contains_key(&key) {
+                    let v = eval(e, self.sol, &mut self.rng).and_then(|v| v.num());
+                    self.until_after.insert(key, v);
+                }
+                self.until_after[&key].filter(|d| *d >= 0.0)
+            } else if let Some(c) = m.args.get("cond") {
+                let key = format!("cond@{}", m as *const Modifier as usize);
+                self.conds.push((key.clone(), t0, c));
+                self.cond_events
+                    .get(&key)
+                    .map(|te| te - t0)
+                    .filter(|d| *d >= 0.0)
+            } else {
+                None
+            };
+            if let Some(c) = cut {
+                dur = Some(dur.map_or(c, |d| d.min(c)));
+            }
+        }
+        let end = self.assign_inner(n, t0, dur, memo);
+        let label = match n {
+            Node::Serial { label, .. }
+            | Node::Parallel { label, .. }
+            | Node::OneOf { label, .. }
+            | Node::Action { label, .. } => label.as_ref(),
+            _ => None,
+        };
+        if let Some(l) = label {
+            self.seen.entry(format!("{l}.start")).or_insert(t0);
+            self.seen.entry(format!("{l}.end")).or_insert(end);
+        }
+        end
+    }
+
+    pub(super) fn assign_inner(
+        &mut self,
+        n: &'a Node,
+        t0: f64,
+        dur: Option<f64>,
+        memo: &mut BTreeMap<*const Node, Option<f64>>,
+    ) -> f64 {
+        match n {
+            Node::Action {
+                actor,
+                action,
+                label,
+                mods,
+                at,
+            } => {
+                let d = dur.unwrap_or(DEFAULT_PHASE_S);
+                self.leaves.push(Leaf {
+                    actor: actor.clone(),
+                    action: *action,
+                    label: label.clone(),
+                    mods: mods.iter().collect(),
+                    at: at.clone(),
+                    t0,
+                    t1: t0 + d,
+                });
+                t0 + d
+            }
+            Node::Serial { children, .. } => {
+                // Children without their own duration share what is left.
+                let known: f64 = children
+                    .iter()
+                    .filter_map(|c| memo.get(&(c as *const Node)).copied().flatten())
+                    .sum();
+                let open = children
+                    .iter()
+                    .filter(|c| memo.get(&(*c as *const Node)).copied().flatten().is_none())
+                    .count();
+                let share = match dur {
+                    Some(d) if open > 0 => Some(((d - known) / open as f64).max(0.0)),
+                    _ => None,
+                };
+                let mut t = t0;
+                for c in children {
+                    let cd = memo.get(&(c as *const Node)).copied().flatten();
+                    t = self.assign(c, t, cd.or(share), memo);
+                }
+                t
+            }
+            Node::Parallel {
+                children, overlap, ..
+            } => {
+                let d = dur.unwrap_or(DEFAULT_PHASE_S);
+                for c in children {
+                    let cd = memo.get(&(c as *const Node)).copied().flatten();
+                    match overlap.as_str() {
+                        "equal" | "full" => {
+                            self.assign(c, t0, Some(d), memo);
+                        }
+                        "end" | "final" => {
+                            let cd = cd.unwrap_or(d).min(d);
+                            self.assign(c, t0 + d - cd, Some(cd), memo);
+                        }
+                        _ => {
+                            self.assign(c, t0, Some(cd.unwrap_or(d).min(d)), memo);
+                        }
+                    }
+                }
+                t0 + d
+            }
+            Node::OneOf { children, .. } => {
+                if children.is_empty() {
+                    return t0;
+                }
+                let key = n as *const Node;
+                let i = match self.choice.get(&key) {
+                    Some(i) => *i,
+                    None => {
+                        let i = (self.rng.next_u64() % children.len() as u64) as usize;
+                        self.choice.insert(key, i);
+                        i
+                    }
+                };
+                self.assign(&children[i], t0, dur, memo)
+            }
+            Node::Wait { event: Some(e), .. } => match self.events.get(e) {
+                Some(te) if *te > t0 => *te,
+                _ => t0 + dur.unwrap_or(0.0),
+            },
+            Node::Wait { cond: Some(c), .. } => {
+                let key = format!("cond@{}", n as *const Node as usize);
+                self.conds.push((key.clone(), t0, c));
+                match self.cond_events.get(&key) {
+                    Some(te) if *te > t0 => *te,
+                    _ => t0,
+                }
+            }
+            Node::Emit { event } => {
+                self.seen.entry(event.clone()).or_insert(t0);
+                t0
+            }
+            Node::Switch { light, color, at } => {
+                self.switches.push((t0, light.clone(), color, at.clone()));
+                t0
+            }
+            Node::Wait { .. } => t0 + dur.unwrap_or(0.0),
+        }
+    }
+}
+
+/// The behaviour tree laid out in time.
+pub(super) struct Layout<'a> {
+    /// How long the behaviour lasts (s).
+    pub(super) duration: f64,
+    /// The leaves with their times, in tree order.
+    pub(super) leaves: Vec<Leaf<'a>>,
+    /// Traffic-light switches: time, light path, colour, place.
+    pub(super) switches: Vec<(f64, String, &'a CExpr, String)>,
+    /// State conditions met: key, start time, condition.
+    pub(super) conds: Vec<(String, f64, CExpr)>,
+    /// Event times (labels' start/end, emits).
+    pub(super) events: BTreeMap<String, f64>,
+}
+
+/// Lays the tree under `root` out in time with the state-condition times
+/// `cond_events` (at least one step `step_s` long); `rng` draws the
+/// `one_of` choices and ranges.
+pub(super) fn lay_out<'a>(
+    root: &'a Node,
+    sol: &'a Solution,
+    rng: &mut Rng,
+    cond_events: &'a BTreeMap<String, f64>,
+    step_s: f64,
+) -> Result<Layout<'a>, ScenarioError> {
+    let mut timer = Timer {
+        rng: rng.clone(),
+        sol,
+        leaves: Vec::new(),
+        events: BTreeMap::new(),
+        seen: BTreeMap::new(),
+        choice: BTreeMap::new(),
+        until_after: BTreeMap::new(),
+        switches: Vec::new(),
+        bad_duration: None,
+        cond_events,
+        conds: Vec::new(),
+    };
+    let mut memo = BTreeMap::new();
+    fn visit<'a>(t: &mut Timer<'a>, n: &'a Node, memo: &mut BTreeMap<*const Node, Option<f64>>) {
+        t.natural(n, memo);
+        if let Node::Serial { children, .. }
+        | Node::Parallel { children, .. }
+        | Node::OneOf { children, .. } = n
+        {
+            for c in children {
+                visit(t, c, memo);
+            }
+        }
+    }
+    visit(&mut timer, root, &mut memo);
+    // Waits and untils read event times that the layout itself produces:
+    // lay out again with the last pass's times until they stop changing.
+    let mut duration = 0.0;
+    for _ in 0..16 {
+        timer.leaves.clear();
+        timer.seen.clear();
+        timer.switches.clear();
+        timer.conds.clear();
+        duration = timer.assign(root, 0.0, None, &mut memo).max(step_s);
+        if timer.seen == timer.events {
+            break;
+        }
+        timer.events = std::mem::take(&mut timer.seen);
+    }
+    if let Some(msg) = timer.bad_duration.take() {
+        return Err(ScenarioError::Plan(msg));
+    }
+    if duration.is_nan() || duration > MAX_DURATION_S {
+        return Err(ScenarioError::Plan(format!(
+            "the behaviour lasts {duration} s; litesim plans at most {MAX_DURATION_S} s per test (check the `duration` modifiers)"
+        )));
+    }
+    *rng = timer.rng;
+    let conds: Vec<(String, f64, CExpr)> = timer
+        .conds
+        .into_iter()
+        .map(|(k, t, c)| (k, t, c.clone()))
+        .collect();
+    Ok(Layout {
+        duration,
+        leaves: timer.leaves,
+        switches: timer.switches,
+        conds,
+        events: timer.events,
+    })
+}
+
+/// The traffic-light switches with their lights (from the solution) and
+/// colours, in time order.
+pub(super) fn light_switches(
+    switches: Vec<(f64, String, &CExpr, String)>,
+    sol: &Solution,
+    rng: &mut Rng,
+) -> Result<Vec<LightSwitch>, ScenarioError> {
+    let mut lights = Vec::new();
+    for (t, path, color, at) in switches {
+        let light = sol
+            .values
+            .get(&format!("{path}.light_id"))
+            .and_then(|v| v.text().map(String::from))
+            .ok_or_else(|| {
+                ScenarioError::Plan(format!(
+                    "{at}: traffic light '{path}' names no light: add `keep(it.light_id == \"…\")` with a signal or controller id of the map"
+                ))
+            })?;
+        let color = eval(color, sol, rng)
+            .and_then(|v| v.text().map(String::from))
+            .ok_or_else(|| {
+                ScenarioError::Plan(format!("{at}: switch needs red, yellow or green"))
+            })?;
+        lights.push(LightSwitch { t, light, color });
+    }
+    lights.sort_by(|a, b| a.t.total_cmp(&b.t));
+    Ok(lights)
+}
