@@ -140,6 +140,10 @@ pub struct Modifier {
 pub enum Node {
     /// Children one after another.
     Serial {
+        /// Stable id: the node's place in a pre-order walk of the tree
+        /// (numbered once elaboration is done; [`Node::id`]).
+        #[serde(skip)]
+        id: u32,
         /// Label.
         label: Option<String>,
         /// Children.
@@ -149,6 +153,10 @@ pub enum Node {
     },
     /// Children at the same time.
     Parallel {
+        /// Stable id: the node's place in a pre-order walk of the tree
+        /// (numbered once elaboration is done; [`Node::id`]).
+        #[serde(skip)]
+        id: u32,
         /// Label.
         label: Option<String>,
         /// Children.
@@ -160,6 +168,10 @@ pub enum Node {
     },
     /// One child, chosen under the seed.
     OneOf {
+        /// Stable id: the node's place in a pre-order walk of the tree
+        /// (numbered once elaboration is done; [`Node::id`]).
+        #[serde(skip)]
+        id: u32,
         /// Label.
         label: Option<String>,
         /// Children.
@@ -169,6 +181,10 @@ pub enum Node {
     },
     /// An action of one actor.
     Action {
+        /// Stable id: the node's place in a pre-order walk of the tree
+        /// (numbered once elaboration is done; [`Node::id`]).
+        #[serde(skip)]
+        id: u32,
         /// Label.
         label: Option<String>,
         /// Actor id.
@@ -183,6 +199,10 @@ pub enum Node {
     /// `wait elapsed(t)` or `wait @event` (the event's planned time);
     /// conditions over states end at once in a plan.
     Wait {
+        /// Stable id: the node's place in a pre-order walk of the tree
+        /// (numbered once elaboration is done; [`Node::id`]).
+        #[serde(skip)]
+        id: u32,
         /// Duration (s), when it is `elapsed(t)`.
         duration: Option<CExpr>,
         /// Event path (`go`, `first.end`), when it waits for one.
@@ -193,6 +213,10 @@ pub enum Node {
     },
     /// `light.switch(color)`: a traffic light changes colour at this time.
     Switch {
+        /// Stable id: the node's place in a pre-order walk of the tree
+        /// (numbered once elaboration is done; [`Node::id`]).
+        #[serde(skip)]
+        id: u32,
         /// Path of the `traffic_light` variable.
         light: String,
         /// The colour (an enum member).
@@ -202,9 +226,50 @@ pub enum Node {
     },
     /// `emit e`.
     Emit {
+        /// Stable id: the node's place in a pre-order walk of the tree
+        /// (numbered once elaboration is done; [`Node::id`]).
+        #[serde(skip)]
+        id: u32,
         /// Event name.
         event: String,
     },
+}
+
+impl Node {
+    /// The node's stable id (its place in a pre-order walk of the tree):
+    /// what planning keys per-node state and conditions by.
+    pub fn id(&self) -> u32 {
+        match self {
+            Node::Serial { id, .. }
+            | Node::Parallel { id, .. }
+            | Node::OneOf { id, .. }
+            | Node::Action { id, .. }
+            | Node::Wait { id, .. }
+            | Node::Switch { id, .. }
+            | Node::Emit { id, .. } => *id,
+        }
+    }
+
+    /// Numbers the tree in pre-order from `next`.
+    fn number(&mut self, next: &mut u32) {
+        let (Node::Serial { id, .. }
+        | Node::Parallel { id, .. }
+        | Node::OneOf { id, .. }
+        | Node::Action { id, .. }
+        | Node::Wait { id, .. }
+        | Node::Switch { id, .. }
+        | Node::Emit { id, .. }) = self;
+        *id = *next;
+        *next += 1;
+        if let Node::Serial { children, .. }
+        | Node::Parallel { children, .. }
+        | Node::OneOf { children, .. } = self
+        {
+            for c in children {
+                c.number(next);
+            }
+        }
+    }
 }
 
 /// Run configuration from `test_config` and `sim_info`.
@@ -480,7 +545,10 @@ pub fn elaborate(prog: &Program) -> Result<Test, ScenarioError> {
         ns: "top".into(),
         ..Scope::default()
     };
-    let root = e.body(&main, scope)?;
+    let mut root = e.body(&main, scope)?;
+    if let Some(r) = &mut root {
+        r.number(&mut 0);
+    }
     e.test.root = root;
     Ok(e.test)
 }
@@ -1090,17 +1158,20 @@ impl Elab<'_> {
                 self.mods(with, sc, &mut mods);
                 Some(match op.as_str() {
                     "parallel" => Node::Parallel {
+                        id: 0,
                         label,
                         children: kids,
                         mods,
                         overlap,
                     },
                     "one_of" => Node::OneOf {
+                        id: 0,
                         label,
                         children: kids,
                         mods,
                     },
                     _ => Node::Serial {
+                        id: 0,
                         label,
                         children: kids,
                         mods,
@@ -1140,7 +1211,12 @@ impl Elab<'_> {
                     let color = bound.get("color").cloned().ok_or_else(|| {
                         ScenarioError::Elaboration(format!("{at}: switch needs a color"))
                     })?;
-                    return Ok(Some(Node::Switch { light, color, at }));
+                    return Ok(Some(Node::Switch {
+                        id: 0,
+                        light,
+                        color,
+                        at,
+                    }));
                 }
                 if let Some(action) = crate::intent::Action::parse(&name) {
                     let actor = base.and_then(|b| self.actor_of(b, sc)).ok_or_else(|| {
@@ -1150,6 +1226,7 @@ impl Elab<'_> {
                     })?;
                     self.mods(with, sc, &mut mods);
                     Some(Node::Action {
+                        id: 0,
                         label,
                         actor,
                         action,
@@ -1189,6 +1266,7 @@ impl Elab<'_> {
                     }
                     self.mods(with, sc, &mut mods);
                     Some(Node::Serial {
+                        id: 0,
                         label,
                         children: sub.into_iter().collect(),
                         mods,
@@ -1212,6 +1290,7 @@ impl Elab<'_> {
                     None => (None, None),
                 };
                 Some(Node::Wait {
+                    id: 0,
                     duration,
                     event,
                     cond,
@@ -1223,6 +1302,7 @@ impl Elab<'_> {
                     other => other,
                 };
                 Some(Node::Emit {
+                    id: 0,
                     event: event_name(e).unwrap_or_default(),
                 })
             }

@@ -1166,3 +1166,27 @@ fn an_observed_run_streams_the_same_mcap_as_its_finished_log() {
         );
     }
 }
+
+/// Conditions (and every per-node state of planning) are keyed by the
+/// node's place in the tree, not its address: two elaborations of the same
+/// file give byte-identical plans, keys included.
+#[test]
+fn plan_keys_are_stable_ids_not_addresses() {
+    let a = go("state_conditions", 3, DriveMode::Kinematic);
+    // Something allocated in between moves the second tree elsewhere.
+    let _spacer: Vec<Vec<u8>> = (0..64).map(|i| vec![0u8; 1000 + i]).collect();
+    let b = go("state_conditions", 3, DriveMode::Kinematic);
+    let keys: Vec<&str> = a.plan.conditions.iter().map(|c| c.key.as_str()).collect();
+    assert!(!keys.is_empty(), "the example has state conditions");
+    for k in &keys {
+        let ok = k
+            .strip_prefix("wait@")
+            .or_else(|| k.strip_prefix("until@"))
+            .is_some_and(|rest| rest.split('.').all(|p| p.parse::<u32>().is_ok_and(|n| n < 1000)));
+        assert!(ok, "condition key {k:?} is not a node id");
+    }
+    assert_eq!(
+        serde_json::to_string(&a.plan).unwrap(),
+        serde_json::to_string(&b.plan).unwrap()
+    );
+}

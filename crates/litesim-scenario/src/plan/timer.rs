@@ -26,8 +26,8 @@ pub(super) struct Timer<'a> {
     pub(super) seen: BTreeMap<String, f64>,
     /// `one_of` choices and `until elapsed` values, drawn once and kept
     /// across passes so that the passes converge.
-    pub(super) choice: BTreeMap<*const Node, usize>,
-    pub(super) until_after: BTreeMap<*const Node, Option<f64>>,
+    pub(super) choice: BTreeMap<u32, usize>,
+    pub(super) until_after: BTreeMap<u32, Option<f64>>,
     /// Traffic-light switches: time, light path, colour, place.
     pub(super) switches: Vec<(f64, String, &'a CExpr, String)>,
     /// Times at which state conditions hold, from the previous plan.
@@ -90,9 +90,9 @@ impl<'a> Timer<'a> {
     pub(super) fn natural(
         &mut self,
         n: &Node,
-        memo: &mut BTreeMap<*const Node, Option<f64>>,
+        memo: &mut BTreeMap<u32, Option<f64>>,
     ) -> Option<f64> {
-        let key = n as *const Node;
+        let key = n.id();
         if let Some(v) = memo.get(&key) {
             return *v;
         }
@@ -133,23 +133,23 @@ impl<'a> Timer<'a> {
         n: &'a Node,
         t0: f64,
         forced: Option<f64>,
-        memo: &mut BTreeMap<*const Node, Option<f64>>,
+        memo: &mut BTreeMap<u32, Option<f64>>,
     ) -> f64 {
-        let own = memo.get(&(n as *const Node)).copied().flatten();
+        let own = memo.get(&n.id()).copied().flatten();
         let mut dur = forced.or(own);
         // `until`: an event's planned time or an elapsed time ends the node early.
-        for m in mods_of(n).iter().filter(|m| m.name == "until") {
+        for (k, m) in mods_of(n).iter().filter(|m| m.name == "until").enumerate() {
             let cut = if let Some(CExpr::Const(Value::Str(e))) = m.args.get("event") {
                 self.events.get(e).map(|te| te - t0).filter(|d| *d >= 0.0)
             } else if let Some(e) = m.args.get("elapsed") {
-                let key = n as *const Node;
+                let key = n.id();
                 if !self.until_after.contains_key(&key) {
                     let v = eval(e, self.sol, &mut self.rng).and_then(|v| v.num());
                     self.until_after.insert(key, v);
                 }
                 self.until_after[&key].filter(|d| *d >= 0.0)
             } else if let Some(c) = m.args.get("cond") {
-                let key = format!("cond@{}", m as *const Modifier as usize);
+                let key = format!("until@{}.{k}", n.id());
                 self.conds.push((key.clone(), t0, c));
                 self.cond_events
                     .get(&key)
@@ -182,7 +182,7 @@ impl<'a> Timer<'a> {
         n: &'a Node,
         t0: f64,
         dur: Option<f64>,
-        memo: &mut BTreeMap<*const Node, Option<f64>>,
+        memo: &mut BTreeMap<u32, Option<f64>>,
     ) -> f64 {
         match n {
             Node::Action {
@@ -191,6 +191,7 @@ impl<'a> Timer<'a> {
                 label,
                 mods,
                 at,
+                ..
             } => {
                 let d = dur.unwrap_or(DEFAULT_PHASE_S);
                 self.leaves.push(Leaf {
@@ -208,11 +209,11 @@ impl<'a> Timer<'a> {
                 // Children without their own duration share what is left.
                 let known: f64 = children
                     .iter()
-                    .filter_map(|c| memo.get(&(c as *const Node)).copied().flatten())
+                    .filter_map(|c| memo.get(&c.id()).copied().flatten())
                     .sum();
                 let open = children
                     .iter()
-                    .filter(|c| memo.get(&(*c as *const Node)).copied().flatten().is_none())
+                    .filter(|c| memo.get(&c.id()).copied().flatten().is_none())
                     .count();
                 let share = match dur {
                     Some(d) if open > 0 => Some(((d - known) / open as f64).max(0.0)),
@@ -220,7 +221,7 @@ impl<'a> Timer<'a> {
                 };
                 let mut t = t0;
                 for c in children {
-                    let cd = memo.get(&(c as *const Node)).copied().flatten();
+                    let cd = memo.get(&c.id()).copied().flatten();
                     t = self.assign(c, t, cd.or(share), memo);
                 }
                 t
@@ -230,7 +231,7 @@ impl<'a> Timer<'a> {
             } => {
                 let d = dur.unwrap_or(DEFAULT_PHASE_S);
                 for c in children {
-                    let cd = memo.get(&(c as *const Node)).copied().flatten();
+                    let cd = memo.get(&c.id()).copied().flatten();
                     match overlap.as_str() {
                         "equal" | "full" => {
                             self.assign(c, t0, Some(d), memo);
@@ -250,7 +251,7 @@ impl<'a> Timer<'a> {
                 if children.is_empty() {
                     return t0;
                 }
-                let key = n as *const Node;
+                let key = n.id();
                 let i = match self.choice.get(&key) {
                     Some(i) => *i,
                     None => {
@@ -266,18 +267,20 @@ impl<'a> Timer<'a> {
                 _ => t0 + dur.unwrap_or(0.0),
             },
             Node::Wait { cond: Some(c), .. } => {
-                let key = format!("cond@{}", n as *const Node as usize);
+                let key = format!("wait@{}", n.id());
                 self.conds.push((key.clone(), t0, c));
                 match self.cond_events.get(&key) {
                     Some(te) if *te > t0 => *te,
                     _ => t0,
                 }
             }
-            Node::Emit { event } => {
+            Node::Emit { event, .. } => {
                 self.seen.entry(event.clone()).or_insert(t0);
                 t0
             }
-            Node::Switch { light, color, at } => {
+            Node::Switch {
+                light, color, at, ..
+            } => {
                 self.switches.push((t0, light.clone(), color, at.clone()));
                 t0
             }
@@ -324,7 +327,7 @@ pub(super) fn lay_out<'a>(
         conds: Vec::new(),
     };
     let mut memo = BTreeMap::new();
-    fn visit<'a>(t: &mut Timer<'a>, n: &'a Node, memo: &mut BTreeMap<*const Node, Option<f64>>) {
+    fn visit<'a>(t: &mut Timer<'a>, n: &'a Node, memo: &mut BTreeMap<u32, Option<f64>>) {
         t.natural(n, memo);
         if let Node::Serial { children, .. }
         | Node::Parallel { children, .. }
