@@ -126,7 +126,9 @@ pub struct VarDef {
 /// A modifier application with its arguments bound to parameter names.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Modifier {
-    /// Modifier name (`speed`, `along`, …).
+    /// What it is (decoded from the name here, once).
+    pub kind: crate::intent::ModKind,
+    /// Modifier name as written (`speed`, `along`, …), for messages.
     pub name: String,
     /// Arguments by parameter name.
     pub args: BTreeMap<String, CExpr>,
@@ -1077,6 +1079,7 @@ impl Elab<'_> {
                     let mut bound = self.bind(args, &params, sc);
                     self.lib.ints_drawn(&key, &mut bound);
                     out.push(Modifier {
+                        kind: crate::intent::ModKind::of(&name),
                         args: bound,
                         name,
                         at: self.lib.at(*span),
@@ -1100,6 +1103,7 @@ impl Elab<'_> {
                     };
                     match arg {
                         Some((k, v)) => out.push(Modifier {
+                            kind: crate::intent::ModKind::Until,
                             name: "until".into(),
                             args: BTreeMap::from([(k, v)]),
                             at,
@@ -1150,6 +1154,7 @@ impl Elab<'_> {
                 };
                 if let Some(dur) = bound.get("duration") {
                     mods.push(Modifier {
+                        kind: crate::intent::ModKind::Duration,
                         name: "duration".into(),
                         args: BTreeMap::from([("duration".to_string(), dur.clone())]),
                         at: self.lib.at(d.span),

@@ -67,6 +67,54 @@ impl std::fmt::Display for LaneRelation {
     }
 }
 
+/// What a modifier is, decoded from its name once, when the test is
+/// elaborated: the one place that reads a modifier's name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModKind {
+    /// `duration(t)` of a phase.
+    Duration,
+    /// `until …` of a phase (event, elapsed time or condition).
+    Until,
+    /// `speed(v)`.
+    Speed,
+    /// `change_speed(v)`.
+    ChangeSpeed,
+    /// `acceleration(a)`.
+    Acceleration,
+    /// `position(…)`.
+    Position,
+    /// `lane(…)`.
+    Lane,
+    /// `change_lane(…)`.
+    ChangeLane,
+    /// `lateral(…)`.
+    Lateral,
+    /// `along(…)`.
+    Along,
+    /// Any other modifier: planning has no use for it (a note names it).
+    Other,
+}
+
+impl ModKind {
+    /// The kind of the modifier called `name`.
+    pub fn of(name: &str) -> Self {
+        match name {
+            "duration" => ModKind::Duration,
+            "until" => ModKind::Until,
+            "speed" => ModKind::Speed,
+            "change_speed" => ModKind::ChangeSpeed,
+            "acceleration" => ModKind::Acceleration,
+            "position" => ModKind::Position,
+            "lane" => ModKind::Lane,
+            "change_lane" => ModKind::ChangeLane,
+            "lateral" => ModKind::Lateral,
+            "along" => ModKind::Along,
+            _ => ModKind::Other,
+        }
+    }
+}
+
 /// When within its phase a modifier applies (`at:`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -266,11 +314,12 @@ pub enum Intent {
 }
 
 impl Intent {
-    /// Decodes one modifier: its name, `at:` text, evaluated values and the
-    /// actors its parameters name. `None` for a `speed`/`change_speed` or
-    /// `acceleration` without a value (they ask for nothing).
+    /// Decodes one modifier: its kind (and name, kept for notes), `at:`
+    /// text, evaluated values and the actors its parameters name. `None`
+    /// for a `speed`/`change_speed` or `acceleration` without a value (they
+    /// ask for nothing).
     pub fn decode(
-        name: &str,
+        (kind, name): (ModKind, &str),
         at: &str,
         vals: &BTreeMap<String, Value>,
         refs: &BTreeMap<String, String>,
@@ -284,18 +333,18 @@ impl Intent {
             Some("right") => Side::Right,
             _ => default,
         };
-        Some(match name {
-            "speed" | "change_speed" => Intent::Speed {
+        Some(match kind {
+            ModKind::Speed | ModKind::ChangeSpeed => Intent::Speed {
                 speed: num("speed")?,
                 at,
-                strict: strict && name == "speed",
-                change: name == "change_speed",
+                strict: strict && kind == ModKind::Speed,
+                change: kind == ModKind::ChangeSpeed,
             },
-            "acceleration" => Intent::Acceleration {
+            ModKind::Acceleration => Intent::Acceleration {
                 accel: num("acceleration")?,
                 at,
             },
-            "position" => Intent::Position {
+            ModKind::Position => Intent::Position {
                 distance: num("distance"),
                 time: num("time"),
                 reference: refs
@@ -305,7 +354,7 @@ impl Intent {
                 at,
                 strict,
             },
-            "lane" => Intent::Lane {
+            ModKind::Lane => Intent::Lane {
                 // `from: left` (CARLA's numbering) as a negative number.
                 lane: num("lane").map(|n| {
                     if text("from").as_deref() == Some("left") {
@@ -326,26 +375,26 @@ impl Intent {
                 at,
                 strict,
             },
-            "change_lane" => Intent::ChangeLane {
+            ModKind::ChangeLane => Intent::ChangeLane {
                 lanes: num("lane_changes")
                     .or_else(|| num("num_of_lanes"))
                     .unwrap_or(1.0) as i32,
                 side: side(Side::Left),
                 at,
             },
-            "lateral" => Intent::Lateral {
+            ModKind::Lateral => Intent::Lateral {
                 distance: num("distance").unwrap_or(2.0),
                 side: side(Side::Right),
                 side_of: refs.get("side_of").cloned(),
                 at,
             },
-            "along" => Intent::Along {
+            ModKind::Along => Intent::Along {
                 road: text("road"),
                 start_offset: num("start_offset"),
                 at,
             },
-            other => Intent::Other {
-                name: other.to_string(),
+            ModKind::Duration | ModKind::Until | ModKind::Other => Intent::Other {
+                name: name.to_string(),
                 at,
             },
         })
@@ -424,6 +473,11 @@ impl Intent {
 mod tests {
     use super::*;
 
+    /// A modifier as elaboration hands it over.
+    fn d(name: &str) -> (ModKind, &str) {
+        (ModKind::of(name), name)
+    }
+
     fn vals(kv: &[(&str, Value)]) -> BTreeMap<String, Value> {
         kv.iter().map(|(k, v)| (k.to_string(), v.clone())).collect()
     }
@@ -437,7 +491,7 @@ mod tests {
     #[test]
     fn modifiers_decode_to_their_types() {
         let s = Intent::decode(
-            "speed",
+            d("speed"),
             "end",
             &vals(&[("speed", Value::Num(5.0))]),
             &refs(&[]),
@@ -456,21 +510,24 @@ mod tests {
             ("run_mode", Value::Enum("best_effort".into())),
         ]);
         assert!(matches!(
-            Intent::decode("speed", "all", &best, &refs(&[])),
+            Intent::decode(d("speed"), "all", &best, &refs(&[])),
             Some(Intent::Speed { strict: false, .. })
         ));
         assert!(matches!(
             Intent::decode(
-                "change_speed",
+                d("change_speed"),
                 "all",
                 &vals(&[("speed", Value::Num(1.0))]),
                 &refs(&[])
             ),
             Some(Intent::Speed { strict: false, .. })
         ));
-        assert_eq!(Intent::decode("speed", "all", &vals(&[]), &refs(&[])), None);
+        assert_eq!(
+            Intent::decode(d("speed"), "all", &vals(&[]), &refs(&[])),
+            None
+        );
         let p = Intent::decode(
-            "position",
+            d("position"),
             "end",
             &vals(&[("distance", Value::Num(5.0))]),
             &refs(&[("behind", "sut.car")]),
@@ -478,10 +535,10 @@ mod tests {
         .unwrap();
         assert_eq!(p.reference(RefKind::Behind), Some("sut.car"));
         assert_eq!(p.reference(RefKind::AheadOf), None);
-        let l = Intent::decode("lane", "start", &vals(&[]), &refs(&[("left_of", "a")])).unwrap();
+        let l = Intent::decode(d("lane"), "start", &vals(&[]), &refs(&[("left_of", "a")])).unwrap();
         assert_eq!(l.reference(RefKind::LeftOf), Some("a"));
         assert_eq!(l.references().collect::<Vec<_>>(), ["a"]);
-        let c = Intent::decode("change_lane", "all", &vals(&[]), &refs(&[])).unwrap();
+        let c = Intent::decode(d("change_lane"), "all", &vals(&[]), &refs(&[])).unwrap();
         assert_eq!(
             c,
             Intent::ChangeLane {

@@ -1182,7 +1182,10 @@ fn plan_keys_are_stable_ids_not_addresses() {
         let ok = k
             .strip_prefix("wait@")
             .or_else(|| k.strip_prefix("until@"))
-            .is_some_and(|rest| rest.split('.').all(|p| p.parse::<u32>().is_ok_and(|n| n < 1000)));
+            .is_some_and(|rest| {
+                rest.split('.')
+                    .all(|p| p.parse::<u32>().is_ok_and(|n| n < 1000))
+            });
         assert!(ok, "condition key {k:?} is not a node id");
     }
     assert_eq!(

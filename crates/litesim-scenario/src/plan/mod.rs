@@ -22,7 +22,7 @@
 use crate::elab::{ActorDef, CExpr, Modifier, Node, Test, Value};
 use crate::error::ScenarioError;
 use crate::expr::{Edge, Field, Scope};
-use crate::intent::{Action, At, Intent, LaneRelation, RefKind, Side};
+use crate::intent::{Action, At, Intent, LaneRelation, ModKind, RefKind, Side};
 use crate::solve::{Solution, sample};
 use litesim_core::ActorClass;
 use litesim_core::geometry::wrap_angle;

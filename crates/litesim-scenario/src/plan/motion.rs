@@ -69,7 +69,7 @@ pub(super) fn resolve_leaves(
                     vals.insert(k.clone(), v);
                 }
             }
-            if let Some(i) = Intent::decode(&m.name, &at_kind(m), &vals, &refs) {
+            if let Some(i) = Intent::decode((m.kind, &m.name), &at_kind(m), &vals, &refs) {
                 mods.push(i);
                 mod_at.push(m.at.clone());
             }

@@ -71,7 +71,7 @@ pub(super) fn mods_of(n: &Node) -> &[Modifier] {
 
 impl<'a> Timer<'a> {
     pub(super) fn explicit(&mut self, n: &Node) -> Option<f64> {
-        let m = mods_of(n).iter().find(|m| m.name == "duration")?;
+        let m = mods_of(n).iter().find(|m| m.kind == ModKind::Duration)?;
         let e = m.args.get("duration")?;
         let d = eval(e, self.sol, &mut self.rng)?.num()?;
         // A phase lasts longer than nothing and at most the test's limit:
@@ -138,7 +138,11 @@ impl<'a> Timer<'a> {
         let own = memo.get(&n.id()).copied().flatten();
         let mut dur = forced.or(own);
         // `until`: an event's planned time or an elapsed time ends the node early.
-        for (k, m) in mods_of(n).iter().filter(|m| m.name == "until").enumerate() {
+        for (k, m) in mods_of(n)
+            .iter()
+            .filter(|m| m.kind == ModKind::Until)
+            .enumerate()
+        {
             let cut = if let Some(CExpr::Const(Value::Str(e))) = m.args.get("event") {
                 self.events.get(e).map(|te| te - t0).filter(|d| *d >= 0.0)
             } else if let Some(e) = m.args.get("elapsed") {
