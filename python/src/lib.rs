@@ -24,8 +24,17 @@ create_exception!(
     "Something litesim could not do (an unreadable test or map, a run that could not start); the message is litesim's."
 );
 
-fn lerr(e: impl std::fmt::Display) -> PyErr {
-    LitesimError::new_err(e.to_string())
+fn lerr(e: impl std::error::Error) -> PyErr {
+    // The error and its causes, `: `-joined: a map error says where in the
+    // file, an I/O error which file.
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text.push_str(": ");
+        text.push_str(&c.to_string());
+        cause = c.source();
+    }
+    LitesimError::new_err(text)
 }
 
 /// The traceback of a Python exception, as Python prints it.
@@ -556,9 +565,9 @@ fn run(
         ..RunOptions::default()
     };
     let r = py.detach(move || -> Result<litesim_scenario::RunResult, String> {
-        let prep = litesim_scenario::prepare(&test, &load).map_err(|e| e.to_string())?;
+        let prep = litesim_scenario::prepare(&test, &load).map_err(|e| e.chain())?;
         litesim_scenario::run(&prep, &mut litesim_scenario::in_process(), &opts)
-            .map_err(|e| e.to_string())
+            .map_err(|e| e.chain())
     });
     let r = r.map_err(LitesimError::new_err)?;
     let mut log = r.log;

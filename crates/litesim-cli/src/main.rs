@@ -445,10 +445,26 @@ fn main() -> std::process::ExitCode {
     }
 }
 
+/// Reads a text file through litesim's one guarded reader (a regular file
+/// of at most [`litesim_core::files::MAX_INPUT_BYTES`]).
+pub(crate) fn read_text(p: &std::path::Path) -> Result<String> {
+    Ok(litesim_core::files::read_text(
+        p,
+        litesim_core::files::MAX_INPUT_BYTES,
+    )?)
+}
+
+/// Reads a file's bytes through the guarded reader ([`read_text`]).
+pub(crate) fn read_bytes(p: &std::path::Path) -> Result<Vec<u8>> {
+    Ok(litesim_core::files::read_bytes(
+        p,
+        litesim_core::files::MAX_INPUT_BYTES,
+    )?)
+}
+
 /// A bearer token from a file (its content, trimmed); empty is an error.
 fn read_token(f: &std::path::Path) -> Result<String> {
-    let t =
-        std::fs::read_to_string(f).with_context(|| format!("--auth-token-file {}", f.display()))?;
+    let t = read_text(f).context("--auth-token-file")?;
     let t = t.trim().to_string();
     if t.is_empty() || !t.chars().all(|c| c.is_ascii_graphic()) {
         anyhow::bail!(
@@ -472,9 +488,7 @@ pub(crate) fn client_token() -> Result<Option<String>> {
 /// (PEM), over TLS.
 pub(crate) fn connect_server(addr: &str) -> Result<litesim_grpc::RemoteSsp> {
     let ca = std::env::var_os("LITESIM_CA_FILE")
-        .map(|f| {
-            std::fs::read(&f).with_context(|| format!("LITESIM_CA_FILE {}", f.to_string_lossy()))
-        })
+        .map(|f| read_bytes(f.as_ref()).context("LITESIM_CA_FILE"))
         .transpose()?;
     litesim_grpc::RemoteSsp::connect_with(addr, client_token()?.as_deref(), ca.as_deref())
         .map_err(|e| anyhow::anyhow!("{e}"))
@@ -504,7 +518,7 @@ fn run(cli: Cli) -> Result<()> {
             let tls = match (tls_cert, tls_key) {
                 (Some(c), Some(k)) => {
                     let read = |f: &PathBuf, what: &str| {
-                        std::fs::read(f).with_context(|| format!("--{what} {}", f.display()))
+                        read_bytes(f).with_context(|| format!("--{what}"))
                     };
                     Some(litesim_grpc::TlsPem {
                         cert: read(&c, "tls-cert")?,
@@ -824,8 +838,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Trace {
             command: TraceCommand::Summarize { file },
         } => {
-            let text = std::fs::read_to_string(&file)
-                .with_context(|| format!("cannot read {}", file.display()))?;
+            let text = read_text(&file)?;
             let (stats, skipped) = litesim_ssp::trace::summarize(&text);
             println!(
                 "{:<26} {:>8} {:>7} {:>10} {:>10} {:>10} {:>12}",

@@ -61,8 +61,7 @@ pub fn run(
     pictures: bool,
 ) -> Result<()> {
     let style = crate::viz::load_style(style)?;
-    let text = std::fs::read_to_string(config)
-        .with_context(|| format!("cannot read {}", config.display()))?;
+    let text = crate::read_text(config)?;
     let cfg = parse_config(&text).map_err(|e| anyhow!("{}: {e}", config.display()))?;
     let base = config.parent().unwrap_or(Path::new("."));
     let grid = load_grid(&cfg, base)?;

@@ -37,7 +37,7 @@ pub fn read(dir: &Path, progress: &dyn Fn(u64, u64)) -> Result<Read> {
     if !dir.is_dir() {
         bail!("{}: not a folder", dir.display());
     }
-    let f = std::fs::File::open(&p)
+    let f = litesim_core::files::open_regular(&p)
         .with_context(|| format!("{}: no results.jsonl (not a batch folder?)", dir.display()))?;
     let total = f.metadata().map_or(0, |m| m.len());
     let mut r = std::io::BufReader::with_capacity(1 << 20, f);
@@ -65,7 +65,7 @@ pub fn read(dir: &Path, progress: &dyn Fn(u64, u64)) -> Result<Read> {
         }
     }
     progress(total, total);
-    let (coverage, coverage_error) = match std::fs::read_to_string(dir.join("coverage.json")) {
+    let (coverage, coverage_error) = match crate::read_text(&dir.join("coverage.json")) {
         Err(_) => (None, None),
         Ok(t) => match serde_json::from_str::<CoverageFile>(&t) {
             Ok(c) => (Some(c), None),

@@ -268,10 +268,8 @@ pub fn run(
     let prep = litesim_scenario::prepare(test, &common.load())?;
     let calibration = match calibration {
         Some(p) => Some(
-            calibrate::from_toml(
-                &std::fs::read_to_string(p).map_err(|e| anyhow!("{}: {e}", p.display()))?,
-            )
-            .map_err(|e| anyhow!("{}: {e}", p.display()))?,
+            calibrate::from_toml(&crate::read_text(p)?)
+                .map_err(|e| anyhow!("{}: {e}", p.display()))?,
         ),
         None => None,
     };
@@ -727,7 +725,7 @@ pub fn batch(
         println!("wrote {}", path.display());
     }
     let mut holes = 0;
-    if let Ok(text) = std::fs::read_to_string(out.join("coverage.json")) {
+    if let Ok(text) = crate::read_text(&out.join("coverage.json")) {
         let c: litesim_scenario::coverage::CoverageFile = serde_json::from_str(&text)
             .with_context(|| format!("{}/coverage.json", out.display()))?;
         holes = c.holes;

@@ -56,7 +56,7 @@ pub struct Run {
 }
 
 fn read_json_file(p: &Path) -> Option<serde_json::Value> {
-    let text = std::fs::read_to_string(p).ok()?;
+    let text = crate::read_text(p).ok()?;
     serde_json::from_str(&text).ok()
 }
 

@@ -1,6 +1,6 @@
 //! `litesim plot` and `litesim animate`.
 
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Result, anyhow, bail};
 use litesim_log::SimulationLog;
 use litesim_viz::replay::{Area, Background, LineKind, MapLine};
 use litesim_viz::{Style, VizError};
@@ -11,8 +11,7 @@ pub fn load_style(path: Option<&Path>) -> Result<Style> {
     match path {
         None => Ok(Style::default()),
         Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read {}", p.display()))?;
+            let text = crate::read_text(p)?;
             Style::from_toml(&text).map_err(|e| anyhow!("{}: {e}", p.display()))
         }
     }

@@ -20,6 +20,7 @@
 
 pub mod actor;
 pub mod control;
+pub mod files;
 pub mod geometry;
 pub mod math;
 pub mod rng;

@@ -65,8 +65,11 @@ impl Auth {
         let read = |var: &str| -> Result<Option<Vec<u8>>, SutError> {
             std::env::var_os(var)
                 .map(|f| {
-                    std::fs::read(&f)
-                        .map_err(|e| SutError(format!("{var} {}: {e}", f.to_string_lossy())))
+                    litesim_core::files::read_bytes(
+                        f.as_ref(),
+                        litesim_core::files::MAX_INPUT_BYTES,
+                    )
+                    .map_err(|e| SutError(format!("{var} {e}")))
                 })
                 .transpose()
         };

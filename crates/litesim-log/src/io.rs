@@ -210,15 +210,17 @@ impl SimulationLog {
 
     /// Reads and validates the JSON form.
     pub fn read_json(path: &Path) -> Result<Self, LogError> {
-        let text = std::fs::read_to_string(path).map_err(|e| {
-            if e.kind() == std::io::ErrorKind::InvalidData {
-                LogError::Invalid {
-                    path: path.to_path_buf(),
-                    message: "not UTF-8 text: not a litesim log (JSON)".into(),
-                }
-            } else {
-                io_err(path)(e)
-            }
+        use litesim_core::files::{MAX_INPUT_BYTES, ReadError, read_text};
+        let text = read_text(path, MAX_INPUT_BYTES).map_err(|e| match e {
+            ReadError::NotUtf8 { .. } => LogError::Invalid {
+                path: path.to_path_buf(),
+                message: "not UTF-8 text: not a litesim log (JSON)".into(),
+            },
+            ReadError::Io { source, .. } => io_err(path)(source),
+            other => LogError::Invalid {
+                path: path.to_path_buf(),
+                message: other.reason(),
+            },
         })?;
         Self::from_json_str(&text, path)
     }

@@ -318,32 +318,18 @@ impl RoadNetwork {
             path: String::new(),
             message,
         };
-        let meta = std::fs::metadata(path).map_err(|e| fail(format!("cannot read: {e}")))?;
-        if !meta.is_file() {
-            return Err(fail(format!(
-                "not a regular file (a {}): a map is an OpenDRIVE file",
-                if meta.is_dir() {
-                    "directory"
-                } else {
-                    "FIFO, socket or device"
-                }
-            )));
-        }
-        if meta.len() > MAX_MAP_BYTES {
-            return Err(fail(format!(
-                "{} bytes; maps are at most {MAX_MAP_BYTES} bytes",
-                meta.len()
-            )));
-        }
-        let mut text = String::new();
-        use std::io::Read;
-        std::fs::File::open(path)
-            .and_then(|f| f.take(MAX_MAP_BYTES + 1).read_to_string(&mut text))
-            .map_err(|e| fail(format!("cannot read: {e}")))?;
-        if text.len() as u64 > MAX_MAP_BYTES {
-            return Err(fail(format!("more than {MAX_MAP_BYTES} bytes")));
-        }
-        Ok(text)
+        litesim_core::files::read_text(path, MAX_MAP_BYTES).map_err(|e| match e {
+            litesim_core::files::ReadError::Io { source, .. } => {
+                fail(format!("cannot read: {source}"))
+            }
+            litesim_core::files::ReadError::NotAFile { kind, .. } => fail(format!(
+                "not a regular file (a {kind}): a map is an OpenDRIVE file"
+            )),
+            litesim_core::files::ReadError::TooLarge { len, .. } => fail(format!(
+                "{len} bytes; maps are at most {MAX_MAP_BYTES} bytes"
+            )),
+            other => fail(other.reason()),
+        })
     }
 
     /// Builds a network from OpenDRIVE text; `file` names it in messages.

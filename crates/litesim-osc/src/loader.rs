@@ -8,6 +8,7 @@
 use crate::ast::FileAst;
 use crate::diag::Diagnostic;
 use crate::source::{SourceMap, Span};
+use litesim_core::files::{MAX_INPUT_BYTES, ReadError, read_text};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -213,7 +214,7 @@ impl Loader<'_> {
         if carla_basic {
             let theirs = found
                 .as_ref()
-                .and_then(|f| std::fs::read_to_string(f).ok())
+                .and_then(|f| read_text(f, MAX_INPUT_BYTES).ok())
                 .is_some_and(|t| declares_carla_path(&t));
             if found.is_none() || theirs {
                 self.load_builtin(&crate::builtin::path_of(crate::builtin::CARLA_BASIC), span);
@@ -253,41 +254,26 @@ impl Loader<'_> {
         if self.loaded.contains_key(&canon) {
             return; // parsed once
         }
-        match std::fs::read(&found) {
-            Ok(bytes) => match String::from_utf8(bytes) {
-                Ok(text) => self.load_file(&found, text),
-                Err(e) => {
-                    let (line, col, byte) = first_invalid(&e);
-                    self.prog.diagnostics.push(Diagnostic::error(
-                        "E0204",
-                        span,
-                        format!(
-                            "'{}' is not UTF-8 text (byte 0x{byte:02X} at {}:{line}:{col})",
-                            found.display(),
-                            found.display()
-                        ),
-                    ))
-                }
-            },
+        match read_text(&found, MAX_INPUT_BYTES) {
+            Ok(text) => self.load_file(&found, text),
+            Err(ReadError::NotUtf8 {
+                line, column, byte, ..
+            }) => self.prog.diagnostics.push(Diagnostic::error(
+                "E0204",
+                span,
+                format!(
+                    "'{}' is not UTF-8 text (byte 0x{byte:02X} at {}:{line}:{column})",
+                    found.display(),
+                    found.display()
+                ),
+            )),
             Err(e) => self.prog.diagnostics.push(Diagnostic::error(
                 "E0205",
                 span,
-                format!("cannot read '{}': {e}", found.display()),
+                format!("cannot read '{}': {}", found.display(), e.reason()),
             )),
         }
     }
-}
-
-/// Where the first byte that is not UTF-8 is: line and column (1-based,
-/// columns in characters of the valid text before it) and the byte.
-fn first_invalid(e: &std::string::FromUtf8Error) -> (usize, usize, u8) {
-    let bytes = e.as_bytes();
-    let at = e.utf8_error().valid_up_to();
-    // Valid up to `at`, so this prefix is text.
-    let before = std::str::from_utf8(&bytes[..at]).unwrap_or_default();
-    let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
-    (line, col, bytes.get(at).copied().unwrap_or(0))
 }
 
 /// Why the entry file of a program could not be read at all (everything
@@ -295,14 +281,10 @@ fn first_invalid(e: &std::string::FromUtf8Error) -> (usize, usize, u8) {
 /// [`Program`], never an error here).
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
-    /// The file could not be read.
-    #[error("{path}: {cause}")]
-    Read {
-        /// The file.
-        path: String,
-        /// Why (not a source: the message already says it).
-        cause: std::io::Error,
-    },
+    /// The file could not be read (missing, not a regular file, larger
+    /// than [`MAX_INPUT_BYTES`]).
+    #[error(transparent)]
+    Read(ReadError),
     /// The file is not UTF-8 text.
     #[error("{path}:{line}:{column}: not UTF-8 text (byte 0x{byte:02X}; save the file as UTF-8)")]
     NotUtf8 {
@@ -337,18 +319,16 @@ pub fn load_with(
     env: &dyn Fn(&str) -> Option<String>,
     dialect: Option<Dialect>,
 ) -> Result<Program, LoadError> {
-    let bytes = std::fs::read(entry).map_err(|cause| LoadError::Read {
-        path: entry.display().to_string(),
-        cause,
-    })?;
-    let text = String::from_utf8(bytes).map_err(|e| {
-        let (line, column, byte) = first_invalid(&e);
-        LoadError::NotUtf8 {
+    let text = read_text(entry, MAX_INPUT_BYTES).map_err(|e| match e {
+        ReadError::NotUtf8 {
+            line, column, byte, ..
+        } => LoadError::NotUtf8 {
             path: entry.display().to_string(),
             line,
             column,
             byte,
-        }
+        },
+        other => LoadError::Read(other),
     })?;
     let mut l = Loader {
         prog: Program::default(),

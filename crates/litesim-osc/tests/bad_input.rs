@@ -161,8 +161,19 @@ fn a_missing_entry_file_is_a_typed_read_error_naming_it() {
     let (r, _) = load(&path);
     let err = r.unwrap_err();
     assert!(
-        matches!(&err, litesim_osc::LoadError::Read { path: p, cause } if p.ends_with("nowhere.osc") && cause.kind() == std::io::ErrorKind::NotFound),
+        matches!(&err, litesim_osc::LoadError::Read(litesim_core::files::ReadError::Io { path: p, source }) if p.ends_with("nowhere.osc") && source.kind() == std::io::ErrorKind::NotFound),
         "{err:?}"
     );
     assert!(err.to_string().contains("nowhere.osc: "), "{err}");
+    // A directory or a device is refused before it is read.
+    let (r, _) = load(dir.path());
+    assert!(
+        matches!(
+            r,
+            Err(litesim_osc::LoadError::Read(
+                litesim_core::files::ReadError::NotAFile { .. }
+            ))
+        ),
+        "{r:?}"
+    );
 }

@@ -370,6 +370,15 @@ pub enum PlanError {
     /// Bad configuration.
     #[error("configuration: {0}")]
     Config(String),
+    /// A file the configuration names could not be read.
+    #[error(transparent)]
+    Read(#[from] litesim_core::files::ReadError),
+    /// The map the configuration names could not be loaded.
+    #[error(transparent)]
+    Map(#[from] litesim_map::MapError),
+    /// The simulated world refused the run's setup.
+    #[error("simulation: {0}")]
+    World(#[from] litesim_core::world::WorldError),
     /// Grid construction failed.
     #[error("map: {0}")]
     Grid(#[from] litesim_map::GridError),
@@ -1249,7 +1258,7 @@ pub fn run_closed_loop_timed(
     timings.plan_s = clock() - t_plan;
 
     // The world: one vehicle on direct (acceleration, steering) control.
-    let mut world = World::new(sim.dt).map_err(|e| PlanError::Config(e.to_string()))?;
+    let mut world = World::new(sim.dt)?;
     let mut bike = KinematicBicycle::new(veh.wheelbase);
     bike.max_steering_angle = veh.max_steer;
     bike.max_acceleration = veh.max_accel;
@@ -1268,14 +1277,12 @@ pub fn run_closed_loop_timed(
     };
     let mut st = ActorState::at_rest(Pose::planar(start.x, start.y, cfg.start.yaw));
     st.speed = cfg.start.speed.max(0.0);
-    world
-        .add_actor(Actor::new(
-            "ego",
-            desc,
-            st,
-            Some(VehicleModelKind::Bicycle(bike.clone())),
-        ))
-        .map_err(|e| PlanError::Config(e.to_string()))?;
+    world.add_actor(Actor::new(
+        "ego",
+        desc,
+        st,
+        Some(VehicleModelKind::Bicycle(bike.clone())),
+    ))?;
 
     let mut rec = LogRecorder::new(sim.dt);
     rec.meta("kind", "closed_loop");
@@ -1501,15 +1508,13 @@ pub fn load_grid(
         )),
         (Some(png), None) => {
             let p = base.join(png);
-            let bytes = std::fs::read(&p)
-                .map_err(|e| PlanError::Config(format!("cannot read {}: {e}", p.display())))?;
+            let bytes = litesim_core::files::read_bytes(&p, litesim_core::files::MAX_INPUT_BYTES)?;
             OccupancyGrid::from_png(&bytes, m.resolution, origin)
                 .map_err(|e| PlanError::Config(format!("{}: {e}", p.display())))
         }
         (None, Some(xodr)) => {
             let p = base.join(xodr);
-            let net =
-                litesim_map::RoadNetwork::load(&p).map_err(|e| PlanError::Config(e.to_string()))?;
+            let net = litesim_map::RoadNetwork::load(&p)?;
             net.rasterise(m.resolution, 2.0)
                 .map_err(|e| PlanError::Config(format!("{}: {e}", p.display())))
         }

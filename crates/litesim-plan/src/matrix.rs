@@ -64,8 +64,7 @@ pub fn load_examples(
     files
         .iter()
         .map(|f| {
-            let text = std::fs::read_to_string(f)
-                .map_err(|e| PlanError::Config(format!("cannot read {}: {e}", f.display())))?;
+            let text = litesim_core::files::read_text(f, litesim_core::files::MAX_INPUT_BYTES)?;
             let cfg = parse_config(&text)
                 .map_err(|e| PlanError::Config(format!("{}: {e}", f.display())))?;
             let grid = load_grid(&cfg, f.parent().unwrap_or(std::path::Path::new(".")))?;

@@ -11,6 +11,7 @@
 //! folders.
 
 use crate::{DriveMode, LoadOptions, Prepared, RunOptions, ScenarioError};
+use litesim_core::files::{MAX_INPUT_BYTES, ReadError, open_regular, read_text};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -117,12 +118,14 @@ impl Manifest {
     /// Reads `dir/manifest.json` (`Ok(None)` when there is none).
     pub fn read(dir: &Path) -> Result<Option<Manifest>, ScenarioError> {
         let p = dir.join("manifest.json");
-        match std::fs::read_to_string(&p) {
+        match read_text(&p, MAX_INPUT_BYTES) {
             Ok(t) => serde_json::from_str(&t)
                 .map(Some)
-                .map_err(|e| ScenarioError::Io(format!("{}: {e}", p.display()))),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
-            Err(e) => Err(ScenarioError::Io(format!("{}: {e}", p.display()))),
+                .map_err(|e| ScenarioError::format(p.display(), e)),
+            Err(ReadError::Io { source, .. }) if source.kind() == std::io::ErrorKind::NotFound => {
+                Ok(None)
+            }
+            Err(e) => Err(e.into()),
         }
     }
 
@@ -130,7 +133,7 @@ impl Manifest {
     /// (what the folder's failed-run logs name).
     pub fn write(&self, dir: &Path) -> Result<String, ScenarioError> {
         let text = serde_json::to_string_pretty(self)
-            .map_err(|e| ScenarioError::Io(e.to_string()))?
+            .map_err(|e| ScenarioError::format("manifest.json", e))?
             + "\n";
         atomic(&dir.join("manifest.json"), &text)?;
         Ok(crate::sha256_hex(text.as_bytes()))
@@ -390,7 +393,7 @@ pub fn run_line(
 
 /// The result lines of a `results.jsonl` (none when it cannot be read).
 pub fn read_lines(path: &Path) -> Vec<RunLine> {
-    let Ok(text) = std::fs::read_to_string(path) else {
+    let Ok(text) = read_text(path, MAX_INPUT_BYTES) else {
         return Vec::new();
     };
     // A run interrupted mid-write leaves a partial last line: skip what does not parse.
@@ -417,11 +420,11 @@ pub fn item_defs<'a>(
 /// has none).
 pub fn read_defs(dir: &Path) -> Result<Vec<(String, crate::coverage::ItemDef)>, ScenarioError> {
     let p = dir.join("coverage.json");
-    let Ok(text) = std::fs::read_to_string(&p) else {
+    let Ok(text) = read_text(&p, MAX_INPUT_BYTES) else {
         return Ok(Vec::new());
     };
-    let f: crate::coverage::CoverageFile = serde_json::from_str(&text)
-        .map_err(|e| ScenarioError::Io(format!("{}: {e}", p.display())))?;
+    let f: crate::coverage::CoverageFile =
+        serde_json::from_str(&text).map_err(|e| ScenarioError::format(p.display(), e))?;
     Ok(f.items.into_iter().map(|i| (i.test, i.def)).collect())
 }
 
@@ -534,7 +537,8 @@ pub fn write_sorted(
     }
     let mut w = Sorted::new(dir, defs)?;
     for l in by.values() {
-        let text = serde_json::to_string(l).map_err(|e| ScenarioError::Io(e.to_string()))?;
+        let text =
+            serde_json::to_string(l).map_err(|e| ScenarioError::format("a result line", e))?;
         w.add(l, &text)?;
     }
     w.finish()
@@ -560,18 +564,13 @@ struct TempFile {
     file: litesim_log::AtomicFile,
 }
 
-/// A log crate I/O error as a batch's.
-fn log_io(e: litesim_log::LogError) -> ScenarioError {
-    ScenarioError::Io(e.to_string())
-}
-
 impl TempFile {
     fn new(path: PathBuf) -> Result<Self, ScenarioError> {
-        let mut file = litesim_log::AtomicFile::create(&path).map_err(log_io)?;
+        let mut file = litesim_log::AtomicFile::create(&path)?;
         let f = file
             .file()
             .try_clone()
-            .map_err(|e| ScenarioError::Io(format!("{}: {e}", path.display())))?;
+            .map_err(|e| ScenarioError::write(&path, e))?;
         Ok(TempFile {
             path,
             out: std::io::BufWriter::new(f),
@@ -582,13 +581,15 @@ impl TempFile {
     fn write(&mut self, text: &str) -> Result<(), ScenarioError> {
         self.out
             .write_all(text.as_bytes())
-            .map_err(|e| ScenarioError::Io(format!("{}: {e}", self.path.display())))
+            .map_err(|e| ScenarioError::write(&self.path, e))
     }
 
     fn finish(self) -> Result<(), ScenarioError> {
-        let io = |e: std::io::Error| ScenarioError::Io(format!("{}: {e}", self.path.display()));
-        self.out.into_inner().map_err(|e| io(e.into_error()))?;
-        self.file.commit().map_err(log_io)
+        let path = self.path;
+        self.out
+            .into_inner()
+            .map_err(|e| ScenarioError::write(&path, e.into_error()))?;
+        Ok(self.file.commit()?)
     }
 }
 
@@ -660,7 +661,7 @@ impl<'d> Sorted<'d> {
     fn finish_counts(self) -> Result<(u64, u64, u64, u64, crate::Verdict), ScenarioError> {
         if let Some(f) = self.fold {
             let text = serde_json::to_string_pretty(&f.finish())
-                .map_err(|e| ScenarioError::Io(e.to_string()))?;
+                .map_err(|e| ScenarioError::format("coverage.json", e))?;
             atomic(&self.dir.join("coverage.json"), &(text + "\n"))?;
         }
         self.jsonl.finish()?;
@@ -693,10 +694,13 @@ fn sort_results_file(
 ) -> Result<(u64, u64, u64, u64, crate::Verdict), ScenarioError> {
     use std::io::{BufRead, Read, Seek};
     let path = dir.join("results.jsonl");
-    let io = |e: std::io::Error| ScenarioError::Io(format!("{}: {e}", path.display()));
+    let io = |source: std::io::Error| ReadError::Io {
+        path: path.clone(),
+        source,
+    };
     let mut places: BTreeMap<(usize, u64), (u64, usize)> = BTreeMap::new();
     {
-        let mut r = std::io::BufReader::new(std::fs::File::open(&path).map_err(io)?);
+        let mut r = std::io::BufReader::new(open_regular(&path)?);
         let (mut at, mut buf) = (0u64, String::new());
         loop {
             buf.clear();
@@ -715,7 +719,7 @@ fn sort_results_file(
             at += n as u64;
         }
     }
-    let mut f = std::fs::File::open(&path).map_err(io)?;
+    let mut f = open_regular(&path)?;
     let mut w = Sorted::new(dir, defs)?;
     // (test, seed) order is the tests' names' order, then seeds.
     let mut order: Vec<usize> = (0..tests.len()).collect();
@@ -728,8 +732,8 @@ fn sort_results_file(
             f.read_exact(&mut line).map_err(io)?;
             let text = String::from_utf8_lossy(&line);
             let text = text.trim_end();
-            let l: RunLine = serde_json::from_str(text)
-                .map_err(|e| ScenarioError::Io(format!("{}: {e}", path.display())))?;
+            let l: RunLine =
+                serde_json::from_str(text).map_err(|e| ScenarioError::format(path.display(), e))?;
             w.add(&l, text)?;
         }
     }
@@ -740,7 +744,7 @@ fn sort_results_file(
 /// order (what a resumed batch has done already).
 fn read_keys(path: &Path) -> Vec<(String, u64)> {
     use std::io::BufRead;
-    let Ok(f) = std::fs::File::open(path) else {
+    let Ok(f) = open_regular(path) else {
         return Vec::new();
     };
     std::io::BufReader::new(f)
@@ -786,24 +790,23 @@ pub fn run_batch(
 ) -> Result<BatchReport, ScenarioError> {
     let (si, sn) = spec.shard;
     if sn == 0 || si >= sn {
-        return Err(ScenarioError::Io(format!(
+        return Err(ScenarioError::Batch(format!(
             "shard {si}/{sn}: expected i/N with 0 ≤ i < N"
         )));
     }
     if spec.seed_to < spec.seed_from {
-        return Err(ScenarioError::Io(format!(
+        return Err(ScenarioError::Batch(format!(
             "seeds {}..{}: the range is empty",
             spec.seed_from, spec.seed_to
         )));
     }
     if spec.seed_to - spec.seed_from >= MAX_SEEDS {
-        return Err(ScenarioError::Io(format!(
+        return Err(ScenarioError::Batch(format!(
             "seeds {}..{}: a batch takes at most {MAX_SEEDS} seeds",
             spec.seed_from, spec.seed_to
         )));
     }
-    std::fs::create_dir_all(&spec.out)
-        .map_err(|e| ScenarioError::Io(format!("{}: {e}", spec.out.display())))?;
+    std::fs::create_dir_all(&spec.out).map_err(|e| ScenarioError::write(&spec.out, e))?;
     let results = spec.out.join("results.jsonl");
     // Each test is parsed and its map loaded once.
     let preps: Vec<(String, Result<Prepared, String>)> = spec
@@ -863,7 +866,7 @@ pub fn run_batch(
     };
     let mut foreign = 0u64;
     if !spec.resume && !spec.force_new && std::fs::metadata(&results).is_ok_and(|m| m.len() > 0) {
-        return Err(ScenarioError::Io(format!(
+        return Err(ScenarioError::Batch(format!(
             "{} already holds results: --resume to continue that batch, --force-new to start over, or a new folder",
             spec.out.display()
         )));
@@ -873,7 +876,7 @@ pub fn run_batch(
             Some(old) => {
                 let diffs = manifest.differences(&old, true);
                 if !diffs.is_empty() {
-                    return Err(ScenarioError::Io(format!(
+                    return Err(ScenarioError::Batch(format!(
                         "{}: --resume refused, the folder holds results of another batch ({}); --force-new to start over, or use a new folder",
                         spec.out.display(),
                         diffs.join("; ")
@@ -881,7 +884,7 @@ pub fn run_batch(
                 }
             }
             None if results.exists() => {
-                return Err(ScenarioError::Io(format!(
+                return Err(ScenarioError::Batch(format!(
                     "{}: --resume refused, the folder has results but no manifest.json (not written by this litesim); --force-new to start over, or use a new folder",
                     spec.out.display()
                 )));
@@ -922,10 +925,10 @@ pub fn run_batch(
         .create(true)
         .append(true)
         .open(&results)
-        .map_err(|e| ScenarioError::Io(format!("{}: {e}", results.display())))?;
+        .map_err(|e| ScenarioError::write(&results, e))?;
     if !spec.resume {
         file.set_len(0)
-            .map_err(|e| ScenarioError::Io(e.to_string()))?;
+            .map_err(|e| ScenarioError::write(&results, e))?;
     }
     let sink = Mutex::new((file, 0u64));
     // The map's lanes as MCAP content, sampled once per test, by the first
@@ -963,7 +966,7 @@ pub fn run_batch(
         Some(n) => rayon::ThreadPoolBuilder::new()
             .num_threads(n.max(1))
             .build()
-            .map_err(|e| ScenarioError::Io(e.to_string()))?
+            .map_err(ScenarioError::Threads)?
             .install(work),
         None => work(),
     };
@@ -1061,19 +1064,19 @@ pub fn merge(
         }
         let p = d.join("results.jsonl");
         if !p.exists() {
-            return Err(ScenarioError::Io(format!(
+            return Err(ScenarioError::Batch(format!(
                 "{}: no results.jsonl",
                 d.display()
             )));
         }
         let m = Manifest::read(d)?.ok_or_else(|| {
-            ScenarioError::Io(format!(
+            ScenarioError::Batch(format!(
                 "{}: no manifest.json (not a folder written by litesim batch)",
                 d.display()
             ))
         })?;
         let (si, sn) = m.shard_pair().ok_or_else(|| {
-            ScenarioError::Io(format!(
+            ScenarioError::Batch(format!(
                 "{}: manifest shard '{}' is not i/N",
                 d.display(),
                 m.shard
@@ -1090,7 +1093,7 @@ pub fn merge(
                     diffs.push(format!("shard count: {} there, {} here", m0.shard, m.shard));
                 }
                 if !diffs.is_empty() {
-                    return Err(ScenarioError::Io(format!(
+                    return Err(ScenarioError::Batch(format!(
                         "{} and {} come from different batches: {}",
                         d0.display(),
                         d.display(),
@@ -1123,14 +1126,14 @@ pub fn merge(
     if !conflicts.is_empty() {
         conflicts.sort();
         conflicts.dedup();
-        return Err(ScenarioError::Io(format!(
+        return Err(ScenarioError::Batch(format!(
             "{} run(s) have conflicting results: {}",
             conflicts.len(),
             conflicts.join("; ")
         )));
     }
     let Some((_, m0)) = first else {
-        return Err(ScenarioError::Io("merge: no folders given".into()));
+        return Err(ScenarioError::Batch("merge: no folders given".into()));
     };
     let n = m0.shard_pair().map_or(1, |x| x.1);
     let mut report = MergeReport {
@@ -1151,7 +1154,7 @@ pub fn merge(
             .take(20)
             .map(|(t, s)| format!("{t} seed {s}"))
             .collect();
-        return Err(ScenarioError::Io(format!(
+        return Err(ScenarioError::Batch(format!(
             "incomplete: missing shard(s) [{}], {} run(s) without a result{}{}; pass --allow-partial to merge what is there",
             report.missing_shards.join(", "),
             report.missing_jobs.len(),
@@ -1159,8 +1162,7 @@ pub fn merge(
             jobs.join(", ")
         )));
     }
-    std::fs::create_dir_all(out)
-        .map_err(|e| ScenarioError::Io(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(out).map_err(|e| ScenarioError::write(out, e))?;
     let all: Vec<RunLine> = by.into_values().map(|(l, _)| l).collect();
     let merged = Manifest {
         shard: "0/1".into(),

@@ -374,7 +374,7 @@ pub fn from_toml(text: &str) -> Result<Calibration, ScenarioError> {
     }
     toml::from_str::<File>(text)
         .map(|f| f.calibration)
-        .map_err(|e| ScenarioError::Io(format!("calibration: {e}")))
+        .map_err(|e| ScenarioError::format("calibration", e))
 }
 
 /// A table of the errors before and after, on the tuned and the held-out

@@ -6,9 +6,16 @@ use thiserror::Error;
 /// What can go wrong between a test file and a run summary.
 #[derive(Debug, Error)]
 pub enum ScenarioError {
-    /// The test could not be read or parsed; the text holds every diagnostic.
-    #[error("{0}")]
-    Load(String),
+    /// The test's entry file could not be read.
+    #[error(transparent)]
+    Load(#[from] litesim_osc::LoadError),
+    /// The test has errors: each diagnostic rendered (where, what, what was
+    /// expected).
+    #[error("{}", diagnostics.join("\n"))]
+    Invalid {
+        /// The rendered diagnostics, in order.
+        diagnostics: Vec<String>,
+    },
     /// The test uses something the engine cannot execute.
     #[error("elaboration: {0}")]
     Elaboration(String),
@@ -37,9 +44,42 @@ pub enum ScenarioError {
     /// The simulator answered something the engine cannot use.
     #[error("simulator: {0}")]
     Simulator(String),
-    /// Files.
+    /// An input file (a manifest, results, coverage, a calibration) could
+    /// not be read.
+    #[error(transparent)]
+    Read(#[from] litesim_core::files::ReadError),
+    /// A file or folder could not be written.
+    #[error("{}", path.display())]
+    Write {
+        /// The file or folder.
+        path: std::path::PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A log-crate write (atomic files) failed.
+    #[error(transparent)]
+    Log(#[from] litesim_log::LogError),
+    /// A file's content is not what it should hold (JSON, TOML).
+    #[error("{what}")]
+    Format {
+        /// The file or the thing (`calibration`).
+        what: String,
+        /// The parser's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// A batch's spec or folders do not fit together (a shard, a seed
+    /// range, a folder of another batch, conflicting results).
     #[error("{0}")]
-    Io(String),
+    Batch(String),
+    /// An error found once and shared by every run of a test (a
+    /// calibration file that does not parse).
+    #[error(transparent)]
+    Shared(std::sync::Arc<ScenarioError>),
+    /// A worker pool could not be made.
+    #[error("cannot start the worker threads")]
+    Threads(#[source] rayon::ThreadPoolBuildError),
     /// The system under test could not be started.
     #[error("cannot start the system under test {name}")]
     Sut {
@@ -63,6 +103,25 @@ impl ScenarioError {
             cause = c.source();
         }
         text
+    }
+
+    /// A file or folder could not be written.
+    pub(crate) fn write(path: &std::path::Path, source: std::io::Error) -> Self {
+        ScenarioError::Write {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    /// A file's content is not what it should hold.
+    pub(crate) fn format(
+        what: impl std::fmt::Display,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Self {
+        ScenarioError::Format {
+            what: what.to_string(),
+            source: Box::new(source),
+        }
     }
 
     /// `top.main` has nothing to do.

@@ -142,7 +142,8 @@ pub struct Prepared {
 pub type CalibrationKey = (Option<PathBuf>, bool, String);
 /// What it found: the gains (none: built-in) and how the summary names
 /// them, or why the file could not be used.
-pub type CalibrationRead = Result<(Option<litesim_ssp::profile::Calibration>, String), String>;
+pub type CalibrationRead =
+    Result<(Option<litesim_ssp::profile::Calibration>, String), Arc<ScenarioError>>;
 
 impl Prepared {
     /// The calibration a run under `opts` and `profile` reads from a file
@@ -161,17 +162,19 @@ impl Prepared {
             return got.clone();
         }
         let got = match calibration_file(self, opts, profile) {
-            Some(f) => match std::fs::read_to_string(&f) {
-                Ok(text) => calibrate::from_toml(&text)
-                    .map(|c| {
-                        (
-                            Some(c),
-                            format!("{} sha256:{}", f.display(), sha256_hex(text.as_bytes())),
-                        )
-                    })
-                    .map_err(|e| format!("{}: {e}", f.display())),
-                Err(_) => Ok((None, "built-in".to_string())),
-            },
+            Some(f) => {
+                match litesim_core::files::read_text(&f, litesim_core::files::MAX_INPUT_BYTES) {
+                    Ok(text) => calibrate::from_toml(&text)
+                        .map(|c| {
+                            (
+                                Some(c),
+                                format!("{} sha256:{}", f.display(), sha256_hex(text.as_bytes())),
+                            )
+                        })
+                        .map_err(|e| Arc::new(ScenarioError::format(f.display(), e))),
+                    Err(_) => Ok((None, "built-in".to_string())),
+                }
+            }
             None => Ok((None, "built-in".to_string())),
         };
         cache.push((key, got.clone()));
@@ -208,8 +211,7 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
         Some(m) => m.get(k).cloned(),
         None => std::env::var(k).ok(),
     };
-    let prog = litesim_osc::load_with(path, &opts.include, &env, opts.dialect)
-        .map_err(|e| ScenarioError::Load(e.to_string()))?;
+    let prog = litesim_osc::load_with(path, &opts.include, &env, opts.dialect)?;
     let source_hash = {
         let mut all = Vec::new();
         for f in &prog.sources.files {
@@ -219,13 +221,13 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
         sha256_hex(&all)
     };
     if prog.has_errors() {
-        let text: Vec<String> = prog
+        let diagnostics: Vec<String> = prog
             .diagnostics
             .iter()
             .filter(|d| d.severity == litesim_osc::Severity::Error)
             .map(|d| d.render(&prog.sources))
             .collect();
-        return Err(ScenarioError::Load(text.join("\n")));
+        return Err(ScenarioError::Invalid { diagnostics });
     }
     let test = elab::elaborate(&prog)?;
     let carla_map = prog.carla.as_ref().and_then(|c| c.map.as_ref());
@@ -622,9 +624,11 @@ pub fn calibration_used(prep: &Prepared, opts: &RunOptions) -> String {
     if opts.calibration.is_some() {
         return "given".into();
     }
-    match calibration_file(prep, opts, &profile_of(prep, opts))
-        .and_then(|f| std::fs::read(&f).ok().map(|b| (f, b)))
-    {
+    match calibration_file(prep, opts, &profile_of(prep, opts)).and_then(|f| {
+        litesim_core::files::read_bytes(&f, litesim_core::files::MAX_INPUT_BYTES)
+            .ok()
+            .map(|b| (f, b))
+    }) {
         Some((f, bytes)) => format!("{} sha256:{}", f.display(), sha256_hex(&bytes)),
         None => "built-in".into(),
     }

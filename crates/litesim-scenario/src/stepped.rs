@@ -74,7 +74,7 @@ where
         Some(c) => (Some(*c), "given".to_string()),
         None => prep
             .calibration_read(opts, &profile)
-            .map_err(ScenarioError::Io)?,
+            .map_err(ScenarioError::Shared)?,
     };
     let mode = opts.mode.unwrap_or(if prep.test.config.dynamic {
         DriveMode::Dynamic
