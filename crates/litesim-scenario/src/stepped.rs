@@ -6,7 +6,7 @@
 //! environment, the Python `SteppedRun`).
 
 use crate::runtime::run::Runtime;
-use crate::runtime::{Finished, SspSlot, SutSlot};
+use crate::runtime::{Finished, Head, SspSlot, SutSlot};
 use crate::sut::{Observation, SutCommand};
 use crate::{
     DriveMode, Npc, Prepared, RunOptions, RunResult, ScenarioError, Summary, Verdict,
@@ -27,7 +27,11 @@ pub(crate) fn run_here(
     match start(prep, SspSlot::Borrowed(ssp), opts, false)? {
         Setup::Done(r) => Ok(*r),
         Setup::Ready(mut s) => {
-            while s.rt.step()? {}
+            while s.head()? {
+                if !s.rt.tail()? {
+                    break;
+                }
+            }
             s.conclude()
         }
     }
@@ -145,9 +149,11 @@ where
             p
         })
     });
-    let rt = Runtime::new(ssp, plan, cfg, sut, Some(replan), drivers)?;
+    let mut rt = Runtime::new(ssp, plan, cfg, sut, drivers)?;
+    rt.replans = true;
     Ok(Setup::Ready(Box::new(Started {
         rt,
+        replan,
         ctx: Context {
             test_name,
             seed,
@@ -300,6 +306,9 @@ struct Context {
 /// A run set up and ready to step.
 pub(crate) struct Started<'a> {
     rt: Runtime<'a>,
+    /// The re-planning stage: the test planned again with some condition
+    /// times fixed (what the runtime asks for with [`Head::Replan`]).
+    replan: Box<crate::runtime::Replan<'a>>,
     ctx: Context,
 }
 
@@ -311,10 +320,25 @@ pub(crate) enum Setup<'a> {
 }
 
 impl Started<'_> {
+    /// The head of the step to come, re-planning as often as the runtime
+    /// asks; false once the run is over.
+    fn head(&mut self) -> Result<bool, ScenarioError> {
+        loop {
+            match self.rt.head()? {
+                Head::Ready => return Ok(true),
+                Head::Over => return Ok(false),
+                Head::Replan(fixed) => {
+                    let plan = (self.replan)(&fixed)?;
+                    self.rt.adopt(plan)?;
+                }
+            }
+        }
+    }
+
     /// The summary of the finished run: the verdict and its reasons, the
     /// drivers' notes.
     fn conclude(self) -> Result<RunResult, ScenarioError> {
-        let Started { rt, ctx } = self;
+        let Started { rt, ctx, .. } = self;
         let Context {
             test_name,
             seed,
@@ -415,7 +439,7 @@ impl Stepped {
     pub fn observation(&mut self) -> Result<Option<&Observation>, ScenarioError> {
         match &mut self.state {
             State::Running(s) => {
-                if s.rt.head()? {
+                if s.head()? {
                     Ok(s.rt.observation())
                 } else {
                     Ok(None)
@@ -431,7 +455,7 @@ impl Stepped {
         let State::Running(s) = &mut self.state else {
             return Ok(false);
         };
-        if !s.rt.head()? {
+        if !s.head()? {
             return Ok(false);
         }
         s.rt.give(cmd);

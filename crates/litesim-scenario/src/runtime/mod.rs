@@ -26,4 +26,4 @@ pub mod traffic;
 pub use config::{DriveMode, ExecConfig, Executed, LiveEvent, POSTPONE_S, Replan};
 pub use controllers::pid::HEADING_LEVER_M;
 pub use controllers::seam::SutSlot;
-pub use run::{Finished, SspSlot, execute};
+pub use run::{Finished, Head, SspSlot, execute};

@@ -30,23 +30,53 @@ use crate::plan::Plan;
 use crate::sut::SutInfo;
 use litesim_log::{ControlSample, LogRecorder, SimulationLog};
 use litesim_ssp::api::{ActorFilter, KinematicSteps, Ssp};
+use std::collections::BTreeMap;
 
 /// Runs `plan` on `ssp`; with a `sut`, `sut.car` is driven by it each step
 /// and the other actors react to where it actually is; with `drivers_of`,
 /// the actors it drives (the scenario's vehicles under `--npc driver`,
 /// ambient traffic) are driven by the traffic engine. The map is
-/// `cfg.map`.
+/// `cfg.map`. With `replan`, a live condition that holds at another time
+/// than planned has the test planned again ([`Head::Replan`]); without,
+/// the plan stands.
 pub fn execute<'a>(
     ssp: &'a mut dyn Ssp,
     plan: Plan,
     cfg: ExecConfig,
     sut: Option<SutSlot<'a>>,
-    replan: Option<Box<Replan<'a>>>,
+    replan: Option<&Replan<'_>>,
     drivers_of: Option<Driven>,
 ) -> Result<Finished, ScenarioError> {
-    let mut rt = Runtime::new(SspSlot::Borrowed(ssp), plan, cfg, sut, replan, drivers_of)?;
-    while rt.step()? {}
+    let mut rt = Runtime::new(SspSlot::Borrowed(ssp), plan, cfg, sut, drivers_of)?;
+    rt.replans = replan.is_some();
+    loop {
+        match rt.head()? {
+            Head::Over => break,
+            Head::Replan(fixed) => {
+                if let Some(replan) = replan {
+                    rt.adopt(replan(&fixed)?)?;
+                }
+            }
+            Head::Ready => {
+                if !rt.tail()? {
+                    break;
+                }
+            }
+        }
+    }
     rt.finish()
+}
+
+/// What the head of a step found.
+pub enum Head {
+    /// The step is ready: observe, command, then [`Runtime::tail`].
+    Ready,
+    /// The run is over.
+    Over,
+    /// A live condition held at another time than planned: the caller
+    /// plans the test again with these condition times fixed and gives
+    /// the plan to [`Runtime::adopt`], then asks for the head again.
+    Replan(BTreeMap<String, f64>),
 }
 
 /// What a finished run gives back: the record, the plan in force at the
@@ -90,7 +120,11 @@ pub(crate) struct Runtime<'a> {
     /// The plan in force: replaced when a condition holds live at another
     /// time than planned (closed loop only).
     plan: Plan,
-    replan: Option<Box<Replan<'a>>>,
+    /// Live conditions are checked, and a re-plan asked for (closed loop
+    /// with a caller that plans again).
+    pub replans: bool,
+    /// The step whose live conditions were checked last.
+    relived: Option<u64>,
     sim: Sim,
     cast: Cast,
     /// Per actor: driven by a driver.
@@ -237,7 +271,6 @@ impl<'a> Runtime<'a> {
         plan: Plan,
         cfg: ExecConfig,
         sut: Option<SutSlot<'a>>,
-        replan: Option<Box<Replan<'a>>>,
         drivers_of: Option<Driven>,
     ) -> Result<Self, ScenarioError> {
         let n = plan.actors.len();
@@ -304,7 +337,8 @@ impl<'a> Runtime<'a> {
             plan,
             ssp,
             cfg,
-            replan,
+            replans: false,
+            relived: None,
             sim,
             cast,
             driven,
@@ -344,39 +378,36 @@ impl<'a> Runtime<'a> {
         self.observer = Some(observer);
     }
 
-    /// One step (in open loop a chunk of steps): head, observe, command,
-    /// simulate, read back. Returns whether the run goes on.
-    pub fn step(&mut self) -> Result<bool, ScenarioError> {
-        if !self.head()? {
-            return Ok(false);
-        }
-        self.tail()
-    }
-
     /// Whether the run is over (its steps done, the SUT failed, or real
     /// time overran).
     pub fn over(&self) -> bool {
         self.k >= self.steps || self.sut_error.is_some() || self.realtime_failure.is_some()
     }
 
-    /// The step's head, once per step: live conditions, light switches,
-    /// the chunk's size, sut.car's observation. False when the run is over.
-    pub fn head(&mut self) -> Result<bool, ScenarioError> {
+    /// The step's head, once per step: live conditions (a re-plan asked
+    /// of the caller), light switches, the chunk's size, sut.car's
+    /// observation.
+    pub fn head(&mut self) -> Result<Head, ScenarioError> {
         if self.headed.is_some() {
-            return Ok(true);
+            return Ok(Head::Ready);
         }
         if self.over() {
-            return Ok(false);
+            return Ok(Head::Over);
         }
         let (k, step_ms) = (self.k, self.sim.step_ms);
-        self.relive()?;
+        if self.relived != Some(k) {
+            self.relived = Some(k);
+            if let Some(fixed) = self.relive() {
+                return Ok(Head::Replan(fixed));
+            }
+        }
         self.lights
             .switch_due(self.ssp.get(), &self.plan, k, step_ms)?;
         let next_switch = self.lights.next_tick(&self.plan, step_ms);
         let n_steps = chunk_steps(k, self.chunk.min(self.steps - k), next_switch);
         let ego_lateral = self.observe();
         self.headed = Some((n_steps, ego_lateral));
-        Ok(true)
+        Ok(Head::Ready)
     }
 
     /// What sut.car observes at this step (after [`Runtime::head`]).
@@ -418,26 +449,29 @@ impl<'a> Runtime<'a> {
         (self.k * self.sim.step_ms) as f64 / 1000.0
     }
 
-    /// Closed loop: the plan's conditions on the world; one that held at
-    /// another time than planned makes the plan again.
-    fn relive(&mut self) -> Result<(), ScenarioError> {
-        let Some(replan) = self.replan.as_ref() else {
-            return Ok(());
-        };
-        if self.ego_i.is_none() || self.plan.conditions.is_empty() {
-            return Ok(());
+    /// Closed loop: the plan's conditions on the world. The times to fix
+    /// when one held at another time than planned (the plan must be made
+    /// again).
+    fn relive(&mut self) -> Option<BTreeMap<String, f64>> {
+        if !self.replans || self.ego_i.is_none() || self.plan.conditions.is_empty() {
+            return None;
         }
-        let (k, step_ms) = (self.k, self.sim.step_ms);
-        let t = (k * step_ms) as f64 / 1000.0;
-        if !self.live.check(&self.plan, &self.world, t) {
-            return Ok(());
-        }
-        let new = replan(&self.live.fixed)?;
+        let t = (self.k * self.sim.step_ms) as f64 / 1000.0;
+        self.live
+            .check(&self.plan, &self.world, t)
+            .then(|| self.live.fixed.clone())
+    }
+
+    /// Takes the plan made again after [`Head::Replan`]: from the step to
+    /// come on, the run follows it.
+    pub fn adopt(&mut self, new: Plan) -> Result<(), ScenarioError> {
         if new.actors.len() != self.plan.actors.len() {
             return Err(ScenarioError::Plan(
                 "planning again for a live condition changed the actors".into(),
             ));
         }
+        let (k, step_ms) = (self.k, self.sim.step_ms);
+        let t = (k * step_ms) as f64 / 1000.0;
         self.plan = new;
         let (plan, rb) = (&self.plan, &mut self.rb);
         rb.next_due = due_time(&self.cfg, plan, &rb.samples);
