@@ -9,8 +9,8 @@ use crate::runtime::run::Runtime;
 use crate::runtime::{Finished, Head, SspSlot, SutSlot};
 use crate::sut::{Observation, SutCommand};
 use crate::{
-    DriveMode, Npc, Prepared, RunOptions, RunResult, ScenarioError, Summary, Verdict,
-    conflict_areas, judge, plan_test, plan_test_with, postplan, runtime, simulator_of,
+    DriveMode, Npc, Prepared, RunOptions, RunResult, ScenarioError, Summary, Verdict, judge,
+    load::conflict_areas, plan_test, plan_test_with, postplan, runtime, simulator_of,
 };
 use litesim_map::RoadNetwork;
 use litesim_ssp::Ssp;

@@ -69,13 +69,13 @@ pub fn execute<'a>(
 
 /// What the head of a step found.
 pub enum Head {
-    /// The step is ready: observe, command, then [`Runtime::tail`].
+    /// The step is ready: observe, command, then the runtime's `tail`.
     Ready,
     /// The run is over.
     Over,
     /// A live condition held at another time than planned: the caller
     /// plans the test again with these condition times fixed and gives
-    /// the plan to [`Runtime::adopt`], then asks for the head again.
+    /// the plan to the runtime's `adopt`, then asks for the head again.
     Replan(BTreeMap<String, f64>),
 }
 
