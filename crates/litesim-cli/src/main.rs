@@ -40,70 +40,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Serve the SSP API over gRPC (with health and reflection services).
-    Serve {
-        /// Address to bind; loopback by default.
-        #[arg(long, default_value = "127.0.0.1:50051")]
-        addr: String,
-        /// Model for sessions that name none (dummy, bicycle, lag).
-        #[arg(long, default_value = "dummy")]
-        model: String,
-        /// Profile for sessions that name none.
-        #[arg(long, default_value = "dummy")]
-        profile: String,
-        /// Write every call with arguments and result as JSON lines.
-        #[arg(long, value_name = "FILE")]
-        trace_rpc: Option<PathBuf>,
-        /// Sessions alive at once.
-        #[arg(long, default_value_t = 64)]
-        max_sessions: usize,
-        /// Actors per session.
-        #[arg(long, default_value_t = 10_000)]
-        max_actors: usize,
-        /// Largest request (bytes).
-        #[arg(long, default_value_t = 16 * 1024 * 1024)]
-        max_message_bytes: usize,
-        /// End a session unused this long (s), whatever its connection
-        /// does; every call, or an explicit KeepAlive, renews it. Off by
-        /// default: a session lives as long as the connection that made it.
-        #[arg(long, value_name = "SECONDS", alias = "idle-timeout-s")]
-        idle_timeout: Option<f64>,
-        /// HTTP/2 keepalive (s): the server pings each connection this
-        /// often and closes one that does not answer within it — its
-        /// sessions are then detached, as when the client closes.
-        #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
-        keepalive: f64,
-        /// How long a session outlives its closed connection (s): a client
-        /// that reconnects takes it back with Attach within this time.
-        #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
-        attach_grace: f64,
-        /// A folder Init's map_path may read from (repeatable); by default
-        /// the folder the server is started in. Other paths are refused.
-        #[arg(long, value_name = "DIR")]
-        map_root: Vec<PathBuf>,
-        /// Every call (but health's) must carry `authorization: Bearer
-        /// <token>`, the token being this file's content.
-        #[arg(long, value_name = "FILE")]
-        auth_token_file: Option<PathBuf>,
-        /// Serve Prometheus metrics (`GET /metrics`: sessions open,
-        /// created, freed by cause, steps, call latencies) on this address.
-        #[arg(long, value_name = "ADDR")]
-        metrics: Option<std::net::SocketAddr>,
-        /// Serve over TLS with this certificate chain (PEM; with --tls-key).
-        #[arg(long, value_name = "FILE", requires = "tls_key")]
-        tls_cert: Option<PathBuf>,
-        /// The TLS private key (PEM; with --tls-cert).
-        #[arg(long, value_name = "FILE", requires = "tls_cert")]
-        tls_key: Option<PathBuf>,
-        /// Serve in plain text on an address that is not loopback (without
-        /// TLS anyone who can reach the port sees the traffic).
-        #[arg(long)]
-        insecure: bool,
-        /// Server worker threads; 0 = one per CPU. For lock-step latency run
-        /// one worker and put server and client on one CPU (`taskset -c 0`
-        /// for both): a wake-up on another CPU costs tens of µs on a VM.
-        #[arg(long, default_value_t = 0)]
-        workers: usize,
-    },
+    Serve(ServeArgs),
     /// Start a server, drive it with the bundled demo client over gRPC, write the log.
     Demo {
         #[command(flatten)]
@@ -231,128 +168,14 @@ enum Command {
         dialect: String,
     },
     /// Run an OpenSCENARIO DSL test: solve, plan, drive the SSP, check; write log, summary, pictures.
-    Run {
-        /// The test (.osc).
-        test: PathBuf,
-        #[command(flatten)]
-        common: scenario::Common,
-        /// Seed (default: the test's, else 1).
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Simulator: in-process (default) or grpc://HOST:PORT.
-        #[arg(long)]
-        sim: Option<String>,
-        /// Output folder (default runs/TEST-seedN).
-        #[arg(short, long)]
-        out: Option<PathBuf>,
-        /// Print (and draw) the plan; run nothing.
-        #[arg(long)]
-        plan_only: bool,
-        /// Skip the pictures.
-        #[arg(long)]
-        no_pictures: bool,
-        /// Also write an animated replay (GIF).
-        #[arg(long)]
-        gif: bool,
-        /// Also write the run as MCAP (Foxglove scene, transforms and actor
-        /// states; ASAM OSI GroundTruth) to FILE.
-        #[arg(long, value_name = "FILE")]
-        mcap: Option<PathBuf>,
-        /// Driver gains from `litesim calibrate` (TOML).
-        #[arg(long)]
-        calibration: Option<PathBuf>,
-        /// Stylesheet for the pictures (TOML; colours, sizes, fonts).
-        #[arg(long)]
-        style: Option<PathBuf>,
-        /// Write every SSP call the run makes (method, arguments, result,
-        /// duration) to FILE as JSON lines, in-process or over gRPC.
-        #[arg(long, value_name = "FILE")]
-        trace_rpc: Option<PathBuf>,
-        /// Pace the steps to the wall clock (hardware in the loop); on by
-        /// default under the dspace profile. The summary reports lateness.
-        #[arg(long, conflicts_with = "no_realtime")]
-        realtime: bool,
-        /// Run as fast as possible even under the dspace profile.
-        #[arg(long)]
-        no_realtime: bool,
-        /// What a late step does: catch-up (run late steps back to back),
-        /// skip (restart the schedule) or fail (stop with a verdict).
-        #[arg(long, default_value = "catch-up", value_name = "POLICY")]
-        realtime_policy: String,
-    },
+    Run(RunArgs),
     /// Run tests × seeds in parallel; JSON lines and CSV; resumable; shardable (i/N).
-    Batch {
-        /// Tests (.osc).
-        #[arg(required = true)]
-        tests: Vec<PathBuf>,
-        #[command(flatten)]
-        common: scenario::Common,
-        /// Seeds, inclusive: A..B or one seed.
-        #[arg(long, default_value = "1..10")]
-        seeds: String,
-        /// Shard i/N of the job list (Kubernetes Indexed Job, Slurm array).
-        #[arg(long, default_value = "0/1")]
-        shard: String,
-        /// Worker threads (default: all cores).
-        #[arg(long)]
-        threads: Option<usize>,
-        /// Output folder.
-        #[arg(short, long, default_value = "batch")]
-        out: PathBuf,
-        /// Continue the batch in OUT: run only its missing jobs (refused
-        /// when OUT was made with other options or tests).
-        #[arg(long, conflicts_with = "force_new")]
-        resume: bool,
-        /// Start over in OUT even though it holds results.
-        #[arg(long)]
-        force_new: bool,
-        /// No progress bar.
-        #[arg(long, short)]
-        quiet: bool,
-        /// Keep the logs of failed runs in OUT/failed/.
-        #[arg(long)]
-        save_failed: bool,
-        /// With --save-failed: also write each failed run as MCAP
-        /// (OUT/failed/TEST-seedN.mcap; Foxglove schemas and OSI GroundTruth).
-        #[arg(long, requires = "save_failed")]
-        mcap: bool,
-        /// Also write the results as JUnit XML (one testcase per test × seed).
-        #[arg(long, value_name = "FILE")]
-        junit: Option<PathBuf>,
-        /// Fail (exit 2) when a `cover` item has buckets no run hit.
-        #[arg(long)]
-        fail_on_holes: bool,
-        /// Exit 3 when a run's scenario was not realised (verdict
-        /// `invalid`) and nothing failed; without it such runs are listed
-        /// but do not fail the batch.
-        #[arg(long)]
-        fail_on_invalid: bool,
-        /// Run on a Ray cluster (auto, HOST:PORT, ray://HOST:PORT, or local
-        /// to start one here) through the Python package (`pip install
-        /// ./python[ray]`); the folder written is the same as without.
-        #[arg(long, value_name = "ADDRESS", conflicts_with_all = ["resume", "save_failed", "junit", "threads", "fail_on_holes", "fail_on_invalid"])]
-        ray: Option<String>,
-    },
+    Batch(BatchArgs),
     /// Watch a run in the browser: map, actors, time slider, play, zoom,
     /// follow, actor state on click, speed/gap/TTC plots, failures on the
     /// timeline. Serves on 127.0.0.1 (no network needed); `--export`
     /// writes the same viewer as one self-contained HTML file instead.
-    View {
-        /// A run folder (from `litesim run`) or a log.json.
-        run: PathBuf,
-        /// Port (0: any free port; the URL is printed).
-        #[arg(long, default_value_t = 8765)]
-        port: u16,
-        /// Address to listen on (the viewer is for this machine unless you say otherwise).
-        #[arg(long, default_value = "127.0.0.1")]
-        host: String,
-        /// OpenDRIVE map to draw (default: the one the run's summary names).
-        #[arg(long)]
-        map: Option<PathBuf>,
-        /// Write the viewer with the whole run inside to FILE (works from file://) and exit.
-        #[arg(long, value_name = "FILE")]
-        export: Option<PathBuf>,
-    },
+    View(ViewArgs),
     /// One self-contained HTML report of a batch folder: runs table,
     /// failure reasons, coverage and its holes, KPI histograms, replays.
     Report {
@@ -391,6 +214,199 @@ enum Command {
         #[command(subcommand)]
         command: map::MapCommand,
     },
+}
+
+/// `litesim view`'s options.
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// A run folder (from `litesim run`) or a log.json.
+    run: PathBuf,
+    /// Port (0: any free port; the URL is printed).
+    #[arg(long, default_value_t = 8765)]
+    port: u16,
+    /// Address to listen on (the viewer is for this machine unless you say otherwise).
+    #[arg(long, default_value = "127.0.0.1")]
+    host: String,
+    /// OpenDRIVE map to draw (default: the one the run's summary names).
+    #[arg(long)]
+    map: Option<PathBuf>,
+    /// Write the viewer with the whole run inside to FILE (works from file://) and exit.
+    #[arg(long, value_name = "FILE")]
+    export: Option<PathBuf>,
+}
+
+/// `litesim batch`'s options.
+#[derive(clap::Args)]
+struct BatchArgs {
+    /// Tests (.osc).
+    #[arg(required = true)]
+    tests: Vec<PathBuf>,
+    #[command(flatten)]
+    common: scenario::Common,
+    /// Seeds, inclusive: A..B or one seed.
+    #[arg(long, default_value = "1..10")]
+    seeds: String,
+    /// Shard i/N of the job list (Kubernetes Indexed Job, Slurm array).
+    #[arg(long, default_value = "0/1")]
+    shard: String,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Output folder.
+    #[arg(short, long, default_value = "batch")]
+    out: PathBuf,
+    /// Continue the batch in OUT: run only its missing jobs (refused
+    /// when OUT was made with other options or tests).
+    #[arg(long, conflicts_with = "force_new")]
+    resume: bool,
+    /// Start over in OUT even though it holds results.
+    #[arg(long)]
+    force_new: bool,
+    /// No progress bar.
+    #[arg(long, short)]
+    quiet: bool,
+    /// Keep the logs of failed runs in OUT/failed/.
+    #[arg(long)]
+    save_failed: bool,
+    /// With --save-failed: also write each failed run as MCAP
+    /// (OUT/failed/TEST-seedN.mcap; Foxglove schemas and OSI GroundTruth).
+    #[arg(long, requires = "save_failed")]
+    mcap: bool,
+    /// Also write the results as JUnit XML (one testcase per test × seed).
+    #[arg(long, value_name = "FILE")]
+    junit: Option<PathBuf>,
+    /// Fail (exit 2) when a `cover` item has buckets no run hit.
+    #[arg(long)]
+    fail_on_holes: bool,
+    /// Exit 3 when a run's scenario was not realised (verdict
+    /// `invalid`) and nothing failed; without it such runs are listed
+    /// but do not fail the batch.
+    #[arg(long)]
+    fail_on_invalid: bool,
+    /// Run on a Ray cluster (auto, HOST:PORT, ray://HOST:PORT, or local
+    /// to start one here) through the Python package (`pip install
+    /// ./python[ray]`); the folder written is the same as without.
+    #[arg(long, value_name = "ADDRESS", conflicts_with_all = ["resume", "save_failed", "junit", "threads", "fail_on_holes", "fail_on_invalid"])]
+    ray: Option<String>,
+}
+
+/// `litesim run`'s options.
+#[derive(clap::Args)]
+struct RunArgs {
+    /// The test (.osc).
+    test: PathBuf,
+    #[command(flatten)]
+    common: scenario::Common,
+    /// Seed (default: the test's, else 1).
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Simulator: in-process (default) or grpc://HOST:PORT.
+    #[arg(long)]
+    sim: Option<String>,
+    /// Output folder (default runs/TEST-seedN).
+    #[arg(short, long)]
+    out: Option<PathBuf>,
+    /// Print (and draw) the plan; run nothing.
+    #[arg(long)]
+    plan_only: bool,
+    /// Skip the pictures.
+    #[arg(long)]
+    no_pictures: bool,
+    /// Also write an animated replay (GIF).
+    #[arg(long)]
+    gif: bool,
+    /// Also write the run as MCAP (Foxglove scene, transforms and actor
+    /// states; ASAM OSI GroundTruth) to FILE.
+    #[arg(long, value_name = "FILE")]
+    mcap: Option<PathBuf>,
+    /// Driver gains from `litesim calibrate` (TOML).
+    #[arg(long)]
+    calibration: Option<PathBuf>,
+    /// Stylesheet for the pictures (TOML; colours, sizes, fonts).
+    #[arg(long)]
+    style: Option<PathBuf>,
+    /// Write every SSP call the run makes (method, arguments, result,
+    /// duration) to FILE as JSON lines, in-process or over gRPC.
+    #[arg(long, value_name = "FILE")]
+    trace_rpc: Option<PathBuf>,
+    /// Pace the steps to the wall clock (hardware in the loop); on by
+    /// default under the dspace profile. The summary reports lateness.
+    #[arg(long, conflicts_with = "no_realtime")]
+    realtime: bool,
+    /// Run as fast as possible even under the dspace profile.
+    #[arg(long)]
+    no_realtime: bool,
+    /// What a late step does: catch-up (run late steps back to back),
+    /// skip (restart the schedule) or fail (stop with a verdict).
+    #[arg(long, default_value = "catch-up", value_name = "POLICY")]
+    realtime_policy: String,
+}
+
+/// `litesim serve`'s options.
+#[derive(clap::Args)]
+struct ServeArgs {
+    /// Address to bind; loopback by default.
+    #[arg(long, default_value = "127.0.0.1:50051")]
+    addr: String,
+    /// Model for sessions that name none (dummy, bicycle, lag).
+    #[arg(long, default_value = "dummy")]
+    model: String,
+    /// Profile for sessions that name none.
+    #[arg(long, default_value = "dummy")]
+    profile: String,
+    /// Write every call with arguments and result as JSON lines.
+    #[arg(long, value_name = "FILE")]
+    trace_rpc: Option<PathBuf>,
+    /// Sessions alive at once.
+    #[arg(long, default_value_t = 64)]
+    max_sessions: usize,
+    /// Actors per session.
+    #[arg(long, default_value_t = 10_000)]
+    max_actors: usize,
+    /// Largest request (bytes).
+    #[arg(long, default_value_t = 16 * 1024 * 1024)]
+    max_message_bytes: usize,
+    /// End a session unused this long (s), whatever its connection
+    /// does; every call, or an explicit KeepAlive, renews it. Off by
+    /// default: a session lives as long as the connection that made it.
+    #[arg(long, value_name = "SECONDS", alias = "idle-timeout-s")]
+    idle_timeout: Option<f64>,
+    /// HTTP/2 keepalive (s): the server pings each connection this
+    /// often and closes one that does not answer within it — its
+    /// sessions are then detached, as when the client closes.
+    #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
+    keepalive: f64,
+    /// How long a session outlives its closed connection (s): a client
+    /// that reconnects takes it back with Attach within this time.
+    #[arg(long, value_name = "SECONDS", default_value_t = 30.0)]
+    attach_grace: f64,
+    /// A folder Init's map_path may read from (repeatable); by default
+    /// the folder the server is started in. Other paths are refused.
+    #[arg(long, value_name = "DIR")]
+    map_root: Vec<PathBuf>,
+    /// Every call (but health's) must carry `authorization: Bearer
+    /// <token>`, the token being this file's content.
+    #[arg(long, value_name = "FILE")]
+    auth_token_file: Option<PathBuf>,
+    /// Serve Prometheus metrics (`GET /metrics`: sessions open,
+    /// created, freed by cause, steps, call latencies) on this address.
+    #[arg(long, value_name = "ADDR")]
+    metrics: Option<std::net::SocketAddr>,
+    /// Serve over TLS with this certificate chain (PEM; with --tls-key).
+    #[arg(long, value_name = "FILE", requires = "tls_key")]
+    tls_cert: Option<PathBuf>,
+    /// The TLS private key (PEM; with --tls-cert).
+    #[arg(long, value_name = "FILE", requires = "tls_cert")]
+    tls_key: Option<PathBuf>,
+    /// Serve in plain text on an address that is not loopback (without
+    /// TLS anyone who can reach the port sees the traffic).
+    #[arg(long)]
+    insecure: bool,
+    /// Server worker threads; 0 = one per CPU. For lock-step latency run
+    /// one worker and put server and client on one CPU (`taskset -c 0`
+    /// for both): a wake-up on another CPU costs tens of µs on a VM.
+    #[arg(long, default_value_t = 0)]
+    workers: usize,
 }
 
 #[derive(Subcommand)]
@@ -462,6 +478,300 @@ pub(crate) fn read_bytes(p: &std::path::Path) -> Result<Vec<u8>> {
     )?)
 }
 
+/// `litesim run`: one test, its run folder, its exit code.
+fn run_test(args: RunArgs) -> Result<()> {
+    let RunArgs {
+        test,
+        common,
+        seed,
+        sim,
+        out,
+        plan_only,
+        no_pictures,
+        gif,
+        mcap,
+        calibration,
+        style,
+        trace_rpc,
+        realtime,
+        no_realtime,
+        realtime_policy,
+    } = args;
+    let pacing = scenario::Pacing {
+        on: realtime,
+        off: no_realtime,
+        policy: realtime_policy
+            .parse()
+            .map_err(|e: String| anyhow::anyhow!("--realtime-policy: {e}"))?,
+    };
+    let outcome = scenario::run(
+        &test,
+        &common,
+        seed,
+        sim.as_deref(),
+        out,
+        plan_only,
+        no_pictures,
+        gif,
+        mcap.as_deref(),
+        calibration.as_deref(),
+        style.as_deref(),
+        trace_rpc.as_deref(),
+        pacing,
+    )?;
+    exit_with(outcome)
+}
+
+/// `litesim batch`: tests × seeds, its folder, its exit code.
+fn run_batch_cmd(args: BatchArgs) -> Result<()> {
+    let BatchArgs {
+        tests,
+        common,
+        seeds,
+        shard,
+        threads,
+        out,
+        resume,
+        force_new,
+        quiet,
+        save_failed,
+        mcap,
+        junit,
+        fail_on_holes,
+        fail_on_invalid,
+        ray,
+    } = args;
+    exit_with(scenario::batch(
+        tests,
+        &common,
+        &seeds,
+        &shard,
+        threads,
+        out,
+        resume,
+        force_new,
+        quiet,
+        save_failed,
+        mcap,
+        junit,
+        fail_on_holes,
+        fail_on_invalid,
+        ray.as_deref(),
+    )?)
+}
+
+/// `litesim view`: the run viewer, served or exported.
+fn view_cmd(args: ViewArgs) -> Result<()> {
+    let ViewArgs {
+        run,
+        port,
+        host,
+        map,
+        export,
+    } = args;
+    // Everything is read and checked before a port is opened: a
+    // bad log starts no server.
+    let data = view::ViewData::new(view::Run::load(&run, map.as_deref())?);
+    if let Some(out) = export {
+        view::export(&data, &out)?;
+        println!("wrote {}", out.display());
+        return Ok(());
+    }
+    let listener = view::bind(&host, port)?;
+    let addr = listener.local_addr()?;
+    println!("litesim viewer: http://{addr}/  (Ctrl-C to stop)");
+    std::io::stdout().flush()?;
+    view::serve(data, listener)
+}
+
+/// The exit code of a run's or a batch's outcome: 0 pass; 2 a failed
+/// check (an outcome, not a crash); 3 the scenario did not happen (a run
+/// invalid, or a batch of only invalid runs under --fail-on-invalid); 1
+/// the system under test broke down or a test could not run (the summary
+/// is written).
+fn exit_with(outcome: scenario::Outcome) -> Result<()> {
+    match outcome {
+        scenario::Outcome::Pass => Ok(()),
+        scenario::Outcome::Fail => std::process::exit(2),
+        scenario::Outcome::Invalid => std::process::exit(3),
+        scenario::Outcome::SutError | scenario::Outcome::CouldNotRun => std::process::exit(1),
+    }
+}
+
+/// `litesim profiles`: the built-in simulator profiles, one a line.
+fn list_profiles() -> Result<()> {
+    for n in litesim_ssp::profile::builtin_names() {
+        let p = litesim_ssp::Profile::builtin(n).map_err(|e| anyhow::anyhow!(e.message))?;
+        println!(
+            "{:<14} {:>4} ms  {:<10?}  {}",
+            p.name, p.step_ms, p.pedal_encoding, p.simulator
+        );
+    }
+    Ok(())
+}
+
+/// `litesim profiles NAME`: one profile in full, with its catalogue.
+fn show_profile(n: &str) -> Result<()> {
+    let p = litesim_ssp::Profile::builtin(n).map_err(|e| anyhow::anyhow!(e.message))?;
+    println!("{} — {}\n{}\n", p.name, p.simulator, p.description);
+    println!(
+        "step {} ms (allowed {}..={}), actuators {:?}, traffic lights {:?}",
+        p.step_ms, p.min_step_ms, p.max_step_ms, p.pedal_encoding, p.traffic_light_api
+    );
+    if !p.step_source.is_empty() {
+        println!("step source: {}", p.step_source);
+    }
+    if p.post_plan.enabled {
+        println!(
+            "post-plan checks: {:?} (speed ≤ {} m/s, acceleration ≤ {} m/s², deceleration ≤ {} m/s²{})",
+            p.post_plan.level,
+            p.post_plan.max_speed,
+            p.post_plan.max_acceleration,
+            p.post_plan.max_deceleration,
+            if p.post_plan.level == litesim_ssp::profile::PostPlanLevel::Full {
+                format!(", curvature ≤ {} 1/m", p.post_plan.max_curvature)
+            } else {
+                String::new()
+            }
+        );
+    }
+    println!(
+        "\n{:<36} {:<12} {:>7} {:>6} {:>6} {:>8}",
+        "blueprint", "category", "length", "width", "height", "mass"
+    );
+    for e in &p.catalog {
+        println!(
+            "{:<36} {:<12} {:>7.2} {:>6.2} {:>6.2} {:>8.0}",
+            e.model_id, e.category, e.length, e.width, e.height, e.mass
+        );
+    }
+    Ok(())
+}
+
+/// `litesim trace summarize FILE`: calls, errors and latencies per method.
+fn trace_summary(file: &std::path::Path) -> Result<()> {
+    let text = read_text(file)?;
+    let (stats, skipped) = litesim_ssp::trace::summarize(&text);
+    println!(
+        "{:<26} {:>8} {:>7} {:>10} {:>10} {:>10} {:>12}",
+        "method", "calls", "errors", "p50 µs", "p99 µs", "max µs", "total ms"
+    );
+    for m in &stats {
+        println!(
+            "{:<26} {:>8} {:>7} {:>10.1} {:>10.1} {:>10.1} {:>12.3}",
+            m.method,
+            m.calls,
+            m.errors,
+            m.p50_us,
+            m.p99_us,
+            m.max_us,
+            m.total_us / 1000.0
+        );
+    }
+    if skipped > 0 {
+        println!("({skipped} lines were not trace records)");
+    }
+    Ok(())
+}
+
+/// `litesim serve`: the SSP API over gRPC until Ctrl-C.
+fn serve(args: ServeArgs) -> Result<()> {
+    let ServeArgs {
+        addr,
+        model,
+        profile,
+        trace_rpc,
+        max_sessions,
+        max_actors,
+        max_message_bytes,
+        idle_timeout,
+        keepalive,
+        attach_grace,
+        map_root,
+        auth_token_file,
+        metrics,
+        tls_cert,
+        tls_key,
+        insecure,
+        workers,
+    } = args;
+    let tls = match (tls_cert, tls_key) {
+        (Some(c), Some(k)) => {
+            let read = |f: &PathBuf, what: &str| read_bytes(f).with_context(|| format!("--{what}"));
+            Some(litesim_grpc::TlsPem {
+                cert: read(&c, "tls-cert")?,
+                key: read(&k, "tls-key")?,
+            })
+        }
+        _ => None,
+    };
+    let plain = tls.is_none();
+    let auth_token = auth_token_file.map(|f| read_token(&f)).transpose()?;
+    let secs = |name: &str, v: f64| {
+        if v.is_finite() && v > 0.0 && v <= 86_400.0 {
+            Ok(std::time::Duration::from_secs_f64(v))
+        } else {
+            Err(anyhow::anyhow!(
+                "--{name} {v}: expected seconds in (0, 86400]"
+            ))
+        }
+    };
+    let idle_timeout = idle_timeout.map(|v| secs("idle-timeout", v)).transpose()?;
+    let keepalive = secs("keepalive", keepalive)?;
+    let attach_grace = secs("attach-grace", attach_grace)?;
+    // Fail early, before binding, on names that cannot work.
+    litesim_ssp::model_by_name(&model).map_err(|e| anyhow::anyhow!(e.message))?;
+    litesim_ssp::Profile::builtin(&profile).map_err(|e| anyhow::anyhow!(e.message))?;
+    let cfg = litesim_grpc::ServerConfig {
+        default_profile: profile,
+        default_model: model,
+        max_sessions,
+        limits: litesim_ssp::SessionLimits {
+            max_actors,
+            ..litesim_ssp::SessionLimits::default()
+        },
+        idle_timeout,
+        keepalive,
+        attach_grace,
+        map_roots: map_root,
+        auth_token,
+        metrics,
+        tls,
+        max_message_bytes,
+        trace_rpc,
+    };
+    let cfg_has_token = cfg.auth_token.is_some();
+    let mut rt = tokio::runtime::Builder::new_multi_thread();
+    if workers > 0 {
+        rt.worker_threads(workers);
+    }
+    let rt = rt.enable_all().build()?;
+    rt.block_on(async move {
+        let listener = tokio::net::TcpListener::bind(&addr)
+            .await
+            .with_context(|| format!("cannot bind {addr}"))?;
+        let local = listener.local_addr()?;
+        if !local.ip().is_loopback() && plain {
+            if !insecure {
+                anyhow::bail!(
+                    "refusing to serve on {local} in plain text: it is not loopback, so anyone who can reach the port could read and drive the sessions; give --tls-cert and --tls-key, bind 127.0.0.1, or pass --insecure to serve in plain text anyway"
+                );
+            }
+            eprintln!(
+                "litesim: --insecure: serving in plain text on {local}; calls and maps cross the network unencrypted{}",
+                if cfg_has_token { "" } else { ", and without --auth-token-file anyone who reaches the port can drive it" }
+            );
+        }
+        println!("litesim: serving the SSP API on {local} (health, reflection on)");
+        std::io::stdout().flush()?;
+        litesim_grpc::serve(listener, cfg, async {
+            let _ = tokio::signal::ctrl_c().await;
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!(e))
+    })
+}
+
 /// A bearer token from a file (its content, trimmed); empty is an error.
 fn read_token(f: &std::path::Path) -> Result<String> {
     let t = read_text(f).context("--auth-token-file")?;
@@ -496,103 +806,7 @@ pub(crate) fn connect_server(addr: &str) -> Result<litesim_grpc::RemoteSsp> {
 
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Command::Serve {
-            addr,
-            model,
-            profile,
-            trace_rpc,
-            max_sessions,
-            max_actors,
-            max_message_bytes,
-            idle_timeout,
-            keepalive,
-            attach_grace,
-            map_root,
-            auth_token_file,
-            metrics,
-            tls_cert,
-            tls_key,
-            insecure,
-            workers,
-        } => {
-            let tls = match (tls_cert, tls_key) {
-                (Some(c), Some(k)) => {
-                    let read = |f: &PathBuf, what: &str| {
-                        read_bytes(f).with_context(|| format!("--{what}"))
-                    };
-                    Some(litesim_grpc::TlsPem {
-                        cert: read(&c, "tls-cert")?,
-                        key: read(&k, "tls-key")?,
-                    })
-                }
-                _ => None,
-            };
-            let plain = tls.is_none();
-            let auth_token = auth_token_file.map(|f| read_token(&f)).transpose()?;
-            let secs = |name: &str, v: f64| {
-                if v.is_finite() && v > 0.0 && v <= 86_400.0 {
-                    Ok(std::time::Duration::from_secs_f64(v))
-                } else {
-                    Err(anyhow::anyhow!(
-                        "--{name} {v}: expected seconds in (0, 86400]"
-                    ))
-                }
-            };
-            let idle_timeout = idle_timeout.map(|v| secs("idle-timeout", v)).transpose()?;
-            let keepalive = secs("keepalive", keepalive)?;
-            let attach_grace = secs("attach-grace", attach_grace)?;
-            // Fail early, before binding, on names that cannot work.
-            litesim_ssp::model_by_name(&model).map_err(|e| anyhow::anyhow!(e.message))?;
-            litesim_ssp::Profile::builtin(&profile).map_err(|e| anyhow::anyhow!(e.message))?;
-            let cfg = litesim_grpc::ServerConfig {
-                default_profile: profile,
-                default_model: model,
-                max_sessions,
-                limits: litesim_ssp::SessionLimits {
-                    max_actors,
-                    ..litesim_ssp::SessionLimits::default()
-                },
-                idle_timeout,
-                keepalive,
-                attach_grace,
-                map_roots: map_root,
-                auth_token,
-                metrics,
-                tls,
-                max_message_bytes,
-                trace_rpc,
-            };
-            let cfg_has_token = cfg.auth_token.is_some();
-            let mut rt = tokio::runtime::Builder::new_multi_thread();
-            if workers > 0 {
-                rt.worker_threads(workers);
-            }
-            let rt = rt.enable_all().build()?;
-            rt.block_on(async move {
-                let listener = tokio::net::TcpListener::bind(&addr)
-                    .await
-                    .with_context(|| format!("cannot bind {addr}"))?;
-                let local = listener.local_addr()?;
-                if !local.ip().is_loopback() && plain {
-                    if !insecure {
-                        anyhow::bail!(
-                            "refusing to serve on {local} in plain text: it is not loopback, so anyone who can reach the port could read and drive the sessions; give --tls-cert and --tls-key, bind 127.0.0.1, or pass --insecure to serve in plain text anyway"
-                        );
-                    }
-                    eprintln!(
-                        "litesim: --insecure: serving in plain text on {local}; calls and maps cross the network unencrypted{}",
-                        if cfg_has_token { "" } else { ", and without --auth-token-file anyone who reaches the port can drive it" }
-                    );
-                }
-                println!("litesim: serving the SSP API on {local} (health, reflection on)");
-                std::io::stdout().flush()?;
-                litesim_grpc::serve(listener, cfg, async {
-                    let _ = tokio::signal::ctrl_c().await;
-                })
-                .await
-                .map_err(|e| anyhow::anyhow!(e))
-            })
-        }
+        Command::Serve(args) => serve(args),
         Command::Demo { opts, in_process } => {
             if in_process {
                 let mut s = litesim_ssp::Session::default();
@@ -605,52 +819,8 @@ fn run(cli: Cli) -> Result<()> {
             let mut c = connect_server(&addr)?;
             demo::run(&mut c, &opts, &format!("gRPC {addr}"))
         }
-        Command::Profiles { name: None } => {
-            for n in litesim_ssp::profile::builtin_names() {
-                let p = litesim_ssp::Profile::builtin(n).map_err(|e| anyhow::anyhow!(e.message))?;
-                println!(
-                    "{:<14} {:>4} ms  {:<10?}  {}",
-                    p.name, p.step_ms, p.pedal_encoding, p.simulator
-                );
-            }
-            Ok(())
-        }
-        Command::Profiles { name: Some(n) } => {
-            let p = litesim_ssp::Profile::builtin(&n).map_err(|e| anyhow::anyhow!(e.message))?;
-            println!("{} — {}\n{}\n", p.name, p.simulator, p.description);
-            println!(
-                "step {} ms (allowed {}..={}), actuators {:?}, traffic lights {:?}",
-                p.step_ms, p.min_step_ms, p.max_step_ms, p.pedal_encoding, p.traffic_light_api
-            );
-            if !p.step_source.is_empty() {
-                println!("step source: {}", p.step_source);
-            }
-            if p.post_plan.enabled {
-                println!(
-                    "post-plan checks: {:?} (speed ≤ {} m/s, acceleration ≤ {} m/s², deceleration ≤ {} m/s²{})",
-                    p.post_plan.level,
-                    p.post_plan.max_speed,
-                    p.post_plan.max_acceleration,
-                    p.post_plan.max_deceleration,
-                    if p.post_plan.level == litesim_ssp::profile::PostPlanLevel::Full {
-                        format!(", curvature ≤ {} 1/m", p.post_plan.max_curvature)
-                    } else {
-                        String::new()
-                    }
-                );
-            }
-            println!(
-                "\n{:<36} {:<12} {:>7} {:>6} {:>6} {:>8}",
-                "blueprint", "category", "length", "width", "height", "mass"
-            );
-            for e in &p.catalog {
-                println!(
-                    "{:<36} {:<12} {:>7.2} {:>6.2} {:>6.2} {:>8.0}",
-                    e.model_id, e.category, e.length, e.width, e.height, e.mass
-                );
-            }
-            Ok(())
-        }
+        Command::Profiles { name: None } => list_profiles(),
+        Command::Profiles { name: Some(n) } => show_profile(&n),
         Command::Map { command } => map::run(command),
         Command::Check {
             file,
@@ -711,119 +881,9 @@ fn run(cli: Cli) -> Result<()> {
             map.as_deref(),
             style.as_deref(),
         ),
-        Command::Run {
-            test,
-            common,
-            seed,
-            sim,
-            out,
-            plan_only,
-            no_pictures,
-            gif,
-            mcap,
-            calibration,
-            style,
-            trace_rpc,
-            realtime,
-            no_realtime,
-            realtime_policy,
-        } => {
-            let pacing = scenario::Pacing {
-                on: realtime,
-                off: no_realtime,
-                policy: realtime_policy
-                    .parse()
-                    .map_err(|e: String| anyhow::anyhow!("--realtime-policy: {e}"))?,
-            };
-            let outcome = scenario::run(
-                &test,
-                &common,
-                seed,
-                sim.as_deref(),
-                out,
-                plan_only,
-                no_pictures,
-                gif,
-                mcap.as_deref(),
-                calibration.as_deref(),
-                style.as_deref(),
-                trace_rpc.as_deref(),
-                pacing,
-            )?;
-            match outcome {
-                scenario::Outcome::Pass => Ok(()),
-                // A failed check is an outcome, not a crash: exit 2.
-                scenario::Outcome::Fail => std::process::exit(2),
-                // The scenario did not happen: exit 3.
-                scenario::Outcome::Invalid => std::process::exit(3),
-                // The system under test broke down: exit 1 (summary written).
-                scenario::Outcome::SutError | scenario::Outcome::CouldNotRun => {
-                    std::process::exit(1)
-                }
-            }
-        }
-        Command::Batch {
-            tests,
-            common,
-            seeds,
-            shard,
-            threads,
-            out,
-            resume,
-            force_new,
-            quiet,
-            save_failed,
-            mcap,
-            junit,
-            fail_on_holes,
-            fail_on_invalid,
-            ray,
-        } => match scenario::batch(
-            tests,
-            &common,
-            &seeds,
-            &shard,
-            threads,
-            out,
-            resume,
-            force_new,
-            quiet,
-            save_failed,
-            mcap,
-            junit,
-            fail_on_holes,
-            fail_on_invalid,
-            ray.as_deref(),
-        )? {
-            scenario::Outcome::Pass => Ok(()),
-            // Some run failed its checks: the batch's verdict is a failure.
-            scenario::Outcome::Fail => std::process::exit(2),
-            // Only invalid runs, and --fail-on-invalid.
-            scenario::Outcome::Invalid => std::process::exit(3),
-            // A test could not be read or run at all.
-            scenario::Outcome::SutError | scenario::Outcome::CouldNotRun => std::process::exit(1),
-        },
-        Command::View {
-            run,
-            port,
-            host,
-            map,
-            export,
-        } => {
-            // Everything is read and checked before a port is opened: a
-            // bad log starts no server.
-            let data = view::ViewData::new(view::Run::load(&run, map.as_deref())?);
-            if let Some(out) = export {
-                view::export(&data, &out)?;
-                println!("wrote {}", out.display());
-                return Ok(());
-            }
-            let listener = view::bind(&host, port)?;
-            let addr = listener.local_addr()?;
-            println!("litesim viewer: http://{addr}/  (Ctrl-C to stop)");
-            std::io::stdout().flush()?;
-            view::serve(data, listener)
-        }
+        Command::Run(args) => run_test(args),
+        Command::Batch(args) => run_batch_cmd(args),
+        Command::View(args) => view_cmd(args),
         Command::Report { dir, out, quiet } => {
             let p = report::write(&dir, out, quiet)?;
             println!("wrote {}", p.display());
@@ -837,30 +897,7 @@ fn run(cli: Cli) -> Result<()> {
         Command::Calibrate { profile, out } => scenario::calibrate_cmd(&profile, out),
         Command::Trace {
             command: TraceCommand::Summarize { file },
-        } => {
-            let text = read_text(&file)?;
-            let (stats, skipped) = litesim_ssp::trace::summarize(&text);
-            println!(
-                "{:<26} {:>8} {:>7} {:>10} {:>10} {:>10} {:>12}",
-                "method", "calls", "errors", "p50 µs", "p99 µs", "max µs", "total ms"
-            );
-            for m in &stats {
-                println!(
-                    "{:<26} {:>8} {:>7} {:>10.1} {:>10.1} {:>10.1} {:>12.3}",
-                    m.method,
-                    m.calls,
-                    m.errors,
-                    m.p50_us,
-                    m.p99_us,
-                    m.max_us,
-                    m.total_us / 1000.0
-                );
-            }
-            if skipped > 0 {
-                println!("({skipped} lines were not trace records)");
-            }
-            Ok(())
-        }
+        } => trace_summary(&file),
         Command::Models => {
             for m in litesim_ssp::models() {
                 println!("{:<8} {}", m.name(), m.summary());
