@@ -3,6 +3,27 @@
 
 use super::*;
 
+/// What placing one actor reads: the map, every plan, the actor, where the
+/// others start, and the places its modifiers are written.
+struct Cx<'a> {
+    net: &'a RoadNetwork,
+    plans: &'a [ActorPlan],
+    me: &'a ActorPlan,
+    placed: &'a BTreeMap<String, Motion>,
+    index: &'a BTreeMap<String, usize>,
+    /// Where the phase is written.
+    at: &'a str,
+    /// Where each modifier is written.
+    mod_at: &'a [String],
+}
+
+/// `lane(n)` or `lane(relation: o)` among the start modifiers.
+type LaneMod = (Option<f64>, Option<(LaneRelation, String)>);
+
+/// Where actor `i` starts, under its first phase's modifiers `mods`: on
+/// its reference's place or a road (`along`, else a seeded choice), in a
+/// lane, at a gap to another actor, beside one, at a speed. A start that
+/// cannot be set up with this seed is named in `unplaced`.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn place(
     net: &RoadNetwork,
@@ -18,6 +39,15 @@ pub(super) fn place(
 ) -> Result<Motion, ScenarioError> {
     let me = &plans[i];
     check_start_combination(net, me, mods, mod_at, placed)?;
+    let cx = Cx {
+        net,
+        plans,
+        me,
+        placed,
+        index,
+        at,
+        mod_at,
+    };
     // The modifiers that shape the start (`at: end` ones are goals).
     let starting = || mods.iter().filter(|m| m.at() != At::End);
     let mut mo = Motion {
@@ -38,7 +68,6 @@ pub(super) fn place(
         } => Some((road.clone(), *start_offset)),
         _ => None,
     });
-    let along_road = along.as_ref().and_then(|a| a.0.clone());
     let reference: Option<String> = [
         RefKind::AheadOf,
         RefKind::Behind,
@@ -49,195 +78,32 @@ pub(super) fn place(
     ]
     .into_iter()
     .find_map(|k| starting().find_map(|m| m.reference(k).map(String::from)));
-    let lane_mod = starting().find_map(|m| match m {
+    let lane_mod: Option<LaneMod> = starting().find_map(|m| match m {
         Intent::Lane {
             lane, reference, ..
         } => Some((*lane, reference.clone())),
         _ => None,
     });
-    if let Some(o) = &reference
-        && let Some(om) = placed.get(o)
+    match reference
+        .as_ref()
+        .and_then(|o| placed.get(o).map(|om| (o, om)))
     {
-        mo.pos = om.pos;
-        // `lane(n)` beside a position relative to `o`: lane n of o's road
-        // in o's direction of travel (d along o's lane, below).
-        if let Some((Some(n), None)) = &lane_mod {
-            let fwd = net.travels_forward(om.pos);
-            let lanes = net.lanes_same_way(om.pos.road, om.pos.s, fwd);
-            mo.pos.lane = *lanes.get(lane_index(lanes.len(), *n)).ok_or_else(|| {
-                ScenarioError::Plan(format!(
-                    "{at}: lane {n} asked for {} beside {o}, but road {} has {} lane(s) that way",
-                    me.id,
-                    net.roads()[om.pos.road].id,
-                    lanes.len()
-                ))
-            })?;
-        }
-    } else {
-        let road = match &along_road {
-            Some(id) => net.road_index(id).ok_or_else(|| {
-                ScenarioError::Plan(format!("{at}: road '{id}' is not in the map"))
-            })?,
-            None => roads_ok[(rng.next_u64() % roads_ok.len() as u64) as usize],
-        };
-        mo.pos.road = road;
-        let r = &net.roads()[road];
-        // Lanes going either way; prefer forward lanes, then any.
-        let mut lanes = net.lanes_same_way(road, 0.01, true);
-        if lanes.is_empty() {
-            lanes = net.lanes_same_way(road, 0.01, false);
-        }
-        if lanes.is_empty() {
-            return Err(ScenarioError::Plan(format!(
-                "{at}: road {} has no driving lane",
-                r.id
-            )));
-        }
-        let lane = match lane_mod.as_ref().and_then(|m| m.0) {
-            Some(n) => *lanes.get(lane_index(lanes.len(), n)).ok_or_else(|| {
-                ScenarioError::Plan(format!(
-                    "{at}: lane {} asked for {} but road {} has {} lane(s) that way",
-                    if n < 0.0 {
-                        format!("{} from the left", -n)
-                    } else {
-                        n.to_string()
-                    },
-                    me.id,
-                    r.id,
-                    lanes.len()
-                ))
-            })?,
-            None => lanes[(rng.next_u64() % lanes.len() as u64) as usize],
-        };
-        mo.pos.lane = lane;
-        let offset = along.as_ref().and_then(|a| a.1);
-        // A free s: clear of every placed actor on this road by their lengths + 5 m.
-        let margin = me.length / 2.0 + 5.0;
-        let lo = margin.min(r.length / 2.0);
-        let hi = (r.length * 0.5).max(lo);
-        if let Some(o) = offset
-            && !(0.0..=r.length).contains(&o)
-        {
-            unplaced.push(format!(
-                "{at}: {} could not be placed {o:.1} m along road {}: the road is {:.1} m long",
-                me.id, r.id, r.length
-            ));
-        }
-        let mut s = offset.unwrap_or_else(|| sample(lo, hi, rng));
-        let clear = |s: f64| {
-            placed.iter().all(|(oid, om)| {
-                let ol = index.get(oid).map_or(4.0, |k| plans[*k].length);
-                om.pos.road != road
-                    || om.pos.lane != lane
-                    || (om.pos.s - s).abs() > (ol + me.length) / 2.0 + 5.0
-            })
-        };
-        for _ in 0..50 {
-            if clear(s) {
-                break;
-            }
-            s += (me.length + 10.0).min(r.length / 8.0).max(1.0);
-            if s > r.length - margin.min(r.length / 4.0) {
-                s = lo;
-            }
-        }
-        // An explicit offset is where the author put the actor (another
-        // actor there is the author's choice); a free place that every try
-        // found taken is a scenario that could not be set up.
-        if offset.is_none() && !clear(s) {
-            unplaced.push(format!(
-                "{at}: {} could not be placed: no free place in road {} lane {lane} \
-                 ({:.0} m, {} actor(s) already there)",
-                me.id,
-                r.id,
-                r.length,
-                placed
-                    .values()
-                    .filter(|om| om.pos.road == road && om.pos.lane == lane)
-                    .count()
-            ));
-        }
-        mo.pos.s = s.clamp(0.0, r.length);
-        // Point the lane's s at its direction of travel: s runs backwards on backward lanes.
-        if !net.travels_forward(mo.pos) {
-            mo.pos.s = (r.length - mo.pos.s).clamp(0.0, r.length);
-        }
+        Some((o, om)) => on_reference(&cx, &mut mo, (o, om), lane_mod.as_ref())?,
+        None => on_a_road(
+            &cx,
+            &mut mo,
+            along,
+            lane_mod.as_ref(),
+            (rng, roads_ok),
+            unplaced,
+        )?,
     }
-    // Lane relative to another actor.
     if let Some((_, Some((rel, o)))) = &lane_mod
         && let Some(om) = placed.get(o)
     {
-        let base = LanePos {
-            lane: om.pos.lane,
-            ..mo.pos
-        };
-        mo.pos.lane = match rel {
-            LaneRelation::SameAs => om.pos.lane,
-            r => net.lane_beside(base, r.offset()).ok_or_else(|| {
-                ScenarioError::Plan(format!(
-                    "{at}: no lane {} of {o} on road {} for {}",
-                    if *r == LaneRelation::LeftOf {
-                        "left"
-                    } else {
-                        "right"
-                    },
-                    net.roads()[base.road].id,
-                    me.id
-                ))
-            })?,
-        };
+        lane_relative(&cx, &mut mo, *rel, (o, om))?;
     }
-    // Longitudinal relation.
-    if let Some((k, distance, time, order, o)) = mods
-        .iter()
-        .enumerate()
-        .filter(|(_, m)| m.at() != At::End)
-        .find_map(|(k, m)| match m {
-            Intent::Position {
-                distance,
-                time,
-                reference,
-                ..
-            } => Some((k, *distance, *time, reference.clone())),
-            _ => None,
-        })
-        .and_then(|(k, d, t, r)| r.map(|(order, o)| (k, d, t, order, o)))
-        && let Some(om) = placed.get(&o)
-    {
-        let ol = index.get(&o).map_or(4.6, |j| plans[*j].length);
-        let d = match (distance, time) {
-            (Some(d), _) => d,
-            (None, Some(t)) => t * om.v,
-            _ => 10.0,
-        };
-        let gap = d + (ol + me.length) / 2.0;
-        let lane = mo.pos.lane;
-        let base = LanePos {
-            lane: om.pos.lane,
-            ..om.pos
-        };
-        let (end, rest) = net.advance_rest(base, order.sign() * gap);
-        if rest > 0.01 {
-            let road = &net.roads()[end.road];
-            unplaced.push(format!(
-                "{}: {} could not be placed {d:.1} m {} {o}: {o}'s lane (road {} lane {}) \
-                 ends {:.1} m {} it, {rest:.1} m short",
-                mod_at.get(k).map_or(at, String::as_str),
-                me.id,
-                order.word(),
-                road.id,
-                end.lane,
-                (gap - rest - (ol + me.length) / 2.0).max(0.0),
-                if order.sign() > 0.0 {
-                    "ahead of"
-                } else {
-                    "behind"
-                },
-            ));
-        }
-        mo.pos = net.advance_path(base, order.sign() * gap, None);
-        mo.pos.lane = lane;
-    }
+    at_a_gap(&cx, &mut mo, mods, unplaced);
     // Beside another actor (people, cyclists at the kerb).
     if let Some((d, side)) = starting().find_map(|m| match m {
         Intent::Lateral { distance, side, .. } => Some((*distance, *side)),
@@ -269,6 +135,229 @@ pub(super) fn place(
         },
     };
     Ok(mo)
+}
+
+/// The start on the reference actor `o`'s place (already placed at `om`);
+/// with `lane(n)`, lane n of o's road in o's direction of travel.
+fn on_reference(
+    cx: &Cx<'_>,
+    mo: &mut Motion,
+    (o, om): (&String, &Motion),
+    lane_mod: Option<&LaneMod>,
+) -> Result<(), ScenarioError> {
+    let (net, me, at) = (cx.net, cx.me, cx.at);
+    mo.pos = om.pos;
+    // `lane(n)` beside a position relative to `o`: lane n of o's road
+    // in o's direction of travel (d along o's lane, below).
+    if let Some((Some(n), None)) = lane_mod {
+        let fwd = net.travels_forward(om.pos);
+        let lanes = net.lanes_same_way(om.pos.road, om.pos.s, fwd);
+        mo.pos.lane = *lanes.get(lane_index(lanes.len(), *n)).ok_or_else(|| {
+            ScenarioError::Plan(format!(
+                "{at}: lane {n} asked for {} beside {o}, but road {} has {} lane(s) that way",
+                me.id,
+                net.roads()[om.pos.road].id,
+                lanes.len()
+            ))
+        })?;
+    }
+    Ok(())
+}
+
+/// The start on a road: `along`'s (with its offset) or a seeded choice
+/// among `roads_ok`, in `lane(n)` or a seeded lane, at a free s (clear of
+/// the actors placed on that lane).
+fn on_a_road(
+    cx: &Cx<'_>,
+    mo: &mut Motion,
+    along: Option<(Option<String>, Option<f64>)>,
+    lane_mod: Option<&LaneMod>,
+    (rng, roads_ok): (&mut Rng, &[usize]),
+    unplaced: &mut Vec<String>,
+) -> Result<(), ScenarioError> {
+    let (net, me, at, placed, index, plans) = (cx.net, cx.me, cx.at, cx.placed, cx.index, cx.plans);
+    let along_road = along.as_ref().and_then(|a| a.0.clone());
+    let road = match &along_road {
+        Some(id) => net
+            .road_index(id)
+            .ok_or_else(|| ScenarioError::Plan(format!("{at}: road '{id}' is not in the map")))?,
+        None => roads_ok[(rng.next_u64() % roads_ok.len() as u64) as usize],
+    };
+    mo.pos.road = road;
+    let r = &net.roads()[road];
+    // Lanes going either way; prefer forward lanes, then any.
+    let mut lanes = net.lanes_same_way(road, 0.01, true);
+    if lanes.is_empty() {
+        lanes = net.lanes_same_way(road, 0.01, false);
+    }
+    if lanes.is_empty() {
+        return Err(ScenarioError::Plan(format!(
+            "{at}: road {} has no driving lane",
+            r.id
+        )));
+    }
+    let lane = match lane_mod.and_then(|m| m.0) {
+        Some(n) => *lanes.get(lane_index(lanes.len(), n)).ok_or_else(|| {
+            ScenarioError::Plan(format!(
+                "{at}: lane {} asked for {} but road {} has {} lane(s) that way",
+                if n < 0.0 {
+                    format!("{} from the left", -n)
+                } else {
+                    n.to_string()
+                },
+                me.id,
+                r.id,
+                lanes.len()
+            ))
+        })?,
+        None => lanes[(rng.next_u64() % lanes.len() as u64) as usize],
+    };
+    mo.pos.lane = lane;
+    let offset = along.as_ref().and_then(|a| a.1);
+    // A free s: clear of every placed actor on this road by their lengths + 5 m.
+    let margin = me.length / 2.0 + 5.0;
+    let lo = margin.min(r.length / 2.0);
+    let hi = (r.length * 0.5).max(lo);
+    if let Some(o) = offset
+        && !(0.0..=r.length).contains(&o)
+    {
+        unplaced.push(format!(
+            "{at}: {} could not be placed {o:.1} m along road {}: the road is {:.1} m long",
+            me.id, r.id, r.length
+        ));
+    }
+    let mut s = offset.unwrap_or_else(|| sample(lo, hi, rng));
+    let clear = |s: f64| {
+        placed.iter().all(|(oid, om)| {
+            let ol = index.get(oid).map_or(4.0, |k| plans[*k].length);
+            om.pos.road != road
+                || om.pos.lane != lane
+                || (om.pos.s - s).abs() > (ol + me.length) / 2.0 + 5.0
+        })
+    };
+    for _ in 0..50 {
+        if clear(s) {
+            break;
+        }
+        s += (me.length + 10.0).min(r.length / 8.0).max(1.0);
+        if s > r.length - margin.min(r.length / 4.0) {
+            s = lo;
+        }
+    }
+    // An explicit offset is where the author put the actor (another
+    // actor there is the author's choice); a free place that every try
+    // found taken is a scenario that could not be set up.
+    if offset.is_none() && !clear(s) {
+        unplaced.push(format!(
+            "{at}: {} could not be placed: no free place in road {} lane {lane} \
+             ({:.0} m, {} actor(s) already there)",
+            me.id,
+            r.id,
+            r.length,
+            placed
+                .values()
+                .filter(|om| om.pos.road == road && om.pos.lane == lane)
+                .count()
+        ));
+    }
+    mo.pos.s = s.clamp(0.0, r.length);
+    // Point the lane's s at its direction of travel: s runs backwards on backward lanes.
+    if !net.travels_forward(mo.pos) {
+        mo.pos.s = (r.length - mo.pos.s).clamp(0.0, r.length);
+    }
+    Ok(())
+}
+
+/// `lane(same_as/left_of/right_of: o)`: the lane relative to o's.
+fn lane_relative(
+    cx: &Cx<'_>,
+    mo: &mut Motion,
+    rel: LaneRelation,
+    (o, om): (&String, &Motion),
+) -> Result<(), ScenarioError> {
+    let (net, me, at) = (cx.net, cx.me, cx.at);
+    let base = LanePos {
+        lane: om.pos.lane,
+        ..mo.pos
+    };
+    mo.pos.lane = match rel {
+        LaneRelation::SameAs => om.pos.lane,
+        r => net.lane_beside(base, r.offset()).ok_or_else(|| {
+            ScenarioError::Plan(format!(
+                "{at}: no lane {} of {o} on road {} for {}",
+                if r == LaneRelation::LeftOf {
+                    "left"
+                } else {
+                    "right"
+                },
+                net.roads()[base.road].id,
+                me.id
+            ))
+        })?,
+    };
+    Ok(())
+}
+
+/// `position(d or time, ahead_of/behind: o)` at the start: d along o's lane
+/// from o's place, in the lane already chosen; a lane that ends short is
+/// named in `unplaced`.
+fn at_a_gap(cx: &Cx<'_>, mo: &mut Motion, mods: &[Intent], unplaced: &mut Vec<String>) {
+    let (net, me, at, placed, index, plans, mod_at) = (
+        cx.net, cx.me, cx.at, cx.placed, cx.index, cx.plans, cx.mod_at,
+    );
+    let Some((k, distance, time, order, o)) = mods
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| m.at() != At::End)
+        .find_map(|(k, m)| match m {
+            Intent::Position {
+                distance,
+                time,
+                reference,
+                ..
+            } => Some((k, *distance, *time, reference.clone())),
+            _ => None,
+        })
+        .and_then(|(k, d, t, r)| r.map(|(order, o)| (k, d, t, order, o)))
+    else {
+        return;
+    };
+    let Some(om) = placed.get(&o) else {
+        return;
+    };
+    let ol = index.get(&o).map_or(4.6, |j| plans[*j].length);
+    let d = match (distance, time) {
+        (Some(d), _) => d,
+        (None, Some(t)) => t * om.v,
+        _ => 10.0,
+    };
+    let gap = d + (ol + me.length) / 2.0;
+    let lane = mo.pos.lane;
+    let base = LanePos {
+        lane: om.pos.lane,
+        ..om.pos
+    };
+    let (end, rest) = net.advance_rest(base, order.sign() * gap);
+    if rest > 0.01 {
+        let road = &net.roads()[end.road];
+        unplaced.push(format!(
+            "{}: {} could not be placed {d:.1} m {} {o}: {o}'s lane (road {} lane {}) \
+             ends {:.1} m {} it, {rest:.1} m short",
+            mod_at.get(k).map_or(at, String::as_str),
+            me.id,
+            order.word(),
+            road.id,
+            end.lane,
+            (gap - rest - (ol + me.length) / 2.0).max(0.0),
+            if order.sign() > 0.0 {
+                "ahead of"
+            } else {
+                "behind"
+            },
+        ));
+    }
+    mo.pos = net.advance_path(base, order.sign() * gap, None);
+    mo.pos.lane = lane;
 }
 
 /// Refuses start modifiers that cannot all hold, naming each: two that
