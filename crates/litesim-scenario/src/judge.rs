@@ -119,11 +119,19 @@ fn checks(
     ego_id: Option<&str>,
     j: &mut Judged,
 ) {
+    collisions(ex, ego_id, j);
+    actors(ex, mode, closed_loop, j);
+    goals(ex, j);
+    if let Some(ego) = ego_id {
+        thresholds(ex, th, ego, j);
+    }
+}
+
+/// Collisions, sut.car's first (they are the verdict on the SUT); one
+/// where sut.car was struck while keeping its lane and speed is a note.
+fn collisions(ex: &Executed, ego_id: Option<&str>, j: &mut Judged) {
     let Judged {
-        failures,
-        invalid,
-        notes,
-        ..
+        failures, notes, ..
     } = j;
     let involves = |a: &str, b: &str| ego_id.is_some_and(|e| a == e || b == e);
     // Collisions with the ego first: they are the verdict on the SUT.
@@ -151,6 +159,12 @@ fn checks(
             failures.push(msg);
         }
     }
+}
+
+/// Each actor off the road, through a red light, or (a scenario player's
+/// check) off its plan.
+fn actors(ex: &Executed, mode: DriveMode, closed_loop: bool, j: &mut Judged) {
+    let failures = &mut j.failures;
     let (tol_path, tol_speed) = tolerances(mode);
     for a in &ex.kpis.actors {
         if let Some(t) = a.off_road_at {
@@ -177,6 +191,17 @@ fn checks(
             ));
         }
     }
+}
+
+/// The scenario's intents: gap and lane goals missed, conditions that
+/// never held (the scenario did not happen).
+fn goals(ex: &Executed, j: &mut Judged) {
+    let Judged {
+        failures,
+        invalid,
+        notes,
+        ..
+    } = j;
     for g in &ex.goals {
         if g.met {
             continue;
@@ -247,9 +272,12 @@ fn checks(
             notes.push(format!("best effort: {msg}"));
         }
     }
-    let Some(ego) = ego_id else {
-        return;
-    };
+}
+
+/// The test's thresholds on sut.car: TTC, gap, deceleration, jerk, time
+/// headway, DRAC, PET, distance to its goal.
+fn thresholds(ex: &Executed, th: &Thresholds, ego: &str, j: &mut Judged) {
+    let failures = &mut j.failures;
     let ego_pairs = || ex.kpis.pairs.iter().filter(|p| p.a == ego || p.b == ego);
     let other = |p: &crate::kpi::PairKpi| if p.a == ego { p.b.clone() } else { p.a.clone() };
     if let Some(limit) = th.min_ttc
