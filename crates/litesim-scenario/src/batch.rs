@@ -788,24 +788,8 @@ pub fn run_batch(
     spec: &BatchSpec,
     progress: &(dyn Fn(u64, u64) + Sync),
 ) -> Result<BatchReport, ScenarioError> {
+    check_spec(spec)?;
     let (si, sn) = spec.shard;
-    if sn == 0 || si >= sn {
-        return Err(ScenarioError::Batch(format!(
-            "shard {si}/{sn}: expected i/N with 0 ≤ i < N"
-        )));
-    }
-    if spec.seed_to < spec.seed_from {
-        return Err(ScenarioError::Batch(format!(
-            "seeds {}..{}: the range is empty",
-            spec.seed_from, spec.seed_to
-        )));
-    }
-    if spec.seed_to - spec.seed_from >= MAX_SEEDS {
-        return Err(ScenarioError::Batch(format!(
-            "seeds {}..{}: a batch takes at most {MAX_SEEDS} seeds",
-            spec.seed_from, spec.seed_to
-        )));
-    }
     std::fs::create_dir_all(&spec.out).map_err(|e| ScenarioError::write(&spec.out, e))?;
     let results = spec.out.join("results.jsonl");
     // Each test is parsed and its map loaded once.
@@ -828,34 +812,7 @@ pub fn run_batch(
         sut_timeout: spec.sut_timeout,
         ..RunOptions::default()
     };
-    let manifest = Manifest {
-        litesim: env!("CARGO_PKG_VERSION").to_string(),
-        tests: preps
-            .iter()
-            .map(|(name, p)| ManifestTest {
-                path: name.clone(),
-                sources: p.as_ref().ok().map(|p| p.source_hash.clone()),
-                map: p
-                    .as_ref()
-                    .ok()
-                    .and_then(|p| p.map_text.as_ref())
-                    .map(|t| crate::sha256_hex(t.as_bytes())),
-                profile: p.as_ref().ok().map(|p| crate::profile_of(p, &base)),
-                calibration: p.as_ref().ok().map(|p| crate::calibration_used(p, &base)),
-            })
-            .collect(),
-        mode: match spec.mode {
-            Some(DriveMode::Kinematic) => "kinematic",
-            Some(DriveMode::Dynamic) => "dynamic",
-            None => "as configured",
-        }
-        .into(),
-        sut: spec.sut.name(),
-        npc: spec.npc.name().into(),
-        sut_timeout: spec.sut_timeout,
-        seeds: format!("{}..{}", spec.seed_from, spec.seed_to),
-        shard: format!("{si}/{sn}"),
-    };
+    let manifest = manifest_of(spec, &preps, &base);
     // This command's jobs, (test index, seed): a shard's share of every
     // test's seeds (the rule of `jobs_of`, decided without a list).
     let names: Vec<String> = preps.iter().map(|(n, _)| n.clone()).collect();
@@ -864,48 +821,7 @@ pub fn run_batch(
         (spec.seed_from..=spec.seed_to).contains(&seed)
             && (ti as u64 * seeds + (seed - spec.seed_from)) % sn.max(1) == si
     };
-    let mut foreign = 0u64;
-    if !spec.resume && !spec.force_new && std::fs::metadata(&results).is_ok_and(|m| m.len() > 0) {
-        return Err(ScenarioError::Batch(format!(
-            "{} already holds results: --resume to continue that batch, --force-new to start over, or a new folder",
-            spec.out.display()
-        )));
-    }
-    let done = if spec.resume {
-        match Manifest::read(&spec.out)? {
-            Some(old) => {
-                let diffs = manifest.differences(&old, true);
-                if !diffs.is_empty() {
-                    return Err(ScenarioError::Batch(format!(
-                        "{}: --resume refused, the folder holds results of another batch ({}); --force-new to start over, or use a new folder",
-                        spec.out.display(),
-                        diffs.join("; ")
-                    )));
-                }
-            }
-            None if results.exists() => {
-                return Err(ScenarioError::Batch(format!(
-                    "{}: --resume refused, the folder has results but no manifest.json (not written by this litesim); --force-new to start over, or use a new folder",
-                    spec.out.display()
-                )));
-            }
-            None => {}
-        }
-        // Only this command's jobs are kept (the others are dropped when
-        // the file is sorted at the end); the newest line of a job wins.
-        let mut done = std::collections::BTreeSet::new();
-        for (test, seed) in read_keys(&results) {
-            match names.iter().position(|n| *n == test) {
-                Some(ti) if wanted(ti, seed) => {
-                    done.insert((ti, seed));
-                }
-                _ => foreign += 1,
-            }
-        }
-        done
-    } else {
-        std::collections::BTreeSet::new()
-    };
+    let (done, foreign) = resumed(spec, &manifest, &results, &names, &wanted)?;
     clean_temporaries(&spec.out);
     clean_temporaries(&spec.out.join("failed"));
     let manifest_hash = manifest.write(&spec.out)?;
@@ -985,6 +901,124 @@ pub fn run_batch(
     report.errors = errors;
     report.verdict = verdict;
     Ok(report)
+}
+
+/// Refuses a shard that is not i/N and a seed range that is empty or too
+/// long.
+fn check_spec(spec: &BatchSpec) -> Result<(), ScenarioError> {
+    let (si, sn) = spec.shard;
+    if sn == 0 || si >= sn {
+        return Err(ScenarioError::Batch(format!(
+            "shard {si}/{sn}: expected i/N with 0 ≤ i < N"
+        )));
+    }
+    if spec.seed_to < spec.seed_from {
+        return Err(ScenarioError::Batch(format!(
+            "seeds {}..{}: the range is empty",
+            spec.seed_from, spec.seed_to
+        )));
+    }
+    if spec.seed_to - spec.seed_from >= MAX_SEEDS {
+        return Err(ScenarioError::Batch(format!(
+            "seeds {}..{}: a batch takes at most {MAX_SEEDS} seeds",
+            spec.seed_from, spec.seed_to
+        )));
+    }
+    Ok(())
+}
+
+/// What the batch is: litesim's version, each test's hashes, the options,
+/// the seeds and the shard (what `--resume` and `merge` compare).
+fn manifest_of(
+    spec: &BatchSpec,
+    preps: &[(String, Result<Prepared, String>)],
+    base: &RunOptions,
+) -> Manifest {
+    let (si, sn) = spec.shard;
+    Manifest {
+        litesim: env!("CARGO_PKG_VERSION").to_string(),
+        tests: preps
+            .iter()
+            .map(|(name, p)| ManifestTest {
+                path: name.clone(),
+                sources: p.as_ref().ok().map(|p| p.source_hash.clone()),
+                map: p
+                    .as_ref()
+                    .ok()
+                    .and_then(|p| p.map_text.as_ref())
+                    .map(|t| crate::sha256_hex(t.as_bytes())),
+                profile: p.as_ref().ok().map(|p| crate::profile_of(p, base)),
+                calibration: p.as_ref().ok().map(|p| crate::calibration_used(p, base)),
+            })
+            .collect(),
+        mode: match spec.mode {
+            Some(DriveMode::Kinematic) => "kinematic",
+            Some(DriveMode::Dynamic) => "dynamic",
+            None => "as configured",
+        }
+        .into(),
+        sut: spec.sut.name(),
+        npc: spec.npc.name().into(),
+        sut_timeout: spec.sut_timeout,
+        seeds: format!("{}..{}", spec.seed_from, spec.seed_to),
+        shard: format!("{si}/{sn}"),
+    }
+}
+
+/// The jobs a resumed batch has done already (only this command's: the
+/// newest line of a job wins) and how many lines belong to other shards;
+/// refuses a folder that holds results but no or another manifest, and
+/// one with results when neither `--resume` nor `--force-new` is given.
+fn resumed(
+    spec: &BatchSpec,
+    manifest: &Manifest,
+    results: &Path,
+    names: &[String],
+    wanted: &dyn Fn(usize, u64) -> bool,
+) -> Result<(std::collections::BTreeSet<(usize, u64)>, u64), ScenarioError> {
+    let mut foreign = 0u64;
+    if !spec.resume && !spec.force_new && std::fs::metadata(results).is_ok_and(|m| m.len() > 0) {
+        return Err(ScenarioError::Batch(format!(
+            "{} already holds results: --resume to continue that batch, --force-new to start over, or a new folder",
+            spec.out.display()
+        )));
+    }
+    let done = if spec.resume {
+        match Manifest::read(&spec.out)? {
+            Some(old) => {
+                let diffs = manifest.differences(&old, true);
+                if !diffs.is_empty() {
+                    return Err(ScenarioError::Batch(format!(
+                        "{}: --resume refused, the folder holds results of another batch ({}); --force-new to start over, or use a new folder",
+                        spec.out.display(),
+                        diffs.join("; ")
+                    )));
+                }
+            }
+            None if results.exists() => {
+                return Err(ScenarioError::Batch(format!(
+                    "{}: --resume refused, the folder has results but no manifest.json (not written by this litesim); --force-new to start over, or use a new folder",
+                    spec.out.display()
+                )));
+            }
+            None => {}
+        }
+        // Only this command's jobs are kept (the others are dropped when
+        // the file is sorted at the end); the newest line of a job wins.
+        let mut done = std::collections::BTreeSet::new();
+        for (test, seed) in read_keys(results) {
+            match names.iter().position(|n| *n == test) {
+                Some(ti) if wanted(ti, seed) => {
+                    done.insert((ti, seed));
+                }
+                _ => foreign += 1,
+            }
+        }
+        done
+    } else {
+        std::collections::BTreeSet::new()
+    };
+    Ok((done, foreign))
 }
 
 /// Runs a failed job again with a recorder and writes its log (best effort:
