@@ -1097,44 +1097,9 @@ pub fn merge(
             }
         }
         let p = d.join("results.jsonl");
-        if !p.exists() {
-            return Err(ScenarioError::Batch(format!(
-                "{}: no results.jsonl",
-                d.display()
-            )));
-        }
-        let m = Manifest::read(d)?.ok_or_else(|| {
-            ScenarioError::Batch(format!(
-                "{}: no manifest.json (not a folder written by litesim batch)",
-                d.display()
-            ))
-        })?;
-        let (si, sn) = m.shard_pair().ok_or_else(|| {
-            ScenarioError::Batch(format!(
-                "{}: manifest shard '{}' is not i/N",
-                d.display(),
-                m.shard
-            ))
-        })?;
-        match &first {
-            None => first = Some((d.clone(), m.clone())),
-            Some((d0, m0)) => {
-                let mut diffs = m.differences(m0, false);
-                if m.seeds != m0.seeds {
-                    diffs.push(format!("seeds: {} there, {} here", m0.seeds, m.seeds));
-                }
-                if m0.shard_pair().map(|x| x.1) != Some(sn) {
-                    diffs.push(format!("shard count: {} there, {} here", m0.shard, m.shard));
-                }
-                if !diffs.is_empty() {
-                    return Err(ScenarioError::Batch(format!(
-                        "{} and {} come from different batches: {}",
-                        d0.display(),
-                        d.display(),
-                        diffs.join("; ")
-                    )));
-                }
-            }
+        let (m, si) = shard_of(d, &p, first.as_ref())?;
+        if first.is_none() {
+            first = Some((d.clone(), m.clone()));
         }
         // The same shard twice (run again elsewhere) is fine as long as
         // its results agree: rows are compared below.
@@ -1206,6 +1171,52 @@ pub fn merge(
     write_sorted(out, &all, &defs)?;
     report.runs = all.len();
     Ok(report)
+}
+
+/// A shard folder's manifest and shard index, checked against the first
+/// folder's (`first`): same batch, same seeds, same shard count.
+fn shard_of(
+    d: &Path,
+    p: &Path,
+    first: Option<&(PathBuf, Manifest)>,
+) -> Result<(Manifest, u64), ScenarioError> {
+    if !p.exists() {
+        return Err(ScenarioError::Batch(format!(
+            "{}: no results.jsonl",
+            d.display()
+        )));
+    }
+    let m = Manifest::read(d)?.ok_or_else(|| {
+        ScenarioError::Batch(format!(
+            "{}: no manifest.json (not a folder written by litesim batch)",
+            d.display()
+        ))
+    })?;
+    let (si, sn) = m.shard_pair().ok_or_else(|| {
+        ScenarioError::Batch(format!(
+            "{}: manifest shard '{}' is not i/N",
+            d.display(),
+            m.shard
+        ))
+    })?;
+    if let Some((d0, m0)) = first {
+        let mut diffs = m.differences(m0, false);
+        if m.seeds != m0.seeds {
+            diffs.push(format!("seeds: {} there, {} here", m0.seeds, m.seeds));
+        }
+        if m0.shard_pair().map(|x| x.1) != Some(sn) {
+            diffs.push(format!("shard count: {} there, {} here", m0.shard, m.shard));
+        }
+        if !diffs.is_empty() {
+            return Err(ScenarioError::Batch(format!(
+                "{} and {} come from different batches: {}",
+                d0.display(),
+                d.display(),
+                diffs.join("; ")
+            )));
+        }
+    }
+    Ok((m, si))
 }
 
 #[cfg(test)]
