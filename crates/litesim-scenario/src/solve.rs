@@ -293,18 +293,41 @@ pub fn solve(
             sol.roads.insert(path.clone(), id.clone());
             continue;
         }
-        let members: Vec<String> = s
+        let pick = s.road_for(path, &root, net.is_some(), (&summaries, map_name), rng)?;
+        chosen.insert(root, pick.clone());
+        sol.roads.insert(path.clone(), pick);
+    }
+    s.scalars(rng, &mut sol);
+    sol.notes = s.notes;
+    Ok(sol)
+}
+
+impl Solver<'_> {
+    /// The road of the map-element variable `path` (its class of unified
+    /// variables rooted at `root`): a seeded choice among the map's roads
+    /// (`summaries` of `map_name`) that fit every member's kind, lanes,
+    /// length and junction; none is an error naming what was asked and
+    /// what the map has.
+    fn road_for(
+        &self,
+        path: &str,
+        root: &str,
+        has_map: bool,
+        (summaries, map_name): (&[litesim_map::network::RoadSummary], &str),
+        rng: &mut Rng,
+    ) -> Result<String, ScenarioError> {
+        let members: Vec<String> = self
             .test
             .vars
             .iter()
-            .filter(|(p, v)| v.road.is_some() && s.find(p) == root)
+            .filter(|(p, v)| v.road.is_some() && self.find(p) == root)
             .map(|(p, _)| p.clone())
             .collect();
         let attr = |name: &str| -> Dom {
             let mut d = Dom::default();
             for m in &members {
-                let r = s.find(&format!("{m}.{name}"));
-                if let Some(x) = s.dom.get(&r) {
+                let r = self.find(&format!("{m}.{name}"));
+                if let Some(x) = self.dom.get(&r) {
                     d.lo = d.lo.max(x.lo);
                     d.hi = d.hi.min(x.hi);
                     if let Some(v) = &x.eq {
@@ -319,10 +342,13 @@ pub fn solve(
         let into_junction = attr("into_junction").eq == Some(Value::Bool(true));
         let min_lanes = attr("min_lanes");
         let max_lanes = attr("max_lanes");
-        let kinds: Vec<RoadKind> = members.iter().filter_map(|m| s.test.vars[m].road).collect();
+        let kinds: Vec<RoadKind> = members
+            .iter()
+            .filter_map(|m| self.test.vars[m].road)
+            .collect();
         let need_min = min_lanes.lo.max(1.0);
         let need_max = max_lanes.hi;
-        if net.is_none() {
+        if !has_map {
             return Err(ScenarioError::Unsatisfiable(format!(
                 "'{path}' is a map element but the test has no map (set test_config.map or pass --map)"
             )));
@@ -386,69 +412,72 @@ pub fn solve(
                 have.join("; ")
             )));
         }
-        let pick = cands[(rng.next_u64() % cands.len() as u64) as usize]
+        Ok(cands[(rng.next_u64() % cands.len() as u64) as usize]
             .id
-            .clone();
-        chosen.insert(root, pick.clone());
-        sol.roads.insert(path.clone(), pick);
+            .clone())
     }
-    // Scalars: every constrained, unified or declared variable, in path order.
-    let paths: std::collections::BTreeSet<String> = s
-        .dom
-        .keys()
-        .chain(s.parent.keys())
-        .chain(
-            s.test
-                .vars
-                .iter()
-                .filter(|(_, v)| v.road.is_none())
-                .map(|(p, _)| p),
-        )
-        .cloned()
-        .collect();
-    let mut done: BTreeMap<String, Value> = BTreeMap::new();
-    for p in paths {
-        let root = s.find(&p);
-        if let Some(v) = done.get(&root) {
-            sol.values.insert(p, v.clone());
-            continue;
-        }
-        let d = s.dom.get(&root).cloned().unwrap_or_default();
-        let default = s
-            .test
-            .vars
-            .get(&p)
-            .and_then(|v| v.default.clone())
-            .or_else(|| s.test.vars.get(&root).and_then(|v| v.default.clone()));
-        let v = if let Some(v) = d.eq.clone() {
-            Some(v)
-        } else if let Some(list) = &d.one_of {
-            Some(list[(rng.next_u64() % list.len() as u64) as usize].clone())
-        } else {
-            let def = match default {
-                Some(CExpr::Const(v)) => Some(v),
-                Some(CExpr::Range(a, b)) => {
-                    let (a, b) = (a.unwrap_or(d.lo).max(d.lo), b.unwrap_or(d.hi).min(d.hi));
-                    Some(Value::Num(sample(a, b, rng)))
-                }
-                _ => None,
-            };
-            match def {
-                Some(Value::Num(x)) if x >= d.lo && x <= d.hi => Some(Value::Num(x)),
-                Some(v) if v.num().is_none() => Some(v),
-                _ if d.lo.is_finite() || d.hi.is_finite() => {
-                    Some(Value::Num(sample(d.lo, d.hi, rng)))
-                }
-                _ => None,
+
+    /// Every constrained, unified or declared scalar, in path order: its
+    /// equality, else a seeded member of its list, else its default (a
+    /// range sampled) within its domain, else a seeded sample of a bounded
+    /// domain.
+    fn scalars(&self, rng: &mut Rng, sol: &mut Solution) {
+        // Scalars: every constrained, unified or declared variable, in path order.
+        let paths: std::collections::BTreeSet<String> = self
+            .dom
+            .keys()
+            .chain(self.parent.keys())
+            .chain(
+                self.test
+                    .vars
+                    .iter()
+                    .filter(|(_, v)| v.road.is_none())
+                    .map(|(p, _)| p),
+            )
+            .cloned()
+            .collect();
+        let mut done: BTreeMap<String, Value> = BTreeMap::new();
+        for p in paths {
+            let root = self.find(&p);
+            if let Some(v) = done.get(&root) {
+                sol.values.insert(p, v.clone());
+                continue;
             }
-        };
-        if let Some(v) = v {
-            done.insert(root, v.clone());
-            sol.values.insert(p, v);
+            let d = self.dom.get(&root).cloned().unwrap_or_default();
+            let default = self
+                .test
+                .vars
+                .get(&p)
+                .and_then(|v| v.default.clone())
+                .or_else(|| self.test.vars.get(&root).and_then(|v| v.default.clone()));
+            let v = if let Some(v) = d.eq.clone() {
+                Some(v)
+            } else if let Some(list) = &d.one_of {
+                Some(list[(rng.next_u64() % list.len() as u64) as usize].clone())
+            } else {
+                let def = match default {
+                    Some(CExpr::Const(v)) => Some(v),
+                    Some(CExpr::Range(a, b)) => {
+                        let (a, b) = (a.unwrap_or(d.lo).max(d.lo), b.unwrap_or(d.hi).min(d.hi));
+                        Some(Value::Num(sample(a, b, rng)))
+                    }
+                    _ => None,
+                };
+                match def {
+                    Some(Value::Num(x)) if x >= d.lo && x <= d.hi => Some(Value::Num(x)),
+                    Some(v) if v.num().is_none() => Some(v),
+                    _ if d.lo.is_finite() || d.hi.is_finite() => {
+                        Some(Value::Num(sample(d.lo, d.hi, rng)))
+                    }
+                    _ => None,
+                }
+            };
+            if let Some(v) = v {
+                done.insert(root, v.clone());
+                sol.values.insert(p, v);
+            }
         }
     }
-    sol.notes = s.notes;
-    Ok(sol)
 }
 
 /// A seeded sample of `[lo, hi]`; a half-open interval samples a span of
