@@ -89,6 +89,16 @@ where
         .path
         .file_name()
         .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    let head = Heading {
+        test: test_name.clone(),
+        seed,
+        mode,
+        profile: profile.clone(),
+        model: model.clone(),
+        sut: opts.sut.name(),
+        npc: opts.npc,
+        calibration: calibration_src.clone(),
+    };
     if opts.plan_only || !violations.is_empty() || !plan.unplaced.is_empty() {
         // A plan that breaks its checks fails; one whose actors could not
         // all be placed is a scenario that did not happen (`invalid`).
@@ -99,45 +109,10 @@ where
         } else {
             Verdict::Pass
         };
-        let head = Heading {
-            test: test_name,
-            seed,
-            mode,
-            profile,
-            model,
-            sut: opts.sut.name(),
-            npc: opts.npc,
-            calibration: calibration_src,
-        };
         let r = unrun(&prep, head, verdict, violations, plan, sol.roads, notes);
         return Ok(Setup::Done(Box::new(r)));
     }
-    let cfg = runtime::ExecConfig {
-        profile: profile.clone(),
-        model: model.clone(),
-        seed,
-        step_ms,
-        // The Model SSP reads the map for its traffic lights only; a map
-        // without dynamic signals is not sent (it would be parsed again
-        // for every run of a batch, for nothing).
-        map_text: prep.map_text.clone().filter(|_| prep.has_lights),
-        mode,
-        calibration,
-        record: opts.record,
-        observer: opts.observer.clone(),
-        test_name: test_name.clone(),
-        map_path: prep.map_name.clone(),
-        map: prep.net.clone(),
-        sut_timeout: opts
-            .sut_timeout
-            .or(prep.test.config.thresholds.sut_timeout)
-            .unwrap_or(1.0),
-        realtime: opts.realtime,
-        covers: prep.test.covers.clone(),
-        values: sol.values.clone(),
-        people_yield: opts.npc == Npc::Driver,
-        conflict_areas: conflict_areas(&prep),
-    };
+    let cfg = exec_config(&prep, opts, &head, (step_ms, calibration), &sol.values);
     let sut = sut_slot(opts, outside)?;
     let closed_loop = sut.is_some();
     let (plan, drivers, traffic_actors) =
@@ -169,6 +144,44 @@ where
             net: prep.net.clone(),
         },
     })))
+}
+
+/// What the runtime is told of a run: the simulator, profile and model,
+/// the seed, step and mode, the map, the SUT's timeout, pacing, coverage
+/// items and the solved values.
+fn exec_config(
+    prep: &Prepared,
+    opts: &RunOptions,
+    head: &Heading,
+    (step_ms, calibration): (u32, Option<litesim_ssp::profile::Calibration>),
+    values: &BTreeMap<String, crate::elab::Value>,
+) -> runtime::ExecConfig {
+    runtime::ExecConfig {
+        profile: head.profile.clone(),
+        model: head.model.clone(),
+        seed: head.seed,
+        step_ms,
+        // The Model SSP reads the map for its traffic lights only; a map
+        // without dynamic signals is not sent (it would be parsed again
+        // for every run of a batch, for nothing).
+        map_text: prep.map_text.clone().filter(|_| prep.has_lights),
+        mode: head.mode,
+        calibration,
+        record: opts.record,
+        observer: opts.observer.clone(),
+        test_name: head.test.clone(),
+        map_path: prep.map_name.clone(),
+        map: prep.net.clone(),
+        sut_timeout: opts
+            .sut_timeout
+            .or(prep.test.config.thresholds.sut_timeout)
+            .unwrap_or(1.0),
+        realtime: opts.realtime,
+        covers: prep.test.covers.clone(),
+        values: values.clone(),
+        people_yield: opts.npc == Npc::Driver,
+        conflict_areas: conflict_areas(prep),
+    }
 }
 
 /// The SUT of a run: its caller (`outside`), or the one `opts` names.
