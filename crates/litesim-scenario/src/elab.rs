@@ -1131,6 +1131,119 @@ impl Elab<'_> {
         out
     }
 
+    /// An invocation in a `do` tree: a traffic light's `switch(color)`, an
+    /// actor's action with its modifiers, or a scenario inlined under its
+    /// label (its arguments bound as constraints on the instance's fields).
+    fn invoke(
+        &mut self,
+        call: &Expr,
+        with: &[Member],
+        label: Option<String>,
+        sc: &Scope,
+    ) -> Result<Option<Node>, ScenarioError> {
+        let Expr::Call { callee, args, span } = call else {
+            return Ok(None);
+        };
+        let (base, name) = match &**callee {
+            Expr::Field { base, name, .. } => (Some(&**base), name.text.clone()),
+            Expr::Ident { name, .. } => (None, name.clone()),
+            _ => return Ok(None),
+        };
+        let at = self.lib.at(*span);
+        let mut mods = Vec::new();
+        let light = base.and_then(|b| match self.path(b, sc) {
+            Some(CExpr::Var(p))
+                if self
+                    .test
+                    .vars
+                    .get(&p)
+                    .is_some_and(|v| self.lib.is_a(&v.type_name, "traffic_light")) =>
+            {
+                Some(p)
+            }
+            _ => None,
+        });
+        if let Some(light) = light {
+            if name != "switch" {
+                return Err(ScenarioError::Elaboration(format!(
+                    "{at}: a traffic light can only `switch(color)`, not '{name}'"
+                )));
+            }
+            let bound = self.bind(args, &["color".to_string()], sc);
+            let color = bound
+                .get("color")
+                .cloned()
+                .ok_or_else(|| ScenarioError::Elaboration(format!("{at}: switch needs a color")))?;
+            return Ok(Some(Node::Switch {
+                id: 0,
+                light,
+                color,
+                at,
+            }));
+        }
+        if let Some(action) = crate::intent::Action::parse(&name) {
+            let actor = base.and_then(|b| self.actor_of(b, sc)).ok_or_else(|| {
+                ScenarioError::Elaboration(format!(
+                    "{at}: '{name}' needs an actor, e.g. `car1.{name}()`"
+                ))
+            })?;
+            self.mods(with, sc, &mut mods);
+            Ok(Some(Node::Action {
+                id: 0,
+                label,
+                actor,
+                action,
+                mods,
+                at,
+            }))
+        } else if let Some(members) = self.lib.scenario(&name) {
+            self.counter += 1;
+            let ns = match &label {
+                Some(l) if sc.ns == "top" => l.clone(),
+                Some(l) => format!("{}.{l}", sc.ns),
+                None => format!("{}.{name}#{}", sc.ns, self.counter),
+            };
+            let actor = base.and_then(|b| match self.path(b, sc) {
+                Some(CExpr::Var(p)) => Some(self.actor_ids.get(&p).cloned().unwrap_or(p)),
+                _ => None,
+            });
+            let inner = Scope {
+                ns: ns.clone(),
+                actor,
+                ..Scope::default()
+            };
+            let sub = self.body(&members, inner)?;
+            // Arguments bind the instance's fields; the invocation's
+            // `with:` keeps see the caller's names (`s.r1`).
+            let params = self.lib.params(&name);
+            for (p, v) in self.bind(args, &params, sc) {
+                self.test.constraints.push(Constraint {
+                    soft: false,
+                    expr: CExpr::Binary(
+                        "==".into(),
+                        Box::new(CExpr::Var(format!("{ns}.{p}"))),
+                        Box::new(v),
+                    ),
+                    at: at.clone(),
+                });
+            }
+            self.mods(with, sc, &mut mods);
+            Ok(Some(Node::Serial {
+                id: 0,
+                label,
+                children: sub.into_iter().collect(),
+                mods,
+            }))
+        } else {
+            Err(ScenarioError::Elaboration(format!(
+                "{at}: the engine cannot execute '{name}' (known actions: {})",
+                crate::intent::Action::ALL
+                    .map(crate::intent::Action::name)
+                    .join(", ")
+            )))
+        }
+    }
+
     fn node(&mut self, d: &DoMember, sc: &Scope) -> Result<Option<Node>, ScenarioError> {
         let label = d.label.as_ref().map(|l| l.text.clone());
         Ok(match &d.kind {
@@ -1183,108 +1296,7 @@ impl Elab<'_> {
                     },
                 })
             }
-            DoKind::Invoke { call, with } => {
-                let Expr::Call { callee, args, span } = call else {
-                    return Ok(None);
-                };
-                let (base, name) = match &**callee {
-                    Expr::Field { base, name, .. } => (Some(&**base), name.text.clone()),
-                    Expr::Ident { name, .. } => (None, name.clone()),
-                    _ => return Ok(None),
-                };
-                let at = self.lib.at(*span);
-                let mut mods = Vec::new();
-                let light = base.and_then(|b| match self.path(b, sc) {
-                    Some(CExpr::Var(p))
-                        if self
-                            .test
-                            .vars
-                            .get(&p)
-                            .is_some_and(|v| self.lib.is_a(&v.type_name, "traffic_light")) =>
-                    {
-                        Some(p)
-                    }
-                    _ => None,
-                });
-                if let Some(light) = light {
-                    if name != "switch" {
-                        return Err(ScenarioError::Elaboration(format!(
-                            "{at}: a traffic light can only `switch(color)`, not '{name}'"
-                        )));
-                    }
-                    let bound = self.bind(args, &["color".to_string()], sc);
-                    let color = bound.get("color").cloned().ok_or_else(|| {
-                        ScenarioError::Elaboration(format!("{at}: switch needs a color"))
-                    })?;
-                    return Ok(Some(Node::Switch {
-                        id: 0,
-                        light,
-                        color,
-                        at,
-                    }));
-                }
-                if let Some(action) = crate::intent::Action::parse(&name) {
-                    let actor = base.and_then(|b| self.actor_of(b, sc)).ok_or_else(|| {
-                        ScenarioError::Elaboration(format!(
-                            "{at}: '{name}' needs an actor, e.g. `car1.{name}()`"
-                        ))
-                    })?;
-                    self.mods(with, sc, &mut mods);
-                    Some(Node::Action {
-                        id: 0,
-                        label,
-                        actor,
-                        action,
-                        mods,
-                        at,
-                    })
-                } else if let Some(members) = self.lib.scenario(&name) {
-                    self.counter += 1;
-                    let ns = match &label {
-                        Some(l) if sc.ns == "top" => l.clone(),
-                        Some(l) => format!("{}.{l}", sc.ns),
-                        None => format!("{}.{name}#{}", sc.ns, self.counter),
-                    };
-                    let actor = base.and_then(|b| match self.path(b, sc) {
-                        Some(CExpr::Var(p)) => Some(self.actor_ids.get(&p).cloned().unwrap_or(p)),
-                        _ => None,
-                    });
-                    let inner = Scope {
-                        ns: ns.clone(),
-                        actor,
-                        ..Scope::default()
-                    };
-                    let sub = self.body(&members, inner)?;
-                    // Arguments bind the instance's fields; the invocation's
-                    // `with:` keeps see the caller's names (`s.r1`).
-                    let params = self.lib.params(&name);
-                    for (p, v) in self.bind(args, &params, sc) {
-                        self.test.constraints.push(Constraint {
-                            soft: false,
-                            expr: CExpr::Binary(
-                                "==".into(),
-                                Box::new(CExpr::Var(format!("{ns}.{p}"))),
-                                Box::new(v),
-                            ),
-                            at: at.clone(),
-                        });
-                    }
-                    self.mods(with, sc, &mut mods);
-                    Some(Node::Serial {
-                        id: 0,
-                        label,
-                        children: sub.into_iter().collect(),
-                        mods,
-                    })
-                } else {
-                    return Err(ScenarioError::Elaboration(format!(
-                        "{at}: the engine cannot execute '{name}' (known actions: {})",
-                        crate::intent::Action::ALL
-                            .map(crate::intent::Action::name)
-                            .join(", ")
-                    )));
-                }
-            }
+            DoKind::Invoke { call, with } => self.invoke(call, with, label, sc)?,
             DoKind::Wait(spec) => {
                 let event = spec.event.as_ref().and_then(event_name);
                 let (duration, cond) = match &spec.cond {
