@@ -378,35 +378,7 @@ pub fn run_closed_loop_timed(
     let mut timings = Timings::default();
     let veh = cfg.vehicle.resolve()?;
     let sim = cfg.simulation;
-    if !(sim.dt.is_finite() && sim.dt > 0.0 && sim.horizon.is_finite() && sim.horizon > 0.0) {
-        return Err(PlanError::Config(format!(
-            "simulation: dt ({}) and horizon ({}) must be positive",
-            sim.dt, sim.horizon
-        )));
-    }
-    let ratio = cfg.tracker.dt / sim.dt;
-    if !(ratio.is_finite() && ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-6) {
-        return Err(PlanError::Config(format!(
-            "tracker.dt = {} s must be a whole multiple of simulation.dt = {} s",
-            cfg.tracker.dt, sim.dt
-        )));
-    }
-    let every = ratio.round() as u64;
-    let mut mpc = Mpc::new(MpcConfig {
-        horizon: cfg.tracker.horizon,
-        dt: cfg.tracker.dt,
-        wheelbase: veh.wheelbase,
-        q: cfg.tracker.q,
-        q_terminal: cfg.tracker.q_terminal,
-        r: cfg.tracker.r,
-        r_rate: cfg.tracker.r_rate,
-        max_steer: veh.max_steer,
-        max_steer_rate: veh.max_steer_rate,
-        min_accel: -veh.max_decel,
-        max_accel: veh.max_accel,
-        // Predict with the world's own integration step.
-        substeps: every as usize,
-    })?;
+    let (mut mpc, every) = tracker_of(cfg, &veh)?;
     let pl = &cfg.planner;
     // The tightest turn the vehicle can drive (1/m): the corridor is
     // shaped towards it, and a path beyond it is refused below.
@@ -420,51 +392,12 @@ pub fn run_closed_loop_timed(
         planner,
     } = plan_path(cfg, &veh, grid, kappa_max)?;
     let pgrid = &grids.forward;
-    let start = Vec2::new(cfg.start.x, cfg.start.y);
     let goal = Vec2::new(cfg.goal.x, cfg.goal.y);
     timings.plan_s = clock() - t_plan;
 
-    // The world: one vehicle on direct (acceleration, steering) control.
-    let mut world = World::new(sim.dt)?;
-    let mut bike = KinematicBicycle::new(veh.wheelbase);
-    bike.max_steering_angle = veh.max_steer;
-    bike.max_acceleration = veh.max_accel;
-    bike.max_deceleration = veh.max_decel;
-    bike.max_speed = veh.max_speed;
-    bike.reverse = legs.first().is_some_and(|l| l.reverse);
-    let desc = ActorDescription {
-        kind: ActorKind::Vehicle(VehicleCategory::Car),
-        actor_type: "Ego".into(),
-        model: cfg.vehicle.preset.clone(),
-        length: veh.length,
-        width: veh.width,
-        height: 1.5,
-        mass: veh.mass,
-        properties: Default::default(),
-    };
-    let mut st = ActorState::at_rest(Pose::planar(start.x, start.y, cfg.start.yaw));
-    st.speed = cfg.start.speed.max(0.0);
-    world.add_actor(Actor::new(
-        "ego",
-        desc,
-        st,
-        Some(VehicleModelKind::Bicycle(bike.clone())),
-    ))?;
+    let (mut world, bike) = ego_world(cfg, &veh, legs.first().is_some_and(|l| l.reverse))?;
 
-    let mut rec = LogRecorder::new(sim.dt);
-    rec.meta("kind", "closed_loop");
-    rec.meta(
-        "planner",
-        match &planner {
-            PathPlanner::Fmt { .. } => format!("FMT* n={} seed={}", pl.samples, pl.seed),
-            other => other.to_string(),
-        },
-    );
-    rec.meta(
-        "tracker",
-        format!("MPC N={} dt={}", cfg.tracker.horizon, cfg.tracker.dt),
-    );
-    rec.meta("vehicle", &cfg.vehicle.preset);
+    let mut rec = recorder(cfg, &planner);
     rec.record_world(&world);
     let mut tracking = TrackingColumns::default();
     let mut mpc_error: Option<MpcError> = None;
@@ -595,37 +528,9 @@ pub fn run_closed_loop_timed(
     } else {
         abs.iter().sum::<f64>() / abs.len() as f64
     };
-    let g = &pgrid.grid;
-    let cells: Vec<u8> = pgrid
-        .layers()
-        .iter()
-        .map(|l| match l {
-            Layer::Free => 0,
-            Layer::Inflated => 1,
-            Layer::Hard => 2,
-        })
-        .collect();
     let mut log = rec.finish();
     let corridor = joined(&legs);
-    log.plan = Some(PlanRecord {
-        samples: fmt.samples.iter().map(|p| [p.x, p.y]).collect(),
-        edges: fmt.edges.iter().map(|&(a, b)| [a, b]).collect(),
-        radius: fmt.radius,
-        raw_path: fmt.path.iter().map(|p| [p.x, p.y]).collect(),
-        corridor: corridor.points.iter().map(|p| [p.x, p.y]).collect(),
-        corridor_speed: corridor.speed.clone(),
-        left_bound: corridor.left_bound.clone(),
-        right_bound: corridor.right_bound.clone(),
-        smoothed: corridor.smoothed,
-        grid: GridRecord {
-            width: g.width,
-            height: g.height,
-            resolution: g.resolution,
-            origin: [g.origin.x, g.origin.y],
-            cells,
-        },
-        reference_name: String::new(),
-    });
+    log.plan = Some(plan_record(&fmt, &corridor, pgrid));
     log.tracking = Some(tracking);
     let start_escape = escape.as_ref().map(|e| StartEscape {
         depth: e.depth,
@@ -658,4 +563,133 @@ pub fn run_closed_loop_timed(
         start_escape,
     };
     Ok((result, timings))
+}
+
+/// The MPC the run tracks with, and how many simulation steps apart it
+/// runs; refuses a simulation step or horizon that is not positive and a
+/// tracker step that is not a whole multiple of the simulation's.
+fn tracker_of(cfg: &ClosedLoopConfig, veh: &Vehicle) -> Result<(Mpc, u64), PlanError> {
+    let sim = cfg.simulation;
+    if !(sim.dt.is_finite() && sim.dt > 0.0 && sim.horizon.is_finite() && sim.horizon > 0.0) {
+        return Err(PlanError::Config(format!(
+            "simulation: dt ({}) and horizon ({}) must be positive",
+            sim.dt, sim.horizon
+        )));
+    }
+    let ratio = cfg.tracker.dt / sim.dt;
+    if !(ratio.is_finite() && ratio >= 1.0 - 1e-9 && (ratio - ratio.round()).abs() < 1e-6) {
+        return Err(PlanError::Config(format!(
+            "tracker.dt = {} s must be a whole multiple of simulation.dt = {} s",
+            cfg.tracker.dt, sim.dt
+        )));
+    }
+    let every = ratio.round() as u64;
+    let mpc = Mpc::new(MpcConfig {
+        horizon: cfg.tracker.horizon,
+        dt: cfg.tracker.dt,
+        wheelbase: veh.wheelbase,
+        q: cfg.tracker.q,
+        q_terminal: cfg.tracker.q_terminal,
+        r: cfg.tracker.r,
+        r_rate: cfg.tracker.r_rate,
+        max_steer: veh.max_steer,
+        max_steer_rate: veh.max_steer_rate,
+        min_accel: -veh.max_decel,
+        max_accel: veh.max_accel,
+        // Predict with the world's own integration step.
+        substeps: every as usize,
+    })?;
+    Ok((mpc, every))
+}
+
+/// The world: one vehicle (the preset's bicycle model, in reverse gear
+/// when the first leg reverses) at the start, on direct control.
+fn ego_world(
+    cfg: &ClosedLoopConfig,
+    veh: &Vehicle,
+    reverse: bool,
+) -> Result<(World, KinematicBicycle), PlanError> {
+    let sim = cfg.simulation;
+    let start = Vec2::new(cfg.start.x, cfg.start.y);
+    let mut world = World::new(sim.dt)?;
+    let mut bike = KinematicBicycle::new(veh.wheelbase);
+    bike.max_steering_angle = veh.max_steer;
+    bike.max_acceleration = veh.max_accel;
+    bike.max_deceleration = veh.max_decel;
+    bike.max_speed = veh.max_speed;
+    bike.reverse = reverse;
+    let desc = ActorDescription {
+        kind: ActorKind::Vehicle(VehicleCategory::Car),
+        actor_type: "Ego".into(),
+        model: cfg.vehicle.preset.clone(),
+        length: veh.length,
+        width: veh.width,
+        height: 1.5,
+        mass: veh.mass,
+        properties: Default::default(),
+    };
+    let mut st = ActorState::at_rest(Pose::planar(start.x, start.y, cfg.start.yaw));
+    st.speed = cfg.start.speed.max(0.0);
+    world.add_actor(Actor::new(
+        "ego",
+        desc,
+        st,
+        Some(VehicleModelKind::Bicycle(bike.clone())),
+    ))?;
+
+    Ok((world, bike))
+}
+
+/// The log's recorder, named after the run's planner, tracker and vehicle.
+fn recorder(cfg: &ClosedLoopConfig, planner: &PathPlanner) -> LogRecorder {
+    let (sim, pl) = (cfg.simulation, &cfg.planner);
+    let mut rec = LogRecorder::new(sim.dt);
+    rec.meta("kind", "closed_loop");
+    rec.meta(
+        "planner",
+        match planner {
+            PathPlanner::Fmt { .. } => format!("FMT* n={} seed={}", pl.samples, pl.seed),
+            other => other.to_string(),
+        },
+    );
+    rec.meta(
+        "tracker",
+        format!("MPC N={} dt={}", cfg.tracker.horizon, cfg.tracker.dt),
+    );
+    rec.meta("vehicle", &cfg.vehicle.preset);
+    rec
+}
+
+/// The plan as the log keeps it: FMT*'s tree and path, the corridor and
+/// its bounds, the planning grid.
+fn plan_record(fmt: &FmtResult, corridor: &Corridor, pgrid: &PlanningGrid) -> PlanRecord {
+    let g = &pgrid.grid;
+    let cells: Vec<u8> = pgrid
+        .layers()
+        .iter()
+        .map(|l| match l {
+            Layer::Free => 0,
+            Layer::Inflated => 1,
+            Layer::Hard => 2,
+        })
+        .collect();
+    PlanRecord {
+        samples: fmt.samples.iter().map(|p| [p.x, p.y]).collect(),
+        edges: fmt.edges.iter().map(|&(a, b)| [a, b]).collect(),
+        radius: fmt.radius,
+        raw_path: fmt.path.iter().map(|p| [p.x, p.y]).collect(),
+        corridor: corridor.points.iter().map(|p| [p.x, p.y]).collect(),
+        corridor_speed: corridor.speed.clone(),
+        left_bound: corridor.left_bound.clone(),
+        right_bound: corridor.right_bound.clone(),
+        smoothed: corridor.smoothed,
+        grid: GridRecord {
+            width: g.width,
+            height: g.height,
+            resolution: g.resolution,
+            origin: [g.origin.x, g.origin.y],
+            cells,
+        },
+        reference_name: String::new(),
+    }
 }
