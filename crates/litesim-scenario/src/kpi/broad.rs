@@ -285,125 +285,8 @@ impl Kpis {
         self.n += 1;
         let n = boxes.len();
         if n > 1 {
-            if self.trig.len() != n {
-                self.trig = boxes.iter().map(|b| math::SinCosMemo::new(b.yaw)).collect();
-                self.near_box = vec![[0.0; 4]; n];
-                self.ttc_box = vec![[0.0; 4]; n];
-                self.swept = vec![[0.0; 4]; n];
-                self.bounds_at = vec![0; n];
-                self.shapes = boxes.iter().map(Shape::of).collect();
-                self.shape_at = vec![0; n];
-            }
-            let inv = 1.0 / n as f64;
-            let (mut cx, mut cy, mut px, mut py) = (0.0, 0.0, 0.0, 0.0);
-            for b in boxes {
-                cx += b.vx;
-                cy += b.vy;
-                px += b.x;
-                py += b.y;
-            }
-            let (cx, cy, px, py) = (cx * inv, cy * inv, px * inv, py * inv);
-            // Drift relative to the mean: common motion moves no pair.
-            let first = !self.swept_once;
-            let mut rebuild = first;
-            let mut grow = 0.0f64;
-            for (i, b) in boxes.iter().enumerate() {
-                let d = (b.x - px, b.y - py);
-                let (ox, oy) = self.drift_pos[i];
-                let r = self.radius(i, b);
-                // Rounding of the differences (a few ulps of the
-                // coordinates) is added so the bound stays a bound.
-                let slack = 1e-15 * (b.x.abs() + b.y.abs() + px.abs() + py.abs() + 1.0);
-                if !first {
-                    let turn = wrap_angle(b.yaw - self.yaw_prev[i]).abs();
-                    let step = math::hypot(d.0 - ox, d.1 - oy) + r * turn + slack;
-                    self.drift[i] += step;
-                    let (ux, uy) = self.v_prev[i];
-                    // |Δv| bounded by its 1-norm (a bound is all it needs).
-                    grow = grow.max(step + WAKE_REACH * ((b.vx - ux).abs() + (b.vy - uy).abs()));
-                }
-                self.v_prev[i] = (b.vx, b.vy);
-                self.drift_pos[i] = d;
-                let w = (b.vx - cx, b.vy - cy);
-                if !rebuild {
-                    let o = self.at_sweep[i];
-                    let wobble = math::hypot(d.0 - o.pos.0, d.1 - o.pos.1)
-                        + r * wrap_angle(b.yaw - o.yaw).abs()
-                        + TTC_HORIZON * math::hypot(w.0 - o.w.0, w.1 - o.w.1)
-                        + slack;
-                    rebuild = wobble > 0.5 * SKIN - 1e-6;
-                }
-            }
-            self.mean_v = (cx, cy);
-            self.shrink += 2.0 * grow;
-            // How far the margins shrink in a few steps at this step's pace.
-            let pace = SLEEP_STEPS * 2.0 * grow;
-            if rebuild {
-                for (x, b) in boxes.iter().enumerate() {
-                    self.bounds(x, b);
-                }
-                self.sweep(boxes, (cx, cy));
-            }
-            let shrink = self.shrink;
-            let mut cands = std::mem::take(&mut self.cands);
-            let mut awake = std::mem::take(&mut self.awake);
-            while let Some(&std::cmp::Reverse((w, x))) = self.asleep.peek() {
-                if f64::from_bits(w) > shrink {
-                    break;
-                }
-                self.asleep.pop();
-                awake.push(x);
-            }
-            let mut still = 0;
-            for a in 0..awake.len() {
-                let x = awake[a];
-                let c = &mut cands[x as usize];
-                let (i, j) = (c.i as usize, c.j as usize);
-                if c.k != u32::MAX {
-                    let q = self.near[c.k as usize].quiet;
-                    let lb = q.key - self.drift[i] - self.drift[j];
-                    // The TTC cannot beat the limit when the pair cannot
-                    // close the bound within it: lb > |w| · limit, squared.
-                    let (a, b) = (&boxes[i], &boxes[j]);
-                    let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
-                    let reach = lb - 1e-6;
-                    if lb > q.floor
-                        && reach > 0.0
-                        && reach * reach > (wx * wx + wy * wy) * q.limit * q.limit * (1.0 + 1e-9)
-                    {
-                        if let Some(w) = wake(shrink, pace, lb, q, (wx, wy)) {
-                            self.asleep.push(std::cmp::Reverse((w.to_bits(), x)));
-                            continue;
-                        }
-                        awake[still] = x;
-                        still += 1;
-                        continue;
-                    }
-                }
-                if let Some((k, d)) = self.pair(t, i, j, boxes) {
-                    c.k = k as u32;
-                    let e = &mut self.near[k];
-                    let p = &e.kpi;
-                    e.quiet = Quiet {
-                        key: d + self.drift[i] + self.drift[j],
-                        floor: (p.min_distance - DISTANCE_RESOLUTION).max(0.0),
-                        limit: p.min_ttc.map_or(TTC_HORIZON, |m| m.min(TTC_HORIZON)),
-                    };
-                    // Asleep from the next step on while the test surely passes.
-                    let q = e.quiet;
-                    let lb = q.key - self.drift[i] - self.drift[j];
-                    let (a, b) = (&boxes[i], &boxes[j]);
-                    if let Some(w) = wake(shrink, pace, lb, q, (b.vx - a.vx, b.vy - a.vy)) {
-                        self.asleep.push(std::cmp::Reverse((w.to_bits(), x)));
-                        continue;
-                    }
-                }
-                awake[still] = x;
-                still += 1;
-            }
-            awake.truncate(still);
-            self.awake = awake;
-            self.cands = cands;
+            self.fit(boxes);
+            self.pairs(t, boxes);
         }
         for (y, b) in self.yaw_prev.iter_mut().zip(boxes) {
             *y = b.yaw;
@@ -426,6 +309,137 @@ impl Kpis {
             }
             self.last[i] = Some((b.x, b.y));
         }
+    }
+
+    /// Sizes the per-box caches for `boxes` when the number of actors
+    /// changed.
+    fn fit(&mut self, boxes: &[BodyState]) {
+        let n = boxes.len();
+        if self.trig.len() != n {
+            self.trig = boxes.iter().map(|b| math::SinCosMemo::new(b.yaw)).collect();
+            self.near_box = vec![[0.0; 4]; n];
+            self.ttc_box = vec![[0.0; 4]; n];
+            self.swept = vec![[0.0; 4]; n];
+            self.bounds_at = vec![0; n];
+            self.shapes = boxes.iter().map(Shape::of).collect();
+            self.shape_at = vec![0; n];
+        }
+    }
+
+    /// One step of every pair's KPIs over `boxes` (two or more): the broad
+    /// phase's drift bounds, candidate pairs, their exact tests.
+    fn pairs(&mut self, t: f64, boxes: &[BodyState]) {
+        let n = boxes.len();
+        let inv = 1.0 / n as f64;
+        let (mut cx, mut cy, mut px, mut py) = (0.0, 0.0, 0.0, 0.0);
+        for b in boxes {
+            cx += b.vx;
+            cy += b.vy;
+            px += b.x;
+            py += b.y;
+        }
+        let (cx, cy, px, py) = (cx * inv, cy * inv, px * inv, py * inv);
+        // Drift relative to the mean: common motion moves no pair.
+        let first = !self.swept_once;
+        let mut rebuild = first;
+        let mut grow = 0.0f64;
+        for (i, b) in boxes.iter().enumerate() {
+            let d = (b.x - px, b.y - py);
+            let (ox, oy) = self.drift_pos[i];
+            let r = self.radius(i, b);
+            // Rounding of the differences (a few ulps of the
+            // coordinates) is added so the bound stays a bound.
+            let slack = 1e-15 * (b.x.abs() + b.y.abs() + px.abs() + py.abs() + 1.0);
+            if !first {
+                let turn = wrap_angle(b.yaw - self.yaw_prev[i]).abs();
+                let step = math::hypot(d.0 - ox, d.1 - oy) + r * turn + slack;
+                self.drift[i] += step;
+                let (ux, uy) = self.v_prev[i];
+                // |Δv| bounded by its 1-norm (a bound is all it needs).
+                grow = grow.max(step + WAKE_REACH * ((b.vx - ux).abs() + (b.vy - uy).abs()));
+            }
+            self.v_prev[i] = (b.vx, b.vy);
+            self.drift_pos[i] = d;
+            let w = (b.vx - cx, b.vy - cy);
+            if !rebuild {
+                let o = self.at_sweep[i];
+                let wobble = math::hypot(d.0 - o.pos.0, d.1 - o.pos.1)
+                    + r * wrap_angle(b.yaw - o.yaw).abs()
+                    + TTC_HORIZON * math::hypot(w.0 - o.w.0, w.1 - o.w.1)
+                    + slack;
+                rebuild = wobble > 0.5 * SKIN - 1e-6;
+            }
+        }
+        self.mean_v = (cx, cy);
+        self.shrink += 2.0 * grow;
+        // How far the margins shrink in a few steps at this step's pace.
+        let pace = SLEEP_STEPS * 2.0 * grow;
+        if rebuild {
+            for (x, b) in boxes.iter().enumerate() {
+                self.bounds(x, b);
+            }
+            self.sweep(boxes, (cx, cy));
+        }
+        let shrink = self.shrink;
+        let mut cands = std::mem::take(&mut self.cands);
+        let mut awake = std::mem::take(&mut self.awake);
+        while let Some(&std::cmp::Reverse((w, x))) = self.asleep.peek() {
+            if f64::from_bits(w) > shrink {
+                break;
+            }
+            self.asleep.pop();
+            awake.push(x);
+        }
+        let mut still = 0;
+        for a in 0..awake.len() {
+            let x = awake[a];
+            let c = &mut cands[x as usize];
+            let (i, j) = (c.i as usize, c.j as usize);
+            if c.k != u32::MAX {
+                let q = self.near[c.k as usize].quiet;
+                let lb = q.key - self.drift[i] - self.drift[j];
+                // The TTC cannot beat the limit when the pair cannot
+                // close the bound within it: lb > |w| · limit, squared.
+                let (a, b) = (&boxes[i], &boxes[j]);
+                let (wx, wy) = (b.vx - a.vx, b.vy - a.vy);
+                let reach = lb - 1e-6;
+                if lb > q.floor
+                    && reach > 0.0
+                    && reach * reach > (wx * wx + wy * wy) * q.limit * q.limit * (1.0 + 1e-9)
+                {
+                    if let Some(w) = wake(shrink, pace, lb, q, (wx, wy)) {
+                        self.asleep.push(std::cmp::Reverse((w.to_bits(), x)));
+                        continue;
+                    }
+                    awake[still] = x;
+                    still += 1;
+                    continue;
+                }
+            }
+            if let Some((k, d)) = self.pair(t, i, j, boxes) {
+                c.k = k as u32;
+                let e = &mut self.near[k];
+                let p = &e.kpi;
+                e.quiet = Quiet {
+                    key: d + self.drift[i] + self.drift[j],
+                    floor: (p.min_distance - DISTANCE_RESOLUTION).max(0.0),
+                    limit: p.min_ttc.map_or(TTC_HORIZON, |m| m.min(TTC_HORIZON)),
+                };
+                // Asleep from the next step on while the test surely passes.
+                let q = e.quiet;
+                let lb = q.key - self.drift[i] - self.drift[j];
+                let (a, b) = (&boxes[i], &boxes[j]);
+                if let Some(w) = wake(shrink, pace, lb, q, (b.vx - a.vx, b.vy - a.vy)) {
+                    self.asleep.push(std::cmp::Reverse((w.to_bits(), x)));
+                    continue;
+                }
+            }
+            awake[still] = x;
+            still += 1;
+        }
+        awake.truncate(still);
+        self.awake = awake;
+        self.cands = cands;
     }
 
     /// Actor `i`'s half diagonal (its box's corners' distance from its
