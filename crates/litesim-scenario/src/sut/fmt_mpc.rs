@@ -160,89 +160,11 @@ impl FmtMpc {
             .copied()
             .fold(0.0, f64::max)
             .max(1.0);
-        // A route that ends moving (the scenario's ego still driving when
-        // it ends) is driven through its end, not braked to a stop there:
-        // the plan's goal lies a braking distance further on along its
-        // last heading, where that is free (else nearer, else the end).
-        let goal = {
-            let end_speed = info.route.speed.last().copied().unwrap_or(0.0);
-            let n = info.route.points.len();
-            let brake = end_speed * end_speed / info.max_decel.max(0.1) + end_speed;
-            match (end_speed > STANDING, n) {
-                (true, 2..) => {
-                    let [a, b] = [info.route.points[n - 2], info.route.points[n - 1]];
-                    let dir = Vec2::new(b[0] - a[0], b[1] - a[1]);
-                    let len = dir.norm();
-                    let end = Vec2::new(goal[0], goal[1]);
-                    let on = (1..=8)
-                        .map(|k| brake * (1.0 - 0.125 * f64::from(k - 1)))
-                        .map(|d| end + dir * (d / len.max(1e-9)))
-                        .find(|p| len > 1e-9 && grid.cell(*p).is_some() && !grid.is_occupied(*p))
-                        .unwrap_or(end);
-                    [on.x, on.y]
-                }
-                _ => goal,
-            }
-        };
+        let goal = goal_through(info, goal, &grid);
         // Sample density: about one sample per 2 m² of the area in play.
         let free = grid.free_cells() as f64;
         let samples = ((free * grid.resolution * grid.resolution / 2.0) as usize).clamp(400, 3000);
-        let cfg = ClosedLoopConfig {
-            map: MapConfig {
-                origin: [grid.origin.x, grid.origin.y],
-                size: [0.0, 0.0],
-                resolution: grid.resolution,
-                obstacles: Vec::new(),
-                png: None,
-                opendrive: None,
-            },
-            start: StartConfig {
-                x: obs.ego.x,
-                y: obs.ego.y,
-                yaw: obs.ego.yaw,
-                speed: obs.ego.speed.max(0.0),
-            },
-            goal: GoalConfig {
-                x: goal[0],
-                y: goal[1],
-                tolerance: GOAL_TOLERANCE,
-                stop_speed: 0.3,
-            },
-            vehicle: VehicleConfig {
-                preset: "passenger".into(),
-                length: Some(info.length),
-                width: Some(info.width),
-                wheelbase: Some(wheelbase(info)),
-                mass: None,
-                max_steer_deg: Some(info.max_steer.to_degrees()),
-                max_steer_rate_deg: Some(STEER_RATE.to_degrees()),
-                max_accel: Some(info.max_accel.max(0.1)),
-                max_decel: Some(info.max_decel.max(0.1)),
-                max_speed: Some(v_max),
-                max_lat_accel: Some(3.0),
-            },
-            planner: PlannerConfig {
-                samples,
-                eta: 0.5,
-                radius: None,
-                k_nearest: None,
-                seed: info.seed ^ u64::from(self.plans),
-                margin: MARGIN,
-                corridor_ds: 0.5,
-            },
-            tracker: TrackerConfig {
-                horizon: 20,
-                dt: CYCLE,
-                q: MpcConfig::default().q,
-                q_terminal: MpcConfig::default().q_terminal,
-                r: MpcConfig::default().r,
-                r_rate: MpcConfig::default().r_rate,
-            },
-            simulation: SimulationConfig {
-                dt: f64::from(info.step_ms.max(1)) / 1000.0,
-                horizon: info.timeout_s.max(1.0),
-            },
-        };
+        let cfg = chain_config(info, obs, goal, (&grid, samples), (v_max, self.plans));
         let planned = litesim_plan::closed_loop::plan(&cfg, grid)
             .map_err(|e| SutError(format!("fmt-mpc: planning at t={:.2} s: {e}", obs.time)))?;
         let backwards = planned.legs.iter().filter(|l| l.reverse).count();
@@ -397,5 +319,98 @@ impl Sut for FmtMpc {
 
     fn notes(&mut self) -> Vec<String> {
         std::mem::take(&mut self.notes)
+    }
+}
+
+/// The plan's goal: a route that ends moving (the scenario's ego still
+/// driving when it ends) is driven through its end, not braked to a stop
+/// there: the goal lies a braking distance further on along its last
+/// heading, where that is free (else nearer, else the end).
+fn goal_through(info: &SutInfo, goal: [f64; 2], grid: &OccupancyGrid) -> [f64; 2] {
+    let end_speed = info.route.speed.last().copied().unwrap_or(0.0);
+    let n = info.route.points.len();
+    let brake = end_speed * end_speed / info.max_decel.max(0.1) + end_speed;
+    match (end_speed > STANDING, n) {
+        (true, 2..) => {
+            let [a, b] = [info.route.points[n - 2], info.route.points[n - 1]];
+            let dir = Vec2::new(b[0] - a[0], b[1] - a[1]);
+            let len = dir.norm();
+            let end = Vec2::new(goal[0], goal[1]);
+            let on = (1..=8)
+                .map(|k| brake * (1.0 - 0.125 * f64::from(k - 1)))
+                .map(|d| end + dir * (d / len.max(1e-9)))
+                .find(|p| len > 1e-9 && grid.cell(*p).is_some() && !grid.is_occupied(*p))
+                .unwrap_or(end);
+            [on.x, on.y]
+        }
+        _ => goal,
+    }
+}
+
+/// The planning chain's configuration for the SUT's vehicle from where
+/// it stands (`obs`) to `goal` on `grid`, with `samples` FMT* samples, the
+/// route's top speed `v_max` and the plan count (which varies the seed).
+fn chain_config(
+    info: &SutInfo,
+    obs: &Observation,
+    goal: [f64; 2],
+    (grid, samples): (&OccupancyGrid, usize),
+    (v_max, plans): (f64, u32),
+) -> ClosedLoopConfig {
+    ClosedLoopConfig {
+        map: MapConfig {
+            origin: [grid.origin.x, grid.origin.y],
+            size: [0.0, 0.0],
+            resolution: grid.resolution,
+            obstacles: Vec::new(),
+            png: None,
+            opendrive: None,
+        },
+        start: StartConfig {
+            x: obs.ego.x,
+            y: obs.ego.y,
+            yaw: obs.ego.yaw,
+            speed: obs.ego.speed.max(0.0),
+        },
+        goal: GoalConfig {
+            x: goal[0],
+            y: goal[1],
+            tolerance: GOAL_TOLERANCE,
+            stop_speed: 0.3,
+        },
+        vehicle: VehicleConfig {
+            preset: "passenger".into(),
+            length: Some(info.length),
+            width: Some(info.width),
+            wheelbase: Some(wheelbase(info)),
+            mass: None,
+            max_steer_deg: Some(info.max_steer.to_degrees()),
+            max_steer_rate_deg: Some(STEER_RATE.to_degrees()),
+            max_accel: Some(info.max_accel.max(0.1)),
+            max_decel: Some(info.max_decel.max(0.1)),
+            max_speed: Some(v_max),
+            max_lat_accel: Some(3.0),
+        },
+        planner: PlannerConfig {
+            samples,
+            eta: 0.5,
+            radius: None,
+            k_nearest: None,
+            seed: info.seed ^ u64::from(plans),
+            margin: MARGIN,
+            corridor_ds: 0.5,
+        },
+        tracker: TrackerConfig {
+            horizon: 20,
+            dt: CYCLE,
+            q: MpcConfig::default().q,
+            q_terminal: MpcConfig::default().q_terminal,
+            r: MpcConfig::default().r,
+            r_rate: MpcConfig::default().r_rate,
+        },
+        simulation: SimulationConfig {
+            dt: f64::from(info.step_ms.max(1)) / 1000.0,
+            horizon: info.timeout_s.max(1.0),
+        },
     }
 }
