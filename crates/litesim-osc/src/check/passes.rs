@@ -67,11 +67,6 @@ pub(super) fn inheritance_problem(
 /// that do not increase, physical types, units, SI base exponents, and the
 /// members of one compound (its own and its `extend`s').
 pub(super) fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
-    let twice = |code, span: Span, what: String, first: Span, hint: &str| {
-        Diagnostic::error(code, span, what)
-            .with_hint(hint)
-            .with_related(first, "first defined here")
-    };
     let mut enums: BTreeMap<String, Span> = BTreeMap::new();
     let mut enum_members: BTreeMap<String, BTreeMap<String, Span>> = BTreeMap::new();
     let mut enum_last: BTreeMap<String, i128> = BTreeMap::new();
@@ -127,45 +122,7 @@ pub(super) fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                             "use `extend` to add members to an enum",
                         ));
                     }
-                    let seen = enum_members.entry(name.text.clone()).or_default();
-                    for (m, value) in ms {
-                        if let Some(first) = first_place(seen, m) {
-                            if precedence::overrides(prog, first, m.span) {
-                                continue; // the same member, as litesim's library has it
-                            }
-                            out.push(twice(
-                                "E0331",
-                                m.span,
-                                format!("'{}' is a member of enum '{}' twice", m.text, name.text),
-                                first,
-                                "each member once",
-                            ));
-                            continue;
-                        }
-                        // Values strictly increase: explicit ones as
-                        // written, implicit ones one above the last.
-                        let last = enum_last.get(&name.text).copied();
-                        let v = match value {
-                            Some(Expr::Int { value, .. }) => *value,
-                            _ => last.map_or(0, |l| l + 1),
-                        };
-                        if let (Some(l), Some(e)) = (last, value)
-                            && v <= l
-                        {
-                            out.push(
-                                Diagnostic::error(
-                                    "E0332",
-                                    e.span(),
-                                    format!(
-                                        "'{}' = {v} in enum '{}' does not increase (the member before is {l})",
-                                        m.text, name.text
-                                    ),
-                                )
-                                .with_hint("enum values must be strictly increasing"),
-                            );
-                        }
-                        enum_last.insert(name.text.clone(), v.max(last.unwrap_or(i128::MIN)));
-                    }
+                    enum_values(prog, name, ms, (&mut enum_members, &mut enum_last), out);
                 }
                 Decl::PhysicalType { name, si } => {
                     let dim = dimension(si);
@@ -189,28 +146,7 @@ pub(super) fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
                     }
                     si_twice(si, out);
                 }
-                Decl::Unit { name, args, .. } => {
-                    let def = (dimension(args), crate::index::factor(args));
-                    match units.get(&name.text) {
-                        Some((first, first_def))
-                            if precedence::overrides(prog, *first, name.span) =>
-                        {
-                            out.extend(precedence::unit(name, &def, *first, first_def));
-                            units.insert(name.text.clone(), (name.span, def));
-                        }
-                        Some((first, _)) => out.push(twice(
-                            "E0334",
-                            name.span,
-                            format!("unit '{}' is defined twice", name.text),
-                            *first,
-                            "unit names are global: pick another name",
-                        )),
-                        None => {
-                            units.insert(name.text.clone(), (name.span, def));
-                        }
-                    }
-                    si_twice(args, out);
-                }
+                Decl::Unit { name, args, .. } => unit_twice(prog, name, args, &mut units, out),
                 Decl::Compound {
                     name,
                     members: ms,
@@ -240,6 +176,105 @@ pub(super) fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
     }
     behaviour_dos(prog, out);
     conditional_bases(prog, out);
+    inherited_redefinitions(prog, &members, out);
+}
+
+/// A unit defined twice (unit names are global), unless a file of CARLA's
+/// dialect restates litesim's; a unit that gives an SI factor twice.
+fn unit_twice(
+    prog: &Program,
+    name: &Name,
+    args: &[Arg],
+    units: &mut BTreeMap<String, (Span, precedence::UnitDef)>,
+    out: &mut Vec<Diagnostic>,
+) {
+    let def = (dimension(args), crate::index::factor(args));
+    match units.get(&name.text) {
+        Some((first, first_def)) if precedence::overrides(prog, *first, name.span) => {
+            out.extend(precedence::unit(name, &def, *first, first_def));
+            units.insert(name.text.clone(), (name.span, def));
+        }
+        Some((first, _)) => out.push(twice(
+            "E0334",
+            name.span,
+            format!("unit '{}' is defined twice", name.text),
+            *first,
+            "unit names are global: pick another name",
+        )),
+        None => {
+            units.insert(name.text.clone(), (name.span, def));
+        }
+    }
+    si_twice(args, out);
+}
+
+/// Per enum or compound: each name and where it is first defined.
+type FirstPlaces = BTreeMap<String, BTreeMap<String, Span>>;
+
+/// An error for a name defined twice, pointing at the first place.
+fn twice(code: &'static str, span: Span, what: String, first: Span, hint: &str) -> Diagnostic {
+    Diagnostic::error(code, span, what)
+        .with_hint(hint)
+        .with_related(first, "first defined here")
+}
+
+/// An enum's members (`ms`, in a declaration or an extension of enum
+/// `name`): each once, values strictly increasing across all of the
+/// enum's declarations (`enum_members`, `enum_last` carry what came
+/// before).
+fn enum_values(
+    prog: &Program,
+    name: &Name,
+    ms: &[(Name, Option<Expr>)],
+    (enum_members, enum_last): (&mut FirstPlaces, &mut BTreeMap<String, i128>),
+    out: &mut Vec<Diagnostic>,
+) {
+    let seen = enum_members.entry(name.text.clone()).or_default();
+    for (m, value) in ms {
+        if let Some(first) = first_place(seen, m) {
+            if precedence::overrides(prog, first, m.span) {
+                continue; // the same member, as litesim's library has it
+            }
+            out.push(twice(
+                "E0331",
+                m.span,
+                format!("'{}' is a member of enum '{}' twice", m.text, name.text),
+                first,
+                "each member once",
+            ));
+            continue;
+        }
+        // Values strictly increase: explicit ones as
+        // written, implicit ones one above the last.
+        let last = enum_last.get(&name.text).copied();
+        let v = match value {
+            Some(Expr::Int { value, .. }) => *value,
+            _ => last.map_or(0, |l| l + 1),
+        };
+        if let (Some(l), Some(e)) = (last, value)
+            && v <= l
+        {
+            out.push(
+                Diagnostic::error(
+                    "E0332",
+                    e.span(),
+                    format!(
+                        "'{}' = {v} in enum '{}' does not increase (the member before is {l})",
+                        m.text, name.text
+                    ),
+                )
+                .with_hint("enum values must be strictly increasing"),
+            );
+        }
+        enum_last.insert(name.text.clone(), v.max(last.unwrap_or(i128::MIN)));
+    }
+}
+
+/// A member may not redefine one its type inherits (§3.5): the first
+/// ancestor that defines the name is the other place; a method may be
+/// overridden with `only` and the same signature (§3.10). `members`: each
+/// compound's own member names and where they are first defined.
+fn inherited_redefinitions(prog: &Program, members: &FirstPlaces, out: &mut Vec<Diagnostic>) {
     // A member may not redefine one its type inherits (§3.5): the first
     // ancestor that defines the name is the other place.
     let mut bases: BTreeMap<String, String> = BTreeMap::new();
@@ -290,7 +325,7 @@ pub(super) fn redefinitions(prog: &Program, out: &mut Vec<Diagnostic>) {
             }
         }
     }
-    for (key, own) in &members {
+    for (key, own) in members {
         for (name, span) in own {
             let mut cur = bases.get(key);
             let mut guard = 0;
