@@ -389,7 +389,27 @@ impl Checker<'_> {
             );
         }
         // The unit: a known unit of the expression's physical type.
-        let unit_ty = match named("unit").map(|a| &a.value) {
+        self.cover_unit(named("unit"), &ty, at, what);
+        // Range and bucket width: in the unit (plain numbers) or physical
+        // values of the expression's dimension.
+        for key in ["range", "every"] {
+            if let Some(a) = named(key)
+                && !(record && key == "every")
+            {
+                self.cover_bound(key, a, &ty, what);
+            }
+        }
+        // The event: start, end, a declared event or a label of this scope.
+        if let Some(a) = named("event") {
+            self.cover_event(a, events);
+        }
+    }
+
+    /// A cover item's `unit:` (`unit`): a known unit of the type `ty` of
+    /// the item (written at `at`); a physical item needs one, a plain one
+    /// takes none.
+    fn cover_unit(&mut self, unit: Option<&Arg>, ty: &Ty, at: Span, what: &str) {
+        let unit_ty = match unit.map(|a| &a.value) {
             Some(Expr::Ident { name: u, span }) => match self.m.units.get(u) {
                 Some(p) => Some((p.clone(), *span)),
                 None => {
@@ -408,8 +428,8 @@ impl Checker<'_> {
             }
             None => None,
         };
-        match (&ty, &unit_ty) {
-            (Ty::Physical(p), None) if named("unit").is_none() => self.err(
+        match (ty, &unit_ty) {
+            (Ty::Physical(p), None) if unit.is_none() => self.err(
                 "E0323",
                 at,
                 format!(
@@ -432,85 +452,85 @@ impl Checker<'_> {
             ),
             _ => {}
         }
-        // Range and bucket width: in the unit (plain numbers) or physical
-        // values of the expression's dimension.
-        for key in ["range", "every"] {
-            let Some(a) = named(key) else { continue };
-            if record && key == "every" {
-                continue;
-            }
-            let t = self.expr(&a.value, None);
-            let bad = match (&t, &ty) {
-                (Ty::Physical(q), Ty::Physical(p)) => q != p,
-                (Ty::Physical(_), Ty::Number | Ty::Enum(_) | Ty::Bool) => true,
-                (Ty::Bool | Ty::Str | Ty::Enum(_) | Ty::Compound(_) | Ty::List(_), _) => true,
-                _ => false,
-            };
-            if key == "range" && !matches!(a.value, Expr::Range { .. }) {
-                self.err(
-                    "E0325",
-                    a.value.span(),
-                    format!("range: of {what} takes a range [lo..hi]"),
-                    None,
-                );
-            } else if bad {
-                self.err(
-                    "E0325",
-                    a.value.span(),
-                    format!("{key}: is {}, the item is {}", t.describe(), ty.describe()),
-                    None,
-                );
-            }
-            if key == "every"
-                && let Expr::Int { value, .. } = &a.value
-                && *value <= 0
-            {
-                self.err(
-                    "E0325",
-                    a.value.span(),
-                    "every: must be positive".into(),
-                    None,
-                );
-            }
-            if key == "every"
-                && let Expr::Physical { value, .. } | Expr::Float { value, .. } = &a.value
-                && *value <= 0.0
-            {
-                self.err(
-                    "E0325",
-                    a.value.span(),
-                    "every: must be positive".into(),
-                    None,
-                );
-            }
+    }
+
+    /// A cover item's `range:` or `every:` (`key`): in the item's unit
+    /// (plain numbers) or physical values of the item's type `ty`; `every`
+    /// positive.
+    fn cover_bound(&mut self, key: &str, a: &Arg, ty: &Ty, what: &str) {
+        let t = self.expr(&a.value, None);
+        let bad = match (&t, ty) {
+            (Ty::Physical(q), Ty::Physical(p)) => q != p,
+            (Ty::Physical(_), Ty::Number | Ty::Enum(_) | Ty::Bool) => true,
+            (Ty::Bool | Ty::Str | Ty::Enum(_) | Ty::Compound(_) | Ty::List(_), _) => true,
+            _ => false,
+        };
+        if key == "range" && !matches!(a.value, Expr::Range { .. }) {
+            self.err(
+                "E0325",
+                a.value.span(),
+                format!("range: of {what} takes a range [lo..hi]"),
+                None,
+            );
+        } else if bad {
+            self.err(
+                "E0325",
+                a.value.span(),
+                format!("{key}: is {}, the item is {}", t.describe(), ty.describe()),
+                None,
+            );
         }
-        // The event: start, end, a declared event or a label of this scope.
-        if let Some(a) = named("event") {
-            match &a.value {
-                Expr::Ident { name: e, span } => {
-                    let known = e == "start"
-                        || e == "end"
-                        || events.contains(e)
-                        || self.scope.locals.iter().any(|(n, _)| n == e);
-                    if !known {
-                        self.err(
-                            "E0326",
-                            *span,
-                            format!("no event '{e}' here"),
-                            Some(
-                                "start, end, an event declared in this scenario or a label of its phases (sampled at the phase's end)"
-                                    .into(),
-                            ),
-                        );
-                    }
+        if key == "every"
+            && let Expr::Int { value, .. } = &a.value
+            && *value <= 0
+        {
+            self.err(
+                "E0325",
+                a.value.span(),
+                "every: must be positive".into(),
+                None,
+            );
+        }
+        if key == "every"
+            && let Expr::Physical { value, .. } | Expr::Float { value, .. } = &a.value
+            && *value <= 0.0
+        {
+            self.err(
+                "E0325",
+                a.value.span(),
+                "every: must be positive".into(),
+                None,
+            );
+        }
+    }
+
+    /// A cover item's `event:`: start, end, a declared event or a label of
+    /// this scope.
+    fn cover_event(&mut self, a: &Arg, events: &[String]) {
+        match &a.value {
+            Expr::Ident { name: e, span } => {
+                let known = e == "start"
+                    || e == "end"
+                    || events.contains(e)
+                    || self.scope.locals.iter().any(|(n, _)| n == e);
+                if !known {
+                    self.err(
+                        "E0326",
+                        *span,
+                        format!("no event '{e}' here"),
+                        Some(
+                            "start, end, an event declared in this scenario or a label of its phases (sampled at the phase's end)"
+                                .into(),
+                        ),
+                    );
                 }
-                other => self.err(
-                    "E0326",
-                    other.span(),
-                    "event: takes a local event name".into(),
-                    None,
-                ),
             }
+            other => self.err(
+                "E0326",
+                other.span(),
+                "event: takes a local event name".into(),
+                None,
+            ),
         }
     }
 
