@@ -172,31 +172,7 @@ impl Checker<'_> {
                 }
             },
             Expr::Range { lo, hi, unit, span } => {
-                let mut ty = Ty::Unknown;
-                if let Some(u) = unit {
-                    match self.m.units.get(u) {
-                        Some(p) => ty = Ty::Physical(p.clone()),
-                        None => self.err("E0302", *span, format!("unknown unit '{u}'"), None),
-                    }
-                }
-                for x in lo.iter().chain(hi.iter()) {
-                    let t = self.expr(x, None);
-                    if ty == Ty::Unknown {
-                        ty = t;
-                    } else if matches!((&ty, &t), (Ty::Physical(_), Ty::Physical(_))) && ty != t {
-                        self.err(
-                            "E0303",
-                            x.span(),
-                            format!(
-                                "range bound is {}, the range is {}",
-                                t.describe(),
-                                ty.describe()
-                            ),
-                            None,
-                        );
-                    }
-                }
-                ty
+                self.range(lo.as_deref(), hi.as_deref(), unit.as_deref(), *span)
             }
             Expr::Ident { name, span } => {
                 if name == "it" || name == "null" {
@@ -214,23 +190,7 @@ impl Checker<'_> {
                 enum_name,
                 member,
                 span,
-            } => match self.m.enums.get(enum_name) {
-                Some(ms) if ms.contains(member) => Ty::Enum(enum_name.as_str().into()),
-                Some(ms) => {
-                    let list: Vec<&str> = ms.iter().map(String::as_str).collect();
-                    self.err(
-                        "E0311",
-                        *span,
-                        format!("'{member}' is not a member of enum {enum_name}"),
-                        Some(format!("its members: {}", list.join(", "))),
-                    );
-                    Ty::Unknown
-                }
-                None => {
-                    self.err("E0301", *span, format!("unknown enum '{enum_name}'"), None);
-                    Ty::Unknown
-                }
-            },
+            } => self.enum_ref(enum_name, member, *span),
             Expr::Unary { op, expr, span } => {
                 let t = self.expr(expr, if op == "-" { want } else { None });
                 match op.as_str() {
@@ -256,44 +216,7 @@ impl Checker<'_> {
                 let b = self.expr(otherwise, want);
                 if a == Ty::Unknown { b } else { a }
             }
-            Expr::Field { base, name, .. } => {
-                let bt = self.expr(base, None);
-                match bt {
-                    Ty::Compound(c) => match self.m.field(&c, &name.text) {
-                        Some(t) => {
-                            if self.in_keep {
-                                self.var_in_keep(&c, name);
-                            }
-                            t
-                        }
-                        // Behaviours have builtin members (events, their actor, timing).
-                        None if BEHAVIOUR_MEMBERS.contains(&name.text.as_str())
-                            && matches!(
-                                self.m.compounds.get(&*c),
-                                Some((DeclKind::Scenario | DeclKind::Action, ..))
-                            ) =>
-                        {
-                            Ty::Unknown
-                        }
-                        None => {
-                            let names: Vec<String> = self.m.member_names(&c);
-                            let hint = close_names(&name.text, names.iter());
-                            self.err(
-                                "E0310",
-                                name.span,
-                                format!("'{c}' has no field '{}'", name.text),
-                                Some(if hint.is_empty() {
-                                    format!("its fields: {}", names.join(", "))
-                                } else {
-                                    format!("did you mean: {hint}?")
-                                }),
-                            );
-                            Ty::Unknown
-                        }
-                    },
-                    _ => Ty::Unknown,
-                }
-            }
+            Expr::Field { base, name, .. } => self.field(base, name),
             Expr::Cast { base, test, ty, .. } => {
                 self.expr(base, None);
                 self.type_ref(ty);
@@ -337,6 +260,103 @@ impl Checker<'_> {
                 Ty::List(Box::new(ty))
             }
             Expr::Error { .. } => Ty::Unknown,
+        }
+    }
+
+    /// `enum!member`: a member of a known enum.
+    fn enum_ref(&mut self, enum_name: &str, member: &str, span: Span) -> Ty {
+        match self.m.enums.get(enum_name) {
+            Some(ms) if ms.contains(member) => Ty::Enum(enum_name.into()),
+            Some(ms) => {
+                let list: Vec<&str> = ms.iter().map(String::as_str).collect();
+                self.err(
+                    "E0311",
+                    span,
+                    format!("'{member}' is not a member of enum {enum_name}"),
+                    Some(format!("its members: {}", list.join(", "))),
+                );
+                Ty::Unknown
+            }
+            None => {
+                self.err("E0301", span, format!("unknown enum '{enum_name}'"), None);
+                Ty::Unknown
+            }
+        }
+    }
+
+    /// A range `[lo..hi]` (with its unit): bounds of one physical type.
+    fn range(
+        &mut self,
+        lo: Option<&Expr>,
+        hi: Option<&Expr>,
+        unit: Option<&str>,
+        span: Span,
+    ) -> Ty {
+        let mut ty = Ty::Unknown;
+        if let Some(u) = unit {
+            match self.m.units.get(u) {
+                Some(p) => ty = Ty::Physical(p.clone()),
+                None => self.err("E0302", span, format!("unknown unit '{u}'"), None),
+            }
+        }
+        for x in lo.iter().chain(hi.iter()) {
+            let t = self.expr(x, None);
+            if ty == Ty::Unknown {
+                ty = t;
+            } else if matches!((&ty, &t), (Ty::Physical(_), Ty::Physical(_))) && ty != t {
+                self.err(
+                    "E0303",
+                    x.span(),
+                    format!(
+                        "range bound is {}, the range is {}",
+                        t.describe(),
+                        ty.describe()
+                    ),
+                    None,
+                );
+            }
+        }
+        ty
+    }
+
+    /// `base.name`: a field of the base's compound (behaviours' builtin
+    /// members allowed), with a hint naming the fields there are.
+    fn field(&mut self, base: &Expr, name: &Name) -> Ty {
+        let bt = self.expr(base, None);
+        match bt {
+            Ty::Compound(c) => match self.m.field(&c, &name.text) {
+                Some(t) => {
+                    if self.in_keep {
+                        self.var_in_keep(&c, name);
+                    }
+                    t
+                }
+                // Behaviours have builtin members (events, their actor, timing).
+                None if BEHAVIOUR_MEMBERS.contains(&name.text.as_str())
+                    && matches!(
+                        self.m.compounds.get(&*c),
+                        Some((DeclKind::Scenario | DeclKind::Action, ..))
+                    ) =>
+                {
+                    Ty::Unknown
+                }
+                None => {
+                    let names: Vec<String> = self.m.member_names(&c);
+                    let hint = close_names(&name.text, names.iter());
+                    self.err(
+                        "E0310",
+                        name.span,
+                        format!("'{c}' has no field '{}'", name.text),
+                        Some(if hint.is_empty() {
+                            format!("its fields: {}", names.join(", "))
+                        } else {
+                            format!("did you mean: {hint}?")
+                        }),
+                    );
+                    Ty::Unknown
+                }
+            },
+            _ => Ty::Unknown,
         }
     }
 
