@@ -233,53 +233,7 @@ impl Checker<'_> {
                     expr,
                     body,
                     ..
-                } => {
-                    params.iter().for_each(|p| self.type_ref(&p.ty));
-                    if let Some(r) = ret {
-                        self.type_ref(r);
-                    }
-                    // `is external lib.fn(args)`: the callee names something
-                    // outside the program; only its arguments are checked.
-                    let external = body.trim_start().starts_with("external");
-                    if external && let Some(Expr::Call { args, .. }) = expr {
-                        let n = self.scope.locals.len();
-                        for p in params {
-                            let t = self.m.ty_of(&p.ty);
-                            for name in &p.names {
-                                self.scope.locals.push((name.text.clone(), t.clone()));
-                            }
-                        }
-                        for a in args {
-                            self.expr(&a.value, None);
-                        }
-                        self.scope.locals.truncate(n);
-                    } else if let Some(e) = expr {
-                        let n = self.scope.locals.len();
-                        for p in params {
-                            let t = self.m.ty_of(&p.ty);
-                            for name in &p.names {
-                                self.scope.locals.push((name.text.clone(), t.clone()));
-                            }
-                        }
-                        let got = self.expr(e, None);
-                        if let Some(r) = ret {
-                            let want = self.m.ty_of(r);
-                            if !self.m.fits(&got, &want) {
-                                self.err(
-                                    "E0313",
-                                    e.span(),
-                                    format!(
-                                        "the method returns {}, but this is {}",
-                                        want.describe(),
-                                        got.describe()
-                                    ),
-                                    None,
-                                );
-                            }
-                        }
-                        self.scope.locals.truncate(n);
-                    }
-                }
+                } => self.method(params, ret.as_ref(), expr.as_ref(), body),
                 Member::Set { path, value, .. } => {
                     let want = self.expr(path, None);
                     self.value_for(value, &want, || "this field".into());
@@ -295,6 +249,57 @@ impl Checker<'_> {
                     self.coverage(*record, args, *span, &events);
                 }
             }
+        }
+    }
+
+    /// A method: its types; an `is external` one's arguments, or an
+    /// expression body typed against its return type with the parameters
+    /// in scope.
+    fn method(&mut self, params: &[Field], ret: Option<&TypeRef>, expr: Option<&Expr>, body: &str) {
+        params.iter().for_each(|p| self.type_ref(&p.ty));
+        if let Some(r) = ret {
+            self.type_ref(r);
+        }
+        // `is external lib.fn(args)`: the callee names something
+        // outside the program; only its arguments are checked.
+        let external = body.trim_start().starts_with("external");
+        if external && let Some(Expr::Call { args, .. }) = expr {
+            let n = self.scope.locals.len();
+            for p in params {
+                let t = self.m.ty_of(&p.ty);
+                for name in &p.names {
+                    self.scope.locals.push((name.text.clone(), t.clone()));
+                }
+            }
+            for a in args {
+                self.expr(&a.value, None);
+            }
+            self.scope.locals.truncate(n);
+        } else if let Some(e) = expr {
+            let n = self.scope.locals.len();
+            for p in params {
+                let t = self.m.ty_of(&p.ty);
+                for name in &p.names {
+                    self.scope.locals.push((name.text.clone(), t.clone()));
+                }
+            }
+            let got = self.expr(e, None);
+            if let Some(r) = ret {
+                let want = self.m.ty_of(r);
+                if !self.m.fits(&got, &want) {
+                    self.err(
+                        "E0313",
+                        e.span(),
+                        format!(
+                            "the method returns {}, but this is {}",
+                            want.describe(),
+                            got.describe()
+                        ),
+                        None,
+                    );
+                }
+            }
+            self.scope.locals.truncate(n);
         }
     }
 
