@@ -844,29 +844,7 @@ impl<'a> P<'a> {
                 self.bump();
                 self.field(true)
             }
-            "keep" if matches!(self.nth(1), Tok::Punct("(")) => {
-                self.bump();
-                self.bump();
-                let strength = if self.is_kw("default") || self.is_kw("hard") {
-                    let word = match self.tok() {
-                        Tok::Ident(s) => Some(s.to_string()),
-                        _ => None,
-                    };
-                    self.bump();
-                    word
-                } else {
-                    None
-                };
-                let expr = self.expr();
-                self.expect_p(")");
-                let span = join(start, self.prev_span());
-                self.end_line();
-                Some(Member::Keep {
-                    strength,
-                    expr,
-                    span,
-                })
-            }
+            "keep" if matches!(self.nth(1), Tok::Punct("(")) => self.keep_member(start),
             "remove_default" if matches!(self.nth(1), Tok::Punct("(")) => {
                 self.bump();
                 self.bump();
@@ -876,70 +854,8 @@ impl<'a> P<'a> {
                 self.end_line();
                 Some(Member::RemoveDefault { path, span })
             }
-            "event" if !next_colon => {
-                self.bump();
-                let name = self.ident("an event name")?;
-                let params = if self.eat_p("(") {
-                    self.params()
-                } else {
-                    Vec::new()
-                };
-                let is = if self.eat_kw("is") {
-                    Some(self.event_spec())
-                } else {
-                    None
-                };
-                self.end_line();
-                Some(Member::Event { name, params, is })
-            }
-            "def" if !next_colon => {
-                self.bump();
-                let name = self.ident("a method name")?;
-                self.expect_p("(");
-                let params = self.params();
-                let ret = if self.eat_p("->") {
-                    self.type_ref()
-                } else {
-                    None
-                };
-                if !self.eat_kw("is") {
-                    self.error(
-                        "E0111",
-                        "'is' and a method body (expression …, undefined, external …)",
-                    );
-                    self.recover();
-                    return None;
-                }
-                let only = self.eat_kw("only");
-                let (body, expr) = match self.tok().clone() {
-                    Tok::Ident("expression") => {
-                        self.bump();
-                        ("expression".to_string(), Some(self.expr()))
-                    }
-                    Tok::Ident("undefined") => {
-                        self.bump();
-                        ("undefined".to_string(), None)
-                    }
-                    Tok::Ident("external") => {
-                        self.bump();
-                        ("external".to_string(), Some(self.postfix()))
-                    }
-                    _ => {
-                        self.error("E0111", "'expression', 'undefined' or 'external'");
-                        self.recover();
-                        return None;
-                    }
-                };
-                self.end_line();
-                Some(Member::Method {
-                    name,
-                    params,
-                    ret,
-                    body,
-                    expr,
-                    only,
-                })
-            }
+            "event" if !next_colon => self.event_member(),
+            "def" if !next_colon => self.method(),
             "cover" | "record" if matches!(self.nth(1), Tok::Punct("(")) => {
                 self.bump();
                 self.bump();
@@ -1008,6 +924,99 @@ impl<'a> P<'a> {
                 Some(Member::Modifier { label: None, call })
             }
         }
+    }
+
+    /// `keep([default|hard] expr)` from `start`.
+    fn keep_member(&mut self, start: Span) -> Option<Member> {
+        self.bump();
+        self.bump();
+        let strength = if self.is_kw("default") || self.is_kw("hard") {
+            let word = match self.tok() {
+                Tok::Ident(s) => Some(s.to_string()),
+                _ => None,
+            };
+            self.bump();
+            word
+        } else {
+            None
+        };
+        let expr = self.expr();
+        self.expect_p(")");
+        let span = join(start, self.prev_span());
+        self.end_line();
+        Some(Member::Keep {
+            strength,
+            expr,
+            span,
+        })
+    }
+
+    /// `event name[(params)] [is spec]`.
+    fn event_member(&mut self) -> Option<Member> {
+        self.bump();
+        let name = self.ident("an event name")?;
+        let params = if self.eat_p("(") {
+            self.params()
+        } else {
+            Vec::new()
+        };
+        let is = if self.eat_kw("is") {
+            Some(self.event_spec())
+        } else {
+            None
+        };
+        self.end_line();
+        Some(Member::Event { name, params, is })
+    }
+
+    /// `def name(params) -> ret is [only] expression …|undefined|external …`.
+    fn method(&mut self) -> Option<Member> {
+        self.bump();
+        let name = self.ident("a method name")?;
+        self.expect_p("(");
+        let params = self.params();
+        let ret = if self.eat_p("->") {
+            self.type_ref()
+        } else {
+            None
+        };
+        if !self.eat_kw("is") {
+            self.error(
+                "E0111",
+                "'is' and a method body (expression …, undefined, external …)",
+            );
+            self.recover();
+            return None;
+        }
+        let only = self.eat_kw("only");
+        let (body, expr) = match self.tok().clone() {
+            Tok::Ident("expression") => {
+                self.bump();
+                ("expression".to_string(), Some(self.expr()))
+            }
+            Tok::Ident("undefined") => {
+                self.bump();
+                ("undefined".to_string(), None)
+            }
+            Tok::Ident("external") => {
+                self.bump();
+                ("external".to_string(), Some(self.postfix()))
+            }
+            _ => {
+                self.error("E0111", "'expression', 'undefined' or 'external'");
+                self.recover();
+                return None;
+            }
+        };
+        self.end_line();
+        Some(Member::Method {
+            name,
+            params,
+            ret,
+            body,
+            expr,
+            only,
+        })
     }
 
     fn check_call(&mut self, e: &Expr) {
