@@ -662,55 +662,7 @@ impl<'a> P<'a> {
                     span,
                 }
             }
-            Tok::Punct("[") => {
-                self.bump();
-                // `[..hi]`, `[lo..]`, `[lo..hi]`, or a list.
-                let lo = if self.is_p("..") {
-                    None
-                } else {
-                    Some(Box::new(self.expr()))
-                };
-                if self.eat_p("..") {
-                    let hi = if self.is_p("]") || matches!(self.tok(), Tok::CloseUnit(_)) {
-                        None
-                    } else {
-                        Some(Box::new(self.expr()))
-                    };
-                    let unit = match self.tok() {
-                        Tok::CloseUnit(_) => Some(self.take_text().0),
-                        _ => {
-                            self.expect_p("]");
-                            None
-                        }
-                    };
-                    return Expr::Range {
-                        lo,
-                        hi,
-                        unit,
-                        span: join(span, self.prev_span()),
-                    };
-                }
-                let mut items: Vec<Expr> = lo.map(|b| vec![*b]).unwrap_or_default();
-                while self.eat_p(",") {
-                    items.push(self.expr());
-                }
-                if !self.eat_p("]") {
-                    if let Tok::CloseUnit(_) = self.tok() {
-                        self.bump();
-                        self.diags.push(Diagnostic::error(
-                            "E0106",
-                            self.prev_span(),
-                            "a unit after ']' applies to ranges only",
-                        ));
-                    } else {
-                        self.error("E0101", "']' or ','");
-                    }
-                }
-                Expr::List {
-                    items,
-                    span: join(span, self.prev_span()),
-                }
-            }
+            Tok::Punct("[") => self.range_or_list(span),
             _ => {
                 self.error("E0107", "an expression");
                 // Keep closers for the enclosing rule, so one error is reported once.
@@ -728,6 +680,58 @@ impl<'a> P<'a> {
                 }
                 Expr::Error { span }
             }
+        }
+    }
+
+    /// `[..hi]`, `[lo..]`, `[lo..hi]` (with a unit), or a list `[a, b]`,
+    /// from the `[` at `span`.
+    fn range_or_list(&mut self, span: Span) -> Expr {
+        self.bump();
+        // `[..hi]`, `[lo..]`, `[lo..hi]`, or a list.
+        let lo = if self.is_p("..") {
+            None
+        } else {
+            Some(Box::new(self.expr()))
+        };
+        if self.eat_p("..") {
+            let hi = if self.is_p("]") || matches!(self.tok(), Tok::CloseUnit(_)) {
+                None
+            } else {
+                Some(Box::new(self.expr()))
+            };
+            let unit = match self.tok() {
+                Tok::CloseUnit(_) => Some(self.take_text().0),
+                _ => {
+                    self.expect_p("]");
+                    None
+                }
+            };
+            return Expr::Range {
+                lo,
+                hi,
+                unit,
+                span: join(span, self.prev_span()),
+            };
+        }
+        let mut items: Vec<Expr> = lo.map(|b| vec![*b]).unwrap_or_default();
+        while self.eat_p(",") {
+            items.push(self.expr());
+        }
+        if !self.eat_p("]") {
+            if let Tok::CloseUnit(_) = self.tok() {
+                self.bump();
+                self.diags.push(Diagnostic::error(
+                    "E0106",
+                    self.prev_span(),
+                    "a unit after ']' applies to ranges only",
+                ));
+            } else {
+                self.error("E0101", "']' or ','");
+            }
+        }
+        Expr::List {
+            items,
+            span: join(span, self.prev_span()),
         }
     }
 
