@@ -1210,48 +1210,7 @@ impl<'a> P<'a> {
                 self.end_line();
                 Some(Decl::Enum { name, members })
             }
-            "struct" | "actor" | "scenario" | "action" | "modifier" => {
-                self.bump();
-                let kind = match kw {
-                    "struct" => DeclKind::Struct,
-                    "actor" => DeclKind::Actor,
-                    "scenario" => DeclKind::Scenario,
-                    "action" => DeclKind::Action,
-                    _ => DeclKind::Modifier,
-                };
-                let name = self.qual_name("a name")?;
-                let of = if kind == DeclKind::Modifier && self.eat_kw("of") {
-                    self.qual_name("a behaviour")
-                } else {
-                    None
-                };
-                let inherits = if self.eat_kw("inherits") {
-                    let base = self.qual_name("a base type")?;
-                    let cond = if self.eat_p("(") {
-                        let c = self.expr();
-                        self.expect_p(")");
-                        Some(c)
-                    } else {
-                        None
-                    };
-                    Some((base, cond))
-                } else {
-                    None
-                };
-                let members = if self.is_p(":") {
-                    self.block(|p| p.member())
-                } else {
-                    self.end_line();
-                    Vec::new()
-                };
-                Some(Decl::Compound {
-                    kind,
-                    name,
-                    inherits,
-                    of,
-                    members,
-                })
-            }
+            "struct" | "actor" | "scenario" | "action" | "modifier" => self.compound(kw),
             "extend" => {
                 self.bump();
                 let target = self.qual_name("a type to extend")?;
@@ -1289,6 +1248,51 @@ impl<'a> P<'a> {
                 None
             }
         }
+    }
+
+    /// A compound declaration (`kw` is struct, actor, scenario, action or
+    /// modifier): its name, `of`, `inherits` with a condition, members.
+    fn compound(&mut self, kw: &str) -> Option<Decl> {
+        self.bump();
+        let kind = match kw {
+            "struct" => DeclKind::Struct,
+            "actor" => DeclKind::Actor,
+            "scenario" => DeclKind::Scenario,
+            "action" => DeclKind::Action,
+            _ => DeclKind::Modifier,
+        };
+        let name = self.qual_name("a name")?;
+        let of = if kind == DeclKind::Modifier && self.eat_kw("of") {
+            self.qual_name("a behaviour")
+        } else {
+            None
+        };
+        let inherits = if self.eat_kw("inherits") {
+            let base = self.qual_name("a base type")?;
+            let cond = if self.eat_p("(") {
+                let c = self.expr();
+                self.expect_p(")");
+                Some(c)
+            } else {
+                None
+            };
+            Some((base, cond))
+        } else {
+            None
+        };
+        let members = if self.is_p(":") {
+            self.block(|p| p.member())
+        } else {
+            self.end_line();
+            Vec::new()
+        };
+        Some(Decl::Compound {
+            kind,
+            name,
+            inherits,
+            of,
+            members,
+        })
     }
 }
 
