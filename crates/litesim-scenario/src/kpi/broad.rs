@@ -286,7 +286,7 @@ impl Kpis {
         let n = boxes.len();
         if n > 1 {
             self.fit(boxes);
-            self.pairs(t, boxes);
+            self.step_pairs(t, boxes);
         }
         for (y, b) in self.yaw_prev.iter_mut().zip(boxes) {
             *y = b.yaw;
@@ -328,7 +328,7 @@ impl Kpis {
 
     /// One step of every pair's KPIs over `boxes` (two or more): the broad
     /// phase's drift bounds, candidate pairs, their exact tests.
-    fn pairs(&mut self, t: f64, boxes: &[BodyState]) {
+    fn step_pairs(&mut self, t: f64, boxes: &[BodyState]) {
         let n = boxes.len();
         let inv = 1.0 / n as f64;
         let (mut cx, mut cy, mut px, mut py) = (0.0, 0.0, 0.0, 0.0);
