@@ -805,20 +805,7 @@ pub fn batch(
         batch::atomic(path, &batch::junit(&lines))?;
         println!("wrote {}", path.display());
     }
-    let mut holes = 0;
-    if let Ok(text) = crate::read_text(&out.join("coverage.json")) {
-        let c: litesim_scenario::coverage::CoverageFile = serde_json::from_str(&text)
-            .with_context(|| format!("{}/coverage.json", out.display()))?;
-        holes = c.holes;
-        let items = c.items.iter().filter(|i| i.def.kind == "cover").count();
-        println!(
-            "wrote {}/coverage.json: {items} cover item(s), {holes} hole(s)",
-            out.display()
-        );
-        for i in c.items.iter().filter(|i| !i.holes.is_empty()) {
-            println!("  {} {}: not hit {}", i.test, i.def.name, i.holes.join(" "));
-        }
-    }
+    let holes = coverage_holes(&out)?;
     // The most severe verdict: error, fail, invalid (only with
     // --fail-on-invalid: a scenario that did not happen says nothing of
     // the SUT), pass.
@@ -840,6 +827,26 @@ pub fn batch(
             Outcome::Pass
         },
     )
+}
+
+/// The batch's coverage holes (0 without a `coverage.json`), each printed
+/// with its item.
+fn coverage_holes(out: &Path) -> Result<u64> {
+    let Ok(text) = crate::read_text(&out.join("coverage.json")) else {
+        return Ok(0);
+    };
+    let c: litesim_scenario::coverage::CoverageFile =
+        serde_json::from_str(&text).with_context(|| format!("{}/coverage.json", out.display()))?;
+    let holes = c.holes;
+    let items = c.items.iter().filter(|i| i.def.kind == "cover").count();
+    println!(
+        "wrote {}/coverage.json: {items} cover item(s), {holes} hole(s)",
+        out.display()
+    );
+    for i in c.items.iter().filter(|i| !i.holes.is_empty()) {
+        println!("  {} {}: not hit {}", i.test, i.def.name, i.holes.join(" "));
+    }
+    Ok(holes)
 }
 
 /// `litesim merge`.
