@@ -155,28 +155,7 @@ impl RoadNetwork {
                 if s_end - sec.s < 1e-6 {
                     continue;
                 }
-                // Breakpoints: where geometry pieces meet, lane offsets and
-                // lane widths/borders change record — the lines may bend
-                // sharply (or jump) there, so a sample sits on each.
-                let mut ss = vec![sec.s, s_end];
-                let inside = |x: f64| x > sec.s + 1e-9 && x < s_end - 1e-9;
-                ss.extend(r.plan_view.iter().map(|g| g.s).filter(|x| inside(*x)));
-                // A record may jump: a sample just before it too (on the
-                // old record), so that the jump is one short step.
-                let mut records: Vec<f64> = r.lane_offsets.iter().map(|c| c.s).collect();
-                for l in sec.left.iter().chain(&sec.right) {
-                    records.extend(l.widths.iter().chain(&l.borders).map(|c| sec.s + c.s));
-                }
-                for x in records {
-                    if inside(x) {
-                        ss.push(x);
-                        if inside(x - 1e-6) {
-                            ss.push(x - 1e-6);
-                        }
-                    }
-                }
-                ss.sort_by(f64::total_cmp);
-                ss.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+                let ss = breakpoints(r, sec, s_end);
                 // Between breakpoints: a first step from the curvature, then
                 // halving every piece until each lane border's exact points
                 // at a quarter, half and three quarters of it are within
@@ -325,4 +304,35 @@ impl RoadNetwork {
             self.refine_piece(r, sec, (m, b), s_end, tol, depth + 1, budget, out);
         }
     }
+}
+
+/// The section's breakpoints (from `sec.s` to `s_end`, sorted): where
+/// geometry pieces meet and lane offsets and lane widths/borders change
+/// record — the lines may bend sharply (or jump) there, so a sample sits
+/// on each; a record that may jump gets a sample just before it too (on
+/// the old record), so that the jump is one short step.
+fn breakpoints(r: &Road, sec: &crate::model::LaneSection, s_end: f64) -> Vec<f64> {
+    // Breakpoints: where geometry pieces meet, lane offsets and
+    // lane widths/borders change record — the lines may bend
+    // sharply (or jump) there, so a sample sits on each.
+    let mut ss = vec![sec.s, s_end];
+    let inside = |x: f64| x > sec.s + 1e-9 && x < s_end - 1e-9;
+    ss.extend(r.plan_view.iter().map(|g| g.s).filter(|x| inside(*x)));
+    // A record may jump: a sample just before it too (on the
+    // old record), so that the jump is one short step.
+    let mut records: Vec<f64> = r.lane_offsets.iter().map(|c| c.s).collect();
+    for l in sec.left.iter().chain(&sec.right) {
+        records.extend(l.widths.iter().chain(&l.borders).map(|c| sec.s + c.s));
+    }
+    for x in records {
+        if inside(x) {
+            ss.push(x);
+            if inside(x - 1e-6) {
+                ss.push(x - 1e-6);
+            }
+        }
+    }
+    ss.sort_by(f64::total_cmp);
+    ss.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+    ss
 }
