@@ -921,55 +921,10 @@ impl<W: Write + Seek> McapStream<W> {
             };
             self.present[a] = true;
             self.live.push(a);
-            let h = self.heights[a];
-            let e = &mut self.entities[a];
-            e.timestamp = Some(ts);
-            if let Some(c) = e.cubes.first_mut() {
-                c.pose = Some(fg::Pose {
-                    position: Some(fg::Vector3 {
-                        x: s.x,
-                        y: s.y,
-                        z: s.z + h / 2.0,
-                    }),
-                    orientation: Some(quat_yaw(s.yaw)),
-                });
-            }
-            if let Some(label) = e.texts.first_mut() {
-                label.pose = Some(fg::Pose {
-                    position: Some(fg::Vector3 {
-                        x: s.x,
-                        y: s.y,
-                        z: s.z + h + 0.5,
-                    }),
-                    orientation: Some(quat_yaw(0.0)),
-                });
-            }
-            let tf = &mut self.transforms[a];
-            tf.timestamp = Some(ts);
-            tf.translation = Some(fg::Vector3 {
-                x: s.x,
-                y: s.y,
-                z: s.z,
-            });
-            tf.rotation = Some(quat_yaw(s.yaw));
+            self.pose_actor(a, &s, ts);
             self.json.clear();
             actor_state_json(&mut self.json, ns, tick, &self.quoted[a], t, i);
             self.out.message(self.state_ch[a], ns, &self.json)?;
-            if let Some(b) = self.objects[a].base.as_mut() {
-                b.position = Some(v3(s.x, s.y, s.z + h / 2.0));
-                b.orientation = Some(osi3::Orientation3d {
-                    roll: Some(0.0),
-                    pitch: Some(0.0),
-                    yaw: Some(s.yaw),
-                });
-                b.velocity = Some(v3(s.vx, s.vy, 0.0));
-                b.acceleration = Some(v3(s.ax, s.ay, 0.0));
-                b.orientation_rate = Some(osi3::Orientation3d {
-                    roll: Some(0.0),
-                    pitch: Some(0.0),
-                    yaw: Some(s.yaw_rate),
-                });
-            }
         }
         // The three protobuf messages from each actor's pre-encoded pieces
         // and the fields this tick set: the bytes prost writes for the
@@ -1012,6 +967,57 @@ impl<W: Write + Seek> McapStream<W> {
         #[cfg(not(debug_assertions))]
         let _ = at;
         Ok(self.out.message(self.osi_ch, ns, &self.gt_buf)?)
+    }
+
+    /// Actor `a`'s scene entity (cube and label), transform and OSI object
+    /// moved to its sample `s` at time stamp `ts`.
+    fn pose_actor(&mut self, a: usize, s: &Sample, ts: fg::Timestamp) {
+        let h = self.heights[a];
+        let e = &mut self.entities[a];
+        e.timestamp = Some(ts);
+        if let Some(c) = e.cubes.first_mut() {
+            c.pose = Some(fg::Pose {
+                position: Some(fg::Vector3 {
+                    x: s.x,
+                    y: s.y,
+                    z: s.z + h / 2.0,
+                }),
+                orientation: Some(quat_yaw(s.yaw)),
+            });
+        }
+        if let Some(label) = e.texts.first_mut() {
+            label.pose = Some(fg::Pose {
+                position: Some(fg::Vector3 {
+                    x: s.x,
+                    y: s.y,
+                    z: s.z + h + 0.5,
+                }),
+                orientation: Some(quat_yaw(0.0)),
+            });
+        }
+        let tf = &mut self.transforms[a];
+        tf.timestamp = Some(ts);
+        tf.translation = Some(fg::Vector3 {
+            x: s.x,
+            y: s.y,
+            z: s.z,
+        });
+        tf.rotation = Some(quat_yaw(s.yaw));
+        if let Some(b) = self.objects[a].base.as_mut() {
+            b.position = Some(v3(s.x, s.y, s.z + h / 2.0));
+            b.orientation = Some(osi3::Orientation3d {
+                roll: Some(0.0),
+                pitch: Some(0.0),
+                yaw: Some(s.yaw),
+            });
+            b.velocity = Some(v3(s.vx, s.vy, 0.0));
+            b.acceleration = Some(v3(s.ax, s.ay, 0.0));
+            b.orientation_rate = Some(osi3::Orientation3d {
+                roll: Some(0.0),
+                pitch: Some(0.0),
+                yaw: Some(s.yaw_rate),
+            });
+        }
     }
 
     /// Writes the summary and footer; what was written per topic.
