@@ -232,23 +232,6 @@ fn map_content(map: &McapMap, first_id: u64) -> MapContent {
     let mut lanes = Vec::new();
     let mut boundaries = Vec::new();
     let mut lines = Vec::new();
-    let strip = |pts: &[litesim_core::Vec2], thickness: f64, c: fg::Color| fg::LinePrimitive {
-        r#type: fg::line_primitive::Type::LineStrip as i32,
-        pose: None,
-        thickness,
-        scale_invariant: false,
-        points: pts
-            .iter()
-            .map(|p| fg::Point3 {
-                x: p.x,
-                y: p.y,
-                z: 0.0,
-            })
-            .collect(),
-        color: Some(c),
-        colors: vec![],
-        indices: vec![],
-    };
     let grey = fg::Color {
         r: 0.55,
         g: 0.55,
@@ -314,6 +297,49 @@ fn map_content(map: &McapMap, first_id: u64) -> MapContent {
         lines.push(strip(&l.inner, 0.05, grey));
         lines.push(strip(&l.outer, 0.05, grey));
     }
+    lines.extend(mark_lines(polys));
+    let entity = (!lines.is_empty()).then(|| fg::SceneEntity {
+        timestamp: Some(stamp(0)),
+        frame_id: WORLD_FRAME.into(),
+        id: "map".into(),
+        lifetime: None,
+        frame_locked: false,
+        lines,
+        ..Default::default()
+    });
+    MapContent {
+        lanes,
+        boundaries,
+        entity,
+    }
+}
+
+/// A line strip through `pts`, `thickness` wide, in colour `c`.
+fn strip(pts: &[litesim_core::Vec2], thickness: f64, c: fg::Color) -> fg::LinePrimitive {
+    fg::LinePrimitive {
+        r#type: fg::line_primitive::Type::LineStrip as i32,
+        pose: None,
+        thickness,
+        scale_invariant: false,
+        points: pts
+            .iter()
+            .map(|p| fg::Point3 {
+                x: p.x,
+                y: p.y,
+                z: 0.0,
+            })
+            .collect(),
+        color: Some(c),
+        colors: vec![],
+        indices: vec![],
+    }
+}
+
+/// The road marks as line strips: yellow or white, as wide as marked
+/// (within 8–30 cm); none for `none` marks.
+fn mark_lines(polys: &[litesim_map::network::LanePolyline]) -> Vec<fg::LinePrimitive> {
+    use osi3::lane_boundary::classification::Color;
+    let mut lines = Vec::new();
     for m in polys.iter().flat_map(|l| &l.marks) {
         let kind = m.kind.trim();
         if matches!(kind, "" | "none") || m.points.len() < 2 {
@@ -337,20 +363,7 @@ fn map_content(map: &McapMap, first_id: u64) -> MapContent {
         };
         lines.push(strip(&m.points, m.width.clamp(0.08, 0.3), c));
     }
-    let entity = (!lines.is_empty()).then(|| fg::SceneEntity {
-        timestamp: Some(stamp(0)),
-        frame_id: WORLD_FRAME.into(),
-        id: "map".into(),
-        lifetime: None,
-        frame_locked: false,
-        lines,
-        ..Default::default()
-    });
-    MapContent {
-        lanes,
-        boundaries,
-        entity,
-    }
+    lines
 }
 
 fn mark_colour(c: &str) -> osi3::lane_boundary::classification::Color {
