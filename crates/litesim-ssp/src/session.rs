@@ -798,25 +798,7 @@ impl Ssp for Session {
         let acc = self.frame(req.acceleration);
         let dt = self.parts().0.dt();
         let profile = self.profile.as_ref().expect("profile exists after init");
-        let entry = if !req.spec.model_id.is_empty()
-            || matches!(
-                req.spec.category,
-                ActorCategory::Unspecified | ActorCategory::Vehicle
-            ) {
-            profile.entry(&req.spec.model_id)?.clone()
-        } else {
-            profile
-                .catalog
-                .iter()
-                .find(|e| kind_of(&e.category).map(wire_category) == Some(req.spec.category))
-                .cloned()
-                .ok_or_else(|| {
-                    SspError::not_found(format!(
-                        "profile {} has no blueprint of category {:?}",
-                        profile.name, req.spec.category
-                    ))
-                })?
-        };
+        let entry = catalog_entry(profile, &req.spec)?;
         let kind = kind_of(&entry.category).ok_or_else(|| {
             SspError::invalid(format!(
                 "catalog entry {} has unknown category {}",
@@ -848,36 +830,7 @@ impl Ssp for Session {
                 .expect("model exists after init")
                 .vehicle_model(&entry, dt)
         });
-        let yaw = pos.yaw.unwrap_or(0.0);
-        let velocity = Vec3::new(
-            spd.x.unwrap_or(0.0),
-            spd.y.unwrap_or(0.0),
-            spd.z.unwrap_or(0.0),
-        );
-        // Longitudinal speed: the velocity's component along the heading.
-        let (sy, cy) = litesim_core::math::sin_cos(yaw);
-        let speed = velocity.x * cy + velocity.y * sy;
-        let state = ActorState {
-            pose: Pose {
-                position: Vec3::new(
-                    pos.x.unwrap_or(0.0),
-                    pos.y.unwrap_or(0.0),
-                    pos.z.unwrap_or(0.0),
-                ),
-                roll: pos.roll.unwrap_or(0.0),
-                pitch: pos.pitch.unwrap_or(0.0),
-                yaw,
-            },
-            velocity,
-            acceleration: Vec3::new(
-                acc.x.unwrap_or(0.0),
-                acc.y.unwrap_or(0.0),
-                acc.z.unwrap_or(0.0),
-            ),
-            yaw_rate: spd.yaw.unwrap_or(0.0),
-            speed,
-            ..ActorState::default()
-        };
+        let state = initial_state(&pos, &spd, &acc);
         let max_wheel = entry.max_steer_angle_deg.to_radians();
         let limits = ActuatorLimits {
             max_drive_force_n: entry.mass * entry.max_accel,
@@ -1387,4 +1340,67 @@ mod erased {
             serde_json::to_string(self).unwrap_or_default()
         }
     }
+}
+
+/// An actor's state at creation from the request's position, speed and
+/// acceleration (in the session's frame); its longitudinal speed is the
+/// velocity's component along the heading.
+fn initial_state(pos: &Coord6, spd: &Coord6, acc: &Coord6) -> ActorState {
+    let yaw = pos.yaw.unwrap_or(0.0);
+    let velocity = Vec3::new(
+        spd.x.unwrap_or(0.0),
+        spd.y.unwrap_or(0.0),
+        spd.z.unwrap_or(0.0),
+    );
+    // Longitudinal speed: the velocity's component along the heading.
+    let (sy, cy) = litesim_core::math::sin_cos(yaw);
+    let speed = velocity.x * cy + velocity.y * sy;
+    ActorState {
+        pose: Pose {
+            position: Vec3::new(
+                pos.x.unwrap_or(0.0),
+                pos.y.unwrap_or(0.0),
+                pos.z.unwrap_or(0.0),
+            ),
+            roll: pos.roll.unwrap_or(0.0),
+            pitch: pos.pitch.unwrap_or(0.0),
+            yaw,
+        },
+        velocity,
+        acceleration: Vec3::new(
+            acc.x.unwrap_or(0.0),
+            acc.y.unwrap_or(0.0),
+            acc.z.unwrap_or(0.0),
+        ),
+        yaw_rate: spd.yaw.unwrap_or(0.0),
+        speed,
+        ..ActorState::default()
+    }
+}
+
+/// The catalogue entry a created actor gets: the model it names, a vehicle
+/// by default, else the profile's first blueprint of its category.
+fn catalog_entry(profile: &Profile, spec: &ActorSpec) -> SspResult<CatalogEntry> {
+    Ok(
+        if !spec.model_id.is_empty()
+            || matches!(
+                spec.category,
+                ActorCategory::Unspecified | ActorCategory::Vehicle
+            )
+        {
+            profile.entry(&spec.model_id)?.clone()
+        } else {
+            profile
+                .catalog
+                .iter()
+                .find(|e| kind_of(&e.category).map(wire_category) == Some(spec.category))
+                .cloned()
+                .ok_or_else(|| {
+                    SspError::not_found(format!(
+                        "profile {} has no blueprint of category {:?}",
+                        profile.name, spec.category
+                    ))
+                })?
+        },
+    )
 }
