@@ -340,57 +340,11 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
         .cloned()
         .collect();
     if !happened.is_empty() {
-        h += "<h2>KPIs</h2><div class=\"charts\">";
-        let ttc: Vec<f64> = happened.iter().filter_map(|l| l.min_ttc).collect();
-        let gap: Vec<f64> = happened
-            .iter()
-            .map(|l| l.min_distance)
-            .filter(|d| *d >= 0.0)
-            .collect();
-        let decel: Vec<f64> = happened.iter().filter_map(|l| l.max_decel).collect();
-        h += &histogram("min time to collision", "s", &ttc);
-        h += &histogram("min gap (box to box)", "m", &gap);
-        h += &histogram("max deceleration of the ego", "m/s²", &decel);
-        let thw: Vec<f64> = happened.iter().filter_map(|l| l.min_thw).collect();
-        let drac: Vec<f64> = happened.iter().filter_map(|l| l.max_drac).collect();
-        h += &histogram("min time headway of the ego", "s", &thw);
-        h += &histogram("max DRAC of the ego", "m/s²", &drac);
-        let pet: Vec<f64> = happened.iter().filter_map(|l| l.min_pet).collect();
-        h += &histogram("min post-encroachment time of the ego", "s", &pet);
-        h += "</div>";
+        h += &kpi_charts(&happened);
     }
     // Coverage.
     if let Some(c) = &r.coverage {
-        let _ = write!(
-            h,
-            "<h2>Coverage</h2><p id=\"holes\">{} hole(s) over {} cover item(s)</p>",
-            c.holes,
-            c.items.iter().filter(|i| i.def.kind == "cover").count()
-        );
-        let mut by_test: BTreeMap<&str, Vec<&litesim_scenario::coverage::ItemCoverage>> =
-            BTreeMap::new();
-        for i in &c.items {
-            by_test.entry(i.test.as_str()).or_default().push(i);
-        }
-        for (test, items) in &by_test {
-            let _ = write!(h, "<h3>{}</h3><div class=\"charts\">", esc(test));
-            for i in items {
-                h += &coverage_chart(i);
-            }
-            h += "</div>";
-            // The two cover items that vary most (most buckets hit).
-            let mut crossed: Vec<&&litesim_scenario::coverage::ItemCoverage> = items
-                .iter()
-                .filter(|i| i.def.kind == "cover" && !i.buckets.is_empty())
-                .collect();
-            crossed.sort_by_key(|i| {
-                std::cmp::Reverse(i.buckets.iter().filter(|b| b.count > 0).count())
-            });
-            crossed.truncate(2);
-            if let [a, b] = crossed[..] {
-                h += &cross(test, a, b, &happened);
-            }
-        }
+        h += &coverage_section(c, &happened);
     }
     // The runs table: data as JSON, rows drawn by the script.
     h += "<h2>Runs</h2><div class=\"controls\"><label>show <select id=\"show\"><option value=\"all\">all</option><option value=\"pass\">passed</option><option value=\"fail\">failed</option><option value=\"invalid\">invalid</option></select></label> <label>filter <input id=\"filter\" placeholder=\"text in test or reason\"></label> <span id=\"count\"></span></div>";
@@ -422,6 +376,66 @@ pub fn render(dir: &Path, r: &Read, pictures: &BTreeMap<(String, u64), String>) 
         h,
         "]</script><script>const PAGE={TABLE_PAGE};{SCRIPT}</script></body></html>"
     );
+    h
+}
+
+/// The KPI histograms of the runs whose scenario happened.
+fn kpi_charts(happened: &[RunLine]) -> String {
+    let mut h = String::new();
+    h += "<h2>KPIs</h2><div class=\"charts\">";
+    let ttc: Vec<f64> = happened.iter().filter_map(|l| l.min_ttc).collect();
+    let gap: Vec<f64> = happened
+        .iter()
+        .map(|l| l.min_distance)
+        .filter(|d| *d >= 0.0)
+        .collect();
+    let decel: Vec<f64> = happened.iter().filter_map(|l| l.max_decel).collect();
+    h += &histogram("min time to collision", "s", &ttc);
+    h += &histogram("min gap (box to box)", "m", &gap);
+    h += &histogram("max deceleration of the ego", "m/s²", &decel);
+    let thw: Vec<f64> = happened.iter().filter_map(|l| l.min_thw).collect();
+    let drac: Vec<f64> = happened.iter().filter_map(|l| l.max_drac).collect();
+    h += &histogram("min time headway of the ego", "s", &thw);
+    h += &histogram("max DRAC of the ego", "m/s²", &drac);
+    let pet: Vec<f64> = happened.iter().filter_map(|l| l.min_pet).collect();
+    h += &histogram("min post-encroachment time of the ego", "s", &pet);
+    h += "</div>";
+    h
+}
+
+/// The coverage section: each test's items as charts, and its two most
+/// varied cover items crossed.
+fn coverage_section(c: &CoverageFile, happened: &[RunLine]) -> String {
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<h2>Coverage</h2><p id=\"holes\">{} hole(s) over {} cover item(s)</p>",
+        c.holes,
+        c.items.iter().filter(|i| i.def.kind == "cover").count()
+    );
+    let mut by_test: BTreeMap<&str, Vec<&litesim_scenario::coverage::ItemCoverage>> =
+        BTreeMap::new();
+    for i in &c.items {
+        by_test.entry(i.test.as_str()).or_default().push(i);
+    }
+    for (test, items) in &by_test {
+        let _ = write!(h, "<h3>{}</h3><div class=\"charts\">", esc(test));
+        for i in items {
+            h += &coverage_chart(i);
+        }
+        h += "</div>";
+        // The two cover items that vary most (most buckets hit).
+        let mut crossed: Vec<&&litesim_scenario::coverage::ItemCoverage> = items
+            .iter()
+            .filter(|i| i.def.kind == "cover" && !i.buckets.is_empty())
+            .collect();
+        crossed
+            .sort_by_key(|i| std::cmp::Reverse(i.buckets.iter().filter(|b| b.count > 0).count()));
+        crossed.truncate(2);
+        if let [a, b] = crossed[..] {
+            h += &cross(test, a, b, happened);
+        }
+    }
     h
 }
 
