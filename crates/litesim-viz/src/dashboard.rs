@@ -36,61 +36,7 @@ fn panels<DB: DrawingBackend>(
     };
 
     // (1) Map.
-    let probed = {
-        let mut chart = map_chart(
-            &areas[0],
-            log,
-            &format!("trajectory — {}", t.id),
-            style,
-            None,
-        )?;
-        let path: Vec<(f64, f64)> = t
-            .state
-            .x
-            .iter()
-            .copied()
-            .zip(t.state.y.iter().copied())
-            .collect();
-        let tc = style.c(&style.trajectory);
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                path,
-                tc.stroke_width(style.line_width),
-            )))
-            .map_err(draw_err)?
-            .label("driven")
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], tc));
-        let n = t.len();
-        for k in 0..5 {
-            let i = if n > 1 { k * (n - 1) / 4 } else { 0 };
-            let steer = t.control.steering_angle.get(i).copied().unwrap_or(0.0);
-            draw_track_vehicle(&mut chart, t, i, steer, style.c(&style.vehicle))?;
-        }
-        for other in log.tracks.iter().filter(|o| o.id != t.id && !o.is_empty()) {
-            let p: Vec<(f64, f64)> = other
-                .state
-                .x
-                .iter()
-                .copied()
-                .zip(other.state.y.iter().copied())
-                .collect();
-            chart
-                .draw_series(std::iter::once(PathElement::new(
-                    p,
-                    RGBColor(120, 120, 120).stroke_width(1),
-                )))
-                .map_err(draw_err)?;
-        }
-        chart
-            .configure_series_labels()
-            .label_font(("sans-serif", style.tick_font))
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(180, 180, 180))
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(draw_err)?;
-        probes.iter().map(|p| chart.backend_coord(p)).collect()
-    };
+    let probed = map_panel(&areas[0], log, t, style, probes)?;
     // (2) Velocity.
     series_panel(
         &areas[1],
@@ -143,28 +89,7 @@ fn panels<DB: DrawingBackend>(
         x_range,
     )?;
     // (5) Combined control magnitude: |(a / max|a|, δ / max|δ|)| of the run.
-    let (amax, dmax) = (
-        t.derived
-            .longitudinal_acceleration
-            .iter()
-            .fold(
-                1e-9,
-                |m: f64, v| if v.is_finite() { m.max(v.abs()) } else { m },
-            ),
-        t.control.steering_angle.iter().fold(
-            1e-9,
-            |m: f64, v| if v.is_finite() { m.max(v.abs()) } else { m },
-        ),
-    );
-    let mag: Vec<f64> = t
-        .derived
-        .longitudinal_acceleration
-        .iter()
-        .zip(&t.control.steering_angle)
-        .map(|(a, d)| {
-            ((a / amax).powi(2) + (if d.is_finite() { d / dmax } else { 0.0 }).powi(2)).sqrt()
-        })
-        .collect();
+    let mag = control_magnitude(t);
     series_panel(
         &areas[4],
         "combined control magnitude",
@@ -174,55 +99,7 @@ fn panels<DB: DrawingBackend>(
         x_range,
     )?;
     // (6) Errors, (7) progress.
-    let reference = log
-        .plan
-        .as_ref()
-        .map_or("corridor", |p| p.reference_label());
-    match tr {
-        Some(tr) => {
-            series_panel(
-                &areas[5],
-                "tracking errors",
-                "error [m] / [rad]",
-                &[
-                    ("lateral [m]".into(), s(0), cz(&tr.lateral_error, &tr.tick)),
-                    (
-                        "heading [rad]".into(),
-                        s(1),
-                        cz(&tr.heading_error, &tr.tick),
-                    ),
-                ],
-                style,
-                x_range,
-            )?;
-            series_panel(
-                &areas[6],
-                &format!("progress along the {reference}"),
-                "s [m]",
-                &[("progress".into(), s(2), cz(&tr.progress, &tr.tick))],
-                style,
-                x_range,
-            )?;
-        }
-        None => {
-            series_panel(
-                &areas[5],
-                &format!("tracking errors (no {reference} tracked)"),
-                "",
-                &[],
-                style,
-                x_range,
-            )?;
-            series_panel(
-                &areas[6],
-                &format!("progress (no {reference} tracked)"),
-                "",
-                &[],
-                style,
-                x_range,
-            )?;
-        }
-    }
+    tracking_panels((&areas[5], &areas[6]), log, &cz, style, x_range)?;
     // (8) Lateral force, (9) slip indicators.
     series_panel(
         &areas[7],
@@ -245,6 +122,156 @@ fn panels<DB: DrawingBackend>(
     )?;
     root.present().map_err(draw_err)?;
     Ok(probed)
+}
+
+/// Panel (5)'s series: |(a / max|a|, δ / max|δ|)| at each sample of the run.
+fn control_magnitude(t: &litesim_log::ActorTrack) -> Vec<f64> {
+    let (amax, dmax) = (
+        t.derived
+            .longitudinal_acceleration
+            .iter()
+            .fold(
+                1e-9,
+                |m: f64, v| if v.is_finite() { m.max(v.abs()) } else { m },
+            ),
+        t.control.steering_angle.iter().fold(
+            1e-9,
+            |m: f64, v| if v.is_finite() { m.max(v.abs()) } else { m },
+        ),
+    );
+    t.derived
+        .longitudinal_acceleration
+        .iter()
+        .zip(&t.control.steering_angle)
+        .map(|(a, d)| {
+            ((a / amax).powi(2) + (if d.is_finite() { d / dmax } else { 0.0 }).powi(2)).sqrt()
+        })
+        .collect()
+}
+
+/// Panel (1): the map with the ego's trajectory, five snapshots of it and
+/// the other actors' paths; the pixel positions of `probes`.
+fn map_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    log: &SimulationLog,
+    t: &litesim_log::ActorTrack,
+    style: &Style,
+    probes: &[(f64, f64)],
+) -> Result<Vec<(i32, i32)>, VizError> {
+    let mut chart = map_chart(area, log, &format!("trajectory — {}", t.id), style, None)?;
+    let path: Vec<(f64, f64)> = t
+        .state
+        .x
+        .iter()
+        .copied()
+        .zip(t.state.y.iter().copied())
+        .collect();
+    let tc = style.c(&style.trajectory);
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            path,
+            tc.stroke_width(style.line_width),
+        )))
+        .map_err(draw_err)?
+        .label("driven")
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], tc));
+    let n = t.len();
+    for k in 0..5 {
+        let i = if n > 1 { k * (n - 1) / 4 } else { 0 };
+        let steer = t.control.steering_angle.get(i).copied().unwrap_or(0.0);
+        draw_track_vehicle(&mut chart, t, i, steer, style.c(&style.vehicle))?;
+    }
+    for other in log.tracks.iter().filter(|o| o.id != t.id && !o.is_empty()) {
+        let p: Vec<(f64, f64)> = other
+            .state
+            .x
+            .iter()
+            .copied()
+            .zip(other.state.y.iter().copied())
+            .collect();
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                p,
+                RGBColor(120, 120, 120).stroke_width(1),
+            )))
+            .map_err(draw_err)?;
+    }
+    chart
+        .configure_series_labels()
+        .label_font(("sans-serif", style.tick_font))
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(180, 180, 180))
+        .position(SeriesLabelPosition::LowerRight)
+        .draw()
+        .map_err(draw_err)?;
+    Ok(probes.iter().map(|p| chart.backend_coord(p)).collect())
+}
+
+/// Puts a column sampled at `ticks` on the time axis.
+type OnTimeAxis<'a> = dyn Fn(&[f64], &[u64]) -> Vec<(f64, f64)> + 'a;
+
+/// Panels (6) and (7): tracking errors and progress along the reference
+/// (`cz` puts a tracking column on the time axis), or empty panels saying
+/// nothing was tracked.
+fn tracking_panels<DB: DrawingBackend>(
+    areas: (&DrawingArea<DB, Shift>, &DrawingArea<DB, Shift>),
+    log: &SimulationLog,
+    cz: &OnTimeAxis<'_>,
+    style: &Style,
+    x_range: Option<(f64, f64)>,
+) -> Result<(), VizError> {
+    let s = |i: usize| style.series(i);
+    let tr = log.tracking.as_ref();
+    let reference = log
+        .plan
+        .as_ref()
+        .map_or("corridor", |p| p.reference_label());
+    match tr {
+        Some(tr) => {
+            series_panel(
+                areas.0,
+                "tracking errors",
+                "error [m] / [rad]",
+                &[
+                    ("lateral [m]".into(), s(0), cz(&tr.lateral_error, &tr.tick)),
+                    (
+                        "heading [rad]".into(),
+                        s(1),
+                        cz(&tr.heading_error, &tr.tick),
+                    ),
+                ],
+                style,
+                x_range,
+            )?;
+            series_panel(
+                areas.1,
+                &format!("progress along the {reference}"),
+                "s [m]",
+                &[("progress".into(), s(2), cz(&tr.progress, &tr.tick))],
+                style,
+                x_range,
+            )?;
+        }
+        None => {
+            series_panel(
+                areas.0,
+                &format!("tracking errors (no {reference} tracked)"),
+                "",
+                &[],
+                style,
+                x_range,
+            )?;
+            series_panel(
+                areas.1,
+                &format!("progress (no {reference} tracked)"),
+                "",
+                &[],
+                style,
+                x_range,
+            )?;
+        }
+    }
+    Ok(())
 }
 
 /// Renders the dashboard to RGB pixels (width, height from the style).
