@@ -274,7 +274,6 @@ impl ViewData {
         let b =
             litesim_viz::path_bounds(log).map_or([0.0; 4], |((x0, x1), (y0, y1))| [x0, y0, x1, y1]);
         let origin = (((b[0] + b[2]) / 2.0).round(), ((b[1] + b[3]) / 2.0).round());
-        let rel = |x: f64, y: f64| ((x - origin.0) as f32, (y - origin.1) as f32);
         let bounds = [
             b[0] - origin.0,
             b[1] - origin.1,
@@ -320,172 +319,17 @@ impl ViewData {
             .collect();
 
         // Gap and TTC of the ego to the nearest actor ahead in its path.
-        let (gap, ttc): (Vec<Option<f32>>, Vec<Option<f32>>) = (0..n)
-            .map(|k| {
-                let e = &log.tracks[ego];
-                let Some(i) = index[ego][k].map(|i| i as usize) else {
-                    return (None, None);
-                };
-                let (ex, ey, eyaw, ev) =
-                    (e.state.x[i], e.state.y[i], e.state.yaw[i], e.state.speed[i]);
-                if !(ex.is_finite() && ey.is_finite() && eyaw.is_finite()) {
-                    return (None, None);
-                }
-                let (s, c) = litesim_core::math::sin_cos(eyaw);
-                let mut best: Option<(f64, f64)> = None;
-                for (a, t) in log.tracks.iter().enumerate() {
-                    if a == ego {
-                        continue;
-                    }
-                    let Some(j) = index[a][k].map(|j| j as usize) else {
-                        continue;
-                    };
-                    let (dx, dy) = (t.state.x[j] - ex, t.state.y[j] - ey);
-                    let (along, across) = (dx * c + dy * s, -dx * s + dy * c);
-                    if !(along > 0.0 && across.abs() < (e.width + t.width) / 2.0 + 0.3) {
-                        continue;
-                    }
-                    let g = along - (e.length + t.length) / 2.0;
-                    // The other's speed along the ego's heading.
-                    let (ovx, ovy) = (t.state.vx[j], t.state.vy[j]);
-                    let ov = ovx * c + ovy * s;
-                    if best.is_none_or(|(bg, _)| g < bg) {
-                        best = Some((g, ev - ov));
-                    }
-                }
-                match best {
-                    None => (None, None),
-                    Some((g, closing)) => (
-                        finite32(g.max(0.0)),
-                        (closing > 1e-6)
-                            .then(|| finite32(g.max(0.0) / closing))
-                            .flatten(),
-                    ),
-                }
-            })
-            .unzip();
+        let (gap, ttc) = gap_and_ttc(log, &index, ego);
 
-        // Plots: buckets of ≤ PLOT_POINTS; speed at each bucket's first
-        // tick, gap and TTC at their smallest (the critical values survive).
-        let per = n.div_ceil(PLOT_POINTS).max(1);
-        let tracking = log.tracking.as_ref();
-        let mut plots = Plots {
-            t: Vec::new(),
-            speed: vec![Vec::new(); log.tracks.len()],
-            gap: Vec::new(),
-            ttc: Vec::new(),
-            accel: Vec::new(),
-            command: Vec::new(),
-            command_label: tracking.map_or(String::new(), |t| t.command_label().to_string()),
-        };
-        // The commanded acceleration at a tick (the tracking columns have
-        // their own ticks).
-        let command_at = |tick: u64| {
-            let tr = tracking?;
-            let i = tr.tick.binary_search(&tick).ok()?;
-            tr.cmd_acceleration.get(i).copied().and_then(finite32)
-        };
-        for start in (0..n).step_by(per) {
-            let end = (start + per).min(n);
-            plots.t.push(log.time[start]);
-            for (a, t) in log.tracks.iter().enumerate() {
-                plots.speed[a]
-                    .push(index[a][start].and_then(|i| finite32(t.state.speed[i as usize])));
-            }
-            plots
-                .gap
-                .push(gap[start..end].iter().fold(None, |m, v| min_opt(m, *v)));
-            plots
-                .ttc
-                .push(ttc[start..end].iter().fold(None, |m, v| min_opt(m, *v)));
-            let e = &log.tracks[ego];
-            plots.accel.push(
-                index[ego][start]
-                    .and_then(|i| finite32(e.derived.longitudinal_acceleration[i as usize])),
-            );
-            if tracking.is_some() {
-                plots
-                    .command
-                    .push(index[ego][start].and_then(|i| command_at(e.tick[i as usize])));
-            }
-        }
+        let plots = plots(log, &index, ego, (&gap, &ttc));
 
         // Timeline markers: failures (at the time their text names, else
         // at the end) and the plan's phases.
         let end_t = log.time[n - 1];
-        let mut markers = Vec::new();
-        if let Some(s) = &run.summary {
-            for f in s
-                .get("failures")
-                .and_then(|f| f.as_array())
-                .into_iter()
-                .flatten()
-            {
-                let text = f.as_str().map_or_else(|| f.to_string(), str::to_string);
-                markers.push(Marker {
-                    t: time_in(&text).unwrap_or(end_t).clamp(t0, end_t),
-                    kind: "failure",
-                    text,
-                });
-            }
-        }
-        if let Some(p) = &run.plan {
-            for ph in p
-                .get("phases")
-                .and_then(|f| f.as_array())
-                .into_iter()
-                .flatten()
-            {
-                let t = ph.get("t0").and_then(|v| v.as_f64()).unwrap_or(0.0);
-                let actor = ph.get("actor").and_then(|v| v.as_str()).unwrap_or("");
-                let action = ph.get("action").and_then(|v| v.as_str()).unwrap_or("");
-                let label = ph.get("label").and_then(|v| v.as_str());
-                markers.push(Marker {
-                    t: t.clamp(t0, end_t),
-                    kind: "event",
-                    text: match label {
-                        Some(l) => format!("{actor}.{action} ({l})"),
-                        None => format!("{actor}.{action}"),
-                    },
-                });
-            }
-        }
-        markers.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.kind.cmp(b.kind)));
+        let markers = markers(&run, t0, end_t);
 
         // The map: what the replay picture draws, relative to the origin.
-        let mut map = MapMeta::default();
-        if let Some(net) = &run.net {
-            let bg = crate::viz::background(net, false);
-            let flat = |pts: &[(f64, f64)]| -> Vec<f32> {
-                pts.iter()
-                    .flat_map(|&(x, y)| {
-                        let (x, y) = rel(x, y);
-                        [(x * 100.0).round() / 100.0, (y * 100.0).round() / 100.0]
-                    })
-                    .collect()
-            };
-            for a in &bg.areas {
-                map.areas.push((flat(&a.outline), a.drivable));
-            }
-            for l in &bg.lines {
-                use litesim_viz::replay::LineKind;
-                let style = match l.kind {
-                    LineKind::Border => "border".to_string(),
-                    LineKind::Centre => "centre".to_string(),
-                    LineKind::Mark {
-                        broken,
-                        double,
-                        yellow,
-                    } => format!(
-                        "mark{}{}{}",
-                        if broken { "-broken" } else { "" },
-                        if double { "-double" } else { "" },
-                        if yellow { "-yellow" } else { "" }
-                    ),
-                };
-                map.lines.push((flat(&l.points), style));
-            }
-        }
+        let map = map_meta(&run, origin);
         let verdict = run
             .summary
             .as_ref()
@@ -718,6 +562,196 @@ fn respond(
     )?;
     out.write_all(body)?;
     out.flush()
+}
+
+/// The plots: buckets of at most [`PLOT_POINTS`] ticks; speed at each
+/// bucket's first tick, gap and TTC at their smallest (the critical values
+/// survive), the ego's acceleration and the SUT's commanded one.
+fn plots(
+    log: &litesim_log::SimulationLog,
+    index: &[Vec<Option<u32>>],
+    ego: usize,
+    (gap, ttc): (&[Option<f32>], &[Option<f32>]),
+) -> Plots {
+    let n = log.tick.len();
+    let per = n.div_ceil(PLOT_POINTS).max(1);
+    let tracking = log.tracking.as_ref();
+    let mut plots = Plots {
+        t: Vec::new(),
+        speed: vec![Vec::new(); log.tracks.len()],
+        gap: Vec::new(),
+        ttc: Vec::new(),
+        accel: Vec::new(),
+        command: Vec::new(),
+        command_label: tracking.map_or(String::new(), |t| t.command_label().to_string()),
+    };
+    // The commanded acceleration at a tick (the tracking columns have
+    // their own ticks).
+    let command_at = |tick: u64| {
+        let tr = tracking?;
+        let i = tr.tick.binary_search(&tick).ok()?;
+        tr.cmd_acceleration.get(i).copied().and_then(finite32)
+    };
+    for start in (0..n).step_by(per) {
+        let end = (start + per).min(n);
+        plots.t.push(log.time[start]);
+        for (a, t) in log.tracks.iter().enumerate() {
+            plots.speed[a].push(index[a][start].and_then(|i| finite32(t.state.speed[i as usize])));
+        }
+        plots
+            .gap
+            .push(gap[start..end].iter().fold(None, |m, v| min_opt(m, *v)));
+        plots
+            .ttc
+            .push(ttc[start..end].iter().fold(None, |m, v| min_opt(m, *v)));
+        let e = &log.tracks[ego];
+        plots.accel.push(
+            index[ego][start]
+                .and_then(|i| finite32(e.derived.longitudinal_acceleration[i as usize])),
+        );
+        if tracking.is_some() {
+            plots
+                .command
+                .push(index[ego][start].and_then(|i| command_at(e.tick[i as usize])));
+        }
+    }
+    plots
+}
+
+/// Per tick: the ego's bumper gap to the nearest actor ahead in its path
+/// and the time to collision at the closing speed (none where none is
+/// ahead or they do not close).
+fn gap_and_ttc(
+    log: &litesim_log::SimulationLog,
+    index: &[Vec<Option<u32>>],
+    ego: usize,
+) -> (Vec<Option<f32>>, Vec<Option<f32>>) {
+    (0..log.tick.len())
+        .map(|k| {
+            let e = &log.tracks[ego];
+            let Some(i) = index[ego][k].map(|i| i as usize) else {
+                return (None, None);
+            };
+            let (ex, ey, eyaw, ev) = (e.state.x[i], e.state.y[i], e.state.yaw[i], e.state.speed[i]);
+            if !(ex.is_finite() && ey.is_finite() && eyaw.is_finite()) {
+                return (None, None);
+            }
+            let (s, c) = litesim_core::math::sin_cos(eyaw);
+            let mut best: Option<(f64, f64)> = None;
+            for (a, t) in log.tracks.iter().enumerate() {
+                if a == ego {
+                    continue;
+                }
+                let Some(j) = index[a][k].map(|j| j as usize) else {
+                    continue;
+                };
+                let (dx, dy) = (t.state.x[j] - ex, t.state.y[j] - ey);
+                let (along, across) = (dx * c + dy * s, -dx * s + dy * c);
+                if !(along > 0.0 && across.abs() < (e.width + t.width) / 2.0 + 0.3) {
+                    continue;
+                }
+                let g = along - (e.length + t.length) / 2.0;
+                // The other's speed along the ego's heading.
+                let (ovx, ovy) = (t.state.vx[j], t.state.vy[j]);
+                let ov = ovx * c + ovy * s;
+                if best.is_none_or(|(bg, _)| g < bg) {
+                    best = Some((g, ev - ov));
+                }
+            }
+            match best {
+                None => (None, None),
+                Some((g, closing)) => (
+                    finite32(g.max(0.0)),
+                    (closing > 1e-6)
+                        .then(|| finite32(g.max(0.0) / closing))
+                        .flatten(),
+                ),
+            }
+        })
+        .unzip()
+}
+
+/// The timeline's markers, in time order: failures (at the time their
+/// text names, else at the end `end_t`) and the plan's phases.
+fn markers(run: &Run, t0: f64, end_t: f64) -> Vec<Marker> {
+    let mut markers = Vec::new();
+    if let Some(s) = &run.summary {
+        for f in s
+            .get("failures")
+            .and_then(|f| f.as_array())
+            .into_iter()
+            .flatten()
+        {
+            let text = f.as_str().map_or_else(|| f.to_string(), str::to_string);
+            markers.push(Marker {
+                t: time_in(&text).unwrap_or(end_t).clamp(t0, end_t),
+                kind: "failure",
+                text,
+            });
+        }
+    }
+    if let Some(p) = &run.plan {
+        for ph in p
+            .get("phases")
+            .and_then(|f| f.as_array())
+            .into_iter()
+            .flatten()
+        {
+            let t = ph.get("t0").and_then(|v| v.as_f64()).unwrap_or(0.0);
+            let actor = ph.get("actor").and_then(|v| v.as_str()).unwrap_or("");
+            let action = ph.get("action").and_then(|v| v.as_str()).unwrap_or("");
+            let label = ph.get("label").and_then(|v| v.as_str());
+            markers.push(Marker {
+                t: t.clamp(t0, end_t),
+                kind: "event",
+                text: match label {
+                    Some(l) => format!("{actor}.{action} ({l})"),
+                    None => format!("{actor}.{action}"),
+                },
+            });
+        }
+    }
+    markers.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.kind.cmp(b.kind)));
+    markers
+}
+
+/// The map as the replay picture draws it, relative to `origin`.
+fn map_meta(run: &Run, origin: (f64, f64)) -> MapMeta {
+    let rel = |x: f64, y: f64| ((x - origin.0) as f32, (y - origin.1) as f32);
+    let mut map = MapMeta::default();
+    if let Some(net) = &run.net {
+        let bg = crate::viz::background(net, false);
+        let flat = |pts: &[(f64, f64)]| -> Vec<f32> {
+            pts.iter()
+                .flat_map(|&(x, y)| {
+                    let (x, y) = rel(x, y);
+                    [(x * 100.0).round() / 100.0, (y * 100.0).round() / 100.0]
+                })
+                .collect()
+        };
+        for a in &bg.areas {
+            map.areas.push((flat(&a.outline), a.drivable));
+        }
+        for l in &bg.lines {
+            use litesim_viz::replay::LineKind;
+            let style = match l.kind {
+                LineKind::Border => "border".to_string(),
+                LineKind::Centre => "centre".to_string(),
+                LineKind::Mark {
+                    broken,
+                    double,
+                    yellow,
+                } => format!(
+                    "mark{}{}{}",
+                    if broken { "-broken" } else { "" },
+                    if double { "-double" } else { "" },
+                    if yellow { "-yellow" } else { "" }
+                ),
+            };
+            map.lines.push((flat(&l.points), style));
+        }
+    }
+    map
 }
 
 #[cfg(test)]
