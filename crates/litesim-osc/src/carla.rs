@@ -495,64 +495,13 @@ fn entry_start(prog: &Program) -> Span {
 /// table); returns the diagnostics of what it could not lower.
 pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
     let mut diags = Vec::new();
-    // The entry point: `scenario top` in the user's files; without one,
-    // the one scenario declared on the ego (`scenario dut.name:`).
-    let mut tops = user_scenarios(prog, None, Some("top"));
-    if tops.is_empty() {
-        tops = user_scenarios(prog, Some(DUT), None);
-        if tops.len() > 1 {
-            let names: Vec<String> = tops
-                .iter()
-                .map(|&(fi, di)| match &prog.files[fi].1.decls[di] {
-                    Decl::Compound { name, .. } => format!("dut.{}", name.name.text),
-                    _ => String::new(),
-                })
-                .collect();
-            diags.push(
-                Diagnostic::error(
-                    "E0601",
-                    entry_start(prog),
-                    format!(
-                        "a CARLA program without `scenario top:` runs its one scenario of the ego, and this one declares {}: {}",
-                        names.len(),
-                        names.join(", ")
-                    ),
-                )
-                .with_hint("add `scenario top:` that invokes the one to run, or keep one per file"),
-            );
-            return diags;
-        }
-    }
-    let Some(&(fi, di)) = tops.first() else {
-        diags.push(
-            Diagnostic::error(
-                "E0601",
-                entry_start(prog),
-                "a CARLA scenario needs `scenario top:` (scenario_runner's entry point) or one `scenario dut.name:`",
-            )
-            .with_hint("or run it as a litesim program: --dialect litesim"),
-        );
+    let Some((fi, di)) = entry(prog, &mut diags) else {
         return diags;
     };
-    let top_span = |prog: &Program, (fi, di): (usize, usize)| match &prog.files[fi].1.decls[di] {
-        Decl::Compound { name, .. } => name.name.span,
-        _ => Span::default(),
-    };
-    if let Some(&second) = tops.get(1) {
-        diags.push(
-            Diagnostic::error(
-                "E0602",
-                top_span(prog, second),
-                "'scenario top' is declared twice",
-            )
-            .with_related(top_span(prog, (fi, di)), "first declared here"),
-        );
-        return diags;
-    }
     let Decl::Compound { members, .. } = &prog.files[fi].1.decls[di] else {
         return diags;
     };
-    let mut members = members.clone();
+    let members = members.clone();
     // Paths, the ego.
     let paths: BTreeSet<String> = members
         .iter()
@@ -584,10 +533,47 @@ pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
             blueprint_keeps.extend(type_keeps(prog, &f.ty.base.name.text, &target));
         }
     }
+    let (mut out, info) = lower_members(members, &paths, &mut diags);
+    out.iter_mut().for_each(rename_member);
+    out.extend(blueprint_keeps);
+    let mut l = Lower {
+        paths: &paths,
+        default_path,
+        placed: BTreeSet::new(),
+        diags: Vec::new(),
+    };
+    for m in &mut out {
+        if let Member::Do(d) = m {
+            l.do_member(d);
+        }
+    }
+    diags.append(&mut l.diags);
+    let at = top_span(prog, (fi, di));
+    prog.files[fi].1.decls[di] = Decl::Extend {
+        target: QualName {
+            actor: Some(name("top", at)),
+            name: name("main", at),
+        },
+        members: out,
+    };
+    carla_profile_unless_chosen(prog, fi, at);
+    prog.carla = Some(info);
+    diags
+}
+
+/// The entry scenario's members in litesim's terms: `Path` fields are
+/// roads, the ego is sut.car, Path modifiers become road choices (the map
+/// and its place go to the `CarlaInfo`); what the dialect does not know is
+/// a diagnostic.
+fn lower_members(
+    members: Vec<Member>,
+    paths: &BTreeSet<String>,
+    diags: &mut Vec<Diagnostic>,
+) -> (Vec<Member>, CarlaInfo) {
     let mut info = CarlaInfo::default();
     let mut map_at: Option<Span> = None;
     let mut out: Vec<Member> = Vec::new();
-    for mut m in members.drain(..) {
+    for mut m in members {
         match &mut m {
             Member::Field(f) if f.ty.base.name.text == "Path" => {
                 f.ty.base.name.text = "road".into();
@@ -658,32 +644,7 @@ pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
                             .with_hint("e.g. path.path_min_driving_lanes(2)"),
                         ),
                     },
-                    "path_length" => {
-                        let named = |n: &str| {
-                            args.iter()
-                                .find(|a| a.name.as_ref().is_some_and(|x| x.text == n))
-                        };
-                        let positional: Vec<&Arg> =
-                            args.iter().filter(|a| a.name.is_none()).collect();
-                        let lo = named("min").or(positional.first().copied());
-                        let hi = named("max").or(positional.get(1).copied());
-                        if lo.is_none() && hi.is_none() || positional.len() > 2 {
-                            diags.push(
-                                Diagnostic::error(
-                                    "E0605",
-                                    span,
-                                    "path_length takes a minimum and an optional maximum length",
-                                )
-                                .with_hint("e.g. path.path_length(100m, 300m)"),
-                            );
-                        }
-                        if let Some(a) = lo {
-                            out.push(keep(binary(">=", prop("length"), a.value.clone(), span)));
-                        }
-                        if let Some(a) = hi {
-                            out.push(keep(binary("<=", prop("length"), a.value.clone(), span)));
-                        }
-                    }
+                    "path_length" => path_length(args, &prop, span, (&mut out, diags)),
                     "path_over_junction" => out.push(keep(binary(
                         "==",
                         prop("into_junction"),
@@ -703,30 +664,111 @@ pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
             _ => out.push(m),
         }
     }
-    out.iter_mut().for_each(rename_member);
-    out.extend(blueprint_keeps);
-    let mut l = Lower {
-        paths: &paths,
-        default_path,
-        placed: BTreeSet::new(),
-        diags: Vec::new(),
+    (out, info)
+}
+
+/// `path.path_length(min[, max])` (or `min:`/`max:`): keeps on the road's
+/// length; a call with neither, or more than two positional arguments, is
+/// a diagnostic.
+fn path_length(
+    args: &[Arg],
+    prop: &dyn Fn(&str) -> Expr,
+    span: Span,
+    (out, diags): (&mut Vec<Member>, &mut Vec<Diagnostic>),
+) {
+    let named = |n: &str| {
+        args.iter()
+            .find(|a| a.name.as_ref().is_some_and(|x| x.text == n))
     };
-    for m in &mut out {
-        if let Member::Do(d) = m {
-            l.do_member(d);
+    let positional: Vec<&Arg> = args.iter().filter(|a| a.name.is_none()).collect();
+    let lo = named("min").or(positional.first().copied());
+    let hi = named("max").or(positional.get(1).copied());
+    if lo.is_none() && hi.is_none() || positional.len() > 2 {
+        diags.push(
+            Diagnostic::error(
+                "E0605",
+                span,
+                "path_length takes a minimum and an optional maximum length",
+            )
+            .with_hint("e.g. path.path_length(100m, 300m)"),
+        );
+    }
+    if let Some(a) = lo {
+        out.push(keep(binary(">=", prop("length"), a.value.clone(), span)));
+    }
+    if let Some(a) = hi {
+        out.push(keep(binary("<=", prop("length"), a.value.clone(), span)));
+    }
+}
+
+/// Where the compound declaration (file `fi`, declaration `di`) is named.
+fn top_span(prog: &Program, (fi, di): (usize, usize)) -> Span {
+    match &prog.files[fi].1.decls[di] {
+        Decl::Compound { name, .. } => name.name.span,
+        _ => Span::default(),
+    }
+}
+
+/// The program's entry point, (file, declaration): `scenario top` in the
+/// user's files, else the one scenario declared on the ego; none (with a
+/// diagnostic) when there is none, several, or `top` twice.
+fn entry(prog: &Program, diags: &mut Vec<Diagnostic>) -> Option<(usize, usize)> {
+    // The entry point: `scenario top` in the user's files; without one,
+    // the one scenario declared on the ego (`scenario dut.name:`).
+    let mut tops = user_scenarios(prog, None, Some("top"));
+    if tops.is_empty() {
+        tops = user_scenarios(prog, Some(DUT), None);
+        if tops.len() > 1 {
+            let names: Vec<String> = tops
+                .iter()
+                .map(|&(fi, di)| match &prog.files[fi].1.decls[di] {
+                    Decl::Compound { name, .. } => format!("dut.{}", name.name.text),
+                    _ => String::new(),
+                })
+                .collect();
+            diags.push(
+                Diagnostic::error(
+                    "E0601",
+                    entry_start(prog),
+                    format!(
+                        "a CARLA program without `scenario top:` runs its one scenario of the ego, and this one declares {}: {}",
+                        names.len(),
+                        names.join(", ")
+                    ),
+                )
+                .with_hint("add `scenario top:` that invokes the one to run, or keep one per file"),
+            );
+            return None;
         }
     }
-    diags.append(&mut l.diags);
-    let at = top_span(prog, (fi, di));
-    prog.files[fi].1.decls[di] = Decl::Extend {
-        target: QualName {
-            actor: Some(name("top", at)),
-            name: name("main", at),
-        },
-        members: out,
+    let Some(&(fi, di)) = tops.first() else {
+        diags.push(
+            Diagnostic::error(
+                "E0601",
+                entry_start(prog),
+                "a CARLA scenario needs `scenario top:` (scenario_runner's entry point) or one `scenario dut.name:`",
+            )
+            .with_hint("or run it as a litesim program: --dialect litesim"),
+        );
+        return None;
     };
-    // CARLA's blueprints and step: litesim's CARLA profile, unless the
-    // program chose a profile itself.
+    if let Some(&second) = tops.get(1) {
+        diags.push(
+            Diagnostic::error(
+                "E0602",
+                top_span(prog, second),
+                "'scenario top' is declared twice",
+            )
+            .with_related(top_span(prog, (fi, di)), "first declared here"),
+        );
+        return None;
+    }
+    Some((fi, di))
+}
+
+/// CARLA's blueprints and step: litesim's CARLA profile, unless the
+/// program chose a profile itself (an `extend sim_info` setting it).
+fn carla_profile_unless_chosen(prog: &mut Program, fi: usize, at: Span) {
     let chose = prog.files.iter().any(|(_, f)| {
         f.decls.iter().any(|d| {
             matches!(d, Decl::Extend { target, members }
@@ -750,6 +792,4 @@ pub fn lower(prog: &mut Program) -> Vec<Diagnostic> {
             }],
         });
     }
-    prog.carla = Some(info);
-    diags
 }
