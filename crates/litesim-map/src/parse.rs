@@ -462,16 +462,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
     let mut saw_lanes = false;
     for c in n.elements() {
         match c.name() {
-            "link" => {
-                for l in c.elements() {
-                    let p = format!("{path}/link/{}", l.name());
-                    match l.name() {
-                        "predecessor" => r.predecessor = Some(link(cx, l, &p)?),
-                        "successor" => r.successor = Some(link(cx, l, &p)?),
-                        _ => cx.skip(l, &format!("{path}/link")),
-                    }
-                }
-            }
+            "link" => road_links(cx, c, &path, &mut r)?,
             "type" => {
                 let p = format!("{path}/type");
                 let sp = c.elements().find(|s| s.name() == "speed");
@@ -515,24 +506,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             }
             "lanes" => {
                 saw_lanes = true;
-                for (i, e) in c.elements().enumerate() {
-                    match e.name() {
-                        "laneOffset" => {
-                            let p = format!("{path}/lanes/laneOffset");
-                            let o = cx.cubic(e, &p, "s")?;
-                            if o.s < 0.0 {
-                                cx.warn(e, &p, format!("s = {} is negative: the offset is taken to apply from the road's start", o.s));
-                            }
-                            r.lane_offsets.push(o)
-                        }
-                        "laneSection" => r.sections.push(section(
-                            cx,
-                            e,
-                            &format!("{path}/lanes/laneSection[{i}]"),
-                        )?),
-                        _ => cx.skip(e, &format!("{path}/lanes")),
-                    }
-                }
+                lanes(cx, c, &path, &mut r)?;
             }
             "signals" => {
                 for (i, s) in c.elements().enumerate() {
@@ -543,24 +517,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
                     }
                 }
             }
-            "objects" => {
-                for (i, o) in c.elements().enumerate() {
-                    let p = format!("{path}/objects/object[{i}]");
-                    match o.name() {
-                        "object" => r.objects.push(RoadObject {
-                            id: o.attribute("id").unwrap_or("").into(),
-                            kind: o.attribute("type").unwrap_or("none").into(),
-                            s: cx.req_f64(o, &p, "s")?,
-                            t: cx.req_f64(o, &p, "t")?,
-                            hdg: cx.f64_or(o, &p, "hdg", 0.0)?,
-                            length: cx.f64_or(o, &p, "length", 0.0)?,
-                            width: cx.f64_or(o, &p, "width", 0.0)?,
-                            radius: cx.f64_or(o, &p, "radius", 0.0)?,
-                        }),
-                        _ => cx.skip(o, &format!("{path}/objects")),
-                    }
-                }
-            }
+            "objects" => objects(cx, c, &path, &mut r.objects)?,
             _ => cx.skip(c, &path),
         }
     }
@@ -578,6 +535,71 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
             "no <lanes>/<laneSection>: a road needs at least one lane section",
         ));
     }
+    tidy_road(cx, n, &path, &mut r);
+    Ok(r)
+}
+
+/// A road's `<link>`: its predecessor and successor.
+fn road_links(cx: &mut Ctx, c: Node, path: &str, r: &mut Road) -> R<()> {
+    for l in c.elements() {
+        let p = format!("{path}/link/{}", l.name());
+        match l.name() {
+            "predecessor" => r.predecessor = Some(link(cx, l, &p)?),
+            "successor" => r.successor = Some(link(cx, l, &p)?),
+            _ => cx.skip(l, &format!("{path}/link")),
+        }
+    }
+    Ok(())
+}
+
+/// A road's `<lanes>`: lane offsets (a negative s applies from the start,
+/// with a warning) and lane sections.
+fn lanes(cx: &mut Ctx, c: Node, path: &str, r: &mut Road) -> R<()> {
+    for (i, e) in c.elements().enumerate() {
+        match e.name() {
+            "laneOffset" => {
+                let p = format!("{path}/lanes/laneOffset");
+                let o = cx.cubic(e, &p, "s")?;
+                if o.s < 0.0 {
+                    cx.warn(e, &p, format!("s = {} is negative: the offset is taken to apply from the road's start", o.s));
+                }
+                r.lane_offsets.push(o)
+            }
+            "laneSection" => {
+                r.sections
+                    .push(section(cx, e, &format!("{path}/lanes/laneSection[{i}]"))?)
+            }
+            _ => cx.skip(e, &format!("{path}/lanes")),
+        }
+    }
+    Ok(())
+}
+
+/// A road's `<objects>`: each `<object>` with its place, heading and size.
+fn objects(cx: &mut Ctx, c: Node, path: &str, out: &mut Vec<RoadObject>) -> R<()> {
+    for (i, o) in c.elements().enumerate() {
+        let p = format!("{path}/objects/object[{i}]");
+        match o.name() {
+            "object" => out.push(RoadObject {
+                id: o.attribute("id").unwrap_or("").into(),
+                kind: o.attribute("type").unwrap_or("none").into(),
+                s: cx.req_f64(o, &p, "s")?,
+                t: cx.req_f64(o, &p, "t")?,
+                hdg: cx.f64_or(o, &p, "hdg", 0.0)?,
+                length: cx.f64_or(o, &p, "length", 0.0)?,
+                width: cx.f64_or(o, &p, "width", 0.0)?,
+                radius: cx.f64_or(o, &p, "radius", 0.0)?,
+            }),
+            _ => cx.skip(o, &format!("{path}/objects")),
+        }
+    }
+    Ok(())
+}
+
+/// A parsed road made consistent: records sorted by s, lane sections
+/// clamped to the road's length; gaps in the reference line and a plan
+/// view of another length than the road's are warnings.
+fn tidy_road(cx: &mut Ctx, n: Node, path: &str, r: &mut Road) {
     r.plan_view.sort_by(|a, b| a.s.total_cmp(&b.s));
     r.elevation.sort_by(|a, b| a.s.total_cmp(&b.s));
     r.superelevation.sort_by(|a, b| a.s.total_cmp(&b.s));
@@ -588,7 +610,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
         if s.s > r.length {
             cx.warn(
                 n,
-                &path,
+                path,
                 format!(
                     "lane section at s = {} starts beyond the road length {}; clamped",
                     s.s, r.length
@@ -604,7 +626,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
         if gap > 1e-3 {
             cx.warnings.push(Warning {
                 line: cx.pos(n).0,
-                path: path.clone(),
+                path: path.to_string(),
                 message: format!("reference line has a gap of {gap:.4} m at s = {:.3} (between pieces at s = {} and {})", w[1].s, w[0].s, w[1].s),
             });
         }
@@ -612,7 +634,7 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
         if s_gap > 0.1 {
             cx.warnings.push(Warning {
                 line: cx.pos(n).0,
-                path: path.clone(),
+                path: path.to_string(),
                 message: format!(
                     "geometry at s = {} ends at s = {} but the next starts at s = {}",
                     w[0].s,
@@ -626,14 +648,13 @@ fn road(cx: &mut Ctx, n: Node) -> R<Road> {
     if (total - r.length).abs() > 0.1 {
         cx.warnings.push(Warning {
             line: cx.pos(n).0,
-            path: path.clone(),
+            path: path.to_string(),
             message: format!(
                 "planView ends at s = {total:.3} but the road length is {}",
                 r.length
             ),
         });
     }
-    Ok(r)
 }
 
 fn geometry(cx: &mut Ctx, g: Node, path: &str) -> R<Geometry> {
