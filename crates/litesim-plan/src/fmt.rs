@@ -331,69 +331,13 @@ pub fn fmt_star(
     goal: Vec2,
     cfg: &FmtConfig,
 ) -> Result<FmtResult, FmtError> {
-    if cfg.samples == 0 {
-        return Err(FmtError::BadConfig("samples must be at least 1".into()));
-    }
-    match cfg.radius {
-        Radius::Eta(e) if !(e.is_finite() && e > 0.0) => {
-            return Err(FmtError::BadConfig(format!(
-                "eta must be positive, got {e}"
-            )));
-        }
-        Radius::Fixed(r) if !(r.is_finite() && r > 0.0) => {
-            return Err(FmtError::BadConfig(format!(
-                "radius must be positive, got {r}"
-            )));
-        }
-        Radius::KNearest(0) => return Err(FmtError::BadConfig("k must be at least 1".into())),
-        _ => {}
-    }
-    if !(start.is_finite() && grid.is_free(start)) {
-        return Err(FmtError::StartInCollision(start.x, start.y));
-    }
-    if !(goal.is_finite() && grid.is_free(goal)) {
-        return Err(FmtError::GoalInCollision(goal.x, goal.y));
-    }
-    let area = grid.free_area();
-    if area <= 0.0 {
-        return Err(FmtError::NoFreeSpace);
-    }
-    let g = &grid.grid;
-    let lo = g.origin;
-    let size = Vec2::new(
-        g.width as f64 * g.resolution,
-        g.height as f64 * g.resolution,
-    );
-    let mut rng = Rng::new(cfg.seed);
-    let mut samples = vec![start, goal];
-    let max_tries = cfg.samples.saturating_mul(1000).max(10_000);
-    let mut tries = 0;
-    while samples.len() < cfg.samples + 2 && tries < max_tries {
-        tries += 1;
-        let p = Vec2::new(lo.x + rng.unit() * size.x, lo.y + rng.unit() * size.y);
-        if grid.is_free(p) {
-            samples.push(p);
-        }
-    }
+    let area = check_fmt(grid, start, goal, cfg)?;
+    let (lo, size) = extent(grid);
+    let (samples, r) = sample(grid, (start, goal), cfg, area);
     let n = samples.len();
-    let r = match cfg.radius {
-        Radius::Eta(eta) => {
-            let nn = n as f64;
-            (1.0 + eta)
-                * 2.0
-                * (0.5f64).sqrt()
-                * (area / std::f64::consts::PI).sqrt()
-                * (nn.ln() / nn).sqrt()
-        }
-        Radius::Fixed(r) => r,
-        // k-nearest: grow a radius until it holds k neighbours on average (then exact per node below).
-        Radius::KNearest(k) => {
-            ((k as f64 + 1.0) * area / (std::f64::consts::PI * n as f64)).sqrt() * 1.5
-        }
-    };
     // Cells of half the radius: a query scans 5 × 5 cells of (r/2)², 6.25 r²
     // of candidates, instead of 3 × 3 cells of r², 9 r².
-    let buckets = Buckets::new(&samples, lo, lo + size, (0.5 * r).max(g.resolution));
+    let buckets = Buckets::new(&samples, lo, lo + size, (0.5 * r).max(grid.grid.resolution));
     let mut state = vec![State::Unvisited; n];
     let mut cost = vec![f64::INFINITY; n];
     let mut parent: Vec<Option<usize>> = vec![None; n];
@@ -405,32 +349,9 @@ pub fn fmt_star(
     let mut open_cost = vec![f64::INFINITY; n];
     open_cost[0] = 0.0;
     heap.push(Cheapest(0.0, 0));
-    // Neighbour lists are asked for again and again (each node both as `z`
-    // and as a candidate `x`): each is computed once, into one arena of
-    // indices and distances (no per-node allocation, no repeated square
-    // roots; d(y, x) = d(x, y) bit for bit). Radius neighbourhoods are
-    // symmetric and nearly every node's is needed, so they are built at
-    // once; k-nearest ones are not symmetric and are built on demand.
-    let (mut span, mut arena_idx, mut arena_dist) = if let Radius::KNearest(_) = cfg.radius {
-        (vec![(u32::MAX, 0); n], Vec::new(), Vec::new())
-    } else {
-        // About n · (n π r² / area) entries: the pair lists are sized once.
-        let expect = (n as f64 * n as f64 * std::f64::consts::PI * r * r / area)
-            .clamp(n as f64, (1u64 << 24) as f64) as usize;
-        buckets.all_within(r, expect)
-    };
+    // Neighbour lists, each computed once (see `neighbour_arena`).
+    let (mut span, mut arena_idx, mut arena_dist) = neighbour_arena(cfg, &buckets, n, (r, area));
     let mut scratch = Vec::new();
-    let knn = |p: Vec2, out: &mut Vec<u32>, k: usize| {
-        // Nearest k within the search radius (ties by index).
-        out.sort_by(|a, b| {
-            let (da, db) = (
-                samples[*a as usize].distance(p),
-                samples[*b as usize].distance(p),
-            );
-            da.total_cmp(&db).then(a.cmp(b))
-        });
-        out.truncate(k + 1);
-    };
     let mut load = |i: usize,
                     span: &mut Vec<(u32, u32)>,
                     arena_idx: &mut Vec<u32>,
@@ -440,7 +361,7 @@ pub fn fmt_star(
         if let (u32::MAX, Radius::KNearest(k)) = (span[i].0, cfg.radius) {
             let start = arena_idx.len();
             buckets.near(samples[i], r, &mut scratch);
-            knn(samples[i], &mut scratch, k);
+            nearest_k(&samples, samples[i], &mut scratch, k);
             arena_idx.extend_from_slice(&scratch);
             arena_dist.extend(
                 scratch
@@ -508,13 +429,7 @@ pub fn fmt_star(
             reached: parent.iter().filter(|p| p.is_some()).count(),
         });
     }
-    let mut path = vec![samples[1]];
-    let mut cur = 1;
-    while let Some(p) = parent[cur] {
-        path.push(samples[p]);
-        cur = p;
-    }
-    path.reverse();
+    let path = path_to_goal(&samples, &parent);
     Ok(FmtResult {
         path_cost: cost[1],
         samples,
@@ -525,6 +440,143 @@ pub fn fmt_star(
         radius: r,
         collision_checks: checks,
     })
+}
+
+/// The neighbour lists' arena. Neighbour lists are asked for again and
+/// again (each node both as `z` and as a candidate `x`): each is computed
+/// once, into one arena of indices and distances (no per-node allocation,
+/// no repeated square roots; d(y, x) = d(x, y) bit for bit). Radius
+/// neighbourhoods are symmetric and nearly every node's is needed, so they
+/// are built at once (about n · (n π r² / area) entries, sized once);
+/// k-nearest ones are not symmetric and are built on demand.
+#[allow(clippy::type_complexity)]
+fn neighbour_arena(
+    cfg: &FmtConfig,
+    buckets: &Buckets,
+    n: usize,
+    (r, area): (f64, f64),
+) -> (Vec<(u32, u32)>, Vec<u32>, Vec<f64>) {
+    if let Radius::KNearest(_) = cfg.radius {
+        (vec![(u32::MAX, 0); n], Vec::new(), Vec::new())
+    } else {
+        let expect = (n as f64 * n as f64 * std::f64::consts::PI * r * r / area)
+            .clamp(n as f64, (1u64 << 24) as f64) as usize;
+        buckets.all_within(r, expect)
+    }
+}
+
+/// Keeps the nearest `k` of `out` to `p` (and `p`'s own index when it is
+/// among them), ties by index.
+fn nearest_k(samples: &[Vec2], p: Vec2, out: &mut Vec<u32>, k: usize) {
+    out.sort_by(|a, b| {
+        let (da, db) = (
+            samples[*a as usize].distance(p),
+            samples[*b as usize].distance(p),
+        );
+        da.total_cmp(&db).then(a.cmp(b))
+    });
+    out.truncate(k + 1);
+}
+
+/// The path from the start (sample 0) to the goal (sample 1) along the
+/// tree's parents.
+fn path_to_goal(samples: &[Vec2], parent: &[Option<usize>]) -> Vec<Vec2> {
+    let mut path = vec![samples[1]];
+    let mut cur = 1;
+    while let Some(p) = parent[cur] {
+        path.push(samples[p]);
+        cur = p;
+    }
+    path.reverse();
+    path
+}
+
+/// Refuses a configuration FMT* cannot run (no samples, a radius, eta or k
+/// that is not positive) and a start or goal in collision; gives the free
+/// area.
+fn check_fmt(
+    grid: &PlanningGrid,
+    start: Vec2,
+    goal: Vec2,
+    cfg: &FmtConfig,
+) -> Result<f64, FmtError> {
+    if cfg.samples == 0 {
+        return Err(FmtError::BadConfig("samples must be at least 1".into()));
+    }
+    match cfg.radius {
+        Radius::Eta(e) if !(e.is_finite() && e > 0.0) => {
+            return Err(FmtError::BadConfig(format!(
+                "eta must be positive, got {e}"
+            )));
+        }
+        Radius::Fixed(r) if !(r.is_finite() && r > 0.0) => {
+            return Err(FmtError::BadConfig(format!(
+                "radius must be positive, got {r}"
+            )));
+        }
+        Radius::KNearest(0) => return Err(FmtError::BadConfig("k must be at least 1".into())),
+        _ => {}
+    }
+    if !(start.is_finite() && grid.is_free(start)) {
+        return Err(FmtError::StartInCollision(start.x, start.y));
+    }
+    if !(goal.is_finite() && grid.is_free(goal)) {
+        return Err(FmtError::GoalInCollision(goal.x, goal.y));
+    }
+    let area = grid.free_area();
+    if area <= 0.0 {
+        return Err(FmtError::NoFreeSpace);
+    }
+    Ok(area)
+}
+
+/// The grid's lower corner and size (m).
+fn extent(grid: &PlanningGrid) -> (Vec2, Vec2) {
+    let g = &grid.grid;
+    let size = Vec2::new(
+        g.width as f64 * g.resolution,
+        g.height as f64 * g.resolution,
+    );
+    (g.origin, size)
+}
+
+/// The seeded samples (start and goal first, then free points drawn over
+/// the grid) and the connection radius for them.
+fn sample(
+    grid: &PlanningGrid,
+    (start, goal): (Vec2, Vec2),
+    cfg: &FmtConfig,
+    area: f64,
+) -> (Vec<Vec2>, f64) {
+    let (lo, size) = extent(grid);
+    let mut rng = Rng::new(cfg.seed);
+    let mut samples = vec![start, goal];
+    let max_tries = cfg.samples.saturating_mul(1000).max(10_000);
+    let mut tries = 0;
+    while samples.len() < cfg.samples + 2 && tries < max_tries {
+        tries += 1;
+        let p = Vec2::new(lo.x + rng.unit() * size.x, lo.y + rng.unit() * size.y);
+        if grid.is_free(p) {
+            samples.push(p);
+        }
+    }
+    let n = samples.len();
+    let r = match cfg.radius {
+        Radius::Eta(eta) => {
+            let nn = n as f64;
+            (1.0 + eta)
+                * 2.0
+                * (0.5f64).sqrt()
+                * (area / std::f64::consts::PI).sqrt()
+                * (nn.ln() / nn).sqrt()
+        }
+        Radius::Fixed(r) => r,
+        // k-nearest: grow a radius until it holds k neighbours on average (then exact per node below).
+        Radius::KNearest(k) => {
+            ((k as f64 + 1.0) * area / (std::f64::consts::PI * n as f64)).sqrt() * 1.5
+        }
+    };
+    (samples, r)
 }
 
 #[cfg(test)]
