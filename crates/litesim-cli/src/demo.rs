@@ -67,38 +67,7 @@ pub fn run(ssp: &mut dyn Ssp, opts: &DemoOptions, transport: &str) -> Result<()>
     ssp.start_simulation(0).map_err(e)?;
     ssp.wait_start_simulation(1000).map_err(e)?;
 
-    let ego = ssp
-        .create_actor(CreateActor {
-            actor_id: "sut.car".into(),
-            spec: ActorSpec {
-                actor_type: "Ego".into(),
-                ..ActorSpec::default()
-            },
-            position: Coord6::xy_yaw(0.0, 0.0, 0.0),
-            ..CreateActor::default()
-        })
-        .map_err(e)?;
-    let entry = profile.entry(&ego.model_id).map_err(e)?.clone();
-    let npc = ssp
-        .create_actor(CreateActor {
-            actor_id: "car1".into(),
-            position: Coord6::xy_yaw(8.0, 3.5, 0.0),
-            ..CreateActor::default()
-        })
-        .map_err(e)?;
-    ssp.create_actor(CreateActor {
-        actor_id: "walker".into(),
-        spec: ActorSpec {
-            actor_type: "Pedestrian".into(),
-            category: ActorCategory::Pedestrian,
-            ..ActorSpec::default()
-        },
-        position: Coord6::xy_yaw(40.0, -4.0, std::f64::consts::FRAC_PI_2),
-        ..CreateActor::default()
-    })
-    .map_err(e)?;
-    let mass = |id: &str| if id == "walker" { 75.0 } else { entry.mass };
-
+    let (ego, entry, npc) = create_actors(ssp, &profile)?;
     let target = 20.0 / 3.6; // the smoke test's 20 kph
     let gains = profile.calibration;
     let mut integral = 0.0;
@@ -114,28 +83,7 @@ pub fn run(ssp: &mut dyn Ssp, opts: &DemoOptions, transport: &str) -> Result<()>
     for k in 0..steps {
         let now_ms = k * step_ms;
         if k % (200 / step_ms).max(1) == 0 {
-            // Kinematic NPC: 20 kph along y = 3.5, one point per coming step, 240 ms ahead.
-            let n = 240 / step_ms + 1;
-            let points = (0..=n)
-                .map(|j| {
-                    let t = (now_ms + j * step_ms) as f64 / 1000.0;
-                    Coord6 {
-                        x: Some(8.0 + target * t),
-                        y: Some(3.5),
-                        ..Coord6::default()
-                    }
-                })
-                .collect();
-            ssp.set_xy_trajectory(
-                "car1",
-                XyTrajectory {
-                    start_time_ms: now_ms,
-                    end_time_ms: now_ms + n * step_ms,
-                    points,
-                    ..XyTrajectory::default()
-                },
-            )
-            .map_err(e)?;
+            npc_trajectory(ssp, now_ms, step_ms, target)?;
         }
         // Ego: PI speed loop with the profile's calibrated gains (per m/s of
         // error); after 2 s a lane change to y = 3.5 m, into the NPC's lane behind it.
@@ -168,53 +116,8 @@ pub fn run(ssp: &mut dyn Ssp, opts: &DemoOptions, transport: &str) -> Result<()>
         ssp.set_dynamic_move("sut.car", cmd, 0).map_err(e)?;
         let (info, states) = ssp.step(None, &ActorFilter::default()).map_err(e)?;
         rec.begin(info.step_index, info.sim_time_ms as f64 / 1000.0);
-        for s in &states {
-            let mut sample = ActorSample::from_kinematics(
-                s.pose,
-                s.velocity,
-                s.acceleration,
-                s.yaw_rate,
-                s.speed,
-                mass(&s.actor_id),
-            );
-            if &*s.actor_id == "sut.car" {
-                speed = s.speed;
-                y = s.pose.position.y;
-                yaw = s.pose.yaw;
-                sample.control = ControlSample {
-                    throttle: s.controls.throttle_pedal_pos.unwrap_or(f64::NAN),
-                    brake: s.controls.brake_pedal_pos.unwrap_or(f64::NAN),
-                    steering: s.controls.steering_wheel_angle.map_or(f64::NAN, |a| {
-                        a / (entry.steering_ratio * entry.max_steer_angle_deg.to_radians())
-                    }),
-                    acceleration: f64::NAN,
-                    steering_angle: f64::NAN,
-                };
-            }
-            let (len, wid, model) = match &*s.actor_id {
-                "sut.car" => (ego.length, ego.width, ego.model_id.clone()),
-                "car1" => (npc.length, npc.width, npc.model_id.clone()),
-                _ => (0.5, 0.6, "pedestrian".into()),
-            };
-            rec.actor(
-                &s.actor_id,
-                if &*s.actor_id == "walker" {
-                    "person"
-                } else {
-                    "vehicle/car"
-                },
-                &model,
-                len,
-                wid,
-                mass(&s.actor_id),
-            );
-            let mode = match s.mode {
-                MoveMode::Dynamic => "dynamic",
-                MoveMode::External => "external",
-                _ if s.trajectory != litesim_core::TrajectoryStatus::None => "trajectory",
-                _ => "stored",
-            };
-            rec.sample(&s.actor_id, mode, &sample);
+        if let Some(e) = record(&mut rec, &states, (&ego, &npc, &entry)) {
+            (speed, y, yaw) = e;
         }
         let pos = |id: &str| {
             states
@@ -239,6 +142,130 @@ pub fn run(ssp: &mut dyn Ssp, opts: &DemoOptions, transport: &str) -> Result<()>
         opts.out.join("log.csv").display()
     );
     Ok(())
+}
+
+/// The demo's actors: sut.car (its catalogue entry too), a car beside it
+/// and a pedestrian ahead.
+fn create_actors(
+    ssp: &mut dyn Ssp,
+    profile: &Profile,
+) -> Result<(ActualDescription, CatalogEntry, ActualDescription)> {
+    let ego = ssp
+        .create_actor(CreateActor {
+            actor_id: "sut.car".into(),
+            spec: ActorSpec {
+                actor_type: "Ego".into(),
+                ..ActorSpec::default()
+            },
+            position: Coord6::xy_yaw(0.0, 0.0, 0.0),
+            ..CreateActor::default()
+        })
+        .map_err(e)?;
+    let entry = profile.entry(&ego.model_id).map_err(e)?.clone();
+    let npc = ssp
+        .create_actor(CreateActor {
+            actor_id: "car1".into(),
+            position: Coord6::xy_yaw(8.0, 3.5, 0.0),
+            ..CreateActor::default()
+        })
+        .map_err(e)?;
+    ssp.create_actor(CreateActor {
+        actor_id: "walker".into(),
+        spec: ActorSpec {
+            actor_type: "Pedestrian".into(),
+            category: ActorCategory::Pedestrian,
+            ..ActorSpec::default()
+        },
+        position: Coord6::xy_yaw(40.0, -4.0, std::f64::consts::FRAC_PI_2),
+        ..CreateActor::default()
+    })
+    .map_err(e)?;
+    Ok((ego, entry, npc))
+}
+
+/// The kinematic NPC: 20 kph along y = 3.5, one point per coming step,
+/// 240 ms ahead.
+fn npc_trajectory(ssp: &mut dyn Ssp, now_ms: u64, step_ms: u64, target: f64) -> Result<()> {
+    let n = 240 / step_ms + 1;
+    let points = (0..=n)
+        .map(|j| {
+            let t = (now_ms + j * step_ms) as f64 / 1000.0;
+            Coord6 {
+                x: Some(8.0 + target * t),
+                y: Some(3.5),
+                ..Coord6::default()
+            }
+        })
+        .collect();
+    ssp.set_xy_trajectory(
+        "car1",
+        XyTrajectory {
+            start_time_ms: now_ms,
+            end_time_ms: now_ms + n * step_ms,
+            points,
+            ..XyTrajectory::default()
+        },
+    )
+    .map_err(e)?;
+    Ok(())
+}
+
+/// Records a step's states; gives sut.car's speed, y and yaw when it is
+/// among them.
+fn record(
+    rec: &mut LogRecorder,
+    states: &[ReportedState],
+    (ego, npc, entry): (&ActualDescription, &ActualDescription, &CatalogEntry),
+) -> Option<(f64, f64, f64)> {
+    let mass = |id: &str| if id == "walker" { 75.0 } else { entry.mass };
+    let mut ego_state = None;
+    for s in states {
+        let mut sample = ActorSample::from_kinematics(
+            s.pose,
+            s.velocity,
+            s.acceleration,
+            s.yaw_rate,
+            s.speed,
+            mass(&s.actor_id),
+        );
+        if &*s.actor_id == "sut.car" {
+            ego_state = Some((s.speed, s.pose.position.y, s.pose.yaw));
+            sample.control = ControlSample {
+                throttle: s.controls.throttle_pedal_pos.unwrap_or(f64::NAN),
+                brake: s.controls.brake_pedal_pos.unwrap_or(f64::NAN),
+                steering: s.controls.steering_wheel_angle.map_or(f64::NAN, |a| {
+                    a / (entry.steering_ratio * entry.max_steer_angle_deg.to_radians())
+                }),
+                acceleration: f64::NAN,
+                steering_angle: f64::NAN,
+            };
+        }
+        let (len, wid, model) = match &*s.actor_id {
+            "sut.car" => (ego.length, ego.width, ego.model_id.clone()),
+            "car1" => (npc.length, npc.width, npc.model_id.clone()),
+            _ => (0.5, 0.6, "pedestrian".into()),
+        };
+        rec.actor(
+            &s.actor_id,
+            if &*s.actor_id == "walker" {
+                "person"
+            } else {
+                "vehicle/car"
+            },
+            &model,
+            len,
+            wid,
+            mass(&s.actor_id),
+        );
+        let mode = match s.mode {
+            MoveMode::Dynamic => "dynamic",
+            MoveMode::External => "external",
+            _ if s.trajectory != litesim_core::TrajectoryStatus::None => "trajectory",
+            _ => "stored",
+        };
+        rec.sample(&s.actor_id, mode, &sample);
+    }
+    ego_state
 }
 
 fn summary(
