@@ -629,25 +629,8 @@ impl World {
             _ => self.build_batch(tick),
         };
         // Only external controllers look at other actors; skip the snapshot otherwise.
-        let snapshot: Vec<Snapshot> = if self.external > 0 {
-            (0..self.actors.len())
-                .map(|i| {
-                    let a = &self.actors[i];
-                    // What `state_at` reports, without the trig it does not need.
-                    let (position, yaw, speed) = if a.live {
-                        let v = &self.vehicles;
-                        (Vec2::new(v.x[i], v.y[i]), v.yaw[i], v.v[i])
-                    } else {
-                        (a.state.pose.position.xy(), a.state.pose.yaw, a.state.speed)
-                    };
-                    Snapshot {
-                        position,
-                        yaw,
-                        speed,
-                        length: a.description.length,
-                    }
-                })
-                .collect()
+        let snapshot = if self.external > 0 {
+            self.snapshot()
         } else {
             Vec::new()
         };
@@ -730,6 +713,29 @@ impl World {
         }
         self.batch.built = Some(built);
         self.tick = tick;
+    }
+
+    /// Every actor as it is at the start of a step, for external
+    /// controllers.
+    fn snapshot(&self) -> Vec<Snapshot> {
+        (0..self.actors.len())
+            .map(|i| {
+                let a = &self.actors[i];
+                // What `state_at` reports, without the trig it does not need.
+                let (position, yaw, speed) = if a.live {
+                    let v = &self.vehicles;
+                    (Vec2::new(v.x[i], v.y[i]), v.yaw[i], v.v[i])
+                } else {
+                    (a.state.pose.position.xy(), a.state.pose.yaw, a.state.speed)
+                };
+                Snapshot {
+                    position,
+                    yaw,
+                    speed,
+                    length: a.description.length,
+                }
+            })
+            .collect()
     }
 }
 
