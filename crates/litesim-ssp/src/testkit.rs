@@ -23,55 +23,7 @@ pub fn mixed_scenario(ssp: &mut dyn Ssp, steps: u64) -> SspResult<Vec<Vec<Report
     })?;
     ssp.start_simulation(0)?;
     ssp.wait_start_simulation(1000)?;
-    let car = |id: &str, x: f64, y: f64, yaw: f64, v: f64| CreateActor {
-        actor_id: id.into(),
-        spec: ActorSpec {
-            actor_type: "Vehicle".into(),
-            ..ActorSpec::default()
-        },
-        position: Coord6::xy_yaw(x, y, yaw),
-        speed: Coord6 {
-            x: Some(v * litesim_core::math::cos(yaw)),
-            y: Some(v * litesim_core::math::sin(yaw)),
-            ..Coord6::default()
-        },
-        ..CreateActor::default()
-    };
-    ssp.create_actor(car("parked", 50.0, 3.5, 0.0, 0.0))?;
-    ssp.create_actor(CreateActor {
-        actor_id: "walker".into(),
-        spec: ActorSpec {
-            actor_type: "Pedestrian".into(),
-            category: ActorCategory::Pedestrian,
-            ..ActorSpec::default()
-        },
-        position: Coord6::xy_yaw(20.0, -5.0, 1.57),
-        ..CreateActor::default()
-    })?;
-    ssp.create_actor(CreateActor {
-        actor_id: "cone".into(),
-        spec: ActorSpec {
-            model_id: "static.cone".into(),
-            ..ActorSpec::default()
-        },
-        position: Coord6::xy_yaw(30.0, 2.5, 0.0),
-        ..CreateActor::default()
-    })?;
-    for (i, id) in ["traj0", "traj1", "traj2"].iter().enumerate() {
-        ssp.create_actor(car(id, 0.0, -3.5 * i as f64, 0.0, 8.0))?;
-    }
-    ssp.create_actor(car("pedals", 0.0, 7.0, 0.0, 5.0))?;
-    ssp.create_actor(car("forces", 0.0, 10.5, 0.0, 5.0))?;
-    ssp.create_actor(car("direct", 0.0, 14.0, 0.0, 5.0))?;
-    ssp.create_actor(car("follower", -30.0, 0.0, 0.0, 12.0))?;
-    ssp.set_external_controller(
-        "follower",
-        ExternalMove {
-            controller: "idm".into(),
-            desired_speed: Some(15.0),
-            ..ExternalMove::default()
-        },
-    )?;
+    mixed_cast(ssp)?;
     let mut out = Vec::with_capacity(steps as usize);
     for k in 0..steps {
         let now_ms = k * 20;
@@ -139,6 +91,62 @@ pub fn mixed_scenario(ssp: &mut dyn Ssp, steps: u64) -> SspResult<Vec<Vec<Report
     }
     ssp.end_simulation("done")?;
     Ok(out)
+}
+
+/// The mixed scenario's cast: a parked car, a pedestrian, a cone, three
+/// trajectory cars, cars on pedals, forces and direct control, and an IDM
+/// follower on an external controller.
+fn mixed_cast(ssp: &mut dyn Ssp) -> SspResult<()> {
+    let car = |id: &str, x: f64, y: f64, yaw: f64, v: f64| CreateActor {
+        actor_id: id.into(),
+        spec: ActorSpec {
+            actor_type: "Vehicle".into(),
+            ..ActorSpec::default()
+        },
+        position: Coord6::xy_yaw(x, y, yaw),
+        speed: Coord6 {
+            x: Some(v * litesim_core::math::cos(yaw)),
+            y: Some(v * litesim_core::math::sin(yaw)),
+            ..Coord6::default()
+        },
+        ..CreateActor::default()
+    };
+    ssp.create_actor(car("parked", 50.0, 3.5, 0.0, 0.0))?;
+    ssp.create_actor(CreateActor {
+        actor_id: "walker".into(),
+        spec: ActorSpec {
+            actor_type: "Pedestrian".into(),
+            category: ActorCategory::Pedestrian,
+            ..ActorSpec::default()
+        },
+        position: Coord6::xy_yaw(20.0, -5.0, 1.57),
+        ..CreateActor::default()
+    })?;
+    ssp.create_actor(CreateActor {
+        actor_id: "cone".into(),
+        spec: ActorSpec {
+            model_id: "static.cone".into(),
+            ..ActorSpec::default()
+        },
+        position: Coord6::xy_yaw(30.0, 2.5, 0.0),
+        ..CreateActor::default()
+    })?;
+    for (i, id) in ["traj0", "traj1", "traj2"].iter().enumerate() {
+        ssp.create_actor(car(id, 0.0, -3.5 * i as f64, 0.0, 8.0))?;
+    }
+    ssp.create_actor(car("pedals", 0.0, 7.0, 0.0, 5.0))?;
+    ssp.create_actor(car("forces", 0.0, 10.5, 0.0, 5.0))?;
+    ssp.create_actor(car("direct", 0.0, 14.0, 0.0, 5.0))?;
+    ssp.create_actor(car("follower", -30.0, 0.0, 0.0, 12.0))?;
+    ssp.set_external_controller(
+        "follower",
+        ExternalMove {
+            controller: "idm".into(),
+            desired_speed: Some(15.0),
+            ..ExternalMove::default()
+        },
+    )?;
+    Ok(())
 }
 
 /// Canonical bytes of a run: every number's IEEE bits, little-endian, in
