@@ -121,47 +121,55 @@ pub(super) fn search_fallback<'g>(
     let found = found.map_err(|(_, _, e)| e);
     Ok(match found {
         Ok((h, legs, hcfg)) => {
-            // The search's tree in the planner views: its expanded
-            // positions after start and goal, its edges in
-            // expansion order (the exploration GIF replays them).
-            let n = h.explored.len();
-            let mut samples = vec![from, goal];
-            samples.extend(&h.explored);
-            let mut cost = vec![0.0, h.length];
-            cost.resize(n + 2, f64::INFINITY);
-            let fmt = FmtResult {
-                samples,
-                parent: vec![None; n + 2],
-                cost,
-                edges: h.tree.iter().map(|&(a, b)| (a + 2, b + 2)).collect(),
-                path: h.points,
-                path_cost: h.length,
-                radius: 0.0,
-                collision_checks: 0,
-            };
             let used = PathPlanner::Hybrid {
                 radius: 1.0 / hcfg.kappa,
                 expansions: h.expansions,
                 cusps: h.segments.len().saturating_sub(1),
                 fmt_failure: first.to_string(),
             };
-            (fmt, legs, used)
+            (tree_view(h, from, goal), legs, used)
         }
         Err(second) => {
-            let first = match first {
-                PlanError::Infeasible(m) => m,
-                e => e.to_string(),
-            };
-            let why =
-                format!("{first}; and a search within the turning limit found none: {second}");
-            return Err(
-                match exhausted(pgrid, from, from_yaw, goal, kappa_max, half) {
-                    Some(proof) => PlanError::Impossible(format!("{why}; {proof}")),
-                    None => PlanError::Infeasible(why),
-                },
-            );
+            let proof = exhausted(pgrid, from, from_yaw, goal, kappa_max, half);
+            return Err(refusal(first, &second, proof));
         }
     })
+}
+
+/// The refusal when neither FMT* (`first`) nor the search (`second`)
+/// found a drivable path: impossible with the exhaustive search's proof,
+/// else infeasible.
+fn refusal(first: PlanError, second: &str, proof: Option<String>) -> PlanError {
+    let first = match first {
+        PlanError::Infeasible(m) => m,
+        e => e.to_string(),
+    };
+    let why = format!("{first}; and a search within the turning limit found none: {second}");
+    match proof {
+        Some(proof) => PlanError::Impossible(format!("{why}; {proof}")),
+        None => PlanError::Infeasible(why),
+    }
+}
+
+/// The search's tree in the planner views: its expanded positions after
+/// start and goal, its edges in expansion order (the exploration GIF
+/// replays them), and its path.
+fn tree_view(h: crate::HybridPath, from: Vec2, goal: Vec2) -> FmtResult {
+    let n = h.explored.len();
+    let mut samples = vec![from, goal];
+    samples.extend(&h.explored);
+    let mut cost = vec![0.0, h.length];
+    cost.resize(n + 2, f64::INFINITY);
+    FmtResult {
+        samples,
+        parent: vec![None; n + 2],
+        cost,
+        edges: h.tree.iter().map(|&(a, b)| (a + 2, b + 2)).collect(),
+        path: h.points,
+        path_cost: h.length,
+        radius: 0.0,
+        collision_checks: 0,
+    }
 }
 
 /// What planning made, before anything is driven.
