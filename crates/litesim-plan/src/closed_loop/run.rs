@@ -229,24 +229,7 @@ pub(super) fn plan_path(
     );
     let start = Vec2::new(cfg.start.x, cfg.start.y);
     let goal = Vec2::new(cfg.goal.x, cfg.goal.y);
-    // A start inside the margin (the body free, but closer to an obstacle
-    // or the map's edge than the planners keep it) is left along one short
-    // leg, and the path planned from where that leg ends ([`crate::escape`]);
-    // a body that overlaps an obstacle or leaves the map is refused here.
-    let escape = crate::escape::from_start(
-        &pgrid,
-        start,
-        cfg.start.yaw,
-        0.8 * kappa_max,
-        0.5 * pgrid.grid.resolution,
-        crate::escape::max_escape(veh.length),
-    )
-    .map_err(|e| match e {
-        // A body that cannot stand where the vehicle starts: no planner
-        // can start there.
-        crate::escape::StartError::Overlap { .. } => PlanError::Impossible(e.to_string()),
-        _ => PlanError::Infeasible(e.to_string()),
-    })?;
+    let escape = start_escape(cfg, veh, &pgrid, (start, kappa_max))?;
     let (from, from_yaw) = escape
         .as_ref()
         .map_or((start, cfg.start.yaw), |e| (e.end, e.end_yaw));
@@ -256,52 +239,11 @@ pub(super) fn plan_path(
         (None, Some(k)) => Radius::KNearest(k),
         _ => Radius::Eta(pl.eta),
     };
-    let limits = SpeedLimits {
-        v_max: veh.max_speed,
-        a_lat_max: veh.max_lat_accel,
-        a_max: veh.max_accel * 0.8,
-        d_max: veh.max_decel * 0.5,
-        // After an escape leg the vehicle has stopped where the path starts.
-        v_start: if escape.is_some() {
-            0.0
-        } else {
-            cfg.start.speed.max(0.5)
-        },
-        // Half the steering rate: the other half is the controller's
-        // to correct errors with.
-        kappa_rate_max: 0.5 * veh.max_steer_rate / veh.wheelbase,
-        kappa_max,
-        jerk_max: JERK_MAX,
-        start_heading: Some(from_yaw),
-    };
+    let limits = speed_limits(cfg, veh, kappa_max, (escape.is_some(), from_yaw));
     // A path the vehicle cannot drive is refused before it is driven: too
     // tight a turn, or a body that does not fit where the path goes.
-    let drivable = |corridor: &Corridor, pgrid: &PlanningGrid| -> Result<(), PlanError> {
-        let turn = corridor.turn_curvature(TURN_HALF_ARC);
-        if let Some(i) = (0..turn.len())
-            .filter(|&i| turn[i].abs() > kappa_max * TURN_SLACK)
-            .max_by(|&a, &b| turn[a].abs().total_cmp(&turn[b].abs()))
-        {
-            let p = corridor.points[i];
-            return Err(PlanError::Infeasible(format!(
-                "the smoothed path turns with a {:.2} m radius at ({:.1}, {:.1}); the {} turns no tighter than {:.2} m (wheelbase {} m, steering {:.0}°)",
-                1.0 / turn[i].abs(),
-                p.x,
-                p.y,
-                cfg.vehicle.preset,
-                1.0 / kappa_max,
-                veh.wheelbase,
-                veh.max_steer.to_degrees()
-            )));
-        }
-        if let Some(p) = corridor.first_blocked(pgrid) {
-            return Err(PlanError::Infeasible(format!(
-                "the {} m × {} m body does not fit along the path at ({:.1}, {:.1}) with a {} m margin",
-                veh.length, veh.width, p.x, p.y, pl.margin
-            )));
-        }
-        Ok(())
-    };
+    let drivable =
+        |corridor: &Corridor, pgrid: &PlanningGrid| drivable(corridor, pgrid, cfg, veh, kappa_max);
     // FMT* first (shortest, fast); when its path cannot be driven — its
     // straight edges leave no room for this body, or its corners are
     // tighter than the vehicle turns — the curvature-bounded search plans
@@ -374,6 +316,98 @@ pub(super) fn plan_path(
         legs,
         planner,
     })
+}
+
+/// A start inside the margin (the body free, but closer to an obstacle
+/// or the map's edge than the planners keep it) is left along one short
+/// leg, and the path planned from where that leg ends ([`crate::escape`]);
+/// a body that overlaps an obstacle or leaves the map is refused here.
+fn start_escape(
+    cfg: &ClosedLoopConfig,
+    veh: &Vehicle,
+    pgrid: &PlanningGrid,
+    (start, kappa_max): (Vec2, f64),
+) -> Result<Option<crate::escape::Escape>, PlanError> {
+    crate::escape::from_start(
+        pgrid,
+        start,
+        cfg.start.yaw,
+        0.8 * kappa_max,
+        0.5 * pgrid.grid.resolution,
+        crate::escape::max_escape(veh.length),
+    )
+    .map_err(|e| match e {
+        // A body that cannot stand where the vehicle starts: no planner
+        // can start there.
+        crate::escape::StartError::Overlap { .. } => PlanError::Impossible(e.to_string()),
+        _ => PlanError::Infeasible(e.to_string()),
+    })
+}
+
+/// Whether the vehicle can drive `corridor` on `pgrid`: no turn tighter
+/// than its limit (with slack), and the body with its margin fits all
+/// along it; the refusal names where and why.
+fn drivable(
+    corridor: &Corridor,
+    pgrid: &PlanningGrid,
+    cfg: &ClosedLoopConfig,
+    veh: &Vehicle,
+    kappa_max: f64,
+) -> Result<(), PlanError> {
+    let pl = &cfg.planner;
+    let turn = corridor.turn_curvature(TURN_HALF_ARC);
+    if let Some(i) = (0..turn.len())
+        .filter(|&i| turn[i].abs() > kappa_max * TURN_SLACK)
+        .max_by(|&a, &b| turn[a].abs().total_cmp(&turn[b].abs()))
+    {
+        let p = corridor.points[i];
+        return Err(PlanError::Infeasible(format!(
+            "the smoothed path turns with a {:.2} m radius at ({:.1}, {:.1}); the {} turns no tighter than {:.2} m (wheelbase {} m, steering {:.0}°)",
+            1.0 / turn[i].abs(),
+            p.x,
+            p.y,
+            cfg.vehicle.preset,
+            1.0 / kappa_max,
+            veh.wheelbase,
+            veh.max_steer.to_degrees()
+        )));
+    }
+    if let Some(p) = corridor.first_blocked(pgrid) {
+        return Err(PlanError::Infeasible(format!(
+            "the {} m × {} m body does not fit along the path at ({:.1}, {:.1}) with a {} m margin",
+            veh.length, veh.width, p.x, p.y, pl.margin
+        )));
+    }
+    Ok(())
+}
+
+/// The limits a path's speed profile keeps to: the vehicle's, half its
+/// steering rate (the other half is the controller's), the start's speed
+/// (at rest after an escape leg) and heading.
+fn speed_limits(
+    cfg: &ClosedLoopConfig,
+    veh: &Vehicle,
+    kappa_max: f64,
+    (escaped, from_yaw): (bool, f64),
+) -> SpeedLimits {
+    SpeedLimits {
+        v_max: veh.max_speed,
+        a_lat_max: veh.max_lat_accel,
+        a_max: veh.max_accel * 0.8,
+        d_max: veh.max_decel * 0.5,
+        // After an escape leg the vehicle has stopped where the path starts.
+        v_start: if escaped {
+            0.0
+        } else {
+            cfg.start.speed.max(0.5)
+        },
+        // Half the steering rate: the other half is the controller's
+        // to correct errors with.
+        kappa_rate_max: 0.5 * veh.max_steer_rate / veh.wheelbase,
+        kappa_max,
+        jerk_max: JERK_MAX,
+        start_heading: Some(from_yaw),
+    }
 }
 
 /// [`run_closed_loop`], also timing planning and each MPC solve with
