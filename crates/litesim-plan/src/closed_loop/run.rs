@@ -453,20 +453,7 @@ pub fn run_closed_loop_timed(
     };
     let tdt = cfg.tracker.dt;
     let check = |w: &World, min_clear: &mut f64, collided: &mut bool| {
-        if let Some(a) = w.actor("ego") {
-            let p = a.state().pose;
-            for q in footprint(&veh, p.position.x, p.position.y, p.yaw) {
-                // On an obstacle or off the map, beyond touching (a body
-                // parked on the map's edge is not a collision).
-                if crate::escape::blocked(pgrid, q) {
-                    *collided = true;
-                }
-                let d = pgrid.clearance(q);
-                if d < *min_clear {
-                    *min_clear = d;
-                }
-            }
-        }
+        body_check(w, &veh, pgrid, min_clear, collided)
     };
     let mut follower = LegFollower::new(
         legs,
@@ -493,16 +480,6 @@ pub fn run_closed_loop_timed(
                     geared.reverse = steer.reverse;
                     let _ = w.set_model("ego", VehicleModelKind::Bicycle(geared));
                 }
-                if let Some(why) = &steer.fallback {
-                    tracking.fallback.push((w.tick(), why.clone()));
-                }
-                tracking.tick.push(w.tick());
-                tracking.lateral_error.push(steer.lateral_error);
-                tracking.heading_error.push(steer.heading_error);
-                tracking.progress.push(steer.progress);
-                tracking.cmd_acceleration.push(steer.acceleration);
-                tracking.cmd_steering.push(steer.steering);
-                tracking.predictions.push(steer.predicted);
                 let _ = w.set_mode(
                     "ego",
                     ControlMode::Dynamic {
@@ -513,6 +490,7 @@ pub fn run_closed_loop_timed(
                         valid_until_tick: None,
                     },
                 );
+                track(&mut tracking, w.tick(), steer);
             }
             Err(e) => mpc_error = Some(e),
         }
@@ -563,13 +541,7 @@ pub fn run_closed_loop_timed(
         let st = a.state();
         (st.pose.position.xy().distance(goal), st.speed.abs())
     });
-    let abs: Vec<f64> = tracking.lateral_error.iter().map(|e| e.abs()).collect();
-    let max_cte = abs.iter().copied().fold(0.0, f64::max);
-    let mean_cte = if abs.is_empty() {
-        0.0
-    } else {
-        abs.iter().sum::<f64>() / abs.len() as f64
-    };
+    let (max_cte, mean_cte) = cross_track(&tracking.lateral_error);
     let mut log = rec.finish();
     let corridor = joined(&legs);
     log.plan = Some(plan_record(&fmt, &corridor, pgrid));
@@ -605,6 +577,56 @@ pub fn run_closed_loop_timed(
         start_escape,
     };
     Ok((result, timings))
+}
+
+/// The footprint at the ego's pose against the grid: a collision on an
+/// obstacle or off the map (beyond touching: a body parked on the map's
+/// edge is not one), and the smallest clearance so far.
+fn body_check(
+    w: &World,
+    veh: &Vehicle,
+    pgrid: &PlanningGrid,
+    min_clear: &mut f64,
+    collided: &mut bool,
+) {
+    if let Some(a) = w.actor("ego") {
+        let p = a.state().pose;
+        for q in footprint(veh, p.position.x, p.position.y, p.yaw) {
+            if crate::escape::blocked(pgrid, q) {
+                *collided = true;
+            }
+            let d = pgrid.clearance(q);
+            if d < *min_clear {
+                *min_clear = d;
+            }
+        }
+    }
+}
+
+/// One tracker cycle into the log's tracking columns.
+fn track(tracking: &mut TrackingColumns, tick: u64, steer: crate::follow::Steer) {
+    if let Some(why) = steer.fallback {
+        tracking.fallback.push((tick, why));
+    }
+    tracking.tick.push(tick);
+    tracking.lateral_error.push(steer.lateral_error);
+    tracking.heading_error.push(steer.heading_error);
+    tracking.progress.push(steer.progress);
+    tracking.cmd_acceleration.push(steer.acceleration);
+    tracking.cmd_steering.push(steer.steering);
+    tracking.predictions.push(steer.predicted);
+}
+
+/// The largest and the mean absolute cross-track error (0 without any).
+fn cross_track(lateral: &[f64]) -> (f64, f64) {
+    let abs: Vec<f64> = lateral.iter().map(|e| e.abs()).collect();
+    let max = abs.iter().copied().fold(0.0, f64::max);
+    let mean = if abs.is_empty() {
+        0.0
+    } else {
+        abs.iter().sum::<f64>() / abs.len() as f64
+    };
+    (max, mean)
 }
 
 /// The MPC the run tracks with, and how many simulation steps apart it
