@@ -25,16 +25,7 @@ create_exception!(
 );
 
 fn lerr(e: impl std::error::Error) -> PyErr {
-    // The error and its causes, `: `-joined: a map error says where in the
-    // file, an I/O error which file.
-    let mut text = e.to_string();
-    let mut cause = e.source();
-    while let Some(c) = cause {
-        text.push_str(": ");
-        text.push_str(&c.to_string());
-        cause = c.source();
-    }
-    LitesimError::new_err(text)
+    LitesimError::new_err(litesim_scenario::error::chain_of(&e))
 }
 
 /// The traceback of a Python exception, as Python prints it.

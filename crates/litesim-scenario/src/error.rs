@@ -93,16 +93,9 @@ pub enum ScenarioError {
 
 impl ScenarioError {
     /// The error and its causes, `: `-joined (what `{:#}` of anyhow
-    /// prints), for summaries and batch lines.
+    /// prints), for summaries and batch lines ([`chain_of`]).
     pub fn chain(&self) -> String {
-        let mut text = self.to_string();
-        let mut cause = std::error::Error::source(self);
-        while let Some(c) = cause {
-            text.push_str(": ");
-            text.push_str(&c.to_string());
-            cause = c.source();
-        }
-        text
+        chain_of(self)
     }
 
     /// A file or folder could not be written.
@@ -128,4 +121,18 @@ impl ScenarioError {
     pub(crate) fn no_behaviour() -> Self {
         ScenarioError::Plan("top.main has no behaviour (add `extend top.main: do …`)".into())
     }
+}
+
+/// Any error and its causes, `: `-joined: what summaries, batch lines and
+/// the Python package's exceptions say (a map error says where in the
+/// file, an I/O error which file).
+pub fn chain_of(e: &dyn std::error::Error) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        text.push_str(": ");
+        text.push_str(&c.to_string());
+        cause = c.source();
+    }
+    text
 }
