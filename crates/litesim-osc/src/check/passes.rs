@@ -327,16 +327,15 @@ fn inherited_redefinitions(prog: &Program, members: &FirstPlaces, out: &mut Vec<
     }
     for (key, own) in members {
         for (name, span) in own {
-            let mut cur = bases.get(key);
-            let mut guard = 0;
-            while let Some(b) = cur {
-                guard += 1;
-                if guard > 64 || b == key {
-                    break; // an inheritance cycle: E0339 reports it
-                }
+            // The bases, nearest first; an inheritance cycle (E0339
+            // reports it) ends the walk where it comes back.
+            let ancestors = crate::index::lineage(key, |c| bases.get(c).map(String::as_str))
+                .skip(1)
+                .take_while(|b| *b != key.as_str());
+            for b in ancestors {
                 if let Some(first) = members.get(b).and_then(|m| m.get(name)) {
                     let mine = methods.get(&(key.clone(), name.clone()));
-                    let theirs = methods.get(&(b.clone(), name.clone()));
+                    let theirs = methods.get(&(b.to_string(), name.clone()));
                     if let (Some((sig, only)), Some((base_sig, _))) = (mine, theirs) {
                         // A method may be overridden: with `only` and the
                         // same signature.
@@ -371,7 +370,6 @@ fn inherited_redefinitions(prog: &Program, members: &FirstPlaces, out: &mut Vec<
                     );
                     break;
                 }
-                cur = bases.get(b);
             }
         }
     }
