@@ -196,14 +196,7 @@ fn map_panel<DB: DrawingBackend>(
             )))
             .map_err(draw_err)?;
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", style.tick_font))
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(180, 180, 180))
-        .position(SeriesLabelPosition::LowerRight)
-        .draw()
-        .map_err(draw_err)?;
+    crate::draw::legend(&mut chart, style, Some(SeriesLabelPosition::LowerRight))?;
     Ok(probes.iter().map(|p| chart.backend_coord(p)).collect())
 }
 

@@ -363,13 +363,25 @@ pub fn series_panel<DB: DrawingBackend>(
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], c.stroke_width(2)));
     }
     if series.len() > 1 || !series[0].0.is_empty() {
-        chart
-            .configure_series_labels()
-            .label_font(("sans-serif", style.tick_font))
-            .background_style(WHITE.mix(0.85))
-            .border_style(RGBColor(180, 180, 180))
-            .draw()
-            .map_err(draw_err)?;
+        legend(&mut chart, style, None)?;
     }
     Ok(())
+}
+
+/// A chart's legend in the style's font on a pale box; at `at`, else
+/// where plotters puts it.
+pub(crate) fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    style: &Style,
+    at: Option<SeriesLabelPosition>,
+) -> Result<(), VizError> {
+    let mut labels = chart.configure_series_labels();
+    labels
+        .label_font(("sans-serif", style.tick_font))
+        .background_style(WHITE.mix(0.85))
+        .border_style(RGBColor(180, 180, 180));
+    if let Some(at) = at {
+        labels.position(at);
+    }
+    labels.draw().map_err(draw_err)
 }

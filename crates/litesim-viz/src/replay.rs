@@ -366,14 +366,7 @@ fn frame<DB: DrawingBackend>(
             }
         }
     }
-    chart
-        .configure_series_labels()
-        .label_font(("sans-serif", style.tick_font))
-        .background_style(WHITE.mix(0.85))
-        .border_style(RGBColor(180, 180, 180))
-        .position(SeriesLabelPosition::UpperRight)
-        .draw()
-        .map_err(draw_err)?;
+    crate::draw::legend(&mut chart, style, Some(SeriesLabelPosition::UpperRight))?;
     root.present().map_err(draw_err)?;
     Ok(Drawn {
         view: r,
