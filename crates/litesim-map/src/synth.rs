@@ -86,165 +86,222 @@ struct Attach {
     at_end: bool,
 }
 
+/// The town being written: the OpenDRIVE text so far, which road is on
+/// each junction's arms, the next free road and signal ids, and each
+/// junction's signals (for its controller).
+struct Town {
+    nx: usize,
+    ny: usize,
+    /// Distance between neighbouring junction centres (m).
+    d: f64,
+    out: String,
+    /// arms[junction][arm] = the road there.
+    arms: Vec<[Option<Attach>; 4]>,
+    next_road: usize,
+    next_signal: usize,
+    junction_signals: Vec<Vec<usize>>,
+}
+
 /// Writes the OpenDRIVE text of a town (see the module doc).
 pub fn town(spec: &TownSpec) -> String {
     let (nx, ny, d) = (spec.nx.max(1), spec.ny.max(1), spec.spacing.max(4.0 * R));
-    let mut out = String::with_capacity(spec.road_count() * 7_400 + 4_096);
-    out.push_str("<?xml version=\"1.0\" standalone=\"yes\"?>\n<OpenDRIVE>\n");
-    let _ = writeln!(
-        out,
-        "    <header revMajor=\"1\" revMinor=\"4\" name=\"litesim synthetic town\" version=\"1\" date=\"2026-11-25\" north=\"{}\" south=\"{}\" east=\"{}\" west=\"{}\" vendor=\"litesim\">",
-        (ny - 1) as f64 * d + R + STUB + 60.0,
-        -(R + STUB + 60.0),
-        (nx - 1) as f64 * d + R + STUB + 60.0,
-        -(R + STUB + 60.0),
-    );
-    out.push_str("        <geoReference><![CDATA[+proj=tmerc +lat_0=49 +lon_0=8 +k=1 +x_0=0 +y_0=0 +datum=WGS84 +units=m +no_defs]]></geoReference>\n    </header>\n");
+    let mut t = Town {
+        nx,
+        ny,
+        d,
+        out: String::with_capacity(spec.road_count() * 7_400 + 4_096),
+        arms: vec![[None; 4]; nx * ny],
+        next_road: 0,
+        next_signal: 0,
+        junction_signals: vec![Vec::new(); nx * ny],
+    };
+    t.header();
+    t.streets();
+    t.stubs(spec.extensions);
+    let junctions = t.junctions();
+    t.controllers();
+    t.out.push_str(&junctions);
+    t.out.push_str("</OpenDRIVE>\n");
+    t.out
+}
 
-    let junction_id = |i: usize, j: usize| j * nx + i;
-    let center = |i: usize, j: usize| (i as f64 * d, j as f64 * d);
-    // arms[junction][arm] = the road there.
-    let mut arms: Vec<[Option<Attach>; 4]> = vec![[None; 4]; nx * ny];
-    let mut next_road = 0usize;
-    let mut next_signal = 0usize;
-    // Signals per junction, for its controller.
-    let mut junction_signals: Vec<Vec<usize>> = vec![Vec::new(); nx * ny];
+impl Town {
+    fn junction_id(&self, i: usize, j: usize) -> usize {
+        j * self.nx + i
+    }
 
-    // Roads between neighbouring junctions: east-west (from a junction's
-    // east arm to the next one's west arm), then south-north.
-    for (dx, dy, h) in [(1, 0, 0.0), (0, 1, FRAC_PI_2)] {
-        // The arm the road leaves from; the opposite arm is two further.
-        let arm = dy;
-        for j in 0..ny - dy {
-            for i in 0..nx - dx {
-                let (a, b) = (junction_id(i, j), junction_id(i + dx, j + dy));
-                let (cx, cy) = center(i, j);
-                let id = next_road;
-                next_road += 1;
-                arms[a][arm] = Some(Attach {
+    fn center(&self, jn: usize) -> (f64, f64) {
+        let (i, j) = (jn % self.nx, jn / self.nx);
+        (i as f64 * self.d, j as f64 * self.d)
+    }
+
+    fn new_road(&mut self) -> usize {
+        self.next_road += 1;
+        self.next_road - 1
+    }
+
+    fn header(&mut self) {
+        let (nx, ny, d) = (self.nx, self.ny, self.d);
+        self.out
+            .push_str("<?xml version=\"1.0\" standalone=\"yes\"?>\n<OpenDRIVE>\n");
+        let _ = writeln!(
+            self.out,
+            "    <header revMajor=\"1\" revMinor=\"4\" name=\"litesim synthetic town\" version=\"1\" date=\"2026-11-25\" north=\"{}\" south=\"{}\" east=\"{}\" west=\"{}\" vendor=\"litesim\">",
+            (ny - 1) as f64 * d + R + STUB + 60.0,
+            -(R + STUB + 60.0),
+            (nx - 1) as f64 * d + R + STUB + 60.0,
+            -(R + STUB + 60.0),
+        );
+        self.out.push_str("        <geoReference><![CDATA[+proj=tmerc +lat_0=49 +lon_0=8 +k=1 +x_0=0 +y_0=0 +datum=WGS84 +units=m +no_defs]]></geoReference>\n    </header>\n");
+    }
+
+    /// Roads between neighbouring junctions: east-west (from a junction's
+    /// east arm to the next one's west arm), then south-north.
+    fn streets(&mut self) {
+        let (nx, ny, d) = (self.nx, self.ny, self.d);
+        for (dx, dy, h) in [(1, 0, 0.0), (0, 1, FRAC_PI_2)] {
+            // The arm the road leaves from; the opposite arm is two further.
+            let arm = dy;
+            for j in 0..ny - dy {
+                for i in 0..nx - dx {
+                    let (a, b) = (self.junction_id(i, j), self.junction_id(i + dx, j + dy));
+                    let (cx, cy) = self.center(a);
+                    let id = self.new_road();
+                    self.arms[a][arm] = Some(Attach {
+                        road: id,
+                        at_end: false,
+                    });
+                    self.arms[b][arm + 2] = Some(Attach {
+                        road: id,
+                        at_end: true,
+                    });
+                    let sig = street(
+                        &mut self.out,
+                        id,
+                        (cx + R * dx as f64, cy + R * dy as f64),
+                        h,
+                        d - 2.0 * R,
+                        (Some(a), Some(b)),
+                        None,
+                        &mut self.next_signal,
+                    );
+                    self.junction_signals[a].push(sig.0.expect("both ends at junctions"));
+                    self.junction_signals[b].push(sig.1.expect("both ends at junctions"));
+                }
+            }
+        }
+    }
+
+    /// Stubs on every free arm, leaving the grid; the first `extensions` of
+    /// them continue into one more road.
+    fn stubs(&mut self, extensions: usize) {
+        let mut extensions_left = extensions;
+        for jn in 0..self.nx * self.ny {
+            let (cx, cy) = self.center(jn);
+            for (k, &h) in ARMS.iter().enumerate() {
+                if self.arms[jn][k].is_some() {
+                    continue;
+                }
+                let id = self.new_road();
+                self.arms[jn][k] = Some(Attach {
                     road: id,
                     at_end: false,
                 });
-                arms[b][arm + 2] = Some(Attach {
-                    road: id,
-                    at_end: true,
+                let ext = (extensions_left > 0).then(|| {
+                    extensions_left -= 1;
+                    self.new_road()
                 });
-                let sig = street(
-                    &mut out,
-                    id,
-                    (cx + R * dx as f64, cy + R * dy as f64),
-                    h,
-                    d - 2.0 * R,
-                    (Some(a), Some(b)),
-                    None,
-                    &mut next_signal,
-                );
-                junction_signals[a].push(sig.0.expect("both ends at junctions"));
-                junction_signals[b].push(sig.1.expect("both ends at junctions"));
-            }
-        }
-    }
-    // Stubs on every free arm, leaving the grid; the first `extensions` of
-    // them continue into one more road.
-    let mut extensions_left = spec.extensions;
-    for jn in 0..nx * ny {
-        let (i, j) = (jn % nx, jn / nx);
-        let (cx, cy) = center(i, j);
-        for (k, &h) in ARMS.iter().enumerate() {
-            if arms[jn][k].is_some() {
-                continue;
-            }
-            let id = next_road;
-            next_road += 1;
-            arms[jn][k] = Some(Attach {
-                road: id,
-                at_end: false,
-            });
-            let ext = (extensions_left > 0).then(|| {
-                extensions_left -= 1;
-                let e = next_road;
-                next_road += 1;
-                e
-            });
-            let start = (cx + R * h.cos(), cy + R * h.sin());
-            let sig = stub(&mut out, id, start, h, jn, ext, &mut next_signal);
-            junction_signals[jn].push(sig);
-            if let Some(e) = ext {
-                let (ex, ey, eh) = stub_end(start, h);
-                street(
-                    &mut out,
-                    e,
-                    (ex, ey),
-                    eh,
-                    60.0,
-                    (None, None),
-                    Some(id),
-                    &mut next_signal,
-                );
-            }
-        }
-    }
-    // Connecting roads and junctions.
-    let mut junctions = String::new();
-    #[allow(clippy::needless_range_loop)] // jn is also the junction's id
-    for jn in 0..nx * ny {
-        let (i, j) = (jn % nx, jn / nx);
-        let (cx, cy) = center(i, j);
-        let _ = writeln!(
-            junctions,
-            "    <junction id=\"{jn}\" name=\"Junction {jn}\">"
-        );
-        let mut connection = 0;
-        for from in 0..4 {
-            let inc = arms[jn][from].expect("every arm has a road");
-            let o = ARMS[from];
-            let start = (cx + R * o.cos(), cy + R * o.sin());
-            let travel = o + PI;
-            // Straight, right, left: the arm each leads to and its curvature.
-            for (to, curvature) in [
-                ((from + 2) % 4, 0.0),
-                ((from + 1) % 4, -1.0 / R),
-                ((from + 3) % 4, 1.0 / R),
-            ] {
-                let out_road = arms[jn][to].expect("every arm has a road");
-                let id = next_road;
-                next_road += 1;
-                connecting(&mut out, id, jn, start, travel, curvature, inc, out_road);
-                let _ = writeln!(
-                    junctions,
-                    "        <connection id=\"{connection}\" incomingRoad=\"{}\" connectingRoad=\"{id}\" contactPoint=\"start\">",
-                    inc.road
-                );
-                let sign = if inc.at_end { -1 } else { 1 };
-                for l in 1..=2 {
-                    let _ = writeln!(
-                        junctions,
-                        "            <laneLink from=\"{}\" to=\"-{l}\"/>",
-                        sign * l
+                let start = (cx + R * h.cos(), cy + R * h.sin());
+                let sig = stub(&mut self.out, id, start, h, jn, ext, &mut self.next_signal);
+                self.junction_signals[jn].push(sig);
+                if let Some(e) = ext {
+                    let (ex, ey, eh) = stub_end(start, h);
+                    street(
+                        &mut self.out,
+                        e,
+                        (ex, ey),
+                        eh,
+                        60.0,
+                        (None, None),
+                        Some(id),
+                        &mut self.next_signal,
                     );
                 }
-                junctions.push_str("        </connection>\n");
-                connection += 1;
             }
         }
-        let _ = writeln!(
-            junctions,
-            "        <controller id=\"{jn}\" type=\"0\" sequence=\"1\"/>\n    </junction>"
-        );
     }
-    for (jn, sigs) in junction_signals.iter().enumerate() {
-        let _ = writeln!(
-            out,
-            "    <controller id=\"{jn}\" name=\"Controller {jn}\" sequence=\"1\">"
-        );
-        for s in sigs {
-            let _ = writeln!(out, "        <control signalId=\"{s}\" type=\"0\"/>");
+
+    /// Connecting roads (written to the text) and the `<junction>` elements
+    /// (returned: they follow the controllers in the file).
+    fn junctions(&mut self) -> String {
+        let mut junctions = String::new();
+        for jn in 0..self.nx * self.ny {
+            let (cx, cy) = self.center(jn);
+            let _ = writeln!(
+                junctions,
+                "    <junction id=\"{jn}\" name=\"Junction {jn}\">"
+            );
+            let mut connection = 0;
+            for (from, &o) in ARMS.iter().enumerate() {
+                let inc = self.arms[jn][from].expect("every arm has a road");
+                let start = (cx + R * o.cos(), cy + R * o.sin());
+                let travel = o + PI;
+                // Straight, right, left: the arm each leads to and its curvature.
+                for (to, curvature) in [
+                    ((from + 2) % 4, 0.0),
+                    ((from + 1) % 4, -1.0 / R),
+                    ((from + 3) % 4, 1.0 / R),
+                ] {
+                    let out_road = self.arms[jn][to].expect("every arm has a road");
+                    let id = self.new_road();
+                    connecting(
+                        &mut self.out,
+                        id,
+                        jn,
+                        start,
+                        travel,
+                        curvature,
+                        inc,
+                        out_road,
+                    );
+                    let _ = writeln!(
+                        junctions,
+                        "        <connection id=\"{connection}\" incomingRoad=\"{}\" connectingRoad=\"{id}\" contactPoint=\"start\">",
+                        inc.road
+                    );
+                    let sign = if inc.at_end { -1 } else { 1 };
+                    for l in 1..=2 {
+                        let _ = writeln!(
+                            junctions,
+                            "            <laneLink from=\"{}\" to=\"-{l}\"/>",
+                            sign * l
+                        );
+                    }
+                    junctions.push_str("        </connection>\n");
+                    connection += 1;
+                }
+            }
+            let _ = writeln!(
+                junctions,
+                "        <controller id=\"{jn}\" type=\"0\" sequence=\"1\"/>\n    </junction>"
+            );
         }
-        out.push_str("    </controller>\n");
+        junctions
     }
-    out.push_str(&junctions);
-    out.push_str("</OpenDRIVE>\n");
-    out
+
+    /// One signal controller per junction, over the signals at its arms.
+    fn controllers(&mut self) {
+        for (jn, sigs) in self.junction_signals.iter().enumerate() {
+            let _ = writeln!(
+                self.out,
+                "    <controller id=\"{jn}\" name=\"Controller {jn}\" sequence=\"1\">"
+            );
+            for s in sigs {
+                let _ = writeln!(self.out, "        <control signalId=\"{s}\" type=\"0\"/>");
+            }
+            self.out.push_str("    </controller>\n");
+        }
+    }
 }
 
 /// A stub's three pieces from `start` along `h` (see [`stub`]): line
