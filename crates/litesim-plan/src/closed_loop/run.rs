@@ -419,9 +419,7 @@ pub fn run_closed_loop_timed(
 ) -> Result<(ClosedLoopResult, Timings), PlanError> {
     let mut timings = Timings::default();
     let veh = cfg.vehicle.resolve()?;
-    let sim = cfg.simulation;
-    let (mut mpc, every) = tracker_of(cfg, &veh)?;
-    let pl = &cfg.planner;
+    let (mpc, every) = tracker_of(cfg, &veh)?;
     // The tightest turn the vehicle can drive (1/m): the corridor is
     // shaped towards it, and a path beyond it is refused below.
     let kappa_max = veh.max_steer.tan() / veh.wheelbase;
@@ -433,150 +431,261 @@ pub fn run_closed_loop_timed(
         legs,
         planner,
     } = plan_path(cfg, &veh, grid, kappa_max)?;
-    let pgrid = &grids.forward;
-    let goal = Vec2::new(cfg.goal.x, cfg.goal.y);
     timings.plan_s = clock() - t_plan;
 
     let (mut world, bike) = ego_world(cfg, &veh, legs.first().is_some_and(|l| l.reverse))?;
-
     let mut rec = recorder(cfg, &planner);
     rec.record_world(&world);
-    let mut tracking = TrackingColumns::default();
-    let mut mpc_error: Option<MpcError> = None;
-    let mut collided = false;
-    let mut min_clear = f64::INFINITY;
-    let stop = litesim_core::StopCondition {
-        actor: "ego".into(),
-        goal,
-        radius: cfg.goal.tolerance,
-        speed_threshold: cfg.goal.stop_speed,
-    };
-    let tdt = cfg.tracker.dt;
-    let check = |w: &World, min_clear: &mut f64, collided: &mut bool| {
-        body_check(w, &veh, pgrid, min_clear, collided)
-    };
-    let mut follower = LegFollower::new(
+    let follower = LegFollower::new(
         legs,
         FollowerVehicle {
             wheelbase: veh.wheelbase,
             max_steer: veh.max_steer,
             max_steer_rate: veh.max_steer_rate,
         },
-        pl.corridor_ds,
+        cfg.planner.corridor_ds,
     );
-    let mut control = |w: &mut World| {
-        if !w.tick().is_multiple_of(every) || mpc_error.is_some() {
-            return;
+    let mut tracker = Tracker {
+        follower,
+        mpc,
+        every,
+        dt: cfg.tracker.dt,
+        bike,
+        tracking: TrackingColumns::default(),
+    };
+    let stop = litesim_core::StopCondition {
+        actor: "ego".into(),
+        goal: Vec2::new(cfg.goal.x, cfg.goal.y),
+        radius: cfg.goal.tolerance,
+        speed_threshold: cfg.goal.stop_speed,
+    };
+    let driven = drive(
+        cfg,
+        &veh,
+        &mut world,
+        &mut rec,
+        (&grids, escape.is_some()),
+        &mut tracker,
+        &stop,
+        (clock, &mut timings),
+    )?;
+    let run = Outcome {
+        world,
+        rec,
+        tracking: tracker.tracking,
+        legs: tracker.follower.into_legs(),
+        driven,
+        stop,
+        escape,
+    };
+    let result = run.result(cfg, grids, fmt, planner);
+    Ok((result, timings))
+}
+
+/// The MPC tracker of the run's legs: it steers the ego every `every`
+/// ticks (the tracker's period `dt`), switching the bicycle's gear with
+/// the leg, and records what it did.
+struct Tracker {
+    follower: LegFollower,
+    mpc: Mpc,
+    every: u64,
+    dt: f64,
+    /// The ego's model, for its gear changes.
+    bike: KinematicBicycle,
+    tracking: TrackingColumns,
+}
+
+impl Tracker {
+    /// Sets the ego's command for this tick (when one is due).
+    fn control(
+        &mut self,
+        w: &mut World,
+        grids: &Grids,
+        clock: &dyn Fn() -> f64,
+        timings: &mut Timings,
+    ) -> Result<(), MpcError> {
+        if !w.tick().is_multiple_of(self.every) {
+            return Ok(());
         }
-        let Some(a) = w.actor("ego") else { return };
+        let Some(a) = w.actor("ego") else {
+            return Ok(());
+        };
         let st = a.state();
         let state = (st.pose.position.xy(), st.pose.yaw, st.speed);
-        match follower.command(&grids, &mut mpc, state, tdt, clock) {
-            Ok(steer) => {
-                timings.mpc_s.push(steer.solve_s);
-                // The gear changes with the leg.
-                if steer.gear_changed {
-                    let mut geared = bike.clone();
-                    geared.reverse = steer.reverse;
-                    let _ = w.set_model("ego", VehicleModelKind::Bicycle(geared));
-                }
-                let _ = w.set_mode(
-                    "ego",
-                    ControlMode::Dynamic {
-                        input: VehicleInput::Direct {
-                            acceleration: steer.acceleration,
-                            steering_angle: steer.steering,
-                        },
-                        valid_until_tick: None,
-                    },
-                );
-                track(&mut tracking, w.tick(), steer);
-            }
-            Err(e) => mpc_error = Some(e),
+        let steer = self
+            .follower
+            .command(grids, &mut self.mpc, state, self.dt, clock)?;
+        timings.mpc_s.push(steer.solve_s);
+        // The gear changes with the leg.
+        if steer.gear_changed {
+            let mut geared = self.bike.clone();
+            geared.reverse = steer.reverse;
+            let _ = w.set_model("ego", VehicleModelKind::Bicycle(geared));
         }
+        let _ = w.set_mode(
+            "ego",
+            ControlMode::Dynamic {
+                input: VehicleInput::Direct {
+                    acceleration: steer.acceleration,
+                    steering_angle: steer.steering,
+                },
+                valid_until_tick: None,
+            },
+        );
+        track(&mut self.tracking, w.tick(), steer);
+        Ok(())
+    }
+}
+
+/// What the drive left: the steps taken, the contact that ended it, the
+/// smallest clearance, and when a start inside the margin left it.
+struct Driven {
+    steps: u64,
+    collided: bool,
+    collision: Option<(f64, [f64; 2])>,
+    min_clear: f64,
+    inside_until: Option<f64>,
+}
+
+/// The loop of `run_loop`, plus the verdict: the run ends at the first
+/// contact of the footprint with an obstacle (driving on through a wall
+/// says nothing more about the controller), at the goal's stop rule, or
+/// at the horizon. `(grids, escaping)`: the planning grids, and whether
+/// the start was inside the margin.
+#[allow(clippy::too_many_arguments)]
+fn drive(
+    cfg: &ClosedLoopConfig,
+    veh: &Vehicle,
+    world: &mut World,
+    rec: &mut LogRecorder,
+    (grids, escaping): (&Grids, bool),
+    tracker: &mut Tracker,
+    stop: &litesim_core::StopCondition,
+    (clock, timings): (&dyn Fn() -> f64, &mut Timings),
+) -> Result<Driven, PlanError> {
+    let sim = cfg.simulation;
+    let pgrid = &grids.forward;
+    let mut d = Driven {
+        steps: 0,
+        collided: false,
+        collision: None,
+        min_clear: f64::INFINITY,
+        inside_until: None,
     };
-    // The loop of `run_loop`, plus the verdict: the run ends at the first
-    // contact of the footprint with an obstacle (driving on through a wall
-    // says nothing more about the controller).
-    let mut steps = 0u64;
-    let mut collision = None;
-    // A start inside the margin: until when the body stayed inside it.
-    let mut inside_until = None;
+    let mut mpc_error = None;
     for _ in 0..litesim_core::steps_for_horizon(sim.horizon, sim.dt) {
-        control(&mut world);
+        if mpc_error.is_none()
+            && let Err(e) = tracker.control(world, grids, clock, timings)
+        {
+            mpc_error = Some(e);
+        }
         world.step();
-        steps += 1;
-        rec.record_world(&world);
-        check(&world, &mut min_clear, &mut collided);
-        if escape.is_some()
-            && inside_until.is_none()
+        d.steps += 1;
+        rec.record_world(world);
+        body_check(world, veh, pgrid, &mut d.min_clear, &mut d.collided);
+        // A start inside the margin: until when the body stayed inside it.
+        if escaping
+            && d.inside_until.is_none()
             && let Some(a) = world.actor("ego")
         {
             let p = a.state().pose;
             if pgrid.pose_free(p.position.xy(), p.yaw) {
-                inside_until = Some(world.time());
+                d.inside_until = Some(world.time());
             }
         }
-        if collided {
+        if d.collided {
             let p = world.actor("ego").map(|a| a.state().pose.position.xy());
-            collision = Some((world.time(), p.map_or([f64::NAN; 2], |p| [p.x, p.y])));
+            d.collision = Some((world.time(), p.map_or([f64::NAN; 2], |p| [p.x, p.y])));
             break;
         }
-        if stop.reached(&world) {
+        if stop.reached(world) {
             break;
         }
     }
-    if let Some((t, [x, y])) = collision {
+    if let Some((t, [x, y])) = d.collision {
         rec.meta(
             "verdict",
             format!("collision at t = {t:.2} s, rear axle at ({x:.2}, {y:.2})"),
         );
     }
-    if let Some(e) = mpc_error {
-        return Err(PlanError::Mpc(e));
+    match mpc_error {
+        Some(e) => Err(PlanError::Mpc(e)),
+        None => Ok(d),
     }
-    let legs = follower.into_legs();
-    let reached = stop.reached(&world);
-    let (goal_distance, final_speed) = world.actor("ego").map_or((f64::NAN, f64::NAN), |a| {
-        let st = a.state();
-        (st.pose.position.xy().distance(goal), st.speed.abs())
-    });
-    let (max_cte, mean_cte) = cross_track(&tracking.lateral_error);
-    let mut log = rec.finish();
-    let corridor = joined(&legs);
-    log.plan = Some(plan_record(&fmt, &corridor, pgrid));
-    log.tracking = Some(tracking);
-    let start_escape = escape.as_ref().map(|e| StartEscape {
-        depth: e.depth,
-        length: e.length,
-        reverse: e.reverse,
-        inside_s: inside_until,
-    });
-    if let Some(e) = &start_escape {
-        log.meta.insert("start".into(), e.to_string());
+}
+
+/// A run that was driven, before its result is assembled.
+struct Outcome {
+    world: World,
+    rec: LogRecorder,
+    tracking: TrackingColumns,
+    legs: Vec<Leg>,
+    driven: Driven,
+    stop: litesim_core::StopCondition,
+    escape: Option<crate::escape::Escape>,
+}
+
+impl Outcome {
+    /// The run's result: the goal reached or not, the tracking errors, the
+    /// log with the plan and the tracking columns.
+    fn result(
+        self,
+        cfg: &ClosedLoopConfig,
+        grids: Grids,
+        fmt: FmtResult,
+        planner: PathPlanner,
+    ) -> ClosedLoopResult {
+        let Outcome {
+            world,
+            rec,
+            tracking,
+            legs,
+            driven,
+            stop,
+            escape,
+        } = self;
+        let goal = stop.goal;
+        let reached = stop.reached(&world);
+        let (goal_distance, final_speed) = world.actor("ego").map_or((f64::NAN, f64::NAN), |a| {
+            let st = a.state();
+            (st.pose.position.xy().distance(goal), st.speed.abs())
+        });
+        let (max_cte, mean_cte) = cross_track(&tracking.lateral_error);
+        let mut log = rec.finish();
+        let corridor = joined(&legs);
+        log.plan = Some(plan_record(&fmt, &corridor, &grids.forward));
+        log.tracking = Some(tracking);
+        let start_escape = escape.as_ref().map(|e| StartEscape {
+            depth: e.depth,
+            length: e.length,
+            reverse: e.reverse,
+            inside_s: driven.inside_until,
+        });
+        if let Some(e) = &start_escape {
+            log.meta.insert("start".into(), e.to_string());
+        }
+        ClosedLoopResult {
+            time: world.time(),
+            steps: driven.steps,
+            reached_goal: reached,
+            goal_rule: (cfg.goal.tolerance, cfg.goal.stop_speed),
+            goal_distance,
+            final_speed,
+            path_length: fmt.path_cost,
+            max_cross_track: max_cte,
+            mean_cross_track: mean_cte,
+            min_clearance: driven.min_clear,
+            collided: driven.collided,
+            collision: driven.collision,
+            log,
+            fmt,
+            corridor,
+            legs,
+            grid: grids.into_forward(),
+            planner,
+            start_escape,
+        }
     }
-    let result = ClosedLoopResult {
-        time: world.time(),
-        steps,
-        reached_goal: reached,
-        goal_rule: (cfg.goal.tolerance, cfg.goal.stop_speed),
-        goal_distance,
-        final_speed,
-        path_length: fmt.path_cost,
-        max_cross_track: max_cte,
-        mean_cross_track: mean_cte,
-        min_clearance: min_clear,
-        collided,
-        collision,
-        log,
-        fmt,
-        corridor,
-        legs,
-        grid: grids.into_forward(),
-        planner,
-        start_escape,
-    };
-    Ok((result, timings))
 }
 
 /// The footprint at the ego's pose against the grid: a collision on an
