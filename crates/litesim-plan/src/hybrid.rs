@@ -415,19 +415,75 @@ pub fn hybrid_astar(
     goal: Vec2,
     cfg: &HybridConfig,
 ) -> Result<HybridPath, HybridError> {
+    validate(cfg)?;
+    if !(start.is_finite() && yaw.is_finite() && grid.pose_free(start, yaw)) {
+        return Err(start_blocked(grid, start, yaw));
+    }
+    let mut s = Search::new(grid, start, goal, cfg)?;
+    // The vehicle starts with its wheels straight.
+    s.nodes.push(Node {
+        p: start,
+        yaw,
+        g: 0.0,
+        parent: u32::MAX,
+        level: 2,
+        dir: 1,
+        shown: u32::MAX,
+        unchecked: false,
+    });
+    let h0 = s.h(start, yaw, 1.0);
+    if !h0.is_finite() {
+        return Err(s.exhausted(0));
+    }
+    s.heap.push(Cheapest(h0, 0));
+    while let Some(Cheapest(f, id)) = s.heap.pop() {
+        if s.way_in.is_some_and(|w| f * cfg.accept_within >= w.0) {
+            break;
+        }
+        let Some(kk) = s.open(id) else {
+            continue;
+        };
+        s.best[kk] = f64::NEG_INFINITY;
+        s.expansions += 1;
+        s.show(id);
+        if s.expansions > cfg.max_expansions {
+            let expansions = s.expansions - 1;
+            return s.finish(expansions);
+        }
+        let (p, gc) = (s.nodes[id as usize].p, s.nodes[id as usize].g);
+        let d = p.distance(goal);
+        if d < s.closest.0 {
+            s.closest = (d, p);
+        }
+        let shot_here = s.shoot(id, d);
+        // Ending short of the goal where no shot reaches it from here.
+        if !shot_here && d <= cfg.goal_tolerance && s.way_in.is_none_or(|w| gc < w.0) {
+            s.way_in = Some((gc, id, None));
+        }
+        // Forwards only, the first way in is the path (the search as it
+        // always was).
+        if !cfg.reverse && s.way_in.is_some() {
+            break;
+        }
+        s.expand(id);
+    }
+    let expansions = s.expansions;
+    s.finish(expansions)
+}
+
+/// The settings' numbers that no search can use, as an error naming them.
+fn validate(cfg: &HybridConfig) -> Result<(), HybridError> {
     let HybridConfig {
         kappa,
         step,
         cell,
-        headings,
         check,
-        max_expansions,
-        goal_tolerance,
+        accept_within,
         reverse,
         reverse_factor,
         switch_cost,
-        accept_within,
-        steering_in_state,
+        headings,
+        ..
     } = *cfg;
     if !(kappa.is_finite() && kappa > 0.0) {
         return Err(HybridError::BadConfig(format!(
@@ -459,300 +515,348 @@ pub fn hybrid_astar(
     if headings == 0 {
         return Err(HybridError::BadConfig("headings must be at least 1".into()));
     }
-    if !(start.is_finite() && yaw.is_finite() && grid.pose_free(start, yaw)) {
-        let (at, clearance, need) = grid.tightest_part(start, yaw);
-        return Err(HybridError::StartBlocked {
-            x: start.x,
-            y: start.y,
-            heading_deg: yaw.to_degrees(),
-            at_x: at.x,
-            at_y: at.y,
-            clearance,
-            need,
-            rule: if grid.body.is_some() {
-                "the margin, plus a cell's diagonal"
-            } else {
-                "the vehicle's radius plus the margin"
-            },
-        });
+    Ok(())
+}
+
+/// A start pose the body does not fit: where it is tightest, and the rule.
+fn start_blocked(grid: &PlanningGrid, start: Vec2, yaw: f64) -> HybridError {
+    let (at, clearance, need) = grid.tightest_part(start, yaw);
+    HybridError::StartBlocked {
+        x: start.x,
+        y: start.y,
+        heading_deg: yaw.to_degrees(),
+        at_x: at.x,
+        at_y: at.y,
+        clearance,
+        need,
+        rule: if grid.body.is_some() {
+            "the margin, plus a cell's diagonal"
+        } else {
+            "the vehicle's radius plus the margin"
+        },
     }
-    let radius = 1.0 / kappa;
-    let exhausted = |expansions: usize, closest: (f64, Vec2)| HybridError::NoPath {
-        reverse,
-        radius,
-        expansions,
-        closest: closest.0,
-        at_x: closest.1.x,
-        at_y: closest.1.y,
-    };
-    let g = &grid.grid;
-    let to_goal = distance_to_goal(grid, goal, cfg.goal_tolerance);
-    // The larger of two lower bounds: around the walls for the reference
-    // point, and the turning limit's for a heading without walls
-    // ([`crate::reach`]). Reversing, a path goes on in the direction it
-    // came or has a cusp (at least `switch_cost` more).
-    let h_of = |p: Vec2, yaw: f64, dir: f64| -> f64 {
+}
+
+/// One search: its fixed parts (grid, goal, settings, curvature levels,
+/// distance to the goal, the state lattice's size) and what it has found
+/// (the poses, the open heap, the cheapest cost per state, the tree kept
+/// for display, the best way into the goal).
+struct Search<'g> {
+    grid: &'g PlanningGrid,
+    goal: Vec2,
+    cfg: HybridConfig,
+    /// The turning radius at the planning curvature (m).
+    radius: f64,
+    /// Curvature levels −κ, −κ/2, 0, κ/2, κ; an arc changes the level by at
+    /// most one (steering moves at a finite rate, and a path whose
+    /// curvature jumps is one no vehicle follows exactly). The level is
+    /// part of the state only where asked (`steering_in_state`).
+    ks: [f64; 5],
+    to_goal: Vec<f64>,
+    /// The lattice: cells across and up, curvature levels and directions
+    /// in a state's key.
+    nx: usize,
+    ny: usize,
+    keyed_levels: usize,
+    dirs: usize,
+    /// The cheapest cost seen per state; −∞ once the state is expanded
+    /// (closed): one array, not two, since a search's memory is mostly the
+    /// pages it touches.
+    best: Vec<f64>,
+    nodes: Vec<Node>,
+    heap: BinaryHeap<Cheapest<u32>>,
+    explored: Vec<Vec2>,
+    tree: Vec<(usize, usize)>,
+    expansions: usize,
+    /// The closest any expanded pose came to the goal, and where.
+    closest: (f64, Vec2),
+    /// Shots are tried on every 4th expansion within this distance of the
+    /// goal, on every 16th away (a shot is long to check, and from afar
+    /// rarely free; near the goal consecutive expansions are neighbours,
+    /// whose shots differ little).
+    near: f64,
+    /// How far from its start the body is checked exactly: a body length.
+    leave: f64,
+    /// Reversing, the first way in is not taken at once: a shot backwards
+    /// from a pose reached cheaply may cost more (reversing, a cusp) than a
+    /// forward way found a little later. The cheapest way in so far is
+    /// kept, (cost, node, shot), and returned once no pose left to expand
+    /// could beat it by more than `accept_within`.
+    way_in: Option<WayIn>,
+}
+
+impl<'g> Search<'g> {
+    fn new(
+        grid: &'g PlanningGrid,
+        start: Vec2,
+        goal: Vec2,
+        cfg: &HybridConfig,
+    ) -> Result<Self, HybridError> {
+        let g = &grid.grid;
+        let cell = cfg.cell;
+        let extent = Vec2::new(g.width as f64, g.height as f64) * g.resolution;
+        let (nx, ny) = (
+            (extent.x / cell).ceil().max(1.0) as usize,
+            (extent.y / cell).ceil().max(1.0) as usize,
+        );
+        let kappa = cfg.kappa;
+        let ks = [-kappa, -0.5 * kappa, 0.0, 0.5 * kappa, kappa];
+        let keyed_levels = if cfg.steering_in_state { ks.len() } else { 1 };
+        // Reversing doubles the states: a pose reached backwards is not one
+        // reached forwards (a change of direction costs).
+        let dirs = if cfg.reverse { 2 } else { 1 };
+        if nx
+            .saturating_mul(ny)
+            .saturating_mul(cfg.headings)
+            .saturating_mul(keyed_levels * dirs)
+            > 64 << 20
+        {
+            return Err(HybridError::BadConfig(format!(
+                "{nx} × {ny} cells × {} headings is too fine for this map: use larger cells",
+                cfg.headings
+            )));
+        }
+        let states = nx * ny * cfg.headings * keyed_levels * dirs;
+        // Each expansion adds up to eight poses: room for those of the first
+        // 64k expansions up front, so that a long search does not copy its
+        // poses and its heap on every doubling (untouched room costs nothing).
+        let room = 8 * cfg.max_expansions.clamp(1, 1 << 16);
+        let radius = 1.0 / kappa;
+        Ok(Search {
+            grid,
+            goal,
+            cfg: *cfg,
+            radius,
+            ks,
+            to_goal: distance_to_goal(grid, goal, cfg.goal_tolerance),
+            nx,
+            ny,
+            keyed_levels,
+            dirs,
+            best: vec![f64::INFINITY; states],
+            nodes: Vec::with_capacity(room),
+            heap: BinaryHeap::with_capacity(room),
+            explored: Vec::new(),
+            tree: Vec::new(),
+            expansions: 0,
+            closest: (start.distance(goal), start),
+            near: 2.0 * radius + 5.0,
+            leave: grid.body.map_or(0.0, |[length, ..]| length),
+            way_in: None,
+        })
+    }
+
+    /// The larger of two lower bounds of the cost to the goal: around the
+    /// walls for the reference point, and the turning limit's for a
+    /// heading without walls ([`crate::reach`]). Reversing, a path goes on
+    /// in the direction it came or has a cusp (at least `switch_cost`
+    /// more).
+    fn h(&self, p: Vec2, yaw: f64, dir: f64) -> f64 {
+        let g = &self.grid.grid;
         let Some((i, j)) = g.cell(p) else {
             return f64::INFINITY;
         };
-        let v = goal - p;
+        let (radius, c) = (self.radius, &self.cfg);
+        let v = self.goal - p;
         let f = Vec2::from_heading(yaw);
         let (x, y) = (v.dot(f), f.cross(v));
-        let turning = if !reverse {
+        let turning = if !c.reverse {
             crate::reach::forward_to_point(x, y, radius)
         } else {
             let on = if dir > 0.0 {
                 crate::reach::forward_to_point(x, y, radius)
             } else {
-                reverse_factor * crate::reach::backward_to_point(x, y, radius)
+                c.reverse_factor * crate::reach::backward_to_point(x, y, radius)
             };
-            on.min(v.norm() + switch_cost)
+            on.min(v.norm() + c.switch_cost)
         };
-        let turning = (turning - goal_tolerance).max(0.0);
-        to_goal[j * g.width + i].max(v.norm()).max(turning)
-    };
-    let extent = Vec2::new(g.width as f64, g.height as f64) * g.resolution;
-    let (nx, ny) = (
-        (extent.x / cell).ceil().max(1.0) as usize,
-        (extent.y / cell).ceil().max(1.0) as usize,
-    );
-    // Curvature levels −κ, −κ/2, 0, κ/2, κ; an arc changes the level by at
-    // most one (steering moves at a finite rate, and a path whose
-    // curvature jumps is one no vehicle follows exactly). The level is
-    // part of the state only where asked (`steering_in_state`).
-    let ks = [-kappa, -0.5 * kappa, 0.0, 0.5 * kappa, kappa];
-    let levels = ks.len();
-    let keyed_levels = if steering_in_state { levels } else { 1 };
-    // Reversing doubles the states: a pose reached backwards is not one
-    // reached forwards (a change of direction costs).
-    let dirs = if reverse { 2 } else { 1 };
-    if nx
-        .saturating_mul(ny)
-        .saturating_mul(headings)
-        .saturating_mul(keyed_levels * dirs)
-        > 64 << 20
-    {
-        return Err(HybridError::BadConfig(format!(
-            "{nx} × {ny} cells × {headings} headings is too fine for this map: use larger cells"
-        )));
+        let turning = (turning - c.goal_tolerance).max(0.0);
+        self.to_goal[j * g.width + i].max(v.norm()).max(turning)
     }
-    let key = |p: Vec2, yaw: f64, level: usize, dir: f64| -> Option<usize> {
+
+    /// The state of a pose: its lattice cell, heading bin, curvature
+    /// level (where keyed) and direction; none off the lattice.
+    fn key(&self, p: Vec2, yaw: f64, level: usize, dir: f64) -> Option<usize> {
+        let g = &self.grid.grid;
+        let (cell, headings) = (self.cfg.cell, self.cfg.headings);
         let u = (p.x - g.origin.x) / cell;
         let v = (p.y - g.origin.y) / cell;
         if !(u >= 0.0 && v >= 0.0) {
             return None;
         }
         let (i, j) = (u as usize, v as usize);
-        if i >= nx || j >= ny {
+        if i >= self.nx || j >= self.ny {
             return None;
         }
         let t = yaw.rem_euclid(std::f64::consts::TAU) / std::f64::consts::TAU;
         let b = ((t * headings as f64) as usize).min(headings - 1);
         let d = usize::from(dir < 0.0);
-        let level = if steering_in_state { level } else { 0 };
-        Some((((j * nx + i) * headings + b) * keyed_levels + level) * dirs + d)
-    };
-    let states = nx * ny * headings * keyed_levels * dirs;
-    // The cheapest cost seen per state; −∞ once the state is expanded
-    // (closed): one array, not two, since a search's memory is mostly the
-    // pages it touches.
-    let mut best = vec![f64::INFINITY; states];
-    // Each expansion adds up to eight poses: room for those of the first
-    // 64k expansions up front, so that a long search does not copy its
-    // poses and its heap on every doubling (untouched room costs nothing).
-    let room = 8 * max_expansions.clamp(1, 1 << 16);
-    let mut nodes = Vec::with_capacity(room);
-    // The vehicle starts with its wheels straight.
-    nodes.push(Node {
-        p: start,
-        yaw,
-        g: 0.0,
-        parent: u32::MAX,
-        level: 2,
-        dir: 1,
-        shown: u32::MAX,
-        unchecked: false,
-    });
-    let mut explored: Vec<Vec2> = Vec::new();
-    let mut tree: Vec<(usize, usize)> = Vec::new();
-    let mut heap = BinaryHeap::with_capacity(room);
-    let h0 = h_of(start, yaw, 1.0);
-    if !h0.is_finite() {
-        return Err(exhausted(0, (start.distance(goal), start)));
+        let level = if self.cfg.steering_in_state { level } else { 0 };
+        Some((((j * self.nx + i) * headings + b) * self.keyed_levels + level) * self.dirs + d)
     }
-    heap.push(Cheapest(h0, 0));
-    let mut expansions = 0usize;
-    let mut closest = (start.distance(goal), start);
-    // Shots are tried on every 4th expansion near the goal, on every 16th
-    // away (a shot is long to check, and from afar rarely free; near the
-    // goal consecutive expansions are neighbours, whose shots differ
-    // little).
-    let near = 2.0 * radius + 5.0;
-    // How far from its start the body is checked exactly: a body length.
-    let leave = grid.body.map_or(0.0, |[length, ..]| length);
-    // Reversing, the first way in is not taken at once: a shot backwards
-    // from a pose reached cheaply may cost more (reversing, a cusp) than a
-    // forward way found a little later. The cheapest way in so far is
-    // kept, (cost, node, shot), and returned once no pose left to expand
-    // could beat it by more than `accept_within`.
-    let mut way_in: Option<WayIn> = None;
-    // What a motion of cost `cost` costs driven forwards or (`back`)
-    // backwards after one driven the other way or not (`was_back`): a
-    // change of direction adds `switch_cost`, and backwards all of it
-    // costs `reverse_factor` times. One rule for the arcs and the shots.
-    let directed = |cost: f64, back: bool, was_back: bool| {
+
+    /// What a motion of cost `cost` costs driven forwards or (`back`)
+    /// backwards after one driven the other way or not (`was_back`): a
+    /// change of direction adds `switch_cost`, and backwards all of it
+    /// costs `reverse_factor` times. One rule for the arcs and the shots.
+    fn directed(&self, cost: f64, back: bool, was_back: bool) -> f64 {
         let cost = if back != was_back {
-            cost + switch_cost
+            cost + self.cfg.switch_cost
         } else {
             cost
         };
-        if back { cost * reverse_factor } else { cost }
-    };
-    let done = |way_in: Option<WayIn>,
-                nodes: &[Node],
-                explored: Vec<Vec2>,
-                tree: Vec<(usize, usize)>,
-                expansions: usize| {
-        way_in.map(|(_, id, shot)| HybridPath {
-            explored,
-            tree,
-            ..reconstruct(
-                nodes,
-                &ks,
-                id,
-                step,
-                check,
-                shot.map(|(k, turn, straight)| (k, turn, straight, goal)),
-                expansions,
-            )
-        })
-    };
-    while let Some(Cheapest(f, id)) = heap.pop() {
-        if way_in.is_some_and(|w| f * accept_within >= w.0) {
-            break;
+        if back {
+            cost * self.cfg.reverse_factor
+        } else {
+            cost
         }
-        let (p, yaw, gc, lc, dc) = {
-            let n = &nodes[id as usize];
-            (n.p, n.yaw, n.g, usize::from(n.level), f64::from(n.dir))
-        };
-        let Some(kk) = key(p, yaw, lc, dc) else {
-            continue;
-        };
-        if gc > best[kk] {
-            continue;
+    }
+
+    /// The state of node `id` when it is to be expanded: none when it is
+    /// off the lattice, already reached more cheaply or closed, or its arc
+    /// (a change of direction, checked only now) is blocked.
+    fn open(&self, id: u32) -> Option<usize> {
+        let n = &self.nodes[id as usize];
+        let (lc, dc) = (usize::from(n.level), f64::from(n.dir));
+        let kk = self.key(n.p, n.yaw, lc, dc)?;
+        if n.g > self.best[kk] {
+            return None;
         }
-        let n = &nodes[id as usize];
         if n.unchecked {
-            let a = &nodes[n.parent as usize];
-            if !arc_free(grid, a.p, a.yaw, ks[lc], dc * step, check, a.g < leave) {
-                continue;
+            let a = &self.nodes[n.parent as usize];
+            let c = &self.cfg;
+            if !arc_free(
+                self.grid,
+                a.p,
+                a.yaw,
+                self.ks[lc],
+                dc * c.step,
+                c.check,
+                a.g < self.leave,
+            ) {
+                return None;
             }
         }
-        best[kk] = f64::NEG_INFINITY;
-        expansions += 1;
-        if explored.len() < TREE_CAP {
-            let at = explored.len();
-            nodes[id as usize].shown = at as u32;
-            explored.push(p);
-            let parent = nodes[id as usize].parent;
-            if let Some(pn) = nodes.get(parent as usize)
-                && pn.shown != u32::MAX
-            {
-                tree.push((pn.shown as usize, at));
-            }
+        Some(kk)
+    }
+
+    /// Keeps an expanded node in the tree shown in the views (up to
+    /// [`TREE_CAP`] of them), with the edge from its parent.
+    fn show(&mut self, id: u32) {
+        if self.explored.len() >= TREE_CAP {
+            return;
         }
-        if expansions > max_expansions {
-            return done(way_in, &nodes, explored, tree, expansions - 1)
-                .ok_or_else(|| exhausted(expansions - 1, closest));
+        let at = self.explored.len();
+        let n = &mut self.nodes[id as usize];
+        n.shown = at as u32;
+        let (p, parent) = (n.p, n.parent);
+        self.explored.push(p);
+        if let Some(pn) = self.nodes.get(parent as usize)
+            && pn.shown != u32::MAX
+        {
+            self.tree.push((pn.shown as usize, at));
         }
-        let d = p.distance(goal);
-        if d < closest.0 {
-            closest = (d, p);
-        }
+    }
+
+    /// Tries the shots into the goal from node `id` (at `d` from it) when
+    /// one is due, keeping the cheapest way in; whether any was free.
+    fn shoot(&mut self, id: u32, d: f64) -> bool {
+        let (p, yaw, gc, dc) = {
+            let n = &self.nodes[id as usize];
+            (n.p, n.yaw, n.g, f64::from(n.dir))
+        };
+        let c = self.cfg;
+        let expansions = self.expansions;
         // A reversing search also shoots from its start: a goal straight
         // behind is reached backwards, not after a few metres forwards.
-        let first = reverse && expansions == 1;
-        let mut shot_here = false;
+        let first = c.reverse && expansions == 1;
         // (A shot is at least as long as the straight line: none from
         // here can beat a way in that costs less than that.)
-        let worth = way_in.is_none_or(|w| gc + d < w.0);
-        if worth
-            && ((d < near && expansions.is_multiple_of(4))
+        let worth = self.way_in.is_none_or(|w| gc + d < w.0);
+        if !(worth
+            && ((d < self.near && expansions.is_multiple_of(4))
                 || expansions.is_multiple_of(16)
-                || first)
+                || first))
         {
-            // Forwards, and reversing also backwards (a shot against the
-            // direction the pose was reached in adds a cusp there); the
-            // cheaper by the search's costs.
-            let shots = [
-                shot(grid, p, yaw, goal, kappa, check, 1.0),
-                reverse
-                    .then(|| shot(grid, p, yaw, goal, kappa, check, -1.0))
-                    .flatten(),
-            ];
-            for (k, turn, straight) in shots.into_iter().flatten() {
-                shot_here = true;
-                let back = turn < 0.0 || straight < 0.0;
-                // The arc at the full planning curvature, as an arc of
-                // the search costs it (1 + 0.05 per metre).
-                let total = gc + directed(turn.abs() * 1.05 + straight.abs(), back, dc < 0.0);
-                if way_in.is_none_or(|w| total < w.0) {
-                    way_in = Some((total, id, Some((k, turn, straight))));
-                }
+            return false;
+        }
+        // Forwards, and reversing also backwards (a shot against the
+        // direction the pose was reached in adds a cusp there); the
+        // cheaper by the search's costs.
+        let (grid, goal) = (self.grid, self.goal);
+        let shots = [
+            shot(grid, p, yaw, goal, c.kappa, c.check, 1.0),
+            c.reverse
+                .then(|| shot(grid, p, yaw, goal, c.kappa, c.check, -1.0))
+                .flatten(),
+        ];
+        let mut shot_here = false;
+        for (k, turn, straight) in shots.into_iter().flatten() {
+            shot_here = true;
+            let back = turn < 0.0 || straight < 0.0;
+            // The arc at the full planning curvature, as an arc of
+            // the search costs it (1 + 0.05 per metre).
+            let total = gc + self.directed(turn.abs() * 1.05 + straight.abs(), back, dc < 0.0);
+            if self.way_in.is_none_or(|w| total < w.0) {
+                self.way_in = Some((total, id, Some((k, turn, straight))));
             }
         }
-        // Ending short of the goal where no shot reaches it from here.
-        if !shot_here && d <= goal_tolerance && way_in.is_none_or(|w| gc < w.0) {
-            way_in = Some((gc, id, None));
-        }
-        // Forwards only, the first way in is the path (the search as it
-        // always was).
-        if !reverse && way_in.is_some() {
-            break;
-        }
+        shot_here
+    }
+
+    /// Pushes node `id`'s successors: an arc of one step at its own
+    /// curvature level or a neighbouring one, and reversing, at any level
+    /// the other way.
+    fn expand(&mut self, id: u32) {
+        let (p, yaw, gc, lc, dc) = {
+            let n = &self.nodes[id as usize];
+            (n.p, n.yaw, n.g, usize::from(n.level), f64::from(n.dir))
+        };
+        let c = self.cfg;
+        let levels = self.ks.len();
         let lo = lc.saturating_sub(1);
         let same = (lo..(lc + 2).min(levels)).map(|l| (l, dc));
         // A change of direction happens at standstill, where the wheels
         // may be turned to any angle: every level.
-        let flip = (0..levels).filter(|_| reverse).map(|l| (l, -dc));
+        let flip = (0..levels).filter(|_| c.reverse).map(|l| (l, -dc));
         for (level, dir) in same.chain(flip) {
-            let k = ks[level];
-            let len = dir * step;
+            let k = self.ks[level];
+            let len = dir * c.step;
             // A start the circles do not fit (a long body near a wall or
             // the map's edge) is left with the body checked exactly; the
             // rest of the search keeps the circles' room.
             let lazy = dir != dc;
-            if !lazy && !arc_free(grid, p, yaw, k, len, check, gc < leave) {
+            if !lazy && !arc_free(self.grid, p, yaw, k, len, c.check, gc < self.leave) {
                 continue;
             }
             let (q, qy) = arc(p, yaw, k, len);
-            let Some(qk) = key(q, qy, level, dir) else {
+            let Some(qk) = self.key(q, qy, level, dir) else {
                 continue;
             };
-            if best[qk] == f64::NEG_INFINITY {
+            if self.best[qk] == f64::NEG_INFINITY {
                 continue;
             }
             // Length, a little more for turning and, going on in the same
             // direction, for changing the turn (smoother paths are cheaper
             // to track); then the direction's rule (`directed`).
-            let mut cost = step * (1.0 + 0.05 * k.abs() / kappa);
+            let mut cost = c.step * (1.0 + 0.05 * k.abs() / c.kappa);
             if dir == dc {
-                cost += 0.1 * step * (level.abs_diff(lc) as f64);
+                cost += 0.1 * c.step * (level.abs_diff(lc) as f64);
             }
-            let ng = gc + directed(cost, dir < 0.0, dc < 0.0);
-            if ng >= best[qk] {
+            let ng = gc + self.directed(cost, dir < 0.0, dc < 0.0);
+            if ng >= self.best[qk] {
                 continue;
             }
-            let h = h_of(q, qy, dir);
+            let h = self.h(q, qy, dir);
             if !h.is_finite() {
                 continue;
             }
             // (An arc not yet checked claims no cell: were it blocked, it
             // would have turned away a dearer arrival that is free.)
             if !lazy {
-                best[qk] = ng;
+                self.best[qk] = ng;
             }
-            nodes.push(Node {
+            self.nodes.push(Node {
                 p: q,
                 yaw: qy,
                 g: ng,
@@ -762,10 +866,43 @@ pub fn hybrid_astar(
                 shown: u32::MAX,
                 unchecked: lazy,
             });
-            heap.push(Cheapest(ng + h, (nodes.len() - 1) as u32));
+            self.heap
+                .push(Cheapest(ng + h, (self.nodes.len() - 1) as u32));
         }
     }
-    done(way_in, &nodes, explored, tree, expansions).ok_or_else(|| exhausted(expansions, closest))
+
+    /// The search gave up or ran out of poses after `expansions`.
+    fn exhausted(&self, expansions: usize) -> HybridError {
+        HybridError::NoPath {
+            reverse: self.cfg.reverse,
+            radius: self.radius,
+            expansions,
+            closest: self.closest.0,
+            at_x: self.closest.1.x,
+            at_y: self.closest.1.y,
+        }
+    }
+
+    /// The path through the best way in, or the search's failure.
+    fn finish(self, expansions: usize) -> Result<HybridPath, HybridError> {
+        let Some((_, id, shot)) = self.way_in else {
+            return Err(self.exhausted(expansions));
+        };
+        let goal = self.goal;
+        Ok(HybridPath {
+            explored: self.explored,
+            tree: self.tree,
+            ..reconstruct(
+                &self.nodes,
+                &self.ks,
+                id,
+                self.cfg.step,
+                self.cfg.check,
+                shot.map(|(k, turn, straight)| (k, turn, straight, goal)),
+                expansions,
+            )
+        })
+    }
 }
 
 /// The points from the start to node `id`, then the shot (curvature, arc
