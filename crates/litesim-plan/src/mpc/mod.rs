@@ -409,109 +409,11 @@ impl Mpc {
         h.resize(nu * nu, 0.0);
         g.clear();
         g.resize(nu, 0.0);
-        let w = |k: usize| -> [f64; 4] {
-            // Weight of e_k, k = 1..=N (P's diagonal, 2·q·terminal factor).
-            let t = if k == n { c.q_terminal } else { 1.0 };
-            [
-                2.0 * c.q[0] * t,
-                2.0 * c.q[1] * t,
-                2.0 * c.q[2] * t,
-                2.0 * c.q[3] * t,
-            ]
-        };
-        // Free response f_k and the gradient via the adjoint λ.
-        let f = &mut self.f;
-        f.clear();
-        f.push(lin.e0);
-        for k in 0..n {
-            let nx = lin.model[k].apply(f[k]);
-            f.push(add4(nx, lin.c[k]));
-        }
-        let mut lam = mul4(w(n), f[n]);
-        for j in (0..n).rev() {
-            let bt = lin.model[j].bt(lam);
-            g[2 * j] += bt[0];
-            g[2 * j + 1] += bt[1];
-            if j > 0 {
-                lam = add4(mul4(w(j), f[j]), lin.model[j].at(lam));
-            }
-        }
-        // Hessian blocks H(i, j) = B_iᵀ Ψ_i G_{i+1,j} for i ≥ j, where
-        // Ψ_i = Σ_{k>i} Φ(k, i+1)ᵀ W_k Φ(k, i+1) (a backward Lyapunov
-        // recursion, Ψ_{N−1} = W_N, Ψ_{i−1} = W_i + A_iᵀΨ_iA_i) and the
-        // prediction columns G_{i+1,j} = A_i G_{i,j} run forward from B_j.
-        let psi = &mut self.psi;
-        psi.clear();
-        psi.resize(n, [[0.0; 4]; 4]);
-        let wn = w(n);
-        for r in 0..4 {
-            psi[n - 1][r][r] = wn[r];
-        }
-        for i in (1..n).rev() {
-            let (m, wi) = (&lin.model[i], w(i));
-            // ΨA column by column, then Aᵀ(ΨA).
-            let p = psi[i];
-            let col = |v: [f64; 4]| -> [f64; 4] {
-                let mut o = [0.0; 4];
-                for (r, or) in o.iter_mut().enumerate() {
-                    *or = p[r][0] * v[0] + p[r][1] * v[1] + p[r][2] * v[2] + p[r][3] * v[3];
-                }
-                o
-            };
-            let pa = [
-                col([1.0, 0.0, 0.0, 0.0]),
-                col([0.0, 1.0, 0.0, 0.0]),
-                col([m.a02, m.a12, 1.0, 0.0]),
-                col([m.a03, m.a13, m.a23, 1.0]),
-            ];
-            let mut next = [[0.0; 4]; 4];
-            for (c, pac) in pa.iter().enumerate() {
-                let atc = m.at(*pac);
-                for r in 0..4 {
-                    next[r][c] = atc[r];
-                }
-            }
-            for r in 0..4 {
-                next[r][r] += wi[r];
-            }
-            psi[i - 1] = next;
-        }
-        let kk: Vec<[[f64; 4]; 2]> = (0..n)
-            .map(|i| {
-                let (b, p) = (&lin.model[i].b, &psi[i]);
-                let row = |m: usize| {
-                    let mut o = [0.0; 4];
-                    for (c, oc) in o.iter_mut().enumerate() {
-                        *oc = b[0][m] * p[0][c]
-                            + b[1][m] * p[1][c]
-                            + b[2][m] * p[2][c]
-                            + b[3][m] * p[3][c];
-                    }
-                    o
-                };
-                [row(0), row(1)]
-            })
-            .collect();
-        for j in 0..n {
-            let mut ga = lin.model[j].b_col(0);
-            let mut gd = lin.model[j].b_col(1);
-            for i in j..n {
-                if i > j {
-                    ga = lin.model[i].apply(ga);
-                    gd = lin.model[i].apply(gd);
-                }
-                // K_i = B_iᵀΨ_i (2 × 4, once per i), times G_{i+1,j}.
-                let [ka, kd] = &kk[i];
-                let dot4 = |a: &[f64; 4], b: &[f64; 4]| {
-                    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
-                };
-                let (ca, cd) = (2 * j * nu, (2 * j + 1) * nu);
-                h[ca + 2 * i] += dot4(ka, &ga);
-                h[ca + 2 * i + 1] += dot4(kd, &ga);
-                h[cd + 2 * i] += dot4(ka, &gd);
-                h[cd + 2 * i + 1] += dot4(kd, &gd);
-            }
-        }
+        let w = |k: usize| state_weight(c, k);
+        free_response(&mut self.f, lin);
+        adjoint_gradient(g, &self.f, lin, &w);
+        lyapunov(&mut self.psi, lin, &w);
+        prediction_blocks(h, &self.psi, lin);
         // Inputs: deviation weights and the rate coupling.
         let (diag, off, q) = input_cost(c, lin);
         for i in 0..nu {
@@ -698,6 +600,132 @@ struct Linearised {
     dt: f64,
     /// All inputs finite.
     finite: bool,
+}
+
+/// Weight of the state error e_k, k = 1..=N (P's diagonal: 2·q, times the
+/// terminal factor at N).
+fn state_weight(c: &MpcConfig, k: usize) -> [f64; 4] {
+    let t = if k == c.horizon { c.q_terminal } else { 1.0 };
+    [
+        2.0 * c.q[0] * t,
+        2.0 * c.q[1] * t,
+        2.0 * c.q[2] * t,
+        2.0 * c.q[3] * t,
+    ]
+}
+
+/// The free response f_k (no input deviation), k = 0..=N, into `f`.
+fn free_response(f: &mut Vec<[f64; 4]>, lin: &Linearised) {
+    f.clear();
+    f.push(lin.e0);
+    for (k, m) in lin.model.iter().enumerate() {
+        let nx = m.apply(f[k]);
+        f.push(add4(nx, lin.c[k]));
+    }
+}
+
+/// Adds the free response's gradient Σ GₖᵀWₖfₖ to `g`, by the adjoint λ
+/// run backwards from the horizon.
+fn adjoint_gradient(
+    g: &mut [f64],
+    f: &[[f64; 4]],
+    lin: &Linearised,
+    w: &dyn Fn(usize) -> [f64; 4],
+) {
+    let n = lin.model.len();
+    let mut lam = mul4(w(n), f[n]);
+    for j in (0..n).rev() {
+        let bt = lin.model[j].bt(lam);
+        g[2 * j] += bt[0];
+        g[2 * j + 1] += bt[1];
+        if j > 0 {
+            lam = add4(mul4(w(j), f[j]), lin.model[j].at(lam));
+        }
+    }
+}
+
+/// Ψ_i = Σ_{k>i} Φ(k, i+1)ᵀ W_k Φ(k, i+1) for i = 0..N, by the backward
+/// Lyapunov recursion Ψ_{N−1} = W_N, Ψ_{i−1} = W_i + A_iᵀΨ_iA_i.
+fn lyapunov(psi: &mut Vec<[[f64; 4]; 4]>, lin: &Linearised, w: &dyn Fn(usize) -> [f64; 4]) {
+    let n = lin.model.len();
+    psi.clear();
+    psi.resize(n, [[0.0; 4]; 4]);
+    let wn = w(n);
+    for r in 0..4 {
+        psi[n - 1][r][r] = wn[r];
+    }
+    for i in (1..n).rev() {
+        let (m, wi) = (&lin.model[i], w(i));
+        // ΨA column by column, then Aᵀ(ΨA).
+        let p = psi[i];
+        let col = |v: [f64; 4]| -> [f64; 4] {
+            let mut o = [0.0; 4];
+            for (r, or) in o.iter_mut().enumerate() {
+                *or = p[r][0] * v[0] + p[r][1] * v[1] + p[r][2] * v[2] + p[r][3] * v[3];
+            }
+            o
+        };
+        let pa = [
+            col([1.0, 0.0, 0.0, 0.0]),
+            col([0.0, 1.0, 0.0, 0.0]),
+            col([m.a02, m.a12, 1.0, 0.0]),
+            col([m.a03, m.a13, m.a23, 1.0]),
+        ];
+        let mut next = [[0.0; 4]; 4];
+        for (c, pac) in pa.iter().enumerate() {
+            let atc = m.at(*pac);
+            for r in 0..4 {
+                next[r][c] = atc[r];
+            }
+        }
+        for r in 0..4 {
+            next[r][r] += wi[r];
+        }
+        psi[i - 1] = next;
+    }
+}
+
+/// Adds the Hessian's state blocks H(i, j) = B_iᵀ Ψ_i G_{i+1,j} for i ≥ j
+/// to `h` (row-major, 2N × 2N; rows i ≥ j only), the prediction columns
+/// G_{i+1,j} = A_i G_{i,j} run forward from B_j.
+fn prediction_blocks(h: &mut [f64], psi: &[[[f64; 4]; 4]], lin: &Linearised) {
+    let n = lin.model.len();
+    let nu = 2 * n;
+    let kk: Vec<[[f64; 4]; 2]> = (0..n)
+        .map(|i| {
+            let (b, p) = (&lin.model[i].b, &psi[i]);
+            let row = |m: usize| {
+                let mut o = [0.0; 4];
+                for (c, oc) in o.iter_mut().enumerate() {
+                    *oc = b[0][m] * p[0][c]
+                        + b[1][m] * p[1][c]
+                        + b[2][m] * p[2][c]
+                        + b[3][m] * p[3][c];
+                }
+                o
+            };
+            [row(0), row(1)]
+        })
+        .collect();
+    for j in 0..n {
+        let mut ga = lin.model[j].b_col(0);
+        let mut gd = lin.model[j].b_col(1);
+        for i in j..n {
+            if i > j {
+                ga = lin.model[i].apply(ga);
+                gd = lin.model[i].apply(gd);
+            }
+            // K_i = B_iᵀΨ_i (2 × 4, once per i), times G_{i+1,j}.
+            let [ka, kd] = &kk[i];
+            let dot4 =
+                |a: &[f64; 4], b: &[f64; 4]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+            let (ca, cd) = (2 * j * nu, (2 * j + 1) * nu);
+            h[ca + 2 * i] += dot4(ka, &ga);
+            h[ca + 2 * i + 1] += dot4(kd, &ga);
+            h[cd + 2 * i] += dot4(ka, &gd);
+            h[cd + 2 * i + 1] += dot4(kd, &gd);
+        }
+    }
 }
 
 fn add4(a: [f64; 4], b: [f64; 4]) -> [f64; 4] {
