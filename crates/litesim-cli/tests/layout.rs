@@ -1,0 +1,164 @@
+//! The code's shape that ARCHITECTURE.md promises (issue 49): no function
+//! in non-test code is over 120 lines, so that the next engineer can read
+//! each one on a screen or two. A function may only be longer when
+//! ARCHITECTURE.md names it as an exception with its reason.
+
+mod common;
+use common::workspace;
+use std::path::{Path, PathBuf};
+
+/// The longest a function may be, signature to closing brace.
+const MAX_LINES: usize = 120;
+
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut entries: Vec<_> = entries.flatten().map(|e| e.path()).collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            rust_files(&p, out);
+        } else if p.extension().is_some_and(|e| e == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// Whether a line starts a function item: `fn name`, with any of `pub`,
+/// `pub(crate)`, `const`, `async`, `unsafe` before it.
+fn fn_name(line: &str) -> Option<&str> {
+    let mut rest = line.trim_start();
+    for prefix in ["pub(crate) ", "pub(super) ", "pub ", "const ", "async ", "unsafe "] {
+        rest = rest.strip_prefix(prefix).unwrap_or(rest);
+    }
+    let rest = rest.strip_prefix("fn ")?;
+    let end = rest
+        .find(|c: char| !(c.is_alphanumeric() || c == '_'))
+        .unwrap_or(rest.len());
+    (end > 0).then(|| &rest[..end])
+}
+
+/// A line with its string and character literals emptied and its comment
+/// cut, so that only the code's own braces are counted.
+fn code_of(line: &str) -> String {
+    let mut out = String::with_capacity(line.len());
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match c {
+            '"' => {
+                while let Some(d) = chars.next() {
+                    match d {
+                        '\\' => {
+                            chars.next();
+                        }
+                        '"' => break,
+                        _ => {}
+                    }
+                }
+                out.push_str("\"\"");
+            }
+            // A char literal ('{', '\'', '\n'), not a lifetime ('a).
+            '\'' => {
+                let mut look = chars.clone();
+                let lit = match (look.next(), look.next(), look.next()) {
+                    (Some('\\'), Some(_), Some('\'')) => 3,
+                    (Some(_), Some('\''), _) => 2,
+                    _ => 0,
+                };
+                for _ in 0..lit {
+                    chars.next();
+                }
+                out.push('\'');
+            }
+            '/' if chars.peek() == Some(&'/') => break,
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
+/// (lines, file, first line, name) of each function over [`MAX_LINES`]
+/// in `text`, before its `#[cfg(test)] mod`.
+fn long_functions(text: &str) -> Vec<(usize, usize, String)> {
+    let lines: Vec<&str> = text.lines().collect();
+    let end = lines
+        .windows(2)
+        .position(|w| w[0].trim() == "#[cfg(test)]" && w[1].trim_start().starts_with("mod "))
+        .unwrap_or(lines.len());
+    let mut found = Vec::new();
+    for (i, line) in lines[..end].iter().enumerate() {
+        let Some(name) = fn_name(line) else { continue };
+        let mut depth = 0i64;
+        let mut started = false;
+        let mut last = None;
+        'body: for (j, l) in lines[i..end].iter().enumerate() {
+            for c in code_of(l).chars() {
+                match c {
+                    '{' => {
+                        depth += 1;
+                        started = true;
+                    }
+                    '}' => depth -= 1,
+                    // A declaration without a body (a trait's method).
+                    ';' if !started && depth == 0 => break 'body,
+                    _ => {}
+                }
+                if started && depth == 0 {
+                    last = Some(i + j);
+                    break 'body;
+                }
+            }
+        }
+        if let Some(last) = last {
+            let n = last - i + 1;
+            if n > MAX_LINES {
+                found.push((n, i + 1, name.to_string()));
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn the_counter_sees_a_long_function_and_ignores_braces_in_literals() {
+    let body = "    let x = 1;\n".repeat(MAX_LINES);
+    let text = format!("pub(crate) fn long() {{\n{body}}}\nfn short(c: char) -> bool {{\n    c == '{{' || \"}}\" == \"x\" // }}\n}}\n");
+    let found = long_functions(&text);
+    assert_eq!(found, vec![(MAX_LINES + 2, 1, "long".to_string())]);
+    let tests = format!("fn ok() {{}}\n#[cfg(test)]\nmod tests {{\n    fn long() {{\n{body}    }}\n}}\n");
+    assert!(long_functions(&tests).is_empty());
+}
+
+#[test]
+fn no_function_in_non_test_code_is_over_120_lines() {
+    let root = workspace();
+    let architecture = std::fs::read_to_string(root.join("ARCHITECTURE.md")).unwrap();
+    let mut files = Vec::new();
+    for dir in ["crates", "python/src"] {
+        rust_files(&root.join(dir), &mut files);
+    }
+    assert!(files.len() > 100, "found only {} files", files.len());
+    let mut over = Vec::new();
+    for f in files {
+        let rel = f.strip_prefix(&root).unwrap().display().to_string();
+        // Only the code that ships: tests, benches and examples may be long.
+        let ships = rel.contains("/src/") && !rel.contains("/tests/");
+        if !ships {
+            continue;
+        }
+        let text = std::fs::read_to_string(&f).unwrap();
+        for (n, line, name) in long_functions(&text) {
+            // An exception is named in ARCHITECTURE.md with its file.
+            let named = architecture.contains(&format!("`{name}` ({rel}"));
+            if !named {
+                over.push(format!("{rel}:{line}: fn {name} is {n} lines"));
+            }
+        }
+    }
+    assert!(
+        over.is_empty(),
+        "functions over {MAX_LINES} lines (split them, or name each in ARCHITECTURE.md's \"Function length\" with its reason):\n{}",
+        over.join("\n")
+    );
+}
