@@ -29,7 +29,14 @@ fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
 /// `pub(crate)`, `const`, `async`, `unsafe` before it.
 fn fn_name(line: &str) -> Option<&str> {
     let mut rest = line.trim_start();
-    for prefix in ["pub(crate) ", "pub(super) ", "pub ", "const ", "async ", "unsafe "] {
+    for prefix in [
+        "pub(crate) ",
+        "pub(super) ",
+        "pub ",
+        "const ",
+        "async ",
+        "unsafe ",
+    ] {
         rest = rest.strip_prefix(prefix).unwrap_or(rest);
     }
     let rest = rest.strip_prefix("fn ")?;
@@ -123,10 +130,13 @@ fn long_functions(text: &str) -> Vec<(usize, usize, String)> {
 #[test]
 fn the_counter_sees_a_long_function_and_ignores_braces_in_literals() {
     let body = "    let x = 1;\n".repeat(MAX_LINES);
-    let text = format!("pub(crate) fn long() {{\n{body}}}\nfn short(c: char) -> bool {{\n    c == '{{' || \"}}\" == \"x\" // }}\n}}\n");
+    let text = format!(
+        "pub(crate) fn long() {{\n{body}}}\nfn short(c: char) -> bool {{\n    c == '{{' || \"}}\" == \"x\" // }}\n}}\n"
+    );
     let found = long_functions(&text);
     assert_eq!(found, vec![(MAX_LINES + 2, 1, "long".to_string())]);
-    let tests = format!("fn ok() {{}}\n#[cfg(test)]\nmod tests {{\n    fn long() {{\n{body}    }}\n}}\n");
+    let tests =
+        format!("fn ok() {{}}\n#[cfg(test)]\nmod tests {{\n    fn long() {{\n{body}    }}\n}}\n");
     assert!(long_functions(&tests).is_empty());
 }
 
