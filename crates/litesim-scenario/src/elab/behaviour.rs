@@ -1,0 +1,550 @@
+//! Behaviour: a scenario's body and its fields, the `do` tree with its
+//! invocations inlined under their labels, modifiers, `keep`s and
+//! coverage items.
+
+use super::*;
+
+impl Elab<'_> {
+    /// Declares a scenario's fields under `sc.ns`.
+    pub(super) fn fields(
+        &mut self,
+        members: &[&Member],
+        sc: &mut Scope,
+    ) -> Result<(), ScenarioError> {
+        for m in members {
+            let Member::Field(f) = m else { continue };
+            for n in &f.names {
+                sc.fields.insert(n.text.clone());
+            }
+        }
+        for m in members {
+            let Member::Field(f) = m else { continue };
+            let t = f.ty.base.name.text.clone();
+            for n in &f.names {
+                let path = format!("{}.{}", sc.ns, n.text);
+                let kind = [
+                    ("vehicle", ActorClass::Vehicle),
+                    ("person", ActorClass::Person),
+                    ("cyclist", ActorClass::Cyclist),
+                    ("animal", ActorClass::Animal),
+                    ("stationary_object", ActorClass::Stationary),
+                    ("physical_object", ActorClass::Stationary),
+                ]
+                .into_iter()
+                .find(|(b, _)| self.lib.is_a(&t, b))
+                .map(|(_, k)| k);
+                if let Some(kind) = kind {
+                    let mut id = n.text.clone();
+                    if self.test.actors.iter().any(|a| a.id == id) {
+                        id = path.clone();
+                    }
+                    self.actor_ids.insert(path.clone(), id.clone());
+                    self.test.actors.push(ActorDef {
+                        id,
+                        path: path.clone(),
+                        type_name: t.clone(),
+                        kind,
+                        ego: false,
+                    });
+                } else {
+                    let road = if self.lib.is_a(&t, "one_way_road") {
+                        Some(RoadKind::OneWay)
+                    } else if self.lib.is_a(&t, "two_way_road") {
+                        Some(RoadKind::TwoWay)
+                    } else if self.lib.is_a(&t, "road_element") {
+                        Some(RoadKind::Road)
+                    } else {
+                        None
+                    };
+                    let default = f.default.as_ref().map(|d| self.cexpr(d, sc));
+                    self.test.vars.insert(
+                        path.clone(),
+                        VarDef {
+                            type_name: t.clone(),
+                            road,
+                            default,
+                        },
+                    );
+                }
+                // `with:` constraints on the field, with `it` bound.
+                let mut inner = sc.clone();
+                inner.it = Some(path.clone());
+                for w in &f.with {
+                    if let Member::Keep {
+                        strength,
+                        expr,
+                        span,
+                    } = w
+                    {
+                        self.keep(strength.as_deref(), expr, *span, &inner);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) fn keep(&mut self, strength: Option<&str>, expr: &Expr, span: Span, sc: &Scope) {
+        let c = Constraint {
+            soft: strength == Some("default"),
+            expr: self.cexpr(expr, sc),
+            at: self.lib.at(span),
+        };
+        self.test.constraints.push(c);
+    }
+
+    /// A scenario body (or `top.main`'s): fields, keeps, then its `do`.
+    pub(super) fn body(
+        &mut self,
+        members: &[&Member],
+        mut sc: Scope,
+    ) -> Result<Option<Node>, ScenarioError> {
+        self.depth += 1;
+        if self.depth > 32 {
+            return Err(ScenarioError::Elaboration(
+                "scenarios invoke each other more than 32 levels deep (recursion?)".into(),
+            ));
+        }
+        self.fields(members, &mut sc)?;
+        // Labels first: keeps may name them before the `do`.
+        for m in members {
+            if let Member::Do(d) = m {
+                self.collect_labels(d, &mut sc);
+            }
+        }
+        let mut root = None;
+        for m in members {
+            match m {
+                Member::Keep {
+                    strength,
+                    expr,
+                    span,
+                } => self.keep(strength.as_deref(), expr, *span, &sc),
+                Member::Do(d) => {
+                    let n = self.node(d, &sc)?;
+                    if root.is_some() {
+                        self.test
+                            .notes
+                            .push("a second `do` in one scenario is ignored".into());
+                    } else {
+                        root = n;
+                    }
+                }
+                Member::Method { name, .. } => self.test.notes.push(format!(
+                    "method '{}' in {}: not executed by the engine",
+                    name.text, sc.ns
+                )),
+                // A plain `event e` is what `emit e` raises and `@e` waits
+                // for; only a definition (`event e is …`) goes unevaluated.
+                Member::Event {
+                    name, is: Some(_), ..
+                } => self.test.notes.push(format!(
+                    "event '{}' in {}: its `is` definition is not evaluated; only `emit {}` raises it",
+                    name.text, sc.ns, name.text
+                )),
+                Member::On { .. } => self
+                    .test
+                    .notes
+                    .push(format!("`on` in {}: not executed by the engine", sc.ns)),
+                Member::Coverage { record, args, span } => self.cover(*record, args, *span, &sc),
+                _ => {}
+            }
+        }
+        self.depth -= 1;
+        Ok(root)
+    }
+
+    /// A `cover`/`record` item (the checker has vetted its arguments).
+    pub(super) fn cover(&mut self, record: bool, args: &[Arg], span: Span, sc: &Scope) {
+        use crate::coverage::{CoverItem, SampleAt};
+        let named = |n: &str| {
+            args.iter()
+                .find(|a| a.name.as_ref().is_some_and(|x| x.text == n))
+                .map(|a| &a.value)
+        };
+        let name = match (args.first(), named("name")) {
+            (_, Some(Expr::Ident { name, .. })) => name.clone(),
+            (
+                Some(Arg {
+                    name: None,
+                    value: Expr::Ident { name, .. },
+                }),
+                _,
+            ) => name.clone(),
+            _ => return,
+        };
+        let at = self.lib.at(span);
+        let expr = match named("expression") {
+            Some(e) => self.cexpr(e, sc),
+            None => self
+                .path(
+                    &Expr::Ident {
+                        name: name.clone(),
+                        span,
+                    },
+                    sc,
+                )
+                .unwrap_or(CExpr::Opaque(name.clone())),
+        };
+        let unit = match named("unit") {
+            Some(Expr::Ident { name, .. }) => Some(name.clone()),
+            _ => None,
+        };
+        let factor = unit.as_deref().map_or(1.0, |u| self.unit(u));
+        // A bound or width: physical literals convert to the item's unit,
+        // plain numbers are in it.
+        let in_unit = |e: &Expr| -> Option<f64> {
+            match e {
+                Expr::Physical { value, unit, .. } => Some(value * self.unit(unit) / factor),
+                Expr::Int { value, .. } => Some(*value as f64),
+                Expr::Float { value, .. } => Some(*value),
+                Expr::Unary { op, expr, .. } if op == "-" => match &**expr {
+                    Expr::Physical { value, unit, .. } => Some(-value * self.unit(unit) / factor),
+                    Expr::Int { value, .. } => Some(-(*value as f64)),
+                    Expr::Float { value, .. } => Some(-value),
+                    _ => None,
+                },
+                _ => None,
+            }
+        };
+        let range = match named("range") {
+            Some(Expr::Range { lo, hi, unit, .. }) => {
+                let scale = unit.as_deref().map_or(1.0, |u| self.unit(u) / factor);
+                match (
+                    lo.as_deref().and_then(in_unit),
+                    hi.as_deref().and_then(in_unit),
+                ) {
+                    (Some(a), Some(b)) => Some((a * scale, b * scale)),
+                    _ => None,
+                }
+            }
+            _ => None,
+        };
+        let every = named("every").and_then(in_unit);
+        // Enum and bool items bucket by value.
+        let values = match &expr {
+            CExpr::Var(p) => match self.test.vars.get(p).map(|v| v.type_name.as_str()) {
+                Some("bool") => vec!["false".into(), "true".into()],
+                Some(t) => self
+                    .lib
+                    .ix
+                    .enums
+                    .get(t)
+                    .map(|m| m.iter().cloned().collect())
+                    .unwrap_or_default(),
+                None => Vec::new(),
+            },
+            _ => Vec::new(),
+        };
+        let event = match named("event") {
+            Some(Expr::Ident { name: e, .. }) if e == "start" => SampleAt::Start,
+            Some(Expr::Ident { name: e, .. }) if e == "end" => SampleAt::End,
+            Some(Expr::Ident { name: e, .. }) => match sc.labels.get(e) {
+                Some(path) => SampleAt::PhaseEnd(path.clone()),
+                None => {
+                    self.test.notes.push(format!(
+                        "{at}: {} '{name}' is sampled at event '{e}', which the engine does not raise: sampled at the end instead",
+                        if record { "record" } else { "cover" }
+                    ));
+                    SampleAt::End
+                }
+            },
+            // The default: the end of the enclosing scenario — its
+            // invocation's end where the plan knows it (a labelled
+            // invocation), else the end of the run.
+            _ if sc.ns != "top" => SampleAt::PhaseEnd(sc.ns.clone()),
+            _ => SampleAt::End,
+        };
+        let text = match named("text") {
+            Some(Expr::Str { value, .. }) => Some(value.clone()),
+            _ => None,
+        };
+        self.test.covers.push(CoverItem {
+            name: format!("{}.{name}", sc.ns),
+            record,
+            expr,
+            unit,
+            factor,
+            range,
+            every,
+            values,
+            event,
+            text,
+            at,
+        });
+    }
+
+    pub(super) fn collect_labels(&mut self, d: &DoMember, sc: &mut Scope) {
+        if let Some(l) = &d.label {
+            let ns = if sc.ns == "top" {
+                l.text.clone()
+            } else {
+                format!("{}.{}", sc.ns, l.text)
+            };
+            sc.labels.insert(l.text.clone(), ns);
+        }
+        if let DoKind::Composition { children, .. } = &d.kind {
+            for c in children {
+                self.collect_labels(c, sc);
+            }
+        }
+    }
+
+    pub(super) fn mods(&mut self, with: &[Member], sc: &Scope, out: &mut Vec<Modifier>) {
+        for m in with {
+            match m {
+                Member::Modifier { call, .. } => {
+                    let Expr::Call { callee, args, span } = call else {
+                        continue;
+                    };
+                    let name = match &**callee {
+                        Expr::Ident { name, .. } => name.clone(),
+                        Expr::Field { name, .. } => name.text.clone(),
+                        _ => continue,
+                    };
+                    let key = modifier_key(&name);
+                    let params = self.lib.params(&key);
+                    let mut bound = self.bind(args, &params, sc);
+                    self.lib.ints_drawn(&key, &mut bound);
+                    out.push(Modifier {
+                        kind: crate::intent::ModKind::of(&name),
+                        args: bound,
+                        name,
+                        at: self.lib.at(*span),
+                    });
+                }
+                Member::Keep {
+                    strength,
+                    expr,
+                    span,
+                } => self.keep(strength.as_deref(), expr, *span, sc),
+                Member::Until(spec) => {
+                    let at = self.lib.at(spec.span);
+                    let arg = match (&spec.event, &spec.cond) {
+                        (Some(e), _) => event_name(e)
+                            .map(|n| ("event".to_string(), CExpr::Const(Value::Str(n)))),
+                        (None, Some(c)) => Some(match elapsed_arg(c) {
+                            Some(a) => ("elapsed".to_string(), self.cexpr(a, sc)),
+                            None => ("cond".to_string(), self.condition(c, sc)),
+                        }),
+                        _ => None,
+                    };
+                    match arg {
+                        Some((k, v)) => out.push(Modifier {
+                            kind: crate::intent::ModKind::Until,
+                            name: "until".into(),
+                            args: BTreeMap::from([(k, v)]),
+                            at,
+                        }),
+                        None => self
+                            .test
+                            .notes
+                            .push(format!("{at}: `until` without an event or condition")),
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+
+    /// An invocation in a `do` tree: a traffic light's `switch(color)`, an
+    /// actor's action with its modifiers, or a scenario inlined under its
+    /// label (its arguments bound as constraints on the instance's fields).
+    pub(super) fn invoke(
+        &mut self,
+        call: &Expr,
+        with: &[Member],
+        label: Option<String>,
+        sc: &Scope,
+    ) -> Result<Option<Node>, ScenarioError> {
+        let Expr::Call { callee, args, span } = call else {
+            return Ok(None);
+        };
+        let (base, name) = match &**callee {
+            Expr::Field { base, name, .. } => (Some(&**base), name.text.clone()),
+            Expr::Ident { name, .. } => (None, name.clone()),
+            _ => return Ok(None),
+        };
+        let at = self.lib.at(*span);
+        let mut mods = Vec::new();
+        let light = base.and_then(|b| match self.path(b, sc) {
+            Some(CExpr::Var(p))
+                if self
+                    .test
+                    .vars
+                    .get(&p)
+                    .is_some_and(|v| self.lib.is_a(&v.type_name, "traffic_light")) =>
+            {
+                Some(p)
+            }
+            _ => None,
+        });
+        if let Some(light) = light {
+            if name != "switch" {
+                return Err(ScenarioError::Elaboration(format!(
+                    "{at}: a traffic light can only `switch(color)`, not '{name}'"
+                )));
+            }
+            let bound = self.bind(args, &["color".to_string()], sc);
+            let color = bound
+                .get("color")
+                .cloned()
+                .ok_or_else(|| ScenarioError::Elaboration(format!("{at}: switch needs a color")))?;
+            return Ok(Some(Node::Switch {
+                id: 0,
+                light,
+                color,
+                at,
+            }));
+        }
+        if let Some(action) = crate::intent::Action::parse(&name) {
+            let actor = base.and_then(|b| self.actor_of(b, sc)).ok_or_else(|| {
+                ScenarioError::Elaboration(format!(
+                    "{at}: '{name}' needs an actor, e.g. `car1.{name}()`"
+                ))
+            })?;
+            self.mods(with, sc, &mut mods);
+            Ok(Some(Node::Action {
+                id: 0,
+                label,
+                actor,
+                action,
+                mods,
+                at,
+            }))
+        } else if let Some(members) = self.lib.scenario(&name) {
+            self.counter += 1;
+            let ns = match &label {
+                Some(l) if sc.ns == "top" => l.clone(),
+                Some(l) => format!("{}.{l}", sc.ns),
+                None => format!("{}.{name}#{}", sc.ns, self.counter),
+            };
+            let actor = base.and_then(|b| match self.path(b, sc) {
+                Some(CExpr::Var(p)) => Some(self.actor_ids.get(&p).cloned().unwrap_or(p)),
+                _ => None,
+            });
+            let inner = Scope {
+                ns: ns.clone(),
+                actor,
+                ..Scope::default()
+            };
+            let sub = self.body(&members, inner)?;
+            // Arguments bind the instance's fields; the invocation's
+            // `with:` keeps see the caller's names (`s.r1`).
+            let params = self.lib.params(&name);
+            for (p, v) in self.bind(args, &params, sc) {
+                self.test.constraints.push(Constraint {
+                    soft: false,
+                    expr: CExpr::Binary(
+                        "==".into(),
+                        Box::new(CExpr::Var(format!("{ns}.{p}"))),
+                        Box::new(v),
+                    ),
+                    at: at.clone(),
+                });
+            }
+            self.mods(with, sc, &mut mods);
+            Ok(Some(Node::Serial {
+                id: 0,
+                label,
+                children: sub.into_iter().collect(),
+                mods,
+            }))
+        } else {
+            Err(ScenarioError::Elaboration(format!(
+                "{at}: the engine cannot execute '{name}' (known actions: {})",
+                crate::intent::Action::ALL
+                    .map(crate::intent::Action::name)
+                    .join(", ")
+            )))
+        }
+    }
+
+    pub(super) fn node(&mut self, d: &DoMember, sc: &Scope) -> Result<Option<Node>, ScenarioError> {
+        let label = d.label.as_ref().map(|l| l.text.clone());
+        Ok(match &d.kind {
+            DoKind::Composition {
+                op,
+                args,
+                children,
+                with,
+            } => {
+                let mut kids = Vec::new();
+                for c in children {
+                    if let Some(n) = self.node(c, sc)? {
+                        kids.push(n);
+                    }
+                }
+                let mut mods = Vec::new();
+                let bound = self.bind(args, &["duration".into()], sc);
+                let overlap = match bound.get("overlap") {
+                    Some(CExpr::Const(v)) => v.text().unwrap_or("equal").to_string(),
+                    _ => "equal".to_string(),
+                };
+                if let Some(dur) = bound.get("duration") {
+                    mods.push(Modifier {
+                        kind: crate::intent::ModKind::Duration,
+                        name: "duration".into(),
+                        args: BTreeMap::from([("duration".to_string(), dur.clone())]),
+                        at: self.lib.at(d.span),
+                    });
+                }
+                self.mods(with, sc, &mut mods);
+                Some(match op.as_str() {
+                    "parallel" => Node::Parallel {
+                        id: 0,
+                        label,
+                        children: kids,
+                        mods,
+                        overlap,
+                    },
+                    "one_of" => Node::OneOf {
+                        id: 0,
+                        label,
+                        children: kids,
+                        mods,
+                    },
+                    _ => Node::Serial {
+                        id: 0,
+                        label,
+                        children: kids,
+                        mods,
+                    },
+                })
+            }
+            DoKind::Invoke { call, with } => self.invoke(call, with, label, sc)?,
+            DoKind::Wait(spec) => {
+                let event = spec.event.as_ref().and_then(event_name);
+                let (duration, cond) = match &spec.cond {
+                    Some(c) => match elapsed_arg(c) {
+                        Some(a) => (Some(self.cexpr(a, sc)), None),
+                        None => (None, Some(self.condition(c, sc))),
+                    },
+                    None => (None, None),
+                };
+                Some(Node::Wait {
+                    id: 0,
+                    duration,
+                    event,
+                    cond,
+                })
+            }
+            DoKind::Emit { event } => {
+                let e = match event {
+                    Expr::Call { callee, .. } => &**callee,
+                    other => other,
+                };
+                Some(Node::Emit {
+                    id: 0,
+                    event: event_name(e).unwrap_or_default(),
+                })
+            }
+            DoKind::Call { .. } => {
+                self.test
+                    .notes
+                    .push("`call` is not executed by the engine".into());
+                None
+            }
+        })
+    }
+}
