@@ -190,7 +190,8 @@ impl PyCommand {
 }
 
 pub(super) fn checked(cmd: SutCommand) -> PyResult<PyCommand> {
-    cmd.validate().map_err(PyValueError::new_err)?;
+    cmd.validate()
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
     Ok(PyCommand { cmd })
 }
 

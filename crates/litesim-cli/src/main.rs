@@ -500,9 +500,11 @@ fn run_test(args: RunArgs) -> Result<()> {
     let pacing = scenario::Pacing {
         on: realtime,
         off: no_realtime,
-        policy: realtime_policy
-            .parse()
-            .map_err(|e: String| anyhow::anyhow!("--realtime-policy: {e}"))?,
+        policy: realtime_policy.parse().map_err(
+            |e: litesim_scenario::realtime::UnknownPolicy| {
+                anyhow::Error::new(e).context("--realtime-policy")
+            },
+        )?,
     };
     let outcome = scenario::run(
         &test,

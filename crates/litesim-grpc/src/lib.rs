@@ -32,4 +32,6 @@ pub mod server;
 pub mod sut;
 
 pub use client::RemoteSsp;
-pub use server::{LoopbackServer, ServerConfig, SspService, TlsPem, serve};
+pub use server::{
+    LoopbackError, LoopbackServer, ServeError, ServerConfig, SspService, TlsPem, serve,
+};

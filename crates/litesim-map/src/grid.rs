@@ -21,7 +21,7 @@ pub struct OccupancyGrid {
 }
 
 /// Why a grid could not be made.
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[derive(Debug, thiserror::Error)]
 pub enum GridError {
     /// Resolution not positive and finite.
     #[error("resolution must be positive and finite, got {0} m")]
@@ -36,7 +36,10 @@ pub enum GridError {
     BadObstacle(usize),
     /// The image could not be decoded.
     #[error("not a readable PNG: {0}")]
-    Image(String),
+    Image(#[source] png::DecodingError),
+    /// The decoded image would not fit in memory.
+    #[error("not a readable PNG: image too large")]
+    ImageTooLarge,
     /// More cells than allowed.
     #[error("a {width} × {height} grid has more than {max} cells; use a coarser resolution")]
     TooLarge {
@@ -228,9 +231,7 @@ impl OccupancyGrid {
     pub fn from_png(bytes: &[u8], resolution: f64, origin: Vec2) -> Result<Self, GridError> {
         let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
         dec.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
-        let mut reader = dec
-            .read_info()
-            .map_err(|e| GridError::Image(e.to_string()))?;
+        let mut reader = dec.read_info().map_err(GridError::Image)?;
         let (w, h) = (reader.info().width as usize, reader.info().height as usize);
         if w.saturating_mul(h) > MAX_CELLS {
             return Err(GridError::TooLarge {
@@ -243,11 +244,9 @@ impl OccupancyGrid {
             0;
             reader
                 .output_buffer_size()
-                .ok_or_else(|| GridError::Image("image too large".into()))?
+                .ok_or(GridError::ImageTooLarge)?
         ];
-        let info = reader
-            .next_frame(&mut buf)
-            .map_err(|e| GridError::Image(e.to_string()))?;
+        let info = reader.next_frame(&mut buf).map_err(GridError::Image)?;
         let channels = info.color_type.samples();
         let mut g = Self::new(
             origin,

@@ -23,7 +23,7 @@ mod precedence;
 pub mod source;
 
 pub use diag::{Diagnostic, Severity};
-pub use loader::{Dialect, LoadError, Program, load, load_with};
+pub use loader::{Dialect, LoadError, Program, UnknownDialect, UnsetVar, load, load_with};
 pub use source::{SourceMap, Span};
 
 /// Lexes and parses one text (file index 0 of a fresh source map).

@@ -42,15 +42,26 @@ pub enum Dialect {
 }
 
 impl std::str::FromStr for Dialect {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownDialect;
+    fn from_str(s: &str) -> Result<Self, UnknownDialect> {
         match s {
             "litesim" => Ok(Dialect::Litesim),
             "carla" => Ok(Dialect::Carla),
-            _ => Err(format!("unknown dialect '{s}': expected litesim or carla")),
+            _ => Err(UnknownDialect(s.to_string())),
         }
     }
 }
+
+/// A dialect's name that is none of litesim's.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown dialect '{0}': expected litesim or carla")]
+pub struct UnknownDialect(pub String);
+
+/// A path names an environment variable that is not set (or a `${` that
+/// is not closed: then the text after the `$`).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("${0} is not set")]
+pub struct UnsetVar(pub String);
 
 /// The text declares `actor Path` (the mark of a CARLA scenario_runner
 /// library): a line that is exactly that declaration.
@@ -80,8 +91,8 @@ impl Program {
     }
 }
 
-/// Expands `$VAR` / `${VAR}`; returns the name of an unset variable on failure.
-pub fn expand_env(path: &str, env: &dyn Fn(&str) -> Option<String>) -> Result<String, String> {
+/// Expands `$VAR` / `${VAR}`; the error names the unset variable.
+pub fn expand_env(path: &str, env: &dyn Fn(&str) -> Option<String>) -> Result<String, UnsetVar> {
     let mut out = String::new();
     let mut rest = path;
     while let Some(i) = rest.find('$') {
@@ -90,7 +101,7 @@ pub fn expand_env(path: &str, env: &dyn Fn(&str) -> Option<String>) -> Result<St
         let (name, len) = if let Some(stripped) = after.strip_prefix('{') {
             match stripped.find('}') {
                 Some(j) => (&stripped[..j], j + 2),
-                None => return Err(after.to_string()),
+                None => return Err(UnsetVar(after.to_string())),
             }
         } else {
             let j = after
@@ -103,7 +114,7 @@ pub fn expand_env(path: &str, env: &dyn Fn(&str) -> Option<String>) -> Result<St
             rest = after;
             continue;
         }
-        out.push_str(&env(name).ok_or_else(|| name.to_string())?);
+        out.push_str(&env(name).ok_or_else(|| UnsetVar(name.to_string()))?);
         rest = &after[len..];
     }
     out.push_str(rest);
@@ -172,7 +183,7 @@ impl Loader<'_> {
         }
         let expanded = match expand_env(raw, self.env) {
             Ok(p) => p,
-            Err(var) => {
+            Err(UnsetVar(var)) => {
                 self.prog.diagnostics.push(
                     Diagnostic::error(
                         "E0201",

@@ -48,8 +48,10 @@ pub struct MatrixRow {
 pub fn load_examples(
     dir: &std::path::Path,
 ) -> Result<Vec<(String, ClosedLoopConfig, OccupancyGrid)>, PlanError> {
-    let entries = std::fs::read_dir(dir)
-        .map_err(|e| PlanError::Config(format!("cannot read {}: {e}", dir.display())))?;
+    let entries = std::fs::read_dir(dir).map_err(|source| PlanError::Dir {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let mut files: Vec<std::path::PathBuf> = entries
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.extension().is_some_and(|x| x == "toml"))
@@ -65,8 +67,10 @@ pub fn load_examples(
         .iter()
         .map(|f| {
             let text = litesim_core::files::read_text(f, litesim_core::files::MAX_INPUT_BYTES)?;
-            let cfg = parse_config(&text)
-                .map_err(|e| PlanError::Config(format!("{}: {e}", f.display())))?;
+            let cfg = parse_config(&text).map_err(|e| PlanError::InFile {
+                path: f.clone(),
+                source: Box::new(e),
+            })?;
             let grid = load_grid(&cfg, f.parent().unwrap_or(std::path::Path::new(".")))?;
             let name = f
                 .file_stem()

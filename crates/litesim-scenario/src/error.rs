@@ -25,6 +25,25 @@ pub enum ScenarioError {
     /// The map is missing or named wrongly.
     #[error("map: {0}")]
     Map(String),
+    /// A CARLA scenario's map name has no OpenDRIVE file; `at` is the
+    /// `set_map` call's file:line:col.
+    #[error("map: {at}")]
+    MapFile {
+        /// Where the map is named.
+        at: String,
+        /// Which name, and where litesim looked.
+        #[source]
+        source: crate::load::MapFileError,
+    },
+    /// Ambient traffic cannot be placed; `at` is where the test asks for it.
+    #[error("elaboration: {at}")]
+    Traffic {
+        /// Where the traffic is declared.
+        at: String,
+        /// Why.
+        #[source]
+        source: crate::runtime::traffic::spawn::TooManyVehicles,
+    },
     /// The map file could not be read (missing, not a regular file, larger
     /// than the map reader takes) or is not valid OpenDRIVE.
     #[error("map {name}")]

@@ -39,8 +39,8 @@ pub mod sut;
 pub use error::ScenarioError;
 use load::calibration_file;
 pub use load::{
-    CalibrationKey, CalibrationRead, LoadOptions, Prepared, calibration_near, carla_map_file,
-    prepare, sha256_hex,
+    CalibrationKey, CalibrationRead, LoadOptions, MapFileError, Prepared, calibration_near,
+    carla_map_file, prepare, sha256_hex,
 };
 pub use runtime::DriveMode;
 pub use stepped::Stepped;

@@ -32,13 +32,17 @@ pub struct LoadOptions {
 /// (without one) in the test's folder or the `maps/` of it or of a folder
 /// above it. The error
 /// says where it looked.
-pub fn carla_map_file(test: &Path, name: &str, map_dir: Option<&Path>) -> Result<PathBuf, String> {
+pub fn carla_map_file(
+    test: &Path,
+    name: &str,
+    map_dir: Option<&Path>,
+) -> Result<PathBuf, MapFileError> {
     let file = format!("{name}.xodr");
     let plain = !name.is_empty() && !name.contains(['/', '\\']) && name != "." && name != "..";
     if !plain {
-        return Err(format!(
-            "map name '{name}' is not a plain name (CARLA names maps like \"Town04\")"
-        ));
+        return Err(MapFileError::NotPlain {
+            name: name.to_string(),
+        });
     }
     let here = test.parent().unwrap_or(Path::new(".")).to_path_buf();
     let dirs: Vec<PathBuf> = match map_dir {
@@ -65,13 +69,32 @@ pub fn carla_map_file(test: &Path, name: &str, map_dir: Option<&Path>) -> Result
     dirs.iter()
         .map(|d| d.join(&file))
         .find(|p| p.is_file())
-        .ok_or_else(|| {
-            let looked: Vec<String> = dirs.iter().map(|d| d.display().to_string()).collect();
-            format!(
-                "map '{name}': no {file} in {} — CARLA's maps are OpenDRIVE files: pass --map-dir with a folder that has {file} (CARLA ships them as CarlaUE4/Content/Carla/Maps/OpenDrive/*.xodr), or --map FILE",
-                looked.join(", ")
-            )
+        .ok_or_else(|| MapFileError::NotFound {
+            name: name.to_string(),
+            looked: dirs.iter().map(|d| d.display().to_string()).collect(),
         })
+}
+
+/// Why a CARLA map name has no OpenDRIVE file ([`carla_map_file`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MapFileError {
+    /// A path, not a name (`../secret`, empty).
+    #[error("map name '{name}' is not a plain name (CARLA names maps like \"Town04\")")]
+    NotPlain {
+        /// The name given.
+        name: String,
+    },
+    /// No `NAME.xodr` in any folder looked in.
+    #[error(
+        "map '{name}': no {name}.xodr in {} — CARLA's maps are OpenDRIVE files: pass --map-dir with a folder that has {name}.xodr (CARLA ships them as CarlaUE4/Content/Carla/Maps/OpenDrive/*.xodr), or --map FILE",
+        looked.join(", ")
+    )]
+    NotFound {
+        /// The name given.
+        name: String,
+        /// The folders looked in, nearest first.
+        looked: Vec<String>,
+    },
 }
 
 /// A loaded, elaborated test with its map, ready to run under many seeds.
@@ -197,17 +220,21 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
     let map_path = match (&opts.map, &test.config.map) {
         (Some(p), _) => Some(p.clone()),
         (None, _) if let Some((name, span)) = carla_map => Some(
-            carla_map_file(path, name, opts.map_dir.as_deref()).map_err(|e| {
+            carla_map_file(path, name, opts.map_dir.as_deref()).map_err(|source| {
                 let f = prog.sources.file(span.file);
                 let (line, col) = f.line_col(span.start as usize);
-                let file = &f.path;
-                ScenarioError::Map(format!("{file}:{line}:{col}: {e}"))
+                ScenarioError::MapFile {
+                    at: format!("{}:{line}:{col}", f.path),
+                    source,
+                }
             })?,
         ),
         (None, Some(m)) if !m.is_empty() => {
-            let expanded = litesim_osc::loader::expand_env(m, &env).map_err(|v| {
-                ScenarioError::Map(format!("test_config.map '{m}' uses ${v}, which is not set"))
-            })?;
+            let expanded = litesim_osc::loader::expand_env(m, &env).map_err(
+                |litesim_osc::loader::UnsetVar(v)| {
+                    ScenarioError::Map(format!("test_config.map '{m}' uses ${v}, which is not set"))
+                },
+            )?;
             // A path written in the test is relative to the test's folder
             // only: a map found through the current directory would make
             // results depend on where the command ran. One that starts

@@ -22,17 +22,35 @@ pub enum Policy {
 }
 
 impl std::str::FromStr for Policy {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownPolicy;
+    fn from_str(s: &str) -> Result<Self, UnknownPolicy> {
         match s {
             "catch-up" => Ok(Policy::CatchUp),
             "skip" => Ok(Policy::Skip),
             "fail" => Ok(Policy::Fail),
-            other => Err(format!(
-                "realtime policy '{other}': expected skip, catch-up or fail"
-            )),
+            other => Err(UnknownPolicy(other.to_string())),
         }
     }
+}
+
+/// A realtime policy's name that is none of litesim's.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("realtime policy '{0}': expected skip, catch-up or fail")]
+pub struct UnknownPolicy(pub String);
+
+/// A step released later than one step after it was due, under
+/// [`Policy::Fail`].
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error(
+    "realtime overrun at t={t:.3} s: the step was released {late_ms:.2} ms late (the step is {step_ms} ms)"
+)]
+pub struct Overrun {
+    /// The step's simulated time (s).
+    pub t: f64,
+    /// How late it was released (ms).
+    pub late_ms: f64,
+    /// The step (ms).
+    pub step_ms: u32,
 }
 
 /// How well a run kept pace (in the summary).
@@ -88,7 +106,7 @@ impl Pacer {
     }
 
     /// Waits until step `k` is due; `Err` (policy `Fail`) names the overrun.
-    pub fn release(&mut self, k: u64) -> Result<(), String> {
+    pub fn release(&mut self, k: u64) -> Result<(), Overrun> {
         let start = *self.start.get_or_insert_with(Instant::now);
         let due = start + self.step * (k - self.origin_k) as u32;
         let mut now = Instant::now();
@@ -113,10 +131,11 @@ impl Pacer {
             self.first_overrun.get_or_insert((t, late_ms));
             match self.policy {
                 Policy::Fail => {
-                    return Err(format!(
-                        "realtime overrun at t={t:.3} s: the step was released {late_ms:.2} ms late (the step is {} ms)",
-                        self.step_ms
-                    ));
+                    return Err(Overrun {
+                        t,
+                        late_ms,
+                        step_ms: self.step_ms,
+                    });
                 }
                 Policy::Skip => {
                     // Restart the schedule here: the missed slots are gone.

@@ -154,8 +154,17 @@ fn a_missing_map_names_where_it_looked_and_the_place_that_asked() {
             ..LoadOptions::default()
         },
     )
-    .unwrap_err()
-    .to_string();
+    .unwrap_err();
+    // The typed cause: which name, where litesim looked.
+    assert!(matches!(
+        &e,
+        litesim_scenario::ScenarioError::MapFile {
+            source: litesim_scenario::MapFileError::NotFound { .. },
+            ..
+        }
+    ));
+    // The whole message is the error and its causes (`chain`).
+    let e = e.chain();
     assert!(e.contains("cut_in.osc:11:5"), "{e}");
     assert!(e.contains("no straight.xodr in"), "{e}");
     assert!(e.contains("--map-dir"), "{e}");

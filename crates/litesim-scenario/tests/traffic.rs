@@ -250,7 +250,7 @@ fn more_than_the_documented_bound_of_vehicles_is_an_error() {
         size: (4.5, 1.8),
     };
     let e = fill(&mut t, &g, &d, &mut Rng::new(1), &[], |_, _| true).unwrap_err();
-    assert!(e.contains("more than 20000 vehicles"), "{e}");
+    assert!(e.to_string().contains("more than 20000 vehicles"), "{e}");
 }
 
 mod props {

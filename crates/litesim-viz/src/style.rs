@@ -104,7 +104,7 @@ impl Default for Style {
 pub enum StyleError {
     /// Not valid TOML for a stylesheet.
     #[error("stylesheet: {0}")]
-    Toml(String),
+    Toml(#[from] toml::de::Error),
     /// A colour that is not `#rrggbb`.
     #[error("stylesheet: {field} = '{value}' is not a colour (expected #rrggbb)")]
     Color {
@@ -131,7 +131,7 @@ pub fn color(s: &str) -> Option<RGBColor> {
 impl Style {
     /// Parses and validates a stylesheet (missing keys take the defaults).
     pub fn from_toml(text: &str) -> Result<Self, StyleError> {
-        let s: Style = toml::from_str(text).map_err(|e| StyleError::Toml(e.to_string()))?;
+        let s: Style = toml::from_str(text)?;
         s.validate()?;
         Ok(s)
     }

@@ -10,7 +10,7 @@ pub struct LoopbackServer {
     /// The address it listens on.
     pub addr: std::net::SocketAddr,
     pub(super) stop: Option<tokio::sync::oneshot::Sender<()>>,
-    pub(super) thread: Option<std::thread::JoinHandle<Result<(), String>>>,
+    pub(super) thread: Option<std::thread::JoinHandle<Result<(), LoopbackError>>>,
 }
 
 impl LoopbackServer {
@@ -18,12 +18,12 @@ impl LoopbackServer {
     pub fn start(cfg: ServerConfig, workers: usize) -> std::io::Result<Self> {
         let (tx, rx) = std::sync::mpsc::channel();
         let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-        let thread = std::thread::spawn(move || -> Result<(), String> {
+        let thread = std::thread::spawn(move || -> Result<(), LoopbackError> {
             let rt = tokio::runtime::Builder::new_multi_thread()
                 .worker_threads(workers.max(1))
                 .enable_all()
                 .build()
-                .map_err(|e| e.to_string())?;
+                .map_err(LoopbackError::Runtime)?;
             rt.block_on(async move {
                 let l = match tokio::net::TcpListener::bind("127.0.0.1:0").await {
                     Ok(l) => l,
@@ -37,7 +37,7 @@ impl LoopbackServer {
                     let _ = stopped.await;
                 })
                 .await
-                .map_err(|e| e.to_string())
+                .map_err(LoopbackError::from)
             })
         });
         let addr = rx
@@ -51,18 +51,16 @@ impl LoopbackServer {
     }
 
     /// Stops the server and waits for it; reports a serving error.
-    pub fn stop(mut self) -> Result<(), String> {
+    pub fn stop(mut self) -> Result<(), LoopbackError> {
         self.shutdown()
     }
 
-    pub(super) fn shutdown(&mut self) -> Result<(), String> {
+    pub(super) fn shutdown(&mut self) -> Result<(), LoopbackError> {
         if let Some(s) = self.stop.take() {
             let _ = s.send(());
         }
         match self.thread.take() {
-            Some(t) => t
-                .join()
-                .map_err(|_| "the server thread panicked".to_string())?,
+            Some(t) => t.join().map_err(|_| LoopbackError::Panicked)?,
             None => Ok(()),
         }
     }

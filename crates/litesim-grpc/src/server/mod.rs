@@ -733,13 +733,54 @@ impl SspService {
     }
 }
 
+/// Why [`serve`] could not serve.
+#[derive(Debug, thiserror::Error)]
+pub enum ServeError {
+    /// The service could not be set up (the RPC trace file could not be
+    /// created, the current folder — the default map root — not read).
+    #[error("cannot set up the service")]
+    Setup(#[source] std::io::Error),
+    /// The metrics listener could not bind.
+    #[error("--metrics {addr}")]
+    Metrics {
+        /// The address asked for.
+        addr: std::net::SocketAddr,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// Reflection's descriptors could not be read.
+    #[error("reflection")]
+    Reflection(#[source] tonic_reflection::server::Error),
+    /// The TLS identity cannot be used.
+    #[error("TLS")]
+    Tls(#[source] tonic::transport::Error),
+    /// The transport failed while serving.
+    #[error("serving")]
+    Transport(#[source] tonic::transport::Error),
+}
+
+/// Why a [`LoopbackServer`] ended badly.
+#[derive(Debug, thiserror::Error)]
+pub enum LoopbackError {
+    /// Its runtime could not be built.
+    #[error("cannot build the server's runtime")]
+    Runtime(#[source] std::io::Error),
+    /// Serving failed.
+    #[error(transparent)]
+    Serve(#[from] ServeError),
+    /// The server's thread panicked.
+    #[error("the server thread panicked")]
+    Panicked,
+}
+
 /// Serves the SSP API, gRPC health and reflection on `listener` until
 /// `shutdown` completes. Idle sessions are reaped every second.
 pub async fn serve(
     listener: tokio::net::TcpListener,
     cfg: ServerConfig,
     shutdown: impl std::future::Future<Output = ()> + Send,
-) -> Result<(), Box<dyn std::error::Error + Send + Sync>> {
+) -> Result<(), ServeError> {
     let max = cfg.max_message_bytes;
     let keepalive = cfg.keepalive;
     let metrics_addr = cfg.metrics;
@@ -747,14 +788,14 @@ pub async fn serve(
     let check = BearerCheck {
         expected: cfg.auth_token.as_deref().map(Arc::from),
     };
-    let svc = SspService::new(cfg)?;
+    let svc = SspService::new(cfg).map_err(ServeError::Setup)?;
     let conns = svc.clone();
     let reaper = svc.clone();
     let metrics_task = match metrics_addr {
         Some(a) => {
             let l = tokio::net::TcpListener::bind(a)
                 .await
-                .map_err(|e| format!("--metrics {a}: {e}"))?;
+                .map_err(|source| ServeError::Metrics { addr: a, source })?;
             Some(tokio::spawn(serve_metrics(l, svc.clone())))
         }
         None => None,
@@ -780,9 +821,14 @@ pub async fn serve(
     // Health stays open (load balancers ask it); the API and reflection
     // need the token when the server has one.
     use tonic::service::interceptor::InterceptedService;
-    let reflection = InterceptedService::new(reflection_builder().build_v1()?, check.clone());
-    let reflection_alpha =
-        InterceptedService::new(reflection_builder().build_v1alpha()?, check.clone());
+    let v1 = reflection_builder()
+        .build_v1()
+        .map_err(ServeError::Reflection)?;
+    let v1alpha = reflection_builder()
+        .build_v1alpha()
+        .map_err(ServeError::Reflection)?;
+    let reflection = InterceptedService::new(v1, check.clone());
+    let reflection_alpha = InterceptedService::new(v1alpha, check.clone());
     let ssp = InterceptedService::new(
         SimulatorSupportServer::new(svc)
             .max_decoding_message_size(max)
@@ -795,7 +841,7 @@ pub async fn serve(
         let id = tonic::transport::Identity::from_pem(&t.cert, &t.key);
         builder = builder
             .tls_config(tonic::transport::ServerTlsConfig::new().identity(id))
-            .map_err(|e| format!("TLS: {e}"))?;
+            .map_err(ServeError::Tls)?;
     }
     let result = builder
         .tcp_nodelay(true)
@@ -812,5 +858,5 @@ pub async fn serve(
     if let Some(t) = metrics_task {
         t.abort();
     }
-    result.map_err(Into::into)
+    result.map_err(ServeError::Transport)
 }

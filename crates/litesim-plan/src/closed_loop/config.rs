@@ -378,13 +378,13 @@ pub fn load_grid(
             let p = base.join(png);
             let bytes = litesim_core::files::read_bytes(&p, litesim_core::files::MAX_INPUT_BYTES)?;
             OccupancyGrid::from_png(&bytes, m.resolution, origin)
-                .map_err(|e| PlanError::Config(format!("{}: {e}", p.display())))
+                .map_err(|source| PlanError::GridFile { path: p, source })
         }
         (None, Some(xodr)) => {
             let p = base.join(xodr);
             let net = litesim_map::RoadNetwork::load(&p)?;
             net.rasterise(m.resolution, 2.0)
-                .map_err(|e| PlanError::Config(format!("{}: {e}", p.display())))
+                .map_err(|source| PlanError::GridFile { path: p, source })
         }
         (None, None) => Ok(OccupancyGrid::from_obstacles(
             origin,
@@ -401,5 +401,5 @@ pub fn parse_config(text: &str) -> Result<ClosedLoopConfig, PlanError> {
 }
 
 pub(super) fn toml_parse(text: &str) -> Result<ClosedLoopConfig, PlanError> {
-    toml::from_str(text).map_err(|e| PlanError::Config(e.to_string()))
+    Ok(toml::from_str(text)?)
 }

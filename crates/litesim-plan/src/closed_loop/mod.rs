@@ -29,12 +29,45 @@ use litesim_log::{GridRecord, LogRecorder, PlanRecord, SimulationLog, TrackingCo
 use litesim_map::{Obstacle, OccupancyGrid};
 use serde::{Deserialize, Serialize};
 
-/// Why a closed-loop run could not be made.
+/// Why a closed-loop run could not be made. Each message includes its
+/// cause's (the CLI and the SUT print one line), and the cause is also
+/// the error's typed `source()`.
 #[derive(Debug, thiserror::Error)]
 pub enum PlanError {
     /// Bad configuration.
     #[error("configuration: {0}")]
     Config(String),
+    /// Not valid TOML for a configuration (the parser names the key).
+    #[error("configuration: {0}")]
+    Toml(#[from] toml::de::Error),
+    /// A configuration's folder could not be listed.
+    #[error("configuration: cannot read {}: {source}", path.display())]
+    Dir {
+        /// The folder.
+        path: std::path::PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A configuration file is wrong (what is wrong is the source).
+    #[error("configuration: {}: {source}", path.display())]
+    InFile {
+        /// The file.
+        path: std::path::PathBuf,
+        /// What is wrong in it.
+        #[source]
+        source: Box<PlanError>,
+    },
+    /// The map file a configuration names makes no grid (not a PNG, a road
+    /// network with no lanes).
+    #[error("configuration: {}: {source}", path.display())]
+    GridFile {
+        /// The PNG or OpenDRIVE file.
+        path: std::path::PathBuf,
+        /// Why.
+        #[source]
+        source: litesim_map::GridError,
+    },
     /// A file the configuration names could not be read.
     #[error(transparent)]
     Read(#[from] litesim_core::files::ReadError),

@@ -106,8 +106,8 @@ impl DriverParams {
 
     /// Checks every parameter against the range a driver can have; the
     /// error names the parameter, its value and the range.
-    pub fn validate(&self) -> Result<(), String> {
-        let ranges: [(&str, f64, f64, f64); 12] = [
+    pub fn validate(&self) -> Result<(), DriverParamError> {
+        let ranges: [(&'static str, f64, f64, f64); 12] = [
             ("desired_speed", self.desired_speed, 0.0, 100.0),
             ("time_gap", self.time_gap, 0.1, 10.0),
             ("min_gap", self.min_gap, 0.1, 50.0),
@@ -123,19 +123,49 @@ impl DriverParams {
         ];
         for (name, v, lo, hi) in ranges {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
-                return Err(format!(
-                    "driver parameter {name} = {v} is out of range (expected {lo} ..= {hi})"
-                ));
+                return Err(DriverParamError::OutOfRange {
+                    name,
+                    value: v,
+                    lo,
+                    hi,
+                });
             }
         }
         if self.emergency_decel < self.comfort_decel {
-            return Err(format!(
-                "driver parameter emergency_decel = {} is below comfort_decel = {} (the cap must allow the comfortable brake)",
-                self.emergency_decel, self.comfort_decel
-            ));
+            return Err(DriverParamError::CapBelowComfort {
+                emergency_decel: self.emergency_decel,
+                comfort_decel: self.comfort_decel,
+            });
         }
         Ok(())
     }
+}
+
+/// A driver parameter a driver cannot have ([`DriverParams::validate`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DriverParamError {
+    /// A parameter outside its range (or not a number).
+    #[error("driver parameter {name} = {value} is out of range (expected {lo} ..= {hi})")]
+    OutOfRange {
+        /// The parameter.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// The range's ends.
+        lo: f64,
+        /// (inclusive)
+        hi: f64,
+    },
+    /// The emergency cap below the comfortable deceleration.
+    #[error(
+        "driver parameter emergency_decel = {emergency_decel} is below comfort_decel = {comfort_decel} (the cap must allow the comfortable brake)"
+    )]
+    CapBelowComfort {
+        /// The emergency cap (m/s²).
+        emergency_decel: f64,
+        /// The comfortable deceleration (m/s²).
+        comfort_decel: f64,
+    },
 }
 
 /// `x^δ`, multiplied out for the usual δ = 4 (the same bits every run;
@@ -380,8 +410,20 @@ mod tests {
         assert!(p.validate().is_ok());
         p.time_gap = -1.0;
         let e = p.validate().unwrap_err();
-        assert!(e.contains("time_gap = -1"), "{e}");
+        assert!(e.to_string().contains("time_gap = -1"), "{e}");
+        assert!(matches!(
+            e,
+            DriverParamError::OutOfRange {
+                name: "time_gap",
+                ..
+            }
+        ));
         p = car(f64::NAN);
-        assert!(p.validate().unwrap_err().contains("desired_speed"));
+        assert!(
+            p.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("desired_speed")
+        );
     }
 }

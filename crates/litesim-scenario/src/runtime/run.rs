@@ -436,7 +436,7 @@ impl<'a> Runtime<'a> {
         if let Some(p) = self.pacer.as_mut()
             && let Err(msg) = p.release(k)
         {
-            self.realtime_failure = Some(msg);
+            self.realtime_failure = Some(msg.to_string());
             return Ok(false);
         }
         self.simulate(n_steps)?;

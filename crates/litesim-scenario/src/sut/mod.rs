@@ -169,14 +169,44 @@ pub enum SutCommand {
     },
 }
 
+/// A command the vehicle cannot take ([`SutCommand::validate`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum CommandError {
+    /// NaN or infinite.
+    #[error("{name} is {value}, expected a finite number")]
+    NotFinite {
+        /// The command's field.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// Outside the field's range.
+    #[error("{name} is {value}, expected {lo}..{hi}")]
+    OutOfRange {
+        /// The command's field.
+        name: &'static str,
+        /// Its value.
+        value: f64,
+        /// The range's ends.
+        lo: f64,
+        /// (inclusive)
+        hi: f64,
+    },
+}
+
 impl SutCommand {
     /// Every number is finite and pedals/steering are in range.
-    pub fn validate(&self) -> Result<(), String> {
-        let check = |name: &str, v: f64, lo: f64, hi: f64| {
-            if !v.is_finite() {
-                Err(format!("{name} is {v}, expected a finite number"))
-            } else if v < lo || v > hi {
-                Err(format!("{name} is {v}, expected {lo}..{hi}"))
+    pub fn validate(&self) -> Result<(), CommandError> {
+        let check = |name: &'static str, value: f64, lo: f64, hi: f64| {
+            if !value.is_finite() {
+                Err(CommandError::NotFinite { name, value })
+            } else if value < lo || value > hi {
+                Err(CommandError::OutOfRange {
+                    name,
+                    value,
+                    lo,
+                    hi,
+                })
             } else {
                 Ok(())
             }

@@ -216,7 +216,10 @@ impl Driven {
                 })
             },
         )
-        .map_err(|e| ScenarioError::Elaboration(format!("{at}: {e}")))?;
+        .map_err(|source| ScenarioError::Traffic {
+            at: at.to_string(),
+            source,
+        })?;
         let mut actors = Vec::with_capacity(slots.len());
         for (n, &k) in slots.iter().enumerate() {
             let v = &mut me.traffic.vehicles[k as usize];

@@ -20,6 +20,13 @@ pub struct Density {
     pub size: (f64, f64),
 }
 
+/// [`fill`] would place more than [`MAX_VEHICLES`] vehicles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "ambient traffic would place more than {MAX_VEHICLES} vehicles (the documented bound): lower the density or the radius"
+)]
+pub struct TooManyVehicles;
+
 /// Places vehicles on `lanes` (all of the graph's when `None`) at the
 /// density, each at a seeded spacing around the mean, skipping spots
 /// where `keep` (a lane and `u`) says no or an obstacle stands; speeds
@@ -33,7 +40,7 @@ pub fn fill(
     rng: &mut Rng,
     obstacles: &[Obstacle],
     mut keep: impl FnMut(u32, f64) -> bool,
-) -> Result<Vec<u32>, String> {
+) -> Result<Vec<u32>, TooManyVehicles> {
     let spacing = 1000.0 / d.per_km_per_lane;
     let (len, width) = d.size;
     let mut placed: Vec<(u32, f64, f64)> = Vec::new();
@@ -60,9 +67,7 @@ pub fn fill(
                 let v0 = d.speed.0 + rng.unit() * (d.speed.1 - d.speed.0);
                 placed.push((lane, u, v0));
                 if traffic.vehicles.len() + placed.len() > MAX_VEHICLES {
-                    return Err(format!(
-                        "ambient traffic would place more than {MAX_VEHICLES} vehicles (the documented bound): lower the density or the radius"
-                    ));
+                    return Err(TooManyVehicles);
                 }
             }
             // Spacing varies ±30 % around the mean, never below a car and its jam gap.
