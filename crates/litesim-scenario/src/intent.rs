@@ -241,6 +241,10 @@ pub enum Intent {
         strict: bool,
         /// Written as `change_speed` (it does not set the start speed).
         change: bool,
+        /// `faster_than: X` (+1), `slower_than: X` (−1) or `same_as: X` (0):
+        /// the speed is X's speed plus the sign times `speed` (0 when not
+        /// given), as X's plan has it at each sample of the phase.
+        relative: Option<(f64, String)>,
     },
     /// `acceleration(a)`: the rate of the phase's speed changes.
     Acceleration {
@@ -313,6 +317,14 @@ pub enum Intent {
     },
 }
 
+/// The `speed` modifier's references to another actor and the sign of the
+/// offset each means; at most one of them may be given.
+pub const RELATIVE_SPEED: [(&str, f64); 3] = [
+    ("faster_than", 1.0),
+    ("slower_than", -1.0),
+    ("same_as", 0.0),
+];
+
 impl Intent {
     /// Decodes one modifier: its kind (and name, kept for notes), `at:`
     /// text, evaluated values and the actors its parameters name. `None`
@@ -334,12 +346,20 @@ impl Intent {
             _ => default,
         };
         Some(match kind {
-            ModKind::Speed | ModKind::ChangeSpeed => Intent::Speed {
-                speed: num("speed")?,
-                at,
-                strict: strict && kind == ModKind::Speed,
-                change: kind == ModKind::ChangeSpeed,
-            },
+            ModKind::Speed | ModKind::ChangeSpeed => {
+                let relative = RELATIVE_SPEED
+                    .iter()
+                    .find_map(|&(k, sign)| refs.get(k).map(|o| (sign, o.clone())));
+                Intent::Speed {
+                    // Relative to another actor, the speed is an offset: none
+                    // given (`speed(same_as: x)`) is 0.
+                    speed: num("speed").or(relative.as_ref().map(|_| 0.0))?,
+                    at,
+                    strict: strict && kind == ModKind::Speed,
+                    change: kind == ModKind::ChangeSpeed,
+                    relative,
+                }
+            }
             ModKind::Acceleration => Intent::Acceleration {
                 accel: num("acceleration")?,
                 at,
@@ -502,7 +522,8 @@ mod tests {
                 speed: 5.0,
                 at: At::End,
                 strict: true,
-                change: false
+                change: false,
+                relative: None,
             })
         );
         let best = vals(&[

@@ -73,6 +73,7 @@ const ALL: &[&str] = &[
     "ring_follow",
     "same_road_pair",
     "speed_profile",
+    "speed_relative",
     "state_conditions",
     "stationary_obstacle",
     "stop_at_junction",

@@ -290,7 +290,12 @@ impl Elab<'_> {
         }
     }
 
-    pub(super) fn mods(&mut self, with: &[Member], sc: &Scope, out: &mut Vec<Modifier>) {
+    pub(super) fn mods(
+        &mut self,
+        with: &[Member],
+        sc: &Scope,
+        out: &mut Vec<Modifier>,
+    ) -> Result<(), ScenarioError> {
         for m in with {
             match m {
                 Member::Modifier { call, .. } => {
@@ -306,8 +311,26 @@ impl Elab<'_> {
                     let params = self.lib.params(&key);
                     let mut bound = self.bind(args, &params, sc);
                     self.lib.ints_drawn(&key, &mut bound);
+                    let kind = crate::intent::ModKind::of(&name);
+                    if matches!(
+                        kind,
+                        crate::intent::ModKind::Speed | crate::intent::ModKind::ChangeSpeed
+                    ) {
+                        let given: Vec<&str> = crate::intent::RELATIVE_SPEED
+                            .iter()
+                            .map(|(k, _)| *k)
+                            .filter(|k| bound.contains_key(*k))
+                            .collect();
+                        if given.len() > 1 {
+                            return Err(ScenarioError::Elaboration(format!(
+                                "{}: {name}: {} exclude each other (give one reference actor)",
+                                self.lib.at(*span),
+                                given.join(" and ")
+                            )));
+                        }
+                    }
                     out.push(Modifier {
-                        kind: crate::intent::ModKind::of(&name),
+                        kind,
                         args: bound,
                         name,
                         at: self.lib.at(*span),
@@ -345,6 +368,7 @@ impl Elab<'_> {
                 _ => {}
             }
         }
+        Ok(())
     }
 
     /// An invocation in a `do` tree: a traffic light's `switch(color)`, an
@@ -403,7 +427,7 @@ impl Elab<'_> {
                     "{at}: '{name}' needs an actor, e.g. `car1.{name}()`"
                 ))
             })?;
-            self.mods(with, sc, &mut mods);
+            self.mods(with, sc, &mut mods)?;
             Ok(Some(Node::Action {
                 id: 0,
                 label,
@@ -443,7 +467,7 @@ impl Elab<'_> {
                     at: at.clone(),
                 });
             }
-            self.mods(with, sc, &mut mods);
+            self.mods(with, sc, &mut mods)?;
             Ok(Some(Node::Serial {
                 id: 0,
                 label,
@@ -489,7 +513,7 @@ impl Elab<'_> {
                         at: self.lib.at(d.span),
                     });
                 }
-                self.mods(with, sc, &mut mods);
+                self.mods(with, sc, &mut mods)?;
                 Some(match op.as_str() {
                     "parallel" => Node::Parallel {
                         id: 0,

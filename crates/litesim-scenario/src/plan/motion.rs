@@ -167,6 +167,9 @@ pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
                     reference: Some(_),
                     at: At::End,
                     ..
+                } | Intent::Speed {
+                    relative: Some(_),
+                    ..
                 }
             )
         })
@@ -182,6 +185,10 @@ struct Mover<'a> {
     leaf_i: usize,
     /// Target speed.
     target: Option<f64>,
+    /// `speed(…, faster_than|slower_than|same_as: X)` in the phase: X's
+    /// plan index, the offset (m/s) and the phase's end; the target follows
+    /// X's planned speed at every sample until then.
+    relative: Option<(usize, f64, f64)>,
     accel_up: f64,
     accel_down: f64,
     /// A linear speed change to reach by a time: (v0, v1, t1).
@@ -212,6 +219,7 @@ impl<'a> Mover<'a> {
             id,
             leaf_i: 0,
             target: None,
+            relative: None,
             accel_up: ACCEL_UP,
             accel_down: ACCEL_DOWN,
             end_speed: None,
@@ -248,6 +256,7 @@ impl<'a> Mover<'a> {
                 self.enter(k, t, plans)?;
                 self.leaf_i += 1;
             }
+            self.follow_relative(t, plans);
             let prev_v = self.mo.v;
             self.speed(t);
             let (sample, centre) = self.pose(t, prev_v, plans[self.i].kind);
@@ -288,6 +297,7 @@ impl<'a> Mover<'a> {
         self.started = Some(self.leaf_i);
         self.stationary = l.action == Action::RemainStationary;
         self.end_speed = None;
+        self.relative = None;
         self.accel_up = ACCEL_UP;
         self.accel_down = ACCEL_DOWN;
         let first = self.leaf_i == 0;
@@ -314,23 +324,27 @@ impl<'a> Mover<'a> {
                     self.accel_up = accel.abs().max(0.1);
                     self.accel_down = accel.abs().max(0.1);
                 }
-                &Intent::Speed {
-                    speed: v,
+                Intent::Speed {
+                    speed,
                     at,
                     strict,
+                    relative,
                     ..
-                } => match at {
-                    At::End => self.end_speed = Some((self.mo.v, v, l.t1)),
-                    _ => {
-                        if first || (at == At::Start && k == 0) {
-                            self.mo.v = v;
-                        }
-                        self.target = Some(v);
-                        if strict && !first {
-                            self.strict_speed = Some((v, l.at.clone()));
+                } => {
+                    let v = self.relative_speed(l, t, (*speed, *at), relative, plans)?;
+                    match at {
+                        At::End => self.end_speed = Some((self.mo.v, v, l.t1)),
+                        _ => {
+                            if first || (*at == At::Start && k == 0) {
+                                self.mo.v = v;
+                            }
+                            self.target = Some(v);
+                            if *strict && !first {
+                                self.strict_speed = Some((v, l.at.clone()));
+                            }
                         }
                     }
-                },
+                }
                 Intent::Position {
                     distance,
                     reference: Some((order, o)),
@@ -468,6 +482,58 @@ impl<'a> Mover<'a> {
     }
 
     /// The speed of the sample at `t`.
+    /// The speed a `speed` modifier asks for: `speed` itself, or relative
+    /// to another actor its speed in that actor's plan (at the phase's end
+    /// for `at: end`, else now) plus the offset; from now to the phase's end
+    /// the target follows that actor (`follow_relative`).
+    fn relative_speed(
+        &mut self,
+        l: &RLeaf,
+        t: f64,
+        (speed, at): (f64, At),
+        relative: &Option<(f64, String)>,
+        plans: &[ActorPlan],
+    ) -> Result<f64, ScenarioError> {
+        let Some((sign, o)) = relative else {
+            return Ok(speed);
+        };
+        let j = plans
+            .iter()
+            .position(|p| p.id == *o && !p.samples.is_empty())
+            .filter(|&j| j != self.i)
+            .ok_or_else(|| {
+                ScenarioError::Plan(format!(
+                    "{}: {}'s speed is relative to {o}, whose own motion is not planned before it (a reference to itself, or to an actor whose speed or gap is relative to another in turn)",
+                    l.at, self.id
+                ))
+            })?;
+        let off = sign * speed;
+        let end = l.t1;
+        let at_end = at == At::End;
+        if !at_end {
+            self.relative = Some((j, off, end));
+        }
+        let when = if at_end { end } else { t };
+        Ok((plans[j].at(when, self.cx.dt).v + off).max(0.0))
+    }
+
+    /// Under a relative speed, the target (and a strict speed still to
+    /// reach) is the reference's planned speed now plus the offset.
+    fn follow_relative(&mut self, t: f64, plans: &[ActorPlan]) {
+        let Some((j, off, end)) = self.relative else {
+            return;
+        };
+        if t > end + 1e-9 {
+            self.relative = None;
+            return;
+        }
+        let v = (plans[j].at(t, self.cx.dt).v + off).max(0.0);
+        self.target = Some(v);
+        if let Some((sv, _)) = &mut self.strict_speed {
+            *sv = v;
+        }
+    }
+
     fn speed(&mut self, t: f64) {
         let mo = &mut self.mo;
         if self.stationary || self.dead_end {

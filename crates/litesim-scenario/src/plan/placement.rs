@@ -121,8 +121,17 @@ pub(super) fn place(
         Intent::Speed {
             speed,
             change: false,
+            relative: None,
             ..
         } => Some(*speed),
+        // Relative to an actor placed already: its speed plus the offset
+        // (the motion then follows that actor's plan).
+        Intent::Speed {
+            speed,
+            change: false,
+            relative: Some((sign, o)),
+            ..
+        } => placed.get(o).map(|p| (p.v + sign * speed).max(0.0)),
         _ => None,
     });
     mo.v = match (v0, me.kind) {
