@@ -21,15 +21,29 @@ pub enum Action {
     Walk,
     /// `move()`: any actor moves.
     Move,
+    /// `keep_speed()`: holds the speed it starts with, for the phase.
+    KeepSpeed,
+    /// `change_speed(target, …)`: reaches the target speed at the rate
+    /// asked; ends when it is reached.
+    ChangeSpeed,
+    /// `change_lane(num_of_lanes, side, …)`: changes lanes; ends in the
+    /// target lane.
+    ChangeLane,
+    /// `follow_lane()`: keeps to its lane, for the phase.
+    FollowLane,
 }
 
 impl Action {
     /// Every action, in the order the domain declares them.
-    pub const ALL: [Action; 4] = [
+    pub const ALL: [Action; 8] = [
         Action::Drive,
         Action::RemainStationary,
         Action::Walk,
         Action::Move,
+        Action::KeepSpeed,
+        Action::ChangeSpeed,
+        Action::ChangeLane,
+        Action::FollowLane,
     ];
 
     /// The action called `name`; `None` for names the domain does not have
@@ -40,6 +54,10 @@ impl Action {
             "remain_stationary" => Action::RemainStationary,
             "walk" => Action::Walk,
             "move" => Action::Move,
+            "keep_speed" => Action::KeepSpeed,
+            "change_speed" => Action::ChangeSpeed,
+            "change_lane" => Action::ChangeLane,
+            "follow_lane" => Action::FollowLane,
             _ => return None,
         })
     }
@@ -51,6 +69,10 @@ impl Action {
             Action::RemainStationary => "remain_stationary",
             Action::Walk => "walk",
             Action::Move => "move",
+            Action::KeepSpeed => "keep_speed",
+            Action::ChangeSpeed => "change_speed",
+            Action::ChangeLane => "change_lane",
+            Action::FollowLane => "follow_lane",
         }
     }
 }

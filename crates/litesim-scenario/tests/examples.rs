@@ -72,6 +72,7 @@ const ALL: &[&str] = &[
     "red_light_run",
     "ring_follow",
     "same_road_pair",
+    "speed_and_lane_actions",
     "speed_profile",
     "speed_relative",
     "state_conditions",

@@ -114,3 +114,102 @@ fn a_speed_relative_to_itself_is_a_planning_error() {
     assert!(matches!(e, ScenarioError::Plan(_)), "{e:?}");
     assert!(e.to_string().contains("relative to sut.car"), "{e}");
 }
+
+/// A phase of the plan by label: (t0, t1).
+fn phase(r: &RunResult, label: &str) -> (f64, f64) {
+    let p = r
+        .plan
+        .phases
+        .iter()
+        .find(|p| p.label.as_deref() == Some(label))
+        .unwrap_or_else(|| panic!("no phase {label}"));
+    (p.t0, p.t1)
+}
+
+/// The planned sample of `id` at time `t`.
+fn sample(r: &RunResult, id: &str, t: f64) -> litesim_scenario::plan::PlanSample {
+    let a = r.plan.actors.iter().find(|a| a.id == id).unwrap();
+    a.at(t, r.plan.dt)
+}
+
+#[test]
+fn speed_and_lane_actions_end_when_done_and_hold_for_their_phase() {
+    let r = go("speed_and_lane_actions", Npc::Planned);
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let dt = r.plan.dt;
+    // change_speed(90kph, rate_peak: 1.5mpsps) from 60 km/h: Δv / rate,
+    // to the plan's step; it ends at the target.
+    let (t0, t1) = phase(&r, "faster");
+    let need = kph(30.0) / 1.5;
+    assert!(
+        (t1 - t0 - need).abs() <= dt + 1e-9,
+        "faster took {} s, {need} s needed",
+        t1 - t0
+    );
+    assert!((sample(&r, "sut.car", t1).v - kph(90.0)).abs() < 1e-9);
+    assert!(sample(&r, "sut.car", t1 - 2.0 * dt).v < kph(90.0) - 1e-6);
+    // keep_speed(): the speed it started with, all along.
+    let (h0, h1) = phase(&r, "hold");
+    assert!((h1 - h0 - 3.0).abs() < 1e-9);
+    let mut t = h0;
+    while t <= h1 {
+        assert!(
+            (sample(&r, "sut.car", t).v - kph(90.0)).abs() < 1e-9,
+            "t = {t}"
+        );
+        t += dt;
+    }
+    // change_lane(1, left): the lane change's 3 s, one lane (3.5 m) over.
+    let (c0, c1) = phase(&r, "over");
+    assert!((c1 - c0 - 3.0).abs() < 1e-9);
+    let (y0, y1) = (sample(&r, "sut.car", c0).y, sample(&r, "sut.car", c1).y);
+    assert!(((y1 - y0) - 3.5).abs() < 1e-6, "from y = {y0} to {y1}");
+    // follow_lane(): stays in that lane.
+    let (f0, f1) = phase(&r, "follow");
+    assert!((sample(&r, "sut.car", f0).y - y1).abs() < 1e-6);
+    assert!((sample(&r, "sut.car", f1).y - y1).abs() < 1e-6);
+    // change_speed(70kph) at the default 4 m/s² down.
+    let (s0, s1) = phase(&r, "slower");
+    assert!(
+        (s1 - s0 - kph(20.0) / 4.0).abs() <= dt + 1e-9,
+        "{}",
+        s1 - s0
+    );
+    assert!((sample(&r, "sut.car", s1).v - kph(70.0)).abs() < 1e-9);
+    assert_eq!(r.plan.duration, s1);
+}
+
+#[test]
+fn what_the_actions_cannot_honour_is_an_error_naming_it() {
+    let cases = [
+        (
+            "sut.car.keep_speed() with:\n            speed(50kph)\n            duration(2s)",
+            "a speed modifier contradicts it",
+        ),
+        (
+            "sut.car.change_speed(50kph, rate_profile: smooth)",
+            "change_speed(rate_profile: smooth) is not supported",
+        ),
+        (
+            "sut.car.change_lane(1, left, offset: 1m)",
+            "change_lane(offset: …) is not supported",
+        ),
+        (
+            "sut.car.follow_lane(offset: 0.5m) with:\n            duration(2s)",
+            "follow_lane(offset: …) is not supported",
+        ),
+    ];
+    for (action, says) in cases {
+        let f = example_file(&format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            duration(1s)\n        {action}\n"
+        ));
+        let e = prepare(f.path(), &Default::default()).unwrap_err();
+        assert!(
+            matches!(e, ScenarioError::Elaboration(_)),
+            "{action}: {e:?}"
+        );
+        let m = e.to_string();
+        assert!(m.contains(says), "{action}: {m}");
+        assert!(m.contains(".osc:"), "{action}: {m}");
+    }
+}

@@ -39,6 +39,10 @@ pub const MAX_DURATION_S: f64 = 3600.0;
 
 /// Default leaf duration when nothing gives one (s).
 pub const DEFAULT_PHASE_S: f64 = 5.0;
+
+/// How long a lane change takes from lane to lane (s): a `change_lane()`
+/// action without a duration lasts this long, and so do the drivers'.
+pub const LANE_CHANGE_S: f64 = 3.0;
 const ACCEL_UP: f64 = 2.5;
 const ACCEL_DOWN: f64 = 4.0;
 const WALK_SPEED: f64 = 1.4;
@@ -420,7 +424,7 @@ pub fn plan_with(
     let mut events = fixed.clone();
     for round in 0..8 {
         let mut r = start.clone();
-        let (mut p, conds) = plan_once(test, sol, net, step_s, &mut r, &events)?;
+        let (mut p, conds, reached) = plan_once(test, sol, net, step_s, &mut r, &events)?;
         // A time once found is kept: a phase cut at the moment its
         // condition becomes true may keep it from becoming true in the
         // next layout (the cut changes the motion from that sample on), so
@@ -428,6 +432,12 @@ pub fn plan_with(
         // each round evaluates the conditions not yet timed on a layout
         // that already honours the earlier ones.
         let mut next = events.clone();
+        // How long each `change_speed` took to reach its target: kept
+        // once found, like the condition times (its start speed comes
+        // from the phases before it, which do not depend on it).
+        for (key, d) in reached {
+            next.entry(key).or_insert(d);
+        }
         let mut never = 0;
         let mut unsupported = 0;
         for (key, t0, c) in &conds {
@@ -484,7 +494,7 @@ fn plan_once(
     step_s: f64,
     rng: &mut Rng,
     cond_events: &BTreeMap<String, f64>,
-) -> Result<(Plan, Vec<(String, f64, CExpr)>), ScenarioError> {
+) -> Result<(Plan, Vec<(String, f64, CExpr)>, Vec<(String, f64)>), ScenarioError> {
     let Some(root) = &test.root else {
         return Err(ScenarioError::no_behaviour());
     };
@@ -536,6 +546,7 @@ fn plan_once(
         mut goals,
         lane_goals,
         side_follows,
+        reached,
         ..
     } = move_all(&cx, &mut plans, &order, free)?;
     let mut phases: Vec<Phase> = rleaves
@@ -576,6 +587,7 @@ fn plan_once(
             notes,
         },
         conds,
+        reached,
     ))
 }
 

@@ -35,6 +35,8 @@ pub(super) fn actor_ref(e: Option<&CExpr>, ids: &BTreeMap<String, String>) -> Op
 
 /// A leaf with its modifiers decoded and their arguments evaluated.
 pub(super) struct RLeaf {
+    /// The action node's id.
+    pub(super) id: u32,
     pub(super) actor: String,
     pub(super) action: Action,
     pub(super) label: Option<String>,
@@ -75,6 +77,7 @@ pub(super) fn resolve_leaves(
             }
         }
         rleaves.push(RLeaf {
+            id: l.id,
             actor: l.actor.clone(),
             action: l.action,
             label: l.label.clone(),
@@ -97,6 +100,9 @@ pub(super) struct Moved {
     pub(super) goals: Vec<GapGoal>,
     pub(super) lane_goals: Vec<LaneGoal>,
     pub(super) side_follows: Vec<SideFollow>,
+    /// How long each `change_speed` action took to reach its target
+    /// (`reach@N`, s): its natural duration in the next layout.
+    pub(super) reached: Vec<(String, f64)>,
 }
 
 /// What every actor's motion reads: the map, the leaves, where each actor
@@ -130,6 +136,7 @@ pub(super) fn move_all(
         all.goals.extend(m.goals);
         all.lane_goals.extend(m.lane_goals);
         all.side_follows.extend(m.side_follows);
+        all.reached.extend(m.reached);
     };
     let moved: Vec<Result<Moved, ScenarioError>> = if free >= crate::PARALLEL_ACTORS {
         use rayon::prelude::*;
@@ -185,6 +192,8 @@ struct Mover<'a> {
     leaf_i: usize,
     /// Target speed.
     target: Option<f64>,
+    /// A `change_speed` action under way: its node id, target and start.
+    reaching: Option<(u32, f64, f64)>,
     /// `speed(…, faster_than|slower_than|same_as: X)` in the phase: X's
     /// plan index, the offset (m/s) and the phase's end; the target follows
     /// X's planned speed at every sample until then.
@@ -219,6 +228,7 @@ impl<'a> Mover<'a> {
             id,
             leaf_i: 0,
             target: None,
+            reaching: None,
             relative: None,
             accel_up: ACCEL_UP,
             accel_down: ACCEL_DOWN,
@@ -259,6 +269,7 @@ impl<'a> Mover<'a> {
             self.follow_relative(t, plans);
             let prev_v = self.mo.v;
             self.speed(t);
+            self.note_reached(t, prev_v);
             let (sample, centre) = self.pose(t, prev_v, plans[self.i].kind);
             self.out.samples.push(sample);
             self.advance(t, centre);
@@ -298,6 +309,7 @@ impl<'a> Mover<'a> {
         self.stationary = l.action == Action::RemainStationary;
         self.end_speed = None;
         self.relative = None;
+        self.reaching = None;
         self.accel_up = ACCEL_UP;
         self.accel_down = ACCEL_DOWN;
         let first = self.leaf_i == 0;
@@ -364,7 +376,39 @@ impl<'a> Mover<'a> {
                 _ => {}
             }
         }
+        match l.action {
+            // It holds the speed it has now (not a target still ahead).
+            Action::KeepSpeed => {
+                self.target = Some(self.mo.v);
+                self.end_speed = None;
+            }
+            Action::ChangeSpeed => {
+                if let Some(v) = self.target {
+                    self.reaching = Some((l.id, v, t));
+                }
+            }
+            _ => {}
+        }
         Ok(())
+    }
+
+    /// A `change_speed` action that reached its target with the step at
+    /// `t` (speed `prev_v` before it): how long it took, for the next
+    /// layout. A sample's speed is the one its step reached, so the phase
+    /// takes that sample too and the next phase starts at the target; one
+    /// already at its target takes no time.
+    fn note_reached(&mut self, t: f64, prev_v: f64) {
+        if let Some((id, v, t0)) = self.reaching
+            && (self.mo.v - v).abs() < 1e-9
+        {
+            let took = if (prev_v - v).abs() < 1e-9 {
+                t - t0
+            } else {
+                t - t0 + self.cx.dt
+            };
+            self.out.reached.push((super::timer::reach_key(id), took));
+            self.reaching = None;
+        }
     }
 
     /// `position(d, ahead_of/behind: o, at: end)`: a gap goal, and the

@@ -5,6 +5,8 @@
 use super::*;
 
 pub(super) struct Leaf<'a> {
+    /// The action node's id.
+    pub(super) id: u32,
     pub(super) actor: String,
     pub(super) action: Action,
     pub(super) label: Option<String>,
@@ -12,6 +14,17 @@ pub(super) struct Leaf<'a> {
     pub(super) at: String,
     pub(super) t0: f64,
     pub(super) t1: f64,
+}
+
+/// How long a `change_speed` phase is laid out before its motion has found
+/// when it reaches its target (s): long enough for any change at a rate a
+/// vehicle has; the next layout uses the time found.
+pub const PROVISIONAL_REACH_S: f64 = 60.0;
+
+/// The key of the time a `change_speed` action (node `id`) took to reach
+/// its target, kept between layouts with the condition times.
+pub(super) fn reach_key(id: u32) -> String {
+    format!("reach@{id}")
 }
 
 pub(super) struct Timer<'a> {
@@ -86,6 +99,24 @@ impl<'a> Timer<'a> {
         Some(d).filter(|d| *d >= 0.0)
     }
 
+    /// The natural duration of an action that ends by itself: a lane
+    /// change its usual time; a speed change the time its motion took to
+    /// reach the target in the previous layout (`reach@N`), or, before
+    /// one was made, [`PROVISIONAL_REACH_S`] for the motion to find it in.
+    /// Other actions last their phase (none).
+    fn action_natural(&self, action: Action, id: u32) -> Option<f64> {
+        match action {
+            Action::ChangeLane => Some(super::LANE_CHANGE_S),
+            Action::ChangeSpeed => Some(
+                self.cond_events
+                    .get(&reach_key(id))
+                    .copied()
+                    .unwrap_or(PROVISIONAL_REACH_S),
+            ),
+            _ => None,
+        }
+    }
+
     /// Natural duration: explicit, or from the children.
     pub(super) fn natural(
         &mut self,
@@ -120,7 +151,7 @@ impl<'a> Timer<'a> {
                     .and_then(|e| eval(e, self.sol, &mut self.rng))
                     .and_then(|v| v.num()),
                 Node::Emit { .. } | Node::Switch { .. } => Some(0.0),
-                Node::Action { .. } => None,
+                Node::Action { action, id, .. } => self.action_natural(*action, *id),
             }
         };
         memo.insert(key, v);
@@ -190,15 +221,16 @@ impl<'a> Timer<'a> {
     ) -> f64 {
         match n {
             Node::Action {
+                id,
                 actor,
                 action,
                 label,
                 mods,
                 at,
-                ..
             } => {
                 let d = dur.unwrap_or(DEFAULT_PHASE_S);
                 self.leaves.push(Leaf {
+                    id: *id,
                     actor: actor.clone(),
                     action: *action,
                     label: label.clone(),

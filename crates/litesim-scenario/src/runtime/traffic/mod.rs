@@ -27,8 +27,9 @@ pub mod spawn;
 use super::driver::{self, DriverParams, LaneChangeCase, Leader};
 pub use lanes::{Conflict, ConflictArea, LaneGraph, LaneInfo};
 
-/// How long a lane change takes from lane to lane (s).
-pub const LANE_CHANGE_S: f64 = 3.0;
+/// How long a lane change takes from lane to lane (s): the plan's
+/// (a `change_lane()` action lasts as long).
+pub const LANE_CHANGE_S: f64 = crate::plan::LANE_CHANGE_S;
 /// How often a driver weighs a lane change (s), staggered over drivers
 /// (highway-env's `LANE_CHANGE_DELAY`).
 pub const DECISION_PERIOD_S: f64 = 1.0;
