@@ -31,11 +31,14 @@ pub enum Action {
     ChangeLane,
     /// `follow_lane()`: keeps to its lane, for the phase.
     FollowLane,
+    /// `assign_speed(speed)`: has that speed at once (exactness over
+    /// physics); takes no time.
+    AssignSpeed,
 }
 
 impl Action {
     /// Every action, in the order the domain declares them.
-    pub const ALL: [Action; 8] = [
+    pub const ALL: [Action; 9] = [
         Action::Drive,
         Action::RemainStationary,
         Action::Walk,
@@ -44,6 +47,7 @@ impl Action {
         Action::ChangeSpeed,
         Action::ChangeLane,
         Action::FollowLane,
+        Action::AssignSpeed,
     ];
 
     /// The action called `name`; `None` for names the domain does not have
@@ -58,6 +62,7 @@ impl Action {
             "change_speed" => Action::ChangeSpeed,
             "change_lane" => Action::ChangeLane,
             "follow_lane" => Action::FollowLane,
+            "assign_speed" => Action::AssignSpeed,
             _ => return None,
         })
     }
@@ -73,6 +78,7 @@ impl Action {
             Action::ChangeSpeed => "change_speed",
             Action::ChangeLane => "change_lane",
             Action::FollowLane => "follow_lane",
+            Action::AssignSpeed => "assign_speed",
         }
     }
 }
@@ -114,6 +120,14 @@ pub enum ModKind {
     Lateral,
     /// `along(…)`.
     Along,
+    /// `keep_speed()`.
+    KeepSpeed,
+    /// `keep_position()`.
+    KeepPosition,
+    /// `distance(d)`: the distance travelled in the phase.
+    Distance,
+    /// `physical_movement(option)`.
+    PhysicalMovement,
     /// Any other modifier: planning has no use for it (a note names it).
     Other,
 }
@@ -132,6 +146,10 @@ impl ModKind {
             "change_lane" => ModKind::ChangeLane,
             "lateral" => ModKind::Lateral,
             "along" => ModKind::Along,
+            "keep_speed" => ModKind::KeepSpeed,
+            "keep_position" => ModKind::KeepPosition,
+            "distance" => ModKind::Distance,
+            "physical_movement" => ModKind::PhysicalMovement,
             _ => ModKind::Other,
         }
     }
@@ -330,6 +348,29 @@ pub enum Intent {
         /// When.
         at: At,
     },
+    /// `keep_speed()`: the speed at the phase's start, held.
+    KeepSpeed {
+        /// When.
+        at: At,
+    },
+    /// `keep_position()`: stays where it is for the phase.
+    KeepPosition {
+        /// When.
+        at: At,
+    },
+    /// `distance(d)`: travels `d` in the phase.
+    Distance {
+        /// Metres.
+        distance: f64,
+        /// When.
+        at: At,
+    },
+    /// `physical_movement(option)`: litesim's motion is always physical;
+    /// `prefer_non_physical` is a preference it notes.
+    PhysicalMovement {
+        /// The option's name.
+        option: String,
+    },
     /// A modifier the planner has no use for (kept so a note can name it).
     Other {
         /// Its name.
@@ -435,6 +476,15 @@ impl Intent {
                 start_offset: num("start_offset"),
                 at,
             },
+            ModKind::KeepSpeed => Intent::KeepSpeed { at },
+            ModKind::KeepPosition => Intent::KeepPosition { at },
+            ModKind::Distance => Intent::Distance {
+                distance: num("distance")?,
+                at,
+            },
+            ModKind::PhysicalMovement => Intent::PhysicalMovement {
+                option: text("option").unwrap_or_default(),
+            },
             ModKind::Duration | ModKind::Until | ModKind::Other => Intent::Other {
                 name: name.to_string(),
                 at,
@@ -452,7 +502,11 @@ impl Intent {
             | Intent::ChangeLane { at, .. }
             | Intent::Lateral { at, .. }
             | Intent::Along { at, .. }
+            | Intent::KeepSpeed { at }
+            | Intent::KeepPosition { at }
+            | Intent::Distance { at, .. }
             | Intent::Other { at, .. } => *at,
+            Intent::PhysicalMovement { .. } => At::All,
         }
     }
 

@@ -61,6 +61,7 @@ const ALL: &[&str] = &[
     "cyclist_ahead",
     "emit_wait_until",
     "follow",
+    "hold_and_travel",
     "lane_change",
     "lead_brakes",
     "obstacle_avoidance",

@@ -213,3 +213,111 @@ fn what_the_actions_cannot_honour_is_an_error_naming_it() {
         assert!(m.contains(".osc:"), "{action}: {m}");
     }
 }
+
+#[test]
+fn move_and_keep_lane_plan_like_a_drive_in_its_lane() {
+    let body = |action: &str, m: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.{action}() with:\n        speed(40kph)\n        along(r, at: start)\n        lane(1, at: start)\n{m}        duration(4s)\n"
+        )
+    };
+    let plan = |text: String| {
+        let f = example_file(&text);
+        let p = prepare(f.path(), &Default::default()).unwrap();
+        let r = run(
+            &p,
+            &mut litesim_scenario::in_process(),
+            &RunOptions::default(),
+        )
+        .unwrap();
+        assert!(r.summary.pass, "{:?}", r.summary.failures);
+        r.plan.actors[0].samples.clone()
+    };
+    let drive = plan(body("drive", ""));
+    let moved = plan(body("move", ""));
+    let kept = plan(body("drive", "        keep_lane()\n"));
+    assert_eq!(drive, moved);
+    assert_eq!(drive, kept);
+    let y0 = drive[0].y;
+    assert!(drive.iter().all(|s| (s.y - y0).abs() < 1e-9));
+    assert!((drive.last().unwrap().v - kph(40.0)).abs() < 1e-9);
+}
+
+#[test]
+fn holding_travelling_and_assigning_do_what_they_say() {
+    let r = go("hold_and_travel", Npc::Planned);
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let dt = r.plan.dt;
+    let at = |t: f64| sample(&r, "sut.car", t);
+    // keep_speed(): 60 km/h all through its phase.
+    let (h0, h1) = phase(&r, "hold");
+    let mut t = h0;
+    while t <= h1 + 1e-9 {
+        assert!((at(t).v - kph(60.0)).abs() < 1e-9, "hold at {t}");
+        t += dt;
+    }
+    // distance(50m) in 5 s: 50 m between the phase's ends (within 2 %, the
+    // plan's step), by a linear speed change.
+    let (d0, d1) = phase(&r, "travel");
+    let travelled = at(d1).x - at(d0).x;
+    assert!((travelled - 50.0).abs() < 1.0, "travelled {travelled} m");
+    // assign_speed(30kph): no time, and 30 km/h at once.
+    let (j0, j1) = phase(&r, "jump");
+    assert_eq!(j0, j1);
+    assert!((at(j0).v - kph(30.0)).abs() < 1e-9, "{}", at(j0).v);
+    let (o0, o1) = phase(&r, "on");
+    assert!((at(o1 - dt).v - kph(30.0)).abs() < 1e-9);
+    assert_eq!(o0, j1);
+    // keep_position(): stands where it is.
+    let (s0, s1) = phase(&r, "stand");
+    assert_eq!(at(s0).v, 0.0);
+    assert_eq!(at(s0).x, at(s1).x);
+    // must_be_physical is what litesim does: no note; prefer_non_physical
+    // is noted (below).
+    assert!(
+        r.plan
+            .notes
+            .iter()
+            .all(|n| !n.contains("physical_movement"))
+    );
+}
+
+#[test]
+fn a_held_speed_or_position_contradicted_in_the_same_block_is_an_error() {
+    for (mods, says) in [
+        (
+            "keep_speed()\n            speed(50kph)",
+            "keep_speed() contradicts speed",
+        ),
+        (
+            "keep_position()\n            distance(20m)",
+            "keep_position() contradicts distance",
+        ),
+    ] {
+        let f = example_file(&format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n            along(r, at: start)\n            {mods}\n            duration(2s)\n"
+        ));
+        let e = prepare(f.path(), &Default::default()).unwrap_err();
+        assert!(matches!(e, ScenarioError::Elaboration(_)), "{mods}: {e:?}");
+        assert!(e.to_string().contains(says), "{mods}: {e}");
+    }
+    // A preference litesim cannot take is noted, not dropped.
+    let f = example_file(&format!(
+        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(30kph)\n        along(r, at: start)\n        physical_movement(prefer_non_physical)\n        duration(2s)\n"
+    ));
+    let p = prepare(f.path(), &Default::default()).unwrap();
+    let r = run(
+        &p,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        r.plan
+            .notes
+            .iter()
+            .any(|n| n.contains("physical_movement(prefer_non_physical)")),
+        "{:?}",
+        r.plan.notes
+    );
+}

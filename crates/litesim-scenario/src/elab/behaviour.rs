@@ -368,6 +368,23 @@ impl Elab<'_> {
                 _ => {}
             }
         }
+        // What holds a speed contradicts what sets one in the same block.
+        use crate::intent::ModKind as K;
+        let of = |k: &[K]| out.iter().find(|m| k.contains(&m.kind));
+        for (holds, sets) in [
+            (K::KeepSpeed, &[K::Speed, K::ChangeSpeed, K::Distance][..]),
+            (
+                K::KeepPosition,
+                &[K::Speed, K::ChangeSpeed, K::Distance, K::KeepSpeed][..],
+            ),
+        ] {
+            if let (Some(h), Some(s)) = (of(&[holds]), of(sets)) {
+                return Err(ScenarioError::Elaboration(format!(
+                    "{}: {}() contradicts {} at {}",
+                    h.at, h.name, s.name, s.at
+                )));
+            }
+        }
         Ok(())
     }
 
@@ -590,6 +607,26 @@ impl Elab<'_> {
                 if bound.contains_key("rate_peak") {
                     return refuse("rate_peak: …");
                 }
+            }
+            Action::AssignSpeed => {
+                let Some(v) = bound.get("speed").cloned() else {
+                    return Err(ScenarioError::Elaboration(format!(
+                        "{at}: assign_speed needs a speed, e.g. `assign_speed(50kph)`"
+                    )));
+                };
+                if let Some(m) = speed_mods() {
+                    return Err(ScenarioError::Elaboration(format!(
+                        "{m}: assign_speed at {at} sets the speed itself: a speed modifier contradicts it"
+                    )));
+                }
+                mods.push(implicit(
+                    ModKind::Speed,
+                    "speed",
+                    vec![
+                        ("speed", v),
+                        ("run_mode", CExpr::Const(Value::Enum("best_effort".into()))),
+                    ],
+                ));
             }
             Action::Drive | Action::RemainStationary | Action::Walk | Action::Move => {}
         }

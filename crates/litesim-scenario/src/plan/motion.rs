@@ -312,6 +312,7 @@ impl<'a> Mover<'a> {
         self.reaching = None;
         self.accel_up = ACCEL_UP;
         self.accel_down = ACCEL_DOWN;
+        let mut keep_speed = false;
         let first = self.leaf_i == 0;
         for m in &l.mods {
             match m {
@@ -373,11 +374,30 @@ impl<'a> Mover<'a> {
                     at: At::End,
                     strict,
                 } => self.lane_goal(l, *lane, reference.as_ref(), *strict),
+                Intent::KeepSpeed { .. } => keep_speed = true,
+                Intent::KeepPosition { .. } => self.stationary = true,
+                // Travels `d` by the phase's end: a linear speed change from
+                // the speed it has, (v0 + v1) / 2 · T = d.
+                &Intent::Distance { distance, .. } => {
+                    let dur = (l.t1 - t).max(self.cx.dt);
+                    let v1 = (2.0 * distance / dur - self.mo.v).max(0.0);
+                    self.end_speed = Some((self.mo.v, v1, l.t1));
+                }
+                Intent::PhysicalMovement { option } if option == "prefer_non_physical" => {
+                    self.out.notes.push(format!(
+                        "{}: physical_movement(prefer_non_physical): {} moves physically (within its acceleration), as the preference allows",
+                        l.at, self.id
+                    ));
+                }
                 _ => {}
             }
         }
         match l.action {
             // It holds the speed it has now (not a target still ahead).
+            _ if keep_speed => {
+                self.target = Some(self.mo.v);
+                self.end_speed = None;
+            }
             Action::KeepSpeed => {
                 self.target = Some(self.mo.v);
                 self.end_speed = None;
@@ -385,6 +405,12 @@ impl<'a> Mover<'a> {
             Action::ChangeSpeed => {
                 if let Some(v) = self.target {
                     self.reaching = Some((l.id, v, t));
+                }
+            }
+            // At once: exactness over physics.
+            Action::AssignSpeed => {
+                if let Some(v) = self.target {
+                    self.mo.v = v;
                 }
             }
             _ => {}
