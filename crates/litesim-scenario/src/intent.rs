@@ -34,11 +34,17 @@ pub enum Action {
     /// `assign_speed(speed)`: has that speed at once (exactness over
     /// physics); takes no time.
     AssignSpeed,
+    /// `keep_space_gap(reference)`: keeps the gap to the actor ahead that
+    /// it has at its start, for the phase.
+    KeepSpaceGap,
+    /// `keep_time_headway(reference)`: keeps the time headway to the actor
+    /// ahead that it has at its start, for the phase (an ACC's following).
+    KeepTimeHeadway,
 }
 
 impl Action {
     /// Every action, in the order the domain declares them.
-    pub const ALL: [Action; 9] = [
+    pub const ALL: [Action; 11] = [
         Action::Drive,
         Action::RemainStationary,
         Action::Walk,
@@ -48,6 +54,8 @@ impl Action {
         Action::ChangeLane,
         Action::FollowLane,
         Action::AssignSpeed,
+        Action::KeepSpaceGap,
+        Action::KeepTimeHeadway,
     ];
 
     /// The action called `name`; `None` for names the domain does not have
@@ -63,6 +71,8 @@ impl Action {
             "change_lane" => Action::ChangeLane,
             "follow_lane" => Action::FollowLane,
             "assign_speed" => Action::AssignSpeed,
+            "keep_space_gap" => Action::KeepSpaceGap,
+            "keep_time_headway" => Action::KeepTimeHeadway,
             _ => return None,
         })
     }
@@ -79,6 +89,8 @@ impl Action {
             Action::ChangeLane => "change_lane",
             Action::FollowLane => "follow_lane",
             Action::AssignSpeed => "assign_speed",
+            Action::KeepSpaceGap => "keep_space_gap",
+            Action::KeepTimeHeadway => "keep_time_headway",
         }
     }
 }
@@ -128,6 +140,11 @@ pub enum ModKind {
     Distance,
     /// `physical_movement(option)`.
     PhysicalMovement,
+    /// The gap a `keep_space_gap` action keeps (made by elaboration from
+    /// the action's `reference`; no modifier has this name).
+    KeepSpaceGap,
+    /// The time headway a `keep_time_headway` action keeps (likewise).
+    KeepTimeHeadway,
     /// Any other modifier: planning has no use for it (a note names it).
     Other,
 }
@@ -365,6 +382,14 @@ pub enum Intent {
         /// When.
         at: At,
     },
+    /// Keeps the gap (`headway` false) or the time headway (true) to
+    /// `reference`, as they are at the phase's start.
+    KeepGap {
+        /// The actor ahead.
+        reference: String,
+        /// Time headway rather than space gap.
+        headway: bool,
+    },
     /// `physical_movement(option)`: litesim's motion is always physical;
     /// `prefer_non_physical` is a preference it notes.
     PhysicalMovement {
@@ -482,6 +507,10 @@ impl Intent {
                 distance: num("distance")?,
                 at,
             },
+            ModKind::KeepSpaceGap | ModKind::KeepTimeHeadway => Intent::KeepGap {
+                reference: refs.get("reference")?.clone(),
+                headway: kind == ModKind::KeepTimeHeadway,
+            },
             ModKind::PhysicalMovement => Intent::PhysicalMovement {
                 option: text("option").unwrap_or_default(),
             },
@@ -506,7 +535,7 @@ impl Intent {
             | Intent::KeepPosition { at }
             | Intent::Distance { at, .. }
             | Intent::Other { at, .. } => *at,
-            Intent::PhysicalMovement { .. } => At::All,
+            Intent::PhysicalMovement { .. } | Intent::KeepGap { .. } => At::All,
         }
     }
 

@@ -68,6 +68,7 @@ const ALL: &[&str] = &[
     "oncoming",
     "one_of_speed",
     "overtake",
+    "platoon",
     "pedestrian_crossing",
     "random_duration",
     "red_light_run",
@@ -377,6 +378,12 @@ fn dynamic_constant_speed_is_held_exactly() {
 #[test]
 fn dynamic_runs_follow_the_plan() {
     for n in ALL {
+        // assign_speed and keep_position ask for exactness over physics:
+        // the plan's speed jumps (to 30 km/h, to a standstill), which no
+        // vehicle model follows (tests/stdlib.rs checks that plan).
+        if *n == "hold_and_travel" {
+            continue;
+        }
         let r = go(n, 1, DriveMode::Dynamic);
         // From standstill at ≥ 2 m/s² the dummy model's throttle saturates
         // (4 m/s² minus its 2 m/s² free deceleration): the lag is physical.

@@ -503,9 +503,7 @@ impl Elab<'_> {
     }
 
     /// A standard-library action's parameters as the modifiers that plan
-    /// it (`change_speed(v)` asks `speed(v)` at its rate, `change_lane(n,
-    /// side)` a `change_lane(n, side)`); what litesim cannot honour is an
-    /// error naming it, never dropped.
+    /// it ([`stdlib::StdCall`](super::stdlib::StdCall)).
     fn std_action(
         &mut self,
         action: crate::intent::Action,
@@ -514,123 +512,14 @@ impl Elab<'_> {
         at: &str,
         mods: &mut Vec<Modifier>,
     ) -> Result<(), ScenarioError> {
-        use crate::intent::{Action, ModKind};
         let name = action.name();
         let params = self.lib.params(name);
-        let bound = self.bind(args, &params, sc);
-        let refuse = |what: &str| {
-            Err(ScenarioError::Elaboration(format!(
-                "{at}: {name}({what}) is not supported by litesim (docs/osc-stdlib.md)"
-            )))
+        let call = super::stdlib::StdCall {
+            name,
+            at,
+            bound: self.bind(args, &params, sc),
         };
-        let implicit = |kind: ModKind, mname: &str, args: Vec<(&str, CExpr)>| Modifier {
-            kind,
-            name: mname.to_string(),
-            args: args.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
-            at: at.to_string(),
-        };
-        let is_zero = |e: Option<&CExpr>| match e {
-            None => true,
-            Some(CExpr::Const(Value::Num(v))) => *v == 0.0,
-            Some(_) => false,
-        };
-        let speed_mods = || {
-            mods.iter()
-                .find(|m| matches!(m.kind, ModKind::Speed | ModKind::ChangeSpeed))
-                .map(|m| m.at.clone())
-        };
-        match action {
-            Action::KeepSpeed => {
-                if let Some(m) = speed_mods() {
-                    return Err(ScenarioError::Elaboration(format!(
-                        "{m}: keep_speed() at {at} holds the speed it starts with: a speed modifier contradicts it"
-                    )));
-                }
-            }
-            Action::ChangeSpeed => {
-                let Some(target) = bound.get("target").cloned() else {
-                    return Err(ScenarioError::Elaboration(format!(
-                        "{at}: change_speed needs a target speed, e.g. `change_speed(80kph)`"
-                    )));
-                };
-                if let Some(m) = speed_mods() {
-                    return Err(ScenarioError::Elaboration(format!(
-                        "{m}: change_speed at {at} sets the speed itself: a speed modifier contradicts it"
-                    )));
-                }
-                if let Some(CExpr::Const(Value::Enum(p))) = bound.get("rate_profile")
-                    && p == "smooth"
-                {
-                    return refuse("rate_profile: smooth");
-                }
-                mods.push(implicit(
-                    ModKind::Speed,
-                    "speed",
-                    vec![
-                        ("speed", target),
-                        ("run_mode", CExpr::Const(Value::Enum("best_effort".into()))),
-                    ],
-                ));
-                if let Some(rate) = bound.get("rate_peak").cloned() {
-                    mods.push(implicit(
-                        ModKind::Acceleration,
-                        "acceleration",
-                        vec![("acceleration", rate)],
-                    ));
-                }
-            }
-            Action::ChangeLane => {
-                for p in ["reference", "rate_peak"] {
-                    if bound.contains_key(p) {
-                        return refuse(&format!("{p}: …"));
-                    }
-                }
-                if !is_zero(bound.get("offset")) {
-                    return refuse("offset: …");
-                }
-                let mut a = vec![(
-                    "num_of_lanes",
-                    bound
-                        .get("num_of_lanes")
-                        .cloned()
-                        .unwrap_or(CExpr::Const(Value::Num(1.0))),
-                )];
-                if let Some(side) = bound.get("side").cloned() {
-                    a.push(("side", side));
-                }
-                mods.push(implicit(ModKind::ChangeLane, "change_lane", a));
-            }
-            Action::FollowLane => {
-                if !is_zero(bound.get("offset")) {
-                    return refuse("offset: …");
-                }
-                if bound.contains_key("rate_peak") {
-                    return refuse("rate_peak: …");
-                }
-            }
-            Action::AssignSpeed => {
-                let Some(v) = bound.get("speed").cloned() else {
-                    return Err(ScenarioError::Elaboration(format!(
-                        "{at}: assign_speed needs a speed, e.g. `assign_speed(50kph)`"
-                    )));
-                };
-                if let Some(m) = speed_mods() {
-                    return Err(ScenarioError::Elaboration(format!(
-                        "{m}: assign_speed at {at} sets the speed itself: a speed modifier contradicts it"
-                    )));
-                }
-                mods.push(implicit(
-                    ModKind::Speed,
-                    "speed",
-                    vec![
-                        ("speed", v),
-                        ("run_mode", CExpr::Const(Value::Enum("best_effort".into()))),
-                    ],
-                ));
-            }
-            Action::Drive | Action::RemainStationary | Action::Walk | Action::Move => {}
-        }
-        Ok(())
+        call.lower(action, mods)
     }
 
     pub(super) fn node(&mut self, d: &DoMember, sc: &Scope) -> Result<Option<Node>, ScenarioError> {

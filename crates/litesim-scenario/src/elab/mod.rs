@@ -18,6 +18,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 mod behaviour;
 mod exprs;
+mod stdlib;
 mod tree;
 pub use tree::*;
 

@@ -258,6 +258,12 @@ pub struct Plan {
     /// (`position(d, ahead_of: x, at: end)`): the runtime re-solves them
     /// against where `x` actually is.
     pub goals: Vec<GapGoal>,
+    /// Gaps or time headways phases keep to an actor ahead
+    /// (`keep_space_gap`, `keep_time_headway`): a driver follows that actor
+    /// with them. (Not written when there are none: plans without them stay
+    /// the same bytes.)
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub keeps: Vec<KeepGoal>,
     /// Lanes phases ask for at their end relative to another actor
     /// (`lane(same_as: sut.car, at: end)`): re-solved against the lane that
     /// actor is really in.
@@ -365,6 +371,24 @@ pub struct GapGoal {
     pub at: String,
     /// The phase's label, when labelled.
     pub label: Option<String>,
+}
+
+/// A phase asks `actor` to keep the gap or time headway it has to the
+/// actor ahead when the phase starts.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct KeepGoal {
+    /// The following actor.
+    pub actor: String,
+    /// The actor ahead.
+    pub reference: String,
+    /// The time headway kept (s), or `None` for a space gap.
+    pub headway: Option<f64>,
+    /// The bumper-to-bumper gap at the phase's start (m).
+    pub gap: f64,
+    /// Phase start (s).
+    pub t0: f64,
+    /// Phase end (s).
+    pub t1: f64,
 }
 
 /// A traffic light changes colour.
@@ -547,6 +571,7 @@ fn plan_once(
         lane_goals,
         side_follows,
         reached,
+        keeps,
         ..
     } = move_all(&cx, &mut plans, &order, free)?;
     let mut phases: Vec<Phase> = rleaves
@@ -579,6 +604,7 @@ fn plan_once(
             unplaced,
             lights,
             goals,
+            keeps,
             lane_goals,
             side_follows,
             conditions: Vec::new(),

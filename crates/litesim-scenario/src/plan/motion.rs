@@ -103,6 +103,8 @@ pub(super) struct Moved {
     /// How long each `change_speed` action took to reach its target
     /// (`reach@N`, s): its natural duration in the next layout.
     pub(super) reached: Vec<(String, f64)>,
+    /// Gaps and headways kept to an actor ahead.
+    pub(super) keeps: Vec<super::KeepGoal>,
 }
 
 /// What every actor's motion reads: the map, the leaves, where each actor
@@ -137,6 +139,7 @@ pub(super) fn move_all(
         all.lane_goals.extend(m.lane_goals);
         all.side_follows.extend(m.side_follows);
         all.reached.extend(m.reached);
+        all.keeps.extend(m.keeps);
     };
     let moved: Vec<Result<Moved, ScenarioError>> = if free >= crate::PARALLEL_ACTORS {
         use rayon::prelude::*;
@@ -177,7 +180,7 @@ pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
                 } | Intent::Speed {
                     relative: Some(_),
                     ..
-                }
+                } | Intent::KeepGap { .. }
             )
         })
 }
@@ -198,6 +201,10 @@ struct Mover<'a> {
     /// plan index, the offset (m/s) and the phase's end; the target follows
     /// X's planned speed at every sample until then.
     relative: Option<(usize, f64, f64)>,
+    /// `keep_space_gap` / `keep_time_headway` in the phase: the actor
+    /// ahead's plan index, whether a headway, the headway (s) and the
+    /// phase's end.
+    gap_keep: Option<(usize, bool, f64, f64)>,
     accel_up: f64,
     accel_down: f64,
     /// A linear speed change to reach by a time: (v0, v1, t1).
@@ -230,6 +237,7 @@ impl<'a> Mover<'a> {
             target: None,
             reaching: None,
             relative: None,
+            gap_keep: None,
             accel_up: ACCEL_UP,
             accel_down: ACCEL_DOWN,
             end_speed: None,
@@ -267,6 +275,7 @@ impl<'a> Mover<'a> {
                 self.leaf_i += 1;
             }
             self.follow_relative(t, plans);
+            self.keep_gap(t, plans);
             let prev_v = self.mo.v;
             self.speed(t);
             self.note_reached(t, prev_v);
@@ -310,6 +319,7 @@ impl<'a> Mover<'a> {
         self.end_speed = None;
         self.relative = None;
         self.reaching = None;
+        self.gap_keep = None;
         self.accel_up = ACCEL_UP;
         self.accel_down = ACCEL_DOWN;
         let mut keep_speed = false;
@@ -375,6 +385,9 @@ impl<'a> Mover<'a> {
                     strict,
                 } => self.lane_goal(l, *lane, reference.as_ref(), *strict),
                 Intent::KeepSpeed { .. } => keep_speed = true,
+                Intent::KeepGap { reference, headway } => {
+                    self.start_gap(l, t, reference, *headway, plans)?;
+                }
                 Intent::KeepPosition { .. } => self.stationary = true,
                 // Travels `d` by the phase's end: a linear speed change from
                 // the speed it has, (v0 + v1) / 2 · T = d.
@@ -567,16 +580,7 @@ impl<'a> Mover<'a> {
         let Some((sign, o)) = relative else {
             return Ok(speed);
         };
-        let j = plans
-            .iter()
-            .position(|p| p.id == *o && !p.samples.is_empty())
-            .filter(|&j| j != self.i)
-            .ok_or_else(|| {
-                ScenarioError::Plan(format!(
-                    "{}: {}'s speed is relative to {o}, whose own motion is not planned before it (a reference to itself, or to an actor whose speed or gap is relative to another in turn)",
-                    l.at, self.id
-                ))
-            })?;
+        let j = self.planned_before(l, o, "speed", plans)?;
         let off = sign * speed;
         let end = l.t1;
         let at_end = at == At::End;
@@ -585,6 +589,101 @@ impl<'a> Mover<'a> {
         }
         let when = if at_end { end } else { t };
         Ok((plans[j].at(when, self.cx.dt).v + off).max(0.0))
+    }
+
+    /// The plan index of `o`, an actor planned before this one (not this
+    /// one itself); the error says what asked for it.
+    fn planned_before(
+        &self,
+        l: &RLeaf,
+        o: &str,
+        what: &str,
+        plans: &[ActorPlan],
+    ) -> Result<usize, ScenarioError> {
+        plans
+            .iter()
+            .position(|p| p.id == o && !p.samples.is_empty())
+            .filter(|&j| j != self.i)
+            .ok_or_else(|| {
+                ScenarioError::Plan(format!(
+                    "{}: {}'s {what} is relative to {o}, whose own motion is not planned before it (a reference to itself, or to an actor whose speed or gap is relative to another in turn)",
+                    l.at, self.id
+                ))
+            })
+    }
+
+    /// `keep_space_gap(o)` / `keep_time_headway(o)` entered at `t`: the
+    /// gap (bumper to bumper, along `o`'s heading) or the headway (that gap
+    /// over this actor's speed) it has now is what it keeps.
+    fn start_gap(
+        &mut self,
+        l: &RLeaf,
+        t: f64,
+        o: &str,
+        headway: bool,
+        plans: &[ActorPlan],
+    ) -> Result<(), ScenarioError> {
+        let what = if headway { "time headway" } else { "space gap" };
+        let j = self.planned_before(l, o, what, plans)?;
+        let (net, dt) = (self.cx.net, self.cx.dt);
+        let me = net.lane_pos_pose(self.mo.pos, 0.0);
+        let r = plans[j].at(t, dt);
+        let behind = -litesim_core::ahead_along(
+            litesim_core::Vec2::new(r.x, r.y),
+            r.yaw,
+            litesim_core::Vec2::new(me.position.x, me.position.y),
+        );
+        let gap = behind - (plans[j].length + plans[self.i].length) / 2.0;
+        if gap <= 0.0 {
+            return Err(ScenarioError::Plan(format!(
+                "{}: {} keeps a {what} to {o}, which is not ahead of it when the phase starts (gap {gap:.1} m)",
+                l.at, self.id
+            )));
+        }
+        let h = if headway {
+            if self.mo.v < 0.1 {
+                return Err(ScenarioError::Plan(format!(
+                    "{}: {} keeps a time headway to {o} from standstill, where it has none (give it a speed first)",
+                    l.at, self.id
+                )));
+            }
+            gap / self.mo.v
+        } else {
+            gap
+        };
+        self.gap_keep = Some((j, headway, h, l.t1));
+        self.out.keeps.push(super::KeepGoal {
+            actor: self.id.clone(),
+            reference: o.to_string(),
+            headway: headway.then_some(h),
+            gap,
+            t0: l.t0,
+            t1: l.t1,
+        });
+        self.end_speed = None;
+        Ok(())
+    }
+
+    /// Under a kept gap, the target speed now: the actor ahead's (a space
+    /// gap stays as it is when both go as fast); under a kept headway
+    /// `h`, the speed whose change keeps gap = h · v, v' = (v_ahead − v)/h
+    /// (the gap changes by v_ahead − v, the headway's gap by h · v').
+    fn keep_gap(&mut self, t: f64, plans: &[ActorPlan]) {
+        let Some((j, headway, h, end)) = self.gap_keep else {
+            return;
+        };
+        if t > end + 1e-9 {
+            self.gap_keep = None;
+            return;
+        }
+        let dt = self.cx.dt;
+        let ahead = plans[j].at(t, dt).v;
+        let v = if headway {
+            self.mo.v + dt * (ahead - self.mo.v) / h
+        } else {
+            ahead
+        };
+        self.target = Some(v.max(0.0));
     }
 
     /// Under a relative speed, the target (and a strict speed still to

@@ -28,6 +28,8 @@ use litesim_map::{Located, RoadNetwork};
 use litesim_ssp::api::{Coord6, XyTrajectory};
 use std::sync::Arc;
 
+/// Over how long a driver keeping a space gap closes an error in it (s).
+const GAP_CLOSE_S: f64 = 2.0;
 /// Length and width of an ambient vehicle (m): a mid-size car.
 pub const SIZE: (f64, f64) = (4.5, 1.8);
 /// How often vehicles out of range are placed again (steps of 20 ms: 0.5 s).
@@ -310,6 +312,7 @@ impl Driven {
                     route,
                     firm: false,
                     change_s: None,
+                    time_gap: None,
                 },
             });
             self.npcs.push((i, slot));
@@ -402,6 +405,15 @@ impl Driven {
                 speed = (me.speed + a * TRACK_TAU_S).max(0.0);
                 firm = true;
             }
+            // A kept gap or headway to the actor ahead: a constant time-gap
+            // follower (an ACC's law) on where that actor really is — its
+            // speed plus the gap's error closed over the headway — with the
+            // headway as the car-following time gap.
+            let mut time_gap = None;
+            if let Some((v_keep, h)) = self.keep_speed(plan, states, i, t) {
+                speed = v_keep;
+                time_gap = h;
+            }
             // A change the scenario asks for takes its phase (the plan's
             // convention: the whole phase, within 2–6 s) and is centred
             // where the plan's is: the lane half that time ahead.
@@ -421,6 +433,7 @@ impl Driven {
             let v = &mut self.traffic.vehicles[k as usize];
             v.goals.speed = Some(speed);
             v.goals.firm = firm;
+            v.goals.time_gap = time_gap;
             // Only between changes: one under way keeps its pace.
             if v.from.is_none() {
                 v.goals.change_s = change_s;
@@ -429,6 +442,37 @@ impl Driven {
                 v.goals.lane = Some(l);
             }
         }
+    }
+
+    /// The speed that keeps actor `i`'s gap or headway of a phase active at
+    /// `t` to the actor ahead (`plan.keeps`), from where both really are:
+    /// the one ahead's speed plus the gap's error over the headway (a
+    /// space gap: over [`GAP_CLOSE_S`]); and the car-following time gap
+    /// under it, if a headway is kept.
+    fn keep_speed(
+        &self,
+        plan: &Plan,
+        states: &[(Vec2, f64, f64, f64)],
+        i: usize,
+        t: f64,
+    ) -> Option<(f64, Option<f64>)> {
+        let id = &plan.actors[i].id;
+        let k = plan
+            .keeps
+            .iter()
+            .find(|k| k.actor == *id && t >= k.t0 - 1e-9 && t < k.t1 - 1e-9)?;
+        let r = plan.actors.iter().position(|a| a.id == k.reference)?;
+
+        let ((me, yaw, v, len), (them, _, v_ahead, len_ahead)) = (states[i], states[r]);
+        let gap = litesim_core::ahead_along(me, yaw, them) - (len + len_ahead) / 2.0;
+        Some(match k.headway {
+            // The car-following model's own time gap at half the headway:
+            // its equilibrium gap (s₀ + v·T, widened by the free-road term)
+            // would otherwise hold the follower back from the headway it
+            // keeps; it stays the bound that avoids a collision.
+            Some(h) => (((v_ahead + (gap - h * v) / h).max(0.0)), Some(0.5 * h)),
+            None => ((v_ahead + (gap - k.gap) / GAP_CLOSE_S).max(0.0), None),
+        })
     }
 
     /// The lane a phase asks of actor `i` relative to another actor's real

@@ -90,14 +90,18 @@ pub const TRACK_TAU_S: f64 = 0.5;
 impl Vehicle {
     /// The parameters its car-following runs with: with a speed goal the
     /// desired speed does not limit (the goal's tracking does, see
-    /// [`Vehicle::track`]).
+    /// [`Vehicle::track`]); keeping a headway, the goal's time gap.
     fn follow_params(&self) -> DriverParams {
-        match self.goals.speed {
+        let p = match self.goals.speed {
             Some(goal) => DriverParams {
                 desired_speed: 1.0 + 1.2 * goal.max(self.v),
                 ..self.params
             },
             None => self.params,
+        };
+        match self.goals.time_gap {
+            Some(time_gap) => DriverParams { time_gap, ..p },
+            None => p,
         }
     }
 
@@ -138,6 +142,9 @@ pub struct Goals {
     /// How long its lane changes take (s): the phase's, for a change the
     /// scenario asks; `None`: [`LANE_CHANGE_S`].
     pub change_s: Option<f64>,
+    /// The car-following time gap (s) instead of its own, while it keeps a
+    /// headway by its speed goal (`keep_time_headway`).
+    pub time_gap: Option<f64>,
 }
 
 impl Vehicle {

@@ -1,0 +1,173 @@
+//! The standard library's actions as the modifiers that plan them:
+//! `change_speed(v)` asks `speed(v)` at its rate, `change_lane(n, side)` a
+//! `change_lane(n, side)`, `keep_time_headway(x)` a kept headway to x.
+//! What litesim cannot honour is an error naming it, never dropped
+//! (docs/osc-stdlib.md).
+
+use super::*;
+use crate::intent::{Action, ModKind};
+
+/// One call of a standard action: its name, place and bound arguments.
+pub(super) struct StdCall<'a> {
+    pub(super) name: &'static str,
+    pub(super) at: &'a str,
+    pub(super) bound: BTreeMap<String, CExpr>,
+}
+
+impl StdCall<'_> {
+    /// Adds to `mods` (the call's `with:` block, already elaborated) what
+    /// the action asks.
+    pub(super) fn lower(
+        &self,
+        action: Action,
+        mods: &mut Vec<Modifier>,
+    ) -> Result<(), ScenarioError> {
+        match action {
+            Action::KeepSpeed => self.no_speed_modifier(mods, "holds the speed it starts with"),
+            Action::ChangeSpeed => self.change_speed(mods),
+            Action::AssignSpeed => {
+                let v = self.required("speed", "assign_speed(50kph)")?;
+                self.no_speed_modifier(mods, "sets the speed itself")?;
+                mods.push(self.best_effort_speed(v));
+                Ok(())
+            }
+            Action::ChangeLane => self.change_lane(mods),
+            Action::FollowLane => {
+                if !self.is_zero("offset") {
+                    return self.refuse("offset: …");
+                }
+                if self.bound.contains_key("rate_peak") {
+                    return self.refuse("rate_peak: …");
+                }
+                Ok(())
+            }
+            Action::KeepSpaceGap | Action::KeepTimeHeadway => self.keep_gap(action, mods),
+            Action::Drive | Action::RemainStationary | Action::Walk | Action::Move => Ok(()),
+        }
+    }
+
+    fn err(&self, what: String) -> ScenarioError {
+        ScenarioError::Elaboration(format!("{}: {what}", self.at))
+    }
+
+    fn refuse(&self, what: &str) -> Result<(), ScenarioError> {
+        Err(self.err(format!(
+            "{}({what}) is not supported by litesim (docs/osc-stdlib.md)",
+            self.name
+        )))
+    }
+
+    /// A parameter the action cannot go without.
+    fn required(&self, key: &str, example: &str) -> Result<CExpr, ScenarioError> {
+        self.bound
+            .get(key)
+            .cloned()
+            .ok_or_else(|| self.err(format!("{} needs its {key}, e.g. `{example}`", self.name)))
+    }
+
+    /// A length not given, or 0.
+    fn is_zero(&self, key: &str) -> bool {
+        match self.bound.get(key) {
+            None => true,
+            Some(CExpr::Const(Value::Num(v))) => *v == 0.0,
+            Some(_) => false,
+        }
+    }
+
+    /// A modifier made for the action, placed at the action.
+    fn implicit(&self, kind: ModKind, name: &str, args: Vec<(&str, CExpr)>) -> Modifier {
+        Modifier {
+            kind,
+            name: name.to_string(),
+            args: args.into_iter().map(|(k, v)| (k.to_string(), v)).collect(),
+            at: self.at.to_string(),
+        }
+    }
+
+    /// `speed(v, run_mode: best_effort)`: a target the action reaches at
+    /// its own pace (never a strict miss).
+    fn best_effort_speed(&self, v: CExpr) -> Modifier {
+        self.implicit(
+            ModKind::Speed,
+            "speed",
+            vec![
+                ("speed", v),
+                ("run_mode", CExpr::Const(Value::Enum("best_effort".into()))),
+            ],
+        )
+    }
+
+    /// An action that sets or holds the speed itself refuses a speed
+    /// modifier beside it.
+    fn no_speed_modifier(&self, mods: &[Modifier], why: &str) -> Result<(), ScenarioError> {
+        match mods
+            .iter()
+            .find(|m| matches!(m.kind, ModKind::Speed | ModKind::ChangeSpeed))
+        {
+            Some(m) => Err(ScenarioError::Elaboration(format!(
+                "{}: {}() at {} {why}: a speed modifier contradicts it",
+                m.at, self.name, self.at
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    fn change_speed(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
+        let target = self.required("target", "change_speed(80kph)")?;
+        self.no_speed_modifier(mods, "sets the speed itself")?;
+        if let Some(CExpr::Const(Value::Enum(p))) = self.bound.get("rate_profile")
+            && p == "smooth"
+        {
+            return self.refuse("rate_profile: smooth");
+        }
+        mods.push(self.best_effort_speed(target));
+        if let Some(rate) = self.bound.get("rate_peak").cloned() {
+            mods.push(self.implicit(
+                ModKind::Acceleration,
+                "acceleration",
+                vec![("acceleration", rate)],
+            ));
+        }
+        Ok(())
+    }
+
+    fn change_lane(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
+        for p in ["reference", "rate_peak"] {
+            if self.bound.contains_key(p) {
+                return self.refuse(&format!("{p}: …"));
+            }
+        }
+        if !self.is_zero("offset") {
+            return self.refuse("offset: …");
+        }
+        let lanes = self
+            .bound
+            .get("num_of_lanes")
+            .cloned()
+            .unwrap_or(CExpr::Const(Value::Num(1.0)));
+        let mut args = vec![("num_of_lanes", lanes)];
+        if let Some(side) = self.bound.get("side").cloned() {
+            args.push(("side", side));
+        }
+        mods.push(self.implicit(ModKind::ChangeLane, "change_lane", args));
+        Ok(())
+    }
+
+    fn keep_gap(&self, action: Action, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
+        let reference = self.required("reference", &format!("{}(lead)", self.name))?;
+        if let Some(CExpr::Const(Value::Enum(d))) = self.bound.get("direction")
+            && d != "longitudinal"
+            && d != "ahead"
+        {
+            return self.refuse(&format!("direction: {d}"));
+        }
+        self.no_speed_modifier(mods, "sets the speed itself")?;
+        let kind = if action == Action::KeepSpaceGap {
+            ModKind::KeepSpaceGap
+        } else {
+            ModKind::KeepTimeHeadway
+        };
+        mods.push(self.implicit(kind, self.name, vec![("reference", reference)]));
+        Ok(())
+    }
+}
