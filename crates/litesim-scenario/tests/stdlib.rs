@@ -391,3 +391,28 @@ fn a_gap_to_an_actor_not_ahead_is_a_planning_error() {
     assert!(matches!(e, ScenarioError::Plan(_)), "{e:?}");
     assert!(e.to_string().contains("not ahead of it"), "{e}");
 }
+
+#[test]
+fn an_overtake_written_with_actions_passes_the_truck_and_pulls_back_in() {
+    for npc in [Npc::Planned, Npc::Driver] {
+        let r = go("overtake_actions", npc);
+        assert!(r.summary.pass, "{npc:?}: {:?}", r.summary.failures);
+        let (t0, _) = phase(&r, "out");
+        let (p0, p1) = phase(&r, "pass");
+        let end = r.plan.duration;
+        let (me, truck) = (sample(&r, "sut.car", end), sample(&r, "truck", end));
+        // Back in the truck's lane, ahead of it.
+        assert!(
+            (me.y - truck.y).abs() < 1e-6,
+            "{npc:?}: {} vs {}",
+            me.y,
+            truck.y
+        );
+        assert!(me.x - truck.x > 30.0, "{npc:?}: {} m ahead", me.x - truck.x);
+        // Out one lane while passing, 25 km/h faster than the truck.
+        let mid = sample(&r, "sut.car", 0.5 * (p0 + p1));
+        assert!((mid.y - sample(&r, "truck", t0).y - 3.5).abs() < 1e-6);
+        let v_truck = sample(&r, "truck", p1 - 1.0).v;
+        assert!((sample(&r, "sut.car", p1 - 1.0).v - v_truck - kph(25.0)).abs() < 1e-6);
+    }
+}
