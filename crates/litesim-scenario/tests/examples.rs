@@ -82,6 +82,7 @@ const ALL: &[&str] = &[
     "stationary_obstacle",
     "stop_at_junction",
     "three_abreast",
+    "tow_gap",
     "truck_follow",
     "wait_then_go",
 ];
@@ -382,14 +383,14 @@ fn dynamic_runs_follow_the_plan() {
         // assign_speed and keep_position ask for exactness over physics:
         // the plan's speed jumps (to 30 km/h, to a standstill), which no
         // vehicle model follows (tests/stdlib.rs checks that plan). The
-        // platoon's long ramps (30-40 km/h at 1.5-2 m/s², three cars) add
+        // platoon's and tow_gap's long ramps (30-40 km/h at 1-3 m/s²) add
         // up the dummy model's steady lag on a ramp (0.46 m/s at most) to
-        // 6 m: its speed errors are checked below (tests/stdlib.rs checks
-        // its plan and its driven headways).
+        // 6-7 m: their speed errors are checked below (tests/stdlib.rs
+        // checks their plans and their driven gaps).
         if *n == "hold_and_travel" {
             continue;
         }
-        let ramps = *n == "platoon";
+        let ramps = *n == "platoon" || *n == "tow_gap";
         let r = go(n, 1, DriveMode::Dynamic);
         // From standstill at ≥ 2 m/s² the dummy model's throttle saturates
         // (4 m/s² minus its 2 m/s² free deceleration): the lag is physical.

@@ -368,9 +368,27 @@ impl Elab<'_> {
                 _ => {}
             }
         }
-        // What holds a speed contradicts what sets one in the same block.
+        // What holds a speed contradicts what sets one in the same block,
+        // and so do a speed and a change of it.
         use crate::intent::ModKind as K;
         let of = |k: &[K]| out.iter().find(|m| k.contains(&m.kind));
+        if let (Some(a), Some(b)) = (of(&[K::Speed]), of(&[K::ChangeSpeed])) {
+            return Err(ScenarioError::Elaboration(format!(
+                "{}: speed contradicts change_speed at {}: give one of them",
+                a.at, b.at
+            )));
+        }
+        // A position is ahead of or behind one actor, by a distance or a time.
+        for m in out.iter().filter(|m| m.kind == K::Position) {
+            for pair in [["ahead_of", "behind"], ["distance", "time"]] {
+                if pair.iter().all(|k| m.args.contains_key(*k)) {
+                    return Err(ScenarioError::Elaboration(format!(
+                        "{}: position: {} and {} exclude each other (give one)",
+                        m.at, pair[0], pair[1]
+                    )));
+                }
+            }
+        }
         for (holds, sets) in [
             (K::KeepSpeed, &[K::Speed, K::ChangeSpeed, K::Distance][..]),
             (

@@ -413,6 +413,8 @@ impl Driven {
             if let Some((v_keep, h)) = self.keep_speed(plan, states, i, t) {
                 speed = v_keep;
                 time_gap = h;
+                // A kept gap brakes as firmly as a gap goal does.
+                firm = true;
             }
             // A change the scenario asks for takes its phase (the plan's
             // convention: the whole phase, within 2–6 s) and is centred
@@ -471,7 +473,12 @@ impl Driven {
             // would otherwise hold the follower back from the headway it
             // keeps; it stays the bound that avoids a collision.
             Some(h) => (((v_ahead + (gap - h * v) / h).max(0.0)), Some(0.5 * h)),
-            None => ((v_ahead + (gap - k.gap) / GAP_CLOSE_S).max(0.0), None),
+            // A space gap: likewise, with the time gap that leaves half of
+            // it at the speed it has.
+            None => (
+                (v_ahead + (gap - k.gap) / GAP_CLOSE_S).max(0.0),
+                Some(0.5 * k.gap / v.max(1.0)),
+            ),
         })
     }
 

@@ -100,7 +100,15 @@ impl Vehicle {
             None => self.params,
         };
         match self.goals.time_gap {
-            Some(time_gap) => DriverParams { time_gap, ..p },
+            // Keeping a gap, the speed goal sets the pace and the
+            // car-following model only bounds it: its free-road term (with
+            // a desired speed well above) must not hold it back while the
+            // one ahead speeds up.
+            Some(time_gap) => DriverParams {
+                time_gap,
+                desired_speed: 1.0 + 2.0 * p.desired_speed.max(self.v),
+                ..p
+            },
             None => p,
         }
     }
