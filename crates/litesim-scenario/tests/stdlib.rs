@@ -468,3 +468,33 @@ fn keep_space_gap_holds_the_gap_while_the_reference_brakes() {
         .fold(0.0, f64::max);
     assert!(worst < 3.0, "driven gap off by {worst} m");
 }
+
+#[test]
+fn a_speed_change_cut_short_by_its_parent_is_noted() {
+    let f = example_file(&format!(
+        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            along(r, at: start)\n            duration(1s)\n        sut.car.change_speed(90kph, rate_peak: 1mpsps) with:\n            duration(3s)\n"
+    ));
+    let p = prepare(f.path(), &Default::default()).unwrap();
+    let r = run(
+        &p,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        r.plan
+            .notes
+            .iter()
+            .any(|n| n.contains("does not reach 25.00 m/s within its phase")),
+        "{:?}",
+        r.plan.notes
+    );
+    // Reached where nothing cuts it short: no such note.
+    assert!(
+        go("speed_and_lane_actions", Npc::Planned)
+            .plan
+            .notes
+            .iter()
+            .all(|n| !n.contains("does not reach"))
+    );
+}

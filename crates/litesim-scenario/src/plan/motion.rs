@@ -283,6 +283,7 @@ impl<'a> Mover<'a> {
             self.out.samples.push(sample);
             self.advance(t, centre);
         }
+        self.unreached();
         if let Some((v, at)) = self.strict_speed {
             self.out.violations.push(format!(
                 "{at}: {} does not reach the strict speed {:.2} m/s within its phase at {ACCEL_UP}/{ACCEL_DOWN} m/s² (use run_mode: best_effort or an acceleration modifier)",
@@ -318,7 +319,7 @@ impl<'a> Mover<'a> {
         self.stationary = l.action == Action::RemainStationary;
         self.end_speed = None;
         self.relative = None;
-        self.reaching = None;
+        self.unreached();
         self.gap_keep = None;
         self.accel_up = ACCEL_UP;
         self.accel_down = ACCEL_DOWN;
@@ -429,6 +430,23 @@ impl<'a> Mover<'a> {
             _ => {}
         }
         Ok(())
+    }
+
+    /// A `change_speed` whose phase ends (or the plan does) before it
+    /// reaches its target (a parent's duration cut it short): a note says
+    /// so.
+    fn unreached(&mut self) {
+        if let Some((id, v, t0)) = self.reaching.take() {
+            let at = self
+                .my
+                .iter()
+                .find(|l| l.id == id)
+                .map_or("", |l| l.at.as_str());
+            self.out.notes.push(format!(
+                "{at}: {}'s change_speed from t = {t0:.1} s does not reach {v:.2} m/s within its phase (the phase is shorter than the change takes)",
+                self.id
+            ));
+        }
     }
 
     /// A `change_speed` action that reached its target with the step at
