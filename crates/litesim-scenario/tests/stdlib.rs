@@ -82,6 +82,18 @@ fn drivers_carry_relative_speeds_in_closed_loop() {
     }
 }
 
+/// A test written beside the examples, prepared and run with the default
+/// options.
+fn run_text(text: &str) -> Result<RunResult, ScenarioError> {
+    let f = example_file(text);
+    let p = prepare(f.path(), &Default::default())?;
+    run(
+        &p,
+        &mut litesim_scenario::in_process(),
+        &RunOptions::default(),
+    )
+}
+
 const HEADER: &str = "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\n";
 
 #[test]
@@ -101,15 +113,9 @@ fn two_speed_references_at_once_are_an_error_at_the_modifier() {
 
 #[test]
 fn a_speed_relative_to_itself_is_a_planning_error() {
-    let f = example_file(&format!(
+    let e = run_text(&format!(
         "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(same_as: sut.car)\n        along(r, at: start)\n        duration(2s)\n"
-    ));
-    let p = prepare(f.path(), &Default::default()).unwrap();
-    let e = run(
-        &p,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
+    ))
     .unwrap_err();
     assert!(matches!(e, ScenarioError::Plan(_)), "{e:?}");
     assert!(e.to_string().contains("relative to sut.car"), "{e}");
@@ -302,15 +308,9 @@ fn a_held_speed_or_position_contradicted_in_the_same_block_is_an_error() {
         assert!(e.to_string().contains(says), "{mods}: {e}");
     }
     // A preference litesim cannot take is noted, not dropped.
-    let f = example_file(&format!(
+    let r = run_text(&format!(
         "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(30kph)\n        along(r, at: start)\n        physical_movement(prefer_non_physical)\n        duration(2s)\n"
-    ));
-    let p = prepare(f.path(), &Default::default()).unwrap();
-    let r = run(
-        &p,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
+    ))
     .unwrap();
     assert!(
         r.plan
@@ -378,15 +378,9 @@ fn a_platoon_keeps_its_time_headway_planned_and_driven() {
 
 #[test]
 fn a_gap_to_an_actor_not_ahead_is_a_planning_error() {
-    let f = example_file(&format!(
+    let e = run_text(&format!(
         "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n        b.keep_space_gap(sut.car) with:\n            lane(same_as: sut.car, at: start)\n            position(20m, ahead_of: sut.car, at: start)\n    with: duration(3s)\n"
-    ));
-    let p = prepare(f.path(), &Default::default()).unwrap();
-    let e = run(
-        &p,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
+    ))
     .unwrap_err();
     assert!(matches!(e, ScenarioError::Plan(_)), "{e:?}");
     assert!(e.to_string().contains("not ahead of it"), "{e}");
@@ -471,15 +465,9 @@ fn keep_space_gap_holds_the_gap_while_the_reference_brakes() {
 
 #[test]
 fn a_speed_change_cut_short_by_its_parent_is_noted() {
-    let f = example_file(&format!(
+    let r = run_text(&format!(
         "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            along(r, at: start)\n            duration(1s)\n        sut.car.change_speed(90kph, rate_peak: 1mpsps) with:\n            duration(3s)\n"
-    ));
-    let p = prepare(f.path(), &Default::default()).unwrap();
-    let r = run(
-        &p,
-        &mut litesim_scenario::in_process(),
-        &RunOptions::default(),
-    )
+    ))
     .unwrap();
     assert!(
         r.plan
