@@ -200,6 +200,7 @@ pub fn reference_plan(m: Manoeuvre, step_s: f64) -> Plan {
         lights: Vec::new(),
         goals: Vec::new(),
         keeps: Vec::new(),
+        reckless: Vec::new(),
         lane_goals: Vec::new(),
         side_follows: Vec::new(),
         conditions: Vec::new(),

@@ -140,6 +140,8 @@ pub enum ModKind {
     Distance,
     /// `physical_movement(option)`.
     PhysicalMovement,
+    /// `avoid_collisions(avoid)`.
+    AvoidCollisions,
     /// The gap a `keep_space_gap` action keeps (made by elaboration from
     /// the action's `reference`; no modifier has this name).
     KeepSpaceGap,
@@ -167,6 +169,7 @@ impl ModKind {
             "keep_position" => ModKind::KeepPosition,
             "distance" => ModKind::Distance,
             "physical_movement" => ModKind::PhysicalMovement,
+            "avoid_collisions" => ModKind::AvoidCollisions,
             _ => ModKind::Other,
         }
     }
@@ -390,6 +393,12 @@ pub enum Intent {
         /// Time headway rather than space gap.
         headway: bool,
     },
+    /// `avoid_collisions(avoid)`: drivers avoid others by default;
+    /// `false` lets this one collide where the scenario asks it to.
+    AvoidCollisions {
+        /// Avoid (the default) or not.
+        avoid: bool,
+    },
     /// `physical_movement(option)`: litesim's motion is always physical;
     /// `prefer_non_physical` is a preference it notes.
     PhysicalMovement {
@@ -511,6 +520,9 @@ impl Intent {
                 reference: refs.get("reference")?.clone(),
                 headway: kind == ModKind::KeepTimeHeadway,
             },
+            ModKind::AvoidCollisions => Intent::AvoidCollisions {
+                avoid: !matches!(vals.get("avoid"), Some(Value::Bool(false))),
+            },
             ModKind::PhysicalMovement => Intent::PhysicalMovement {
                 option: text("option").unwrap_or_default(),
             },
@@ -535,7 +547,9 @@ impl Intent {
             | Intent::KeepPosition { at }
             | Intent::Distance { at, .. }
             | Intent::Other { at, .. } => *at,
-            Intent::PhysicalMovement { .. } | Intent::KeepGap { .. } => At::All,
+            Intent::PhysicalMovement { .. }
+            | Intent::KeepGap { .. }
+            | Intent::AvoidCollisions { .. } => At::All,
         }
     }
 

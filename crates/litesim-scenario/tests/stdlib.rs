@@ -486,3 +486,33 @@ fn a_speed_change_cut_short_by_its_parent_is_noted() {
             .all(|n| !n.contains("does not reach"))
     );
 }
+
+#[test]
+fn avoid_collisions_false_lets_a_driver_collide_where_asked() {
+    let pair_collision = |r: &RunResult| {
+        r.summary
+            .pairs
+            .iter()
+            .find(|p| (p.a == "truck" && p.b == "rammer") || (p.a == "rammer" && p.b == "truck"))
+            .and_then(|p| p.collision_at)
+    };
+    // Asked not to avoid: the rammer's driver keeps its 80 km/h into the
+    // truck's rear, and the verdict names the collision.
+    let r = go("rear_end_on_purpose", Npc::Driver);
+    let t = pair_collision(&r).expect("a collision");
+    assert!(t > 2.0 && t < 6.0, "at {t} s");
+    assert!(
+        r.summary
+            .failures
+            .iter()
+            .any(|f| f.contains("rammer is responsible"))
+    );
+    // The same test without the modifier: the driver brakes behind it.
+    let text =
+        std::fs::read_to_string(common::root().join("examples/scenarios/rear_end_on_purpose.osc"))
+            .unwrap()
+            .replace("            avoid_collisions(false)\n", "");
+    let r = run_text(&text).unwrap();
+    assert_eq!(pair_collision(&r), None);
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+}

@@ -264,6 +264,11 @@ pub struct Plan {
     /// the same bytes.)
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub keeps: Vec<KeepGoal>,
+    /// Phases in which an actor does not avoid collisions
+    /// (`avoid_collisions(false)`): (actor, t0, t1). A driver then follows
+    /// its plan's speed whatever is ahead. (Not written when empty.)
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub reckless: Vec<(String, f64, f64)>,
     /// Lanes phases ask for at their end relative to another actor
     /// (`lane(same_as: sut.car, at: end)`): re-solved against the lane that
     /// actor is really in.
@@ -572,6 +577,7 @@ fn plan_once(
         side_follows,
         reached,
         keeps,
+        reckless,
         ..
     } = move_all(&cx, &mut plans, &order, free)?;
     let mut phases: Vec<Phase> = rleaves
@@ -605,6 +611,7 @@ fn plan_once(
             lights,
             goals,
             keeps,
+            reckless,
             lane_goals,
             side_follows,
             conditions: Vec::new(),

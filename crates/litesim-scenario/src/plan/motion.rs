@@ -105,6 +105,8 @@ pub(super) struct Moved {
     pub(super) reached: Vec<(String, f64)>,
     /// Gaps and headways kept to an actor ahead.
     pub(super) keeps: Vec<super::KeepGoal>,
+    /// Phases that do not avoid collisions: (actor, t0, t1).
+    pub(super) reckless: Vec<(String, f64, f64)>,
 }
 
 /// What every actor's motion reads: the map, the leaves, where each actor
@@ -140,6 +142,7 @@ pub(super) fn move_all(
         all.side_follows.extend(m.side_follows);
         all.reached.extend(m.reached);
         all.keeps.extend(m.keeps);
+        all.reckless.extend(m.reckless);
     };
     let moved: Vec<Result<Moved, ScenarioError>> = if free >= crate::PARALLEL_ACTORS {
         use rayon::prelude::*;
@@ -390,6 +393,9 @@ impl<'a> Mover<'a> {
                     self.start_gap(l, t, reference, *headway, plans)?;
                 }
                 Intent::KeepPosition { .. } => self.stationary = true,
+                Intent::AvoidCollisions { avoid: false } => {
+                    self.out.reckless.push((self.id.clone(), l.t0, l.t1));
+                }
                 // Travels `d` by the phase's end: a linear speed change from
                 // the speed it has, (v0 + v1) / 2 · T = d.
                 &Intent::Distance { distance, .. } => {
@@ -408,11 +414,7 @@ impl<'a> Mover<'a> {
         }
         match l.action {
             // It holds the speed it has now (not a target still ahead).
-            _ if keep_speed => {
-                self.target = Some(self.mo.v);
-                self.end_speed = None;
-            }
-            Action::KeepSpeed => {
+            _ if keep_speed || l.action == Action::KeepSpeed => {
                 self.target = Some(self.mo.v);
                 self.end_speed = None;
             }

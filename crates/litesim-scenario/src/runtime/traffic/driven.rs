@@ -313,6 +313,7 @@ impl Driven {
                     firm: false,
                     change_s: None,
                     time_gap: None,
+                    reckless: false,
                 },
             });
             self.npcs.push((i, slot));
@@ -410,6 +411,10 @@ impl Driven {
             // speed plus the gap's error closed over the headway — with the
             // headway as the car-following time gap.
             let mut time_gap = None;
+            let reckless = plan
+                .reckless
+                .iter()
+                .any(|(who, t0, t1)| *who == a.id && t >= *t0 - 1e-9 && t < *t1 - 1e-9);
             if let Some((v_keep, h)) = self.keep_speed(plan, states, i, t) {
                 speed = v_keep;
                 time_gap = h;
@@ -436,6 +441,7 @@ impl Driven {
             v.goals.speed = Some(speed);
             v.goals.firm = firm;
             v.goals.time_gap = time_gap;
+            v.goals.reckless = reckless;
             // Only between changes: one under way keeps its pace.
             if v.from.is_none() {
                 v.goals.change_s = change_s;

@@ -153,6 +153,9 @@ pub struct Goals {
     /// The car-following time gap (s) instead of its own, while it keeps a
     /// headway by its speed goal (`keep_time_headway`).
     pub time_gap: Option<f64>,
+    /// It does not avoid collisions (`avoid_collisions(false)`): it
+    /// tracks its speed goal whatever is ahead.
+    pub reckless: bool,
 }
 
 impl Vehicle {
@@ -381,6 +384,9 @@ impl Traffic {
                 a = a.min(self.leader(g, me, (f, None), v.u, half).1);
             }
             a = a.min(self.courtesy(g, me)).min(v.track());
+            if v.goals.reckless && v.track().is_finite() {
+                a = v.track();
+            }
             let mut change = 0;
             if let Some(target) = v.goals.lane
                 && v.from.is_none()
