@@ -488,7 +488,17 @@ impl Intent {
                     LaneRelation::SameAs,
                 ]
                 .into_iter()
-                .find_map(|r| refs.get(r.name()).map(|o| (r, o.clone()))),
+                .find_map(|r| refs.get(r.name()).map(|o| (r, o.clone())))
+                // The standard's form: `side_of: x, side: left|right`.
+                .or_else(|| {
+                    refs.get("side_of").map(|o| {
+                        let r = match side(Side::Left) {
+                            Side::Left => LaneRelation::LeftOf,
+                            Side::Right => LaneRelation::RightOf,
+                        };
+                        (r, o.clone())
+                    })
+                }),
                 at,
                 strict,
             },

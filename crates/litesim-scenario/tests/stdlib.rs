@@ -516,3 +516,34 @@ fn avoid_collisions_false_lets_a_driver_collide_where_asked() {
     assert_eq!(pair_collision(&r), None);
     assert!(r.summary.pass, "{:?}", r.summary.failures);
 }
+
+#[test]
+fn lane_side_of_is_the_lane_beside_like_left_of_and_right_of() {
+    let three =
+        std::fs::read_to_string(common::root().join("examples/scenarios/three_abreast.osc"))
+            .unwrap();
+    let plan = |text: &str| {
+        let r = run_text(text).unwrap();
+        assert!(r.summary.pass, "{:?}", r.summary.failures);
+        r.plan.actors
+    };
+    let base = plan(&three);
+    let side_of = plan(
+        &three
+            .replace(
+                "lane(left_of: sut.car, at: start)",
+                "lane(side_of: sut.car, side: left, at: start)",
+            )
+            .replace(
+                "lane(left_of: middle, at: start)",
+                "lane(side_of: middle, side: left, at: start)",
+            ),
+    );
+    assert_eq!(base, side_of);
+    // The lanes differ: they are three abreast.
+    let ys: Vec<f64> = base.iter().map(|a| a.samples[0].y).collect();
+    assert!(
+        (ys[0] - ys[1]).abs() > 3.0 && (ys[1] - ys[2]).abs() > 3.0,
+        "{ys:?}"
+    );
+}
