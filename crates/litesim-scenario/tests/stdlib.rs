@@ -299,6 +299,10 @@ fn a_held_speed_or_position_contradicted_in_the_same_block_is_an_error() {
             "keep_position()\n            distance(20m)",
             "keep_position() contradicts distance",
         ),
+        (
+            "distance(20m)\n            speed(50kph)",
+            "distance() contradicts speed",
+        ),
     ] {
         let f = example_file(&format!(
             "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n            along(r, at: start)\n            {mods}\n            duration(2s)\n"
@@ -307,6 +311,17 @@ fn a_held_speed_or_position_contradicted_in_the_same_block_is_an_error() {
         assert!(matches!(e, ScenarioError::Elaboration(_)), "{mods}: {e:?}");
         assert!(e.to_string().contains(says), "{mods}: {e}");
     }
+    // An action that holds or sets the speed, with a modifier that sets
+    // it otherwise: the same error, at the modifier and the action.
+    let e = run_text(&format!(
+        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            duration(1s)\n        sut.car.keep_speed() with:\n            distance(20m)\n            duration(2s)\n"
+    ))
+    .unwrap_err();
+    assert!(matches!(e, ScenarioError::Elaboration(_)), "{e:?}");
+    assert!(
+        e.to_string().contains("keep_speed() contradicts distance"),
+        "{e}"
+    );
     // A preference litesim cannot take is noted, not dropped.
     let r = run_text(&format!(
         "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(30kph)\n        along(r, at: start)\n        physical_movement(prefer_non_physical)\n        duration(2s)\n"

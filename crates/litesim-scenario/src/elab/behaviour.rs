@@ -368,42 +368,7 @@ impl Elab<'_> {
                 _ => {}
             }
         }
-        // What holds a speed contradicts what sets one in the same block,
-        // and so do a speed and a change of it.
-        use crate::intent::ModKind as K;
-        let of = |k: &[K]| out.iter().find(|m| k.contains(&m.kind));
-        if let (Some(a), Some(b)) = (of(&[K::Speed]), of(&[K::ChangeSpeed])) {
-            return Err(ScenarioError::Elaboration(format!(
-                "{}: speed contradicts change_speed at {}: give one of them",
-                a.at, b.at
-            )));
-        }
-        // A position is ahead of or behind one actor, by a distance or a time.
-        for m in out.iter().filter(|m| m.kind == K::Position) {
-            for pair in [["ahead_of", "behind"], ["distance", "time"]] {
-                if pair.iter().all(|k| m.args.contains_key(*k)) {
-                    return Err(ScenarioError::Elaboration(format!(
-                        "{}: position: {} and {} exclude each other (give one)",
-                        m.at, pair[0], pair[1]
-                    )));
-                }
-            }
-        }
-        for (holds, sets) in [
-            (K::KeepSpeed, &[K::Speed, K::ChangeSpeed, K::Distance][..]),
-            (
-                K::KeepPosition,
-                &[K::Speed, K::ChangeSpeed, K::Distance, K::KeepSpeed][..],
-            ),
-        ] {
-            if let (Some(h), Some(s)) = (of(&[holds]), of(sets)) {
-                return Err(ScenarioError::Elaboration(format!(
-                    "{}: {}() contradicts {} at {}",
-                    h.at, h.name, s.name, s.at
-                )));
-            }
-        }
-        Ok(())
+        contradictions(out)
     }
 
     /// An invocation in a `do` tree: a traffic light's `switch(color)`, an
@@ -464,6 +429,7 @@ impl Elab<'_> {
             })?;
             self.mods(with, sc, &mut mods)?;
             self.std_action(action, args, sc, &at, &mut mods)?;
+            contradictions(&mods)?;
             Ok(Some(Node::Action {
                 id: 0,
                 label,
@@ -627,4 +593,46 @@ impl Elab<'_> {
             }
         })
     }
+}
+
+/// Modifiers of one block (with what a standard action asks, once
+/// lowered) that cannot all hold: an error naming both and their places.
+fn contradictions(out: &[Modifier]) -> Result<(), ScenarioError> {
+    // What holds a speed contradicts what sets one in the same block,
+    // and so do a speed and a change of it.
+    use crate::intent::ModKind as K;
+    let of = |k: &[K]| out.iter().find(|m| k.contains(&m.kind));
+    if let (Some(a), Some(b)) = (of(&[K::Speed]), of(&[K::ChangeSpeed])) {
+        return Err(ScenarioError::Elaboration(format!(
+            "{}: speed contradicts change_speed at {}: give one of them",
+            a.at, b.at
+        )));
+    }
+    // A position is ahead of or behind one actor, by a distance or a time.
+    for m in out.iter().filter(|m| m.kind == K::Position) {
+        for pair in [["ahead_of", "behind"], ["distance", "time"]] {
+            if pair.iter().all(|k| m.args.contains_key(*k)) {
+                return Err(ScenarioError::Elaboration(format!(
+                    "{}: position: {} and {} exclude each other (give one)",
+                    m.at, pair[0], pair[1]
+                )));
+            }
+        }
+    }
+    for (holds, sets) in [
+        (K::KeepSpeed, &[K::Speed, K::ChangeSpeed, K::Distance][..]),
+        (K::Distance, &[K::Speed, K::ChangeSpeed][..]),
+        (
+            K::KeepPosition,
+            &[K::Speed, K::ChangeSpeed, K::Distance, K::KeepSpeed][..],
+        ),
+    ] {
+        if let (Some(h), Some(s)) = (of(&[holds]), of(sets)) {
+            return Err(ScenarioError::Elaboration(format!(
+                "{}: {}() contradicts {} at {}",
+                h.at, h.name, s.name, s.at
+            )));
+        }
+    }
+    Ok(())
 }

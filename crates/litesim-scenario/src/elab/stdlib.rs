@@ -1,5 +1,6 @@
 //! The standard library's actions as the modifiers that plan them:
-//! `change_speed(v)` asks `speed(v)` at its rate, `change_lane(n, side)` a
+//! `keep_speed()` asks the `keep_speed()` modifier, `change_speed(v)` asks
+//! `speed(v)` at its rate, `change_lane(n, side)` a
 //! `change_lane(n, side)`, `keep_time_headway(x)` a kept headway to x.
 //! What litesim cannot honour is an error naming it, never dropped
 //! (docs/osc-stdlib.md).
@@ -23,7 +24,12 @@ impl StdCall<'_> {
         mods: &mut Vec<Modifier>,
     ) -> Result<(), ScenarioError> {
         match action {
-            Action::KeepSpeed => self.no_speed_modifier(mods, "holds the speed it starts with"),
+            // What the keep_speed() modifier asks.
+            Action::KeepSpeed => {
+                self.no_speed_modifier(mods, "holds the speed it starts with")?;
+                mods.push(self.implicit(ModKind::KeepSpeed, "keep_speed", Vec::new()));
+                Ok(())
+            }
             Action::ChangeSpeed => self.change_speed(mods),
             Action::AssignSpeed => {
                 let v = self.required("speed", "assign_speed(50kph)")?;

@@ -188,6 +188,16 @@ pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
         })
 }
 
+/// How a target speed follows another actor's planned speed.
+#[derive(Clone, Copy, Debug)]
+enum Follow {
+    /// Its speed plus this offset (m/s): `speed(…, faster_than | slower_than
+    /// | same_as: X)`, and a kept space gap (offset 0).
+    Offset(f64),
+    /// Keeps this time headway (s) to it: `keep_time_headway(X)`.
+    Headway(f64),
+}
+
 /// One actor's motion being sampled.
 struct Mover<'a> {
     cx: &'a MoveCx<'a>,
@@ -200,14 +210,10 @@ struct Mover<'a> {
     target: Option<f64>,
     /// A `change_speed` action under way: its node id, target and start.
     reaching: Option<(u32, f64, f64)>,
-    /// `speed(…, faster_than|slower_than|same_as: X)` in the phase: X's
-    /// plan index, the offset (m/s) and the phase's end; the target follows
-    /// X's planned speed at every sample until then.
-    relative: Option<(usize, f64, f64)>,
-    /// `keep_space_gap` / `keep_time_headway` in the phase: the actor
-    /// ahead's plan index, whether a headway, the headway (s) and the
-    /// phase's end.
-    gap_keep: Option<(usize, bool, f64, f64)>,
+    /// The phase's target speed follows another actor's plan at every
+    /// sample (a relative speed, a kept gap or headway): that actor's plan
+    /// index, how, and the phase's end.
+    follow: Option<(usize, Follow, f64)>,
     accel_up: f64,
     accel_down: f64,
     /// A linear speed change to reach by a time: (v0, v1, t1).
@@ -239,8 +245,7 @@ impl<'a> Mover<'a> {
             leaf_i: 0,
             target: None,
             reaching: None,
-            relative: None,
-            gap_keep: None,
+            follow: None,
             accel_up: ACCEL_UP,
             accel_down: ACCEL_DOWN,
             end_speed: None,
@@ -277,8 +282,7 @@ impl<'a> Mover<'a> {
                 self.enter(k, t, plans)?;
                 self.leaf_i += 1;
             }
-            self.follow_relative(t, plans);
-            self.keep_gap(t, plans);
+            self.follow(t, plans);
             let prev_v = self.mo.v;
             self.speed(t);
             self.note_reached(t, prev_v);
@@ -321,9 +325,8 @@ impl<'a> Mover<'a> {
         self.started = Some(self.leaf_i);
         self.stationary = l.action == Action::RemainStationary;
         self.end_speed = None;
-        self.relative = None;
+        self.follow = None;
         self.unreached();
-        self.gap_keep = None;
         self.accel_up = ACCEL_UP;
         self.accel_down = ACCEL_DOWN;
         let mut keep_speed = false;
@@ -414,7 +417,7 @@ impl<'a> Mover<'a> {
         }
         match l.action {
             // It holds the speed it has now (not a target still ahead).
-            _ if keep_speed || l.action == Action::KeepSpeed => {
+            _ if keep_speed => {
                 self.target = Some(self.mo.v);
                 self.end_speed = None;
             }
@@ -584,11 +587,10 @@ impl<'a> Mover<'a> {
         }
     }
 
-    /// The speed of the sample at `t`.
     /// The speed a `speed` modifier asks for: `speed` itself, or relative
     /// to another actor its speed in that actor's plan (at the phase's end
     /// for `at: end`, else now) plus the offset; from now to the phase's end
-    /// the target follows that actor (`follow_relative`).
+    /// the target follows that actor (`Mover::follow`).
     fn relative_speed(
         &mut self,
         l: &RLeaf,
@@ -605,7 +607,7 @@ impl<'a> Mover<'a> {
         let end = l.t1;
         let at_end = at == At::End;
         if !at_end {
-            self.relative = Some((j, off, end));
+            self.follow = Some((j, Follow::Offset(off), end));
         }
         let when = if at_end { end } else { t };
         Ok((plans[j].at(when, self.cx.dt).v + off).max(0.0))
@@ -671,7 +673,13 @@ impl<'a> Mover<'a> {
         } else {
             gap
         };
-        self.gap_keep = Some((j, headway, h, l.t1));
+        // A space gap stays as it is when both go as fast.
+        let how = if headway {
+            Follow::Headway(h)
+        } else {
+            Follow::Offset(0.0)
+        };
+        self.follow = Some((j, how, l.t1));
         self.out.keeps.push(super::KeepGoal {
             actor: self.id.clone(),
             reference: o.to_string(),
@@ -684,45 +692,33 @@ impl<'a> Mover<'a> {
         Ok(())
     }
 
-    /// Under a kept gap, the target speed now: the actor ahead's (a space
-    /// gap stays as it is when both go as fast); under a kept headway
-    /// `h`, the speed whose change keeps gap = h · v, v' = (v_ahead − v)/h
-    /// (the gap changes by v_ahead − v, the headway's gap by h · v').
-    fn keep_gap(&mut self, t: f64, plans: &[ActorPlan]) {
-        let Some((j, headway, h, end)) = self.gap_keep else {
+    /// The target speed now under [`Mover::follow`]: the other's planned
+    /// speed plus an offset, or under a kept headway `h` the speed whose
+    /// change keeps gap = h · v, v' = (v_ahead − v)/h (the gap changes by
+    /// v_ahead − v, the headway's gap by h · v'). A strict speed still to
+    /// reach is that target too.
+    fn follow(&mut self, t: f64, plans: &[ActorPlan]) {
+        let Some((j, how, end)) = self.follow else {
             return;
         };
         if t > end + 1e-9 {
-            self.gap_keep = None;
+            self.follow = None;
             return;
         }
         let dt = self.cx.dt;
         let ahead = plans[j].at(t, dt).v;
-        let v = if headway {
-            self.mo.v + dt * (ahead - self.mo.v) / h
-        } else {
-            ahead
-        };
-        self.target = Some(v.max(0.0));
-    }
-
-    /// Under a relative speed, the target (and a strict speed still to
-    /// reach) is the reference's planned speed now plus the offset.
-    fn follow_relative(&mut self, t: f64, plans: &[ActorPlan]) {
-        let Some((j, off, end)) = self.relative else {
-            return;
-        };
-        if t > end + 1e-9 {
-            self.relative = None;
-            return;
+        let v = match how {
+            Follow::Offset(off) => ahead + off,
+            Follow::Headway(h) => self.mo.v + dt * (ahead - self.mo.v) / h,
         }
-        let v = (plans[j].at(t, self.cx.dt).v + off).max(0.0);
+        .max(0.0);
         self.target = Some(v);
         if let Some((sv, _)) = &mut self.strict_speed {
             *sv = v;
         }
     }
 
+    /// The speed of the sample at `t`.
     fn speed(&mut self, t: f64) {
         let mo = &mut self.mo;
         if self.stationary || self.dead_end {

@@ -415,7 +415,7 @@ impl Driven {
                 .reckless
                 .iter()
                 .any(|(who, t0, t1)| *who == a.id && t >= *t0 - 1e-9 && t < *t1 - 1e-9);
-            if let Some((v_keep, h)) = self.keep_speed(plan, states, i, t) {
+            if let Some((v_keep, h)) = self.gap_keeping_speed(plan, states, i, t) {
                 speed = v_keep;
                 time_gap = h;
                 // A kept gap brakes as firmly as a gap goal does.
@@ -457,7 +457,7 @@ impl Driven {
     /// the one ahead's speed plus the gap's error over the headway (a
     /// space gap: over [`GAP_CLOSE_S`]); and the car-following time gap
     /// under it, if a headway is kept.
-    fn keep_speed(
+    fn gap_keeping_speed(
         &self,
         plan: &Plan,
         states: &[(Vec2, f64, f64, f64)],

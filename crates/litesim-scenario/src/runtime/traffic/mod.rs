@@ -383,9 +383,10 @@ impl Traffic {
                 // Mid-change: the slower of both lanes (highway-env).
                 a = a.min(self.leader(g, me, (f, None), v.u, half).1);
             }
-            a = a.min(self.courtesy(g, me)).min(v.track());
-            if v.goals.reckless && v.track().is_finite() {
-                a = v.track();
+            let track = v.track();
+            a = a.min(self.courtesy(g, me)).min(track);
+            if v.goals.reckless && track.is_finite() {
+                a = track;
             }
             let mut change = 0;
             if let Some(target) = v.goals.lane
