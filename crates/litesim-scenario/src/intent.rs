@@ -40,11 +40,17 @@ pub enum Action {
     /// `keep_time_headway(reference)`: keeps the time headway to the actor
     /// ahead that it has at its start, for the phase (an ACC's following).
     KeepTimeHeadway,
+    /// `change_space_gap(target, reference)`: brings the gap to the actor
+    /// ahead to `target`; ends when it is reached.
+    ChangeSpaceGap,
+    /// `change_time_headway(target, reference)`: brings the time headway
+    /// to the actor ahead to `target`; ends when it is reached.
+    ChangeTimeHeadway,
 }
 
 impl Action {
     /// Every action, in the order the domain declares them.
-    pub const ALL: [Action; 11] = [
+    pub const ALL: [Action; 13] = [
         Action::Drive,
         Action::RemainStationary,
         Action::Walk,
@@ -56,6 +62,8 @@ impl Action {
         Action::AssignSpeed,
         Action::KeepSpaceGap,
         Action::KeepTimeHeadway,
+        Action::ChangeSpaceGap,
+        Action::ChangeTimeHeadway,
     ];
 
     /// The action called `name`; `None` for names the domain does not have
@@ -73,6 +81,8 @@ impl Action {
             "assign_speed" => Action::AssignSpeed,
             "keep_space_gap" => Action::KeepSpaceGap,
             "keep_time_headway" => Action::KeepTimeHeadway,
+            "change_space_gap" => Action::ChangeSpaceGap,
+            "change_time_headway" => Action::ChangeTimeHeadway,
             _ => return None,
         })
     }
@@ -91,6 +101,8 @@ impl Action {
             Action::AssignSpeed => "assign_speed",
             Action::KeepSpaceGap => "keep_space_gap",
             Action::KeepTimeHeadway => "keep_time_headway",
+            Action::ChangeSpaceGap => "change_space_gap",
+            Action::ChangeTimeHeadway => "change_time_headway",
         }
     }
 }
@@ -386,12 +398,16 @@ pub enum Intent {
         at: At,
     },
     /// Keeps the gap (`headway` false) or the time headway (true) to
-    /// `reference`, as they are at the phase's start.
+    /// `reference`, as they are at the phase's start, or changes it to
+    /// `target` (`change_space_gap`, `change_time_headway`).
     KeepGap {
         /// The actor ahead.
         reference: String,
         /// Time headway rather than space gap.
         headway: bool,
+        /// The gap (m) or headway (s) to reach; `None` keeps the one it
+        /// has.
+        target: Option<f64>,
     },
     /// `avoid_collisions(avoid)`: drivers avoid others by default;
     /// `false` lets this one collide where the scenario asks it to.
@@ -529,6 +545,7 @@ impl Intent {
             ModKind::KeepSpaceGap | ModKind::KeepTimeHeadway => Intent::KeepGap {
                 reference: refs.get("reference")?.clone(),
                 headway: kind == ModKind::KeepTimeHeadway,
+                target: num("target"),
             },
             ModKind::AvoidCollisions => Intent::AvoidCollisions {
                 avoid: !matches!(vals.get("avoid"), Some(Value::Bool(false))),

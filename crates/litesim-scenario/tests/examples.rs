@@ -61,6 +61,7 @@ const ALL: &[&str] = &[
     "cyclist_ahead",
     "emit_wait_until",
     "follow",
+    "headway_change",
     "hold_and_travel",
     "lane_change",
     "lead_brakes",
@@ -69,6 +70,7 @@ const ALL: &[&str] = &[
     "one_of_speed",
     "overtake",
     "overtake_actions",
+    "overtake_gap",
     "platoon",
     "pedestrian_crossing",
     "random_duration",
@@ -383,14 +385,15 @@ fn dynamic_runs_follow_the_plan() {
         // assign_speed and keep_position ask for exactness over physics:
         // the plan's speed jumps (to 30 km/h, to a standstill), which no
         // vehicle model follows (tests/stdlib.rs checks that plan). The
-        // platoon's and tow_gap's long ramps (30-40 km/h at 1-3 m/s²) add
-        // up the dummy model's steady lag on a ramp (0.46 m/s at most) to
-        // 6-7 m: their speed errors are checked below (tests/stdlib.rs
-        // checks their plans and their driven gaps).
+        // long ramps of platoon, tow_gap, headway_change and overtake_gap
+        // (20-40 km/h at 1-4 m/s²) add up the dummy model's steady lag on
+        // a ramp (0.46 m/s at most) to 6-7 m: their speed errors are
+        // checked below (tests/stdlib.rs checks their plans and their
+        // driven gaps).
         if *n == "hold_and_travel" {
             continue;
         }
-        let ramps = *n == "platoon" || *n == "tow_gap";
+        let ramps = ["platoon", "tow_gap", "headway_change", "overtake_gap"].contains(n);
         let r = go(n, 1, DriveMode::Dynamic);
         // From standstill at ≥ 2 m/s² the dummy model's throttle saturates
         // (4 m/s² minus its 2 m/s² free deceleration): the lag is physical.

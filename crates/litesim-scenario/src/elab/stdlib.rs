@@ -47,7 +47,10 @@ impl StdCall<'_> {
                 }
                 Ok(())
             }
-            Action::KeepSpaceGap | Action::KeepTimeHeadway => self.keep_gap(action, mods),
+            Action::KeepSpaceGap
+            | Action::KeepTimeHeadway
+            | Action::ChangeSpaceGap
+            | Action::ChangeTimeHeadway => self.keep_gap(action, mods),
             Action::Drive | Action::RemainStationary | Action::Walk | Action::Move => Ok(()),
         }
     }
@@ -160,7 +163,13 @@ impl StdCall<'_> {
     }
 
     fn keep_gap(&self, action: Action, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
-        let reference = self.required("reference", &format!("{}(lead)", self.name))?;
+        let change = matches!(action, Action::ChangeSpaceGap | Action::ChangeTimeHeadway);
+        let example = if change {
+            format!("{}(20m, reference: lead)", self.name)
+        } else {
+            format!("{}(lead)", self.name)
+        };
+        let reference = self.required("reference", &example)?;
         if let Some(CExpr::Const(Value::Enum(d))) = self.bound.get("direction")
             && d != "longitudinal"
             && d != "ahead"
@@ -168,12 +177,16 @@ impl StdCall<'_> {
             return self.refuse(&format!("direction: {d}"));
         }
         self.no_speed_modifier(mods, "sets the speed itself")?;
-        let kind = if action == Action::KeepSpaceGap {
+        let mut args = vec![("reference", reference)];
+        if change {
+            args.push(("target", self.required("target", &example)?));
+        }
+        let kind = if matches!(action, Action::KeepSpaceGap | Action::ChangeSpaceGap) {
             ModKind::KeepSpaceGap
         } else {
             ModKind::KeepTimeHeadway
         };
-        mods.push(self.implicit(kind, self.name, vec![("reference", reference)]));
+        mods.push(self.implicit(kind, self.name, args));
         Ok(())
     }
 }

@@ -43,6 +43,25 @@ pub const DEFAULT_PHASE_S: f64 = 5.0;
 /// How long a lane change takes from lane to lane (s): a `change_lane()`
 /// action without a duration lasts this long, and so do the drivers'.
 pub const LANE_CHANGE_S: f64 = 3.0;
+
+/// Seconds over which a kept or changed space gap's error is closed (the
+/// planner's and the drivers' law alike).
+pub const GAP_CLOSE_S: f64 = 2.0;
+
+/// The speed that closes a space gap's error: the speed of the one ahead
+/// plus the error (the gap less the one wanted) over `tau` seconds.
+pub fn gap_closing_speed(v_ahead: f64, gap: f64, want: f64, tau: f64) -> f64 {
+    (v_ahead + (gap - want) / tau).max(0.0)
+}
+
+/// The speed that closes a time headway's error (an ACC's constant
+/// time-gap law): the speed v at which v = v_ahead + (gap − h · v)/h, the
+/// error of the gap h · v closed over h, i.e. (v_ahead + gap/h)/2. Taking
+/// the speed the follower has for v instead swings from step to step in
+/// the plan and lags a driver; the error decays over 2h either way.
+pub fn headway_closing_speed(v_ahead: f64, gap: f64, h: f64) -> f64 {
+    (0.5 * (v_ahead + gap / h)).max(0.0)
+}
 const ACCEL_UP: f64 = 2.5;
 const ACCEL_DOWN: f64 = 4.0;
 const WALK_SPEED: f64 = 1.4;
@@ -559,6 +578,7 @@ fn plan_once(
         net,
         rleaves: &rleaves,
         placed: &placed,
+        known: cond_events,
         dt: plan_dt,
         n: (duration / plan_dt).ceil() as usize + 1,
     };

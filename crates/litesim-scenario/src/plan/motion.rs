@@ -115,6 +115,8 @@ pub(super) struct MoveCx<'a> {
     pub(super) net: &'a RoadNetwork,
     pub(super) rleaves: &'a [RLeaf],
     pub(super) placed: &'a BTreeMap<String, Motion>,
+    /// The times known from the layouts before (conditions, `reach@N`).
+    pub(super) known: &'a BTreeMap<String, f64>,
     /// Plan step (s).
     pub(super) dt: f64,
     /// Samples per actor.
@@ -196,7 +198,30 @@ enum Follow {
     Offset(f64),
     /// Keeps this time headway (s) to it: `keep_time_headway(X)`.
     Headway(f64),
+    /// Brings the gap to it to a target: `change_space_gap` (the gap,
+    /// m) or `change_time_headway` (`headway`: gap = target · speed). The
+    /// gap now (m) is carried from sample to sample by both speeds.
+    Change {
+        gap: f64,
+        target: f64,
+        headway: bool,
+    },
 }
+
+/// A `change_*` action under way and what ends it.
+#[derive(Clone, Copy, Debug)]
+enum Reach {
+    /// `change_speed`: this speed (m/s).
+    Speed(f64),
+    /// `change_space_gap` / `change_time_headway`: its [`Follow::Change`]
+    /// target.
+    Gap,
+}
+
+/// A changed space gap is reached within this (m).
+pub(super) const GAP_REACHED_M: f64 = 0.25;
+/// A changed time headway is reached within this (s).
+pub(super) const HEADWAY_REACHED_S: f64 = 0.05;
 
 /// One actor's motion being sampled.
 struct Mover<'a> {
@@ -208,8 +233,9 @@ struct Mover<'a> {
     leaf_i: usize,
     /// Target speed.
     target: Option<f64>,
-    /// A `change_speed` action under way: its node id, target and start.
-    reaching: Option<(u32, f64, f64)>,
+    /// A `change_*` action under way: its node id, what ends it and its
+    /// start.
+    reaching: Option<(u32, Reach, f64)>,
     /// The phase's target speed follows another actor's plan at every
     /// sample (a relative speed, a kept gap or headway): that actor's plan
     /// index, how, and the phase's end.
@@ -277,15 +303,24 @@ impl<'a> Mover<'a> {
                 self.mo.change = None;
             }
             self.check_along_end(t);
+            self.gap_reached(t);
             // Enter phases that start now.
             while self.leaf_i < self.my.len() && self.my[self.leaf_i].t0 <= t + 1e-9 {
-                self.enter(k, t, plans)?;
+                match self.enter(k, t, plans) {
+                    Ok(()) => {}
+                    // Laid out after a change whose time this layout found
+                    // (it took the provisional time): the next layout
+                    // moves it, and judges it there.
+                    Err(_) if self.found_new_reach() => {}
+                    Err(e) => return Err(e),
+                }
                 self.leaf_i += 1;
             }
             self.follow(t, plans);
             let prev_v = self.mo.v;
             self.speed(t);
             self.note_reached(t, prev_v);
+            self.carry_gap(t, plans);
             let (sample, centre) = self.pose(t, prev_v, plans[self.i].kind);
             self.out.samples.push(sample);
             self.advance(t, centre);
@@ -298,6 +333,16 @@ impl<'a> Mover<'a> {
             ));
         }
         Ok(self.out)
+    }
+
+    /// This layout found how long a `change_*` action takes that the
+    /// layout itself did not know (it laid the phases after it out with
+    /// [`super::timer::PROVISIONAL_REACH_S`]).
+    fn found_new_reach(&self) -> bool {
+        self.out
+            .reached
+            .iter()
+            .any(|(key, _)| !self.cx.known.contains_key(key))
     }
 
     /// Phases that end now and asked to end on a road.
@@ -325,8 +370,8 @@ impl<'a> Mover<'a> {
         self.started = Some(self.leaf_i);
         self.stationary = l.action == Action::RemainStationary;
         self.end_speed = None;
-        self.follow = None;
         self.unreached();
+        self.follow = None;
         self.accel_up = ACCEL_UP;
         self.accel_down = ACCEL_DOWN;
         let mut keep_speed = false;
@@ -392,8 +437,12 @@ impl<'a> Mover<'a> {
                     strict,
                 } => self.lane_goal(l, *lane, reference.as_ref(), *strict),
                 Intent::KeepSpeed { .. } => keep_speed = true,
-                Intent::KeepGap { reference, headway } => {
-                    self.start_gap(l, t, reference, *headway, plans)?;
+                Intent::KeepGap {
+                    reference,
+                    headway,
+                    target,
+                } => {
+                    self.start_gap(l, t, reference, (*headway, *target), plans)?;
                 }
                 Intent::KeepPosition { .. } => self.stationary = true,
                 Intent::AvoidCollisions { avoid: false } => {
@@ -423,8 +472,11 @@ impl<'a> Mover<'a> {
             }
             Action::ChangeSpeed => {
                 if let Some(v) = self.target {
-                    self.reaching = Some((l.id, v, t));
+                    self.reaching = Some((l.id, Reach::Speed(v), t));
                 }
+            }
+            Action::ChangeSpaceGap | Action::ChangeTimeHeadway => {
+                self.reaching = Some((l.id, Reach::Gap, t));
             }
             // At once: exactness over physics.
             Action::AssignSpeed => {
@@ -441,15 +493,33 @@ impl<'a> Mover<'a> {
     /// reaches its target (a parent's duration cut it short): a note says
     /// so.
     fn unreached(&mut self) {
-        if let Some((id, v, t0)) = self.reaching.take() {
-            let at = self
-                .my
-                .iter()
-                .find(|l| l.id == id)
-                .map_or("", |l| l.at.as_str());
+        if let Some((id, reach, t0)) = self.reaching.take() {
+            let Some(l) = self.my.iter().find(|l| l.id == id) else {
+                return;
+            };
+            let what = match (reach, self.follow) {
+                (Reach::Speed(v), _) => format!("{v:.2} m/s"),
+                (
+                    Reach::Gap,
+                    Some((
+                        _,
+                        Follow::Change {
+                            target, headway, ..
+                        },
+                        _,
+                    )),
+                ) => {
+                    if headway {
+                        format!("a time headway of {target:.2} s")
+                    } else {
+                        format!("a gap of {target:.2} m")
+                    }
+                }
+                (Reach::Gap, _) => "its target".into(),
+            };
             self.out.notes.push(format!(
-                "{at}: {}'s change_speed from t = {t0:.1} s does not reach {v:.2} m/s within its phase (the phase is shorter than the change takes)",
-                self.id
+                "{}: {}'s {} from t = {t0:.1} s does not reach {what} within its phase (the phase is shorter than the change takes)",
+                l.at, self.id, l.action
             ));
         }
     }
@@ -460,7 +530,7 @@ impl<'a> Mover<'a> {
     /// takes that sample too and the next phase starts at the target; one
     /// already at its target takes no time.
     fn note_reached(&mut self, t: f64, prev_v: f64) {
-        if let Some((id, v, t0)) = self.reaching
+        if let Some((id, Reach::Speed(v), t0)) = self.reaching
             && (self.mo.v - v).abs() < 1e-9
         {
             let took = if (prev_v - v).abs() < 1e-9 {
@@ -470,6 +540,48 @@ impl<'a> Mover<'a> {
             };
             self.out.reached.push((super::timer::reach_key(id), took));
             self.reaching = None;
+        }
+    }
+
+    /// A `change_space_gap` or `change_time_headway` whose gap at `t` (a
+    /// place, known before the sample's speed) is within
+    /// [`GAP_REACHED_M`] or [`HEADWAY_REACHED_S`] of its target (a
+    /// headway at the speed it comes with): it ends at `t`. Checked before
+    /// the phases that start at `t` are entered, so that in the next
+    /// layout, where it ends at `t`, it is found reached again.
+    fn gap_reached(&mut self, t: f64) {
+        let Some((id, Reach::Gap, t0)) = self.reaching else {
+            return;
+        };
+        let Some((
+            _,
+            Follow::Change {
+                gap,
+                target,
+                headway,
+            },
+            _,
+        )) = self.follow
+        else {
+            return;
+        };
+        let v = self.mo.v;
+        let done = if headway {
+            v > 0.1 && (gap / v - target).abs() <= HEADWAY_REACHED_S
+        } else {
+            (gap - target).abs() <= GAP_REACHED_M
+        };
+        if done && t > t0 + 1e-9 {
+            self.out.reached.push((super::timer::reach_key(id), t - t0));
+            self.reaching = None;
+        }
+    }
+
+    /// A changed gap moves on by the step from `t`: the one ahead's speed
+    /// less this one's, over the plan's step.
+    fn carry_gap(&mut self, t: f64, plans: &[ActorPlan]) {
+        if let Some((j, Follow::Change { gap, .. }, _)) = &mut self.follow {
+            *gap += (plans[*j].at(t, self.cx.dt).v - self.mo.v) * self.cx.dt;
         }
     }
 
@@ -636,13 +748,15 @@ impl<'a> Mover<'a> {
 
     /// `keep_space_gap(o)` / `keep_time_headway(o)` entered at `t`: the
     /// gap (bumper to bumper, along `o`'s heading) or the headway (that gap
-    /// over this actor's speed) it has now is what it keeps.
+    /// over this actor's speed) it has now is what it keeps; with a
+    /// `target` (`change_space_gap`, `change_time_headway`) the gap or
+    /// headway it brings it to.
     fn start_gap(
         &mut self,
         l: &RLeaf,
         t: f64,
         o: &str,
-        headway: bool,
+        (headway, target): (bool, Option<f64>),
         plans: &[ActorPlan],
     ) -> Result<(), ScenarioError> {
         let what = if headway { "time headway" } else { "space gap" };
@@ -662,6 +776,23 @@ impl<'a> Mover<'a> {
                 l.at, self.id
             )));
         }
+        if let Some(target) = target {
+            if target <= 0.0 {
+                return Err(ScenarioError::Plan(format!(
+                    "{}: {} changes its {what} to {o} to {target}, which is not positive",
+                    l.at, self.id
+                )));
+            }
+            let how = Follow::Change {
+                gap,
+                target,
+                headway,
+            };
+            self.follow = Some((j, how, l.t1));
+            self.push_keep(l, o, headway.then_some(target), target);
+            self.end_speed = None;
+            return Ok(());
+        }
         let h = if headway {
             if self.mo.v < 0.1 {
                 return Err(ScenarioError::Plan(format!(
@@ -680,16 +811,22 @@ impl<'a> Mover<'a> {
             Follow::Offset(0.0)
         };
         self.follow = Some((j, how, l.t1));
+        self.push_keep(l, o, headway.then_some(h), gap);
+        self.end_speed = None;
+        Ok(())
+    }
+
+    /// The gap or headway the phase `l` keeps to `o` (or changes to), for
+    /// the driver that carries it.
+    fn push_keep(&mut self, l: &RLeaf, o: &str, headway: Option<f64>, gap: f64) {
         self.out.keeps.push(super::KeepGoal {
             actor: self.id.clone(),
             reference: o.to_string(),
-            headway: headway.then_some(h),
+            headway,
             gap,
             t0: l.t0,
             t1: l.t1,
         });
-        self.end_speed = None;
-        Ok(())
     }
 
     /// The target speed now under [`Mover::follow`]: the other's planned
@@ -710,6 +847,14 @@ impl<'a> Mover<'a> {
         let v = match how {
             Follow::Offset(off) => ahead + off,
             Follow::Headway(h) => self.mo.v + dt * (ahead - self.mo.v) / h,
+            Follow::Change {
+                gap,
+                target,
+                headway: true,
+            } => super::headway_closing_speed(ahead, gap, target),
+            Follow::Change { gap, target, .. } => {
+                super::gap_closing_speed(ahead, gap, target, super::GAP_CLOSE_S)
+            }
         }
         .max(0.0);
         self.target = Some(v);

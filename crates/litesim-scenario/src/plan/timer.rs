@@ -108,7 +108,7 @@ impl<'a> Timer<'a> {
         match action {
             Action::ChangeLane => Some(super::LANE_CHANGE_S),
             Action::AssignSpeed => Some(0.0),
-            Action::ChangeSpeed => Some(
+            Action::ChangeSpeed | Action::ChangeSpaceGap | Action::ChangeTimeHeadway => Some(
                 self.cond_events
                     .get(&reach_key(id))
                     .copied()

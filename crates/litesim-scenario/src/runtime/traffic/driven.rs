@@ -17,7 +17,9 @@ use super::spawn::{Density, fill};
 use super::{LaneGraph, Obstacle, StopLine, TRACK_TAU_S, Traffic};
 use crate::elab::TrafficDecl;
 use crate::error::ScenarioError;
-use crate::plan::{ActorPlan, Plan, PlanSample};
+use crate::plan::{
+    ActorPlan, GAP_CLOSE_S, Plan, PlanSample, gap_closing_speed, headway_closing_speed,
+};
 use crate::reactive::gap;
 use crate::state::BodyState;
 use litesim_core::ActorClass;
@@ -28,8 +30,6 @@ use litesim_map::{Located, RoadNetwork};
 use litesim_ssp::api::{Coord6, XyTrajectory};
 use std::sync::Arc;
 
-/// Over how long a driver keeping a space gap closes an error in it (s).
-const GAP_CLOSE_S: f64 = 2.0;
 /// Length and width of an ambient vehicle (m): a mid-size car.
 pub const SIZE: (f64, f64) = (4.5, 1.8);
 /// How often vehicles out of range are placed again (steps of 20 ms: 0.5 s).
@@ -453,10 +453,10 @@ impl Driven {
     }
 
     /// The speed that keeps actor `i`'s gap or headway of a phase active at
-    /// `t` to the actor ahead (`plan.keeps`), from where both really are:
-    /// the one ahead's speed plus the gap's error over the headway (a
-    /// space gap: over [`GAP_CLOSE_S`]); and the car-following time gap
-    /// under it, if a headway is kept.
+    /// `t` to the actor ahead (`plan.keeps`, kept or changed to a target),
+    /// from where both really are: the planner's laws
+    /// ([`headway_closing_speed`], [`gap_closing_speed`] over
+    /// [`GAP_CLOSE_S`]); and the car-following time gap under it.
     fn gap_keeping_speed(
         &self,
         plan: &Plan,
@@ -478,11 +478,11 @@ impl Driven {
             // its equilibrium gap (s₀ + v·T, widened by the free-road term)
             // would otherwise hold the follower back from the headway it
             // keeps; it stays the bound that avoids a collision.
-            Some(h) => (((v_ahead + (gap - h * v) / h).max(0.0)), Some(0.5 * h)),
+            Some(h) => (headway_closing_speed(v_ahead, gap, h), Some(0.5 * h)),
             // A space gap: likewise, with the time gap that leaves half of
             // it at the speed it has.
             None => (
-                (v_ahead + (gap - k.gap) / GAP_CLOSE_S).max(0.0),
+                gap_closing_speed(v_ahead, gap, k.gap, GAP_CLOSE_S),
                 Some(0.5 * k.gap / v.max(1.0)),
             ),
         })
