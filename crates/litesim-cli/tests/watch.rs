@@ -65,6 +65,28 @@ fn a_run_writes_mcap_that_foxglove_and_osi_tools_read() {
 }
 
 #[test]
+fn a_run_whose_weather_changes_exports_each_change_and_the_osi_conditions() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let mcap = dir.path().join("weather.mcap");
+    let o = run(
+        &[
+            "examples/scenarios/weather_change.osc",
+            "--no-pictures",
+            "--mcap",
+            mcap.to_str().unwrap(),
+        ],
+        &out,
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let said = python(
+        "check_mcap.py",
+        &[mcap.as_os_str(), out.join("log.json").as_os_str()],
+    );
+    assert!(said.contains("8 environment changes"), "{said}");
+}
+
+#[test]
 fn a_closed_loop_run_under_dynamic_control_is_exported_too() {
     // Another SUT, dynamic control and more actors than the cut-in.
     let dir = tempfile::tempdir().unwrap();

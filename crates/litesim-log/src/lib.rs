@@ -20,6 +20,6 @@ mod log;
 
 pub use io::{AtomicFile, LogError, write_atomic, write_atomic_seekable};
 pub use log::{
-    ActorSample, ActorTrack, ControlColumns, ControlSample, DerivedColumns, GridRecord,
-    LogRecorder, PlanRecord, SimulationLog, StateColumns, TrackingColumns,
+    ActorSample, ActorTrack, ControlColumns, ControlSample, DerivedColumns, EnvironmentChange,
+    GridRecord, LogRecorder, PlanRecord, SimulationLog, StateColumns, TrackingColumns,
 };

@@ -249,6 +249,32 @@ pub struct SimulationLog {
     /// Tracking metrics and MPC predictions, for runs that tracked a corridor.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tracking: Option<TrackingColumns>,
+    /// The environment's changes (weather, sun, time of day), in tick
+    /// order: what the scenario asked and what the simulator applied.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub environment: Vec<EnvironmentChange>,
+}
+
+/// One change of the environment during a run (`environment.rain(…)`,
+/// `environment.fog(…)`, …).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct EnvironmentChange {
+    /// The tick from which it holds.
+    pub tick: u64,
+    /// Its time (s).
+    pub time: f64,
+    /// The action (`rain`, `fog`, `assign_celestial_position`, …).
+    pub action: String,
+    /// Its arguments in SI units (m/s, m, rad, K, Pa; okta and fractions
+    /// as they are), by parameter name.
+    pub values: BTreeMap<String, f64>,
+    /// The simulator's whole weather or time of day after the change, as
+    /// the simulator answered it (by field); empty when it has none.
+    pub applied: BTreeMap<String, f64>,
+    /// What the simulator could not take (a profile without weather, a
+    /// value it has no field for), if anything.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub note: String,
 }
 
 /// The occupancy grid a plan was made on: 0 free, 1 inflated margin, 2 hard obstacle.
@@ -364,6 +390,10 @@ impl SimulationLog {
         let first = self.tick.get(from).copied().unwrap_or(u64::MAX);
         let end = self.tick.get(to).copied().unwrap_or(u64::MAX);
         let times = from.min(self.time.len())..to.min(self.time.len());
+        let env_end = match self.tick.get(to) {
+            Some(&k) => k,
+            None => self.tick.last().map_or(0, |&k| k + 1),
+        };
         SimulationLog {
             format_version: self.format_version,
             dt: self.dt,
@@ -379,6 +409,15 @@ impl SimulationLog {
                         t.tick.partition_point(|&k| k < end),
                     )
                 })
+                .collect(),
+            // A change belongs to the piece that holds its tick: one made
+            // for a tick not recorded yet goes with the next piece, one
+            // made before the first recorded tick with the first piece.
+            environment: self
+                .environment
+                .iter()
+                .filter(|e| (from == 0 || e.tick >= first) && e.tick < env_end)
+                .cloned()
                 .collect(),
             ..SimulationLog::default()
         }
@@ -613,6 +652,12 @@ impl LogRecorder {
             };
             self.sample(a.id(), a.mode().name(), &s);
         }
+    }
+
+    /// Records a change of the environment (kept in tick order: a change
+    /// comes at the step it is made, before that step's tick is opened).
+    pub fn environment(&mut self, change: EnvironmentChange) {
+        self.log.environment.push(change);
     }
 
     /// The log so far.

@@ -11,6 +11,12 @@
 //! | `/tf`                  | `foxglove.FrameTransforms` | protobuf            |
 //! | `/actors/ID/state`     | `litesim.ActorState`       | json (jsonschema)   |
 //! | `/osi/ground_truth`    | `osi3.GroundTruth`         | protobuf            |
+//! | `/environment`         | `litesim.EnvironmentChange`| json (jsonschema)   |
+//!
+//! `/environment` has a message per change of the weather, the sun or the
+//! time of day, and exists only in runs that change them; from the first
+//! change on, each GroundTruth carries the `environmental_conditions` the
+//! changes add up to.
 //!
 //! Every message's log and publish time is the simulated time of its tick
 //! (nanoseconds from the run's start), so a file is the same bytes for the
@@ -29,9 +35,11 @@ use std::io::{Seek, Write};
 use std::path::Path;
 
 mod container;
+mod environment;
 mod map;
 mod messages;
 mod pieces;
+pub use environment::{ENVIRONMENT_SCHEMA, TOPIC_ENVIRONMENT};
 pub use map::*;
 use messages::*;
 use pieces::*;
@@ -230,6 +238,8 @@ pub struct McapStream<W: Write + Seek> {
     gt_buf: Vec<u8>,
     buf: Vec<u8>,
     json: Vec<u8>,
+    /// `/environment`, made with the first change of the environment.
+    env_ch: Option<u16>,
 }
 
 /// OSI ids of the map's lanes and boundaries start here; moving objects are
@@ -408,6 +418,7 @@ impl<W: Write + Seek> McapPrelude<W> {
             gt,
             buf: Vec::with_capacity(4096),
             json: Vec::with_capacity(512),
+            env_ch: None,
         })
     }
 }
@@ -457,9 +468,44 @@ impl<W: Write + Seek> McapStream<W> {
             .iter()
             .map(|t| piece.sample_indices(t))
             .collect();
+        let mut env = piece.environment.iter().peekable();
         for (k, (&tick, &time)) in piece.tick.iter().zip(&piece.time).enumerate() {
+            // Published with the first tick it holds for.
+            while let Some(c) = env.next_if(|c| c.tick <= tick) {
+                self.environment(c, nanos(time))?;
+            }
             self.tick(piece, &index, k, tick, time)?;
         }
+        Ok(())
+    }
+
+    /// A change of the environment: its `/environment` message at `ns`
+    /// (the channel made with the first one), and the GroundTruth's
+    /// conditions from now on.
+    fn environment(
+        &mut self,
+        c: &litesim_log::EnvironmentChange,
+        ns: u64,
+    ) -> Result<(), McapError> {
+        let ch = match self.env_ch {
+            Some(ch) => ch,
+            None => {
+                let sid = self.out.add_schema(
+                    ENVIRONMENT_SCHEMA,
+                    "jsonschema",
+                    environment::environment_schema().as_bytes(),
+                )?;
+                let ch = self.out.add_channel(sid, TOPIC_ENVIRONMENT, "json")?;
+                self.env_ch = Some(ch);
+                ch
+            }
+        };
+        self.out.message(ch, ns, &environment::change_json(c, ns))?;
+        let state = self
+            .gt
+            .environmental_conditions
+            .get_or_insert_with(Default::default);
+        environment::apply(state, c);
         Ok(())
     }
 
@@ -535,6 +581,7 @@ impl<W: Write + Seek> McapStream<W> {
         for &a in &self.live {
             self.pieces[a].object(&self.objects[a], gt_buf);
         }
+        opt(12, &self.gt.environmental_conditions, gt_buf);
         #[cfg(debug_assertions)]
         self.check_against_prost(Whole::GroundTruth(at));
         #[cfg(not(debug_assertions))]
@@ -606,6 +653,9 @@ impl<W: Write + Seek> McapStream<W> {
         count(TOPIC_SCENE, self.scene_ch);
         count(TOPIC_TF, self.tf_ch);
         count(TOPIC_OSI, self.osi_ch);
+        if let Some(ch) = self.env_ch {
+            count(TOPIC_ENVIRONMENT, ch);
+        }
         for (id, &ch) in self.ids.iter().zip(&self.state_ch) {
             count(&format!("/actors/{id}/state"), ch);
         }
@@ -837,5 +887,74 @@ mod tests {
         l.time.pop();
         let e = write_to(&l, None, std::io::Cursor::new(Vec::new())).unwrap_err();
         assert!(e.to_string().contains("5 ticks but 4 times"), "{e}");
+    }
+
+    /// Changes of the environment: a `/environment` message each at its
+    /// time, and OSI's environmental conditions in every GroundTruth from
+    /// the first on; the same bytes whole or streamed in pieces, and no
+    /// `/environment` channel in a run without changes.
+    #[test]
+    fn environment_changes_reach_their_channel_and_the_ground_truth() {
+        use prost::Message;
+        let mut l = log(10);
+        let change = |tick: u64, action: &str, key: &str, v: f64| litesim_log::EnvironmentChange {
+            tick,
+            time: tick as f64 * 0.05,
+            action: action.into(),
+            values: BTreeMap::from([(key.to_string(), v)]),
+            ..Default::default()
+        };
+        l.environment = vec![
+            change(3, "rain", "intensity", 20.0 / 3.6e6),
+            change(6, "fog", "visual_range", 100.0),
+        ];
+        let mut whole = std::io::Cursor::new(Vec::new());
+        let stats = write_to(&l, None, &mut whole).unwrap();
+        assert_eq!(stats.messages[TOPIC_ENVIRONMENT], 2);
+        let buf = whole.into_inner();
+        // Cut before the first change's tick and between the two.
+        let mut pieces = std::io::Cursor::new(Vec::new());
+        let first = l.ticks_between(0, 2);
+        let mut streamed = McapStream::new(&mut pieces, None, &first).unwrap();
+        streamed.push(&first).unwrap();
+        streamed.push(&l.ticks_between(2, 5)).unwrap();
+        streamed.push(&l.ticks_from(5)).unwrap();
+        streamed.finish().unwrap();
+        assert!(
+            pieces.into_inner() == buf,
+            "streamed in pieces, other bytes"
+        );
+        let read: Vec<_> = mcap::MessageStream::new(&buf)
+            .unwrap()
+            .collect::<Result<_, _>>()
+            .unwrap();
+        let env: Vec<_> = read
+            .iter()
+            .filter(|m| m.channel.topic == TOPIC_ENVIRONMENT)
+            .collect();
+        assert_eq!(env[0].log_time, 150_000_000);
+        assert_eq!(env[1].log_time, 300_000_000);
+        let j: serde_json::Value = serde_json::from_slice(&env[0].data).unwrap();
+        assert_eq!(j["action"], "rain");
+        assert_eq!(j["timestamp"]["nsec"], 150_000_000);
+        let conditions: Vec<_> = read
+            .iter()
+            .filter(|m| m.channel.topic == TOPIC_OSI)
+            .map(|m| {
+                osi3::GroundTruth::decode(&m.data[..])
+                    .unwrap()
+                    .environmental_conditions
+            })
+            .collect();
+        use osi3::environmental_conditions as ec;
+        assert!(conditions[..3].iter().all(Option::is_none));
+        let at = |k: usize| conditions[k].clone().unwrap();
+        assert_eq!(at(3).precipitation, Some(ec::Precipitation::Heavy as i32));
+        assert_eq!(at(3).fog, None);
+        assert_eq!(at(9).fog, Some(ec::Fog::Thick as i32));
+        assert_eq!(at(9).precipitation, Some(ec::Precipitation::Heavy as i32));
+        // No changes: no channel.
+        let stats = write_to(&log(10), None, std::io::Cursor::new(Vec::new())).unwrap();
+        assert!(!stats.messages.contains_key(TOPIC_ENVIRONMENT));
     }
 }

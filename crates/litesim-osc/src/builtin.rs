@@ -30,6 +30,10 @@ pub const FILES: &[(&str, &str)] = &[
         include_str!("../../../osc/domain/config.osc"),
     ),
     (
+        "domain/environment.osc",
+        include_str!("../../../osc/domain/environment.osc"),
+    ),
+    (
         "domain/map.osc",
         include_str!("../../../osc/domain/map.osc"),
     ),

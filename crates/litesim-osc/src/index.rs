@@ -54,6 +54,8 @@ pub struct UnitDecl {
     pub of: String,
     /// Multiply by this to get SI (`kph` → 1/3.6).
     pub factor: f64,
+    /// Then add this (`celsius` → 273.15 K; 0 for most units).
+    pub offset: f64,
 }
 
 /// Every declaration of a program, by name.
@@ -98,10 +100,19 @@ pub fn dimension(si: &[crate::ast::Arg]) -> Dimension {
 
 /// The SI factor of a unit's `SI(…, factor: f)` (1 when not given).
 pub fn factor(si: &[crate::ast::Arg]) -> f64 {
+    si_arg(si, "factor").unwrap_or(1.0)
+}
+
+/// The SI offset of a unit's `SI(…, offset: o)` (0 when not given): a
+/// value in the unit is `v · factor + offset` in SI (`celsius`).
+pub fn offset(si: &[crate::ast::Arg]) -> f64 {
+    si_arg(si, "offset").unwrap_or(0.0)
+}
+
+fn si_arg(si: &[crate::ast::Arg], name: &str) -> Option<f64> {
     si.iter()
-        .find(|a| a.name.as_ref().is_some_and(|n| n.text == "factor"))
+        .find(|a| a.name.as_ref().is_some_and(|n| n.text == name))
         .and_then(|a| const_num(&a.value))
-        .unwrap_or(1.0)
 }
 
 /// The most bases an inheritance walk follows: a cycle (the checker
@@ -190,12 +201,12 @@ impl<'a> DeclIndex<'a> {
                         }
                     }
                     Decl::Unit { name, of, args } => {
-                        let factor = factor(args);
                         ix.units.insert(
                             name.text.clone(),
                             UnitDecl {
                                 of: of.text.clone(),
-                                factor,
+                                factor: factor(args),
+                                offset: offset(args),
                             },
                         );
                     }

@@ -58,9 +58,17 @@ const ASAM_UNITS: &[(&str, f64)] = &[
 /// redeclaration of litesim's built-in declaration at `first`: then it
 /// takes precedence instead of being a redefinition error.
 pub(crate) fn overrides(prog: &Program, first: Span, later: Span) -> bool {
+    // scenario_runner's `basic.osc` counts as the program's own file when
+    // litesim supplies it (its units restate some of the domain's: `h`).
+    let carla_basic = |file: u32| {
+        prog.sources.files.get(file as usize).is_some_and(|f| {
+            f.path == crate::builtin::path_of(crate::builtin::CARLA_BASIC).to_string_lossy()
+        })
+    };
     prog.dialect == crate::Dialect::Carla
         && prog.is_builtin_file(first.file)
-        && !prog.is_builtin_file(later.file)
+        && (!prog.is_builtin_file(later.file)
+            || (carla_basic(later.file) && !carla_basic(first.file)))
 }
 
 fn si(dim: &Dimension) -> String {

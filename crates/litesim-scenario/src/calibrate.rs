@@ -198,6 +198,7 @@ pub fn reference_plan(m: Manoeuvre, step_s: f64) -> Plan {
         violations: Vec::new(),
         unplaced: Vec::new(),
         lights: Vec::new(),
+        environment: Vec::new(),
         goals: Vec::new(),
         keeps: Vec::new(),
         reckless: Vec::new(),

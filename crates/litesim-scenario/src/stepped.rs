@@ -375,6 +375,7 @@ impl Started<'_> {
             drivers_say(d, &plan, net.as_deref(), &mut ex.goals, &mut notes);
         }
         notes.append(&mut ex.sut_notes);
+        notes.append(&mut ex.environment_notes);
         // `plan`: the plan in force at the end (conditions that held at
         // other times than planned made a new one).
         let ego_id = plan.actors.iter().find(|a| a.ego).map(|a| a.id.clone());

@@ -87,6 +87,7 @@ const ALL: &[&str] = &[
     "tow_gap",
     "truck_follow",
     "wait_then_go",
+    "weather_change",
 ];
 
 #[test]

@@ -661,3 +661,91 @@ fn a_gap_change_without_its_target_or_sideways_is_an_error() {
         "{e}"
     );
 }
+
+#[test]
+fn weather_changes_during_a_run_and_is_in_the_log() {
+    let r = go("weather_change", Npc::Driver);
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let log = r.log.as_ref().unwrap();
+    let env = &log.environment;
+    let at = |action: &str, n: usize| {
+        env.iter()
+            .filter(|e| e.action == action)
+            .nth(n)
+            .unwrap_or_else(|| panic!("no {action} #{n}"))
+    };
+    // Each change at its step (20 ms steps), in order.
+    let ticks: Vec<u64> = env.iter().map(|e| e.tick).collect();
+    assert_eq!(ticks, [0, 0, 0, 100, 200, 350, 350, 450]);
+    // What the simulator applied, its whole weather after each change.
+    let (rain, pour) = (at("rain", 0), at("rain", 1));
+    assert!((rain.values["intensity"] * 3.6e6 - 8.0).abs() < 1e-9);
+    assert!((rain.applied["precipitation"] - 8.0 / 50.0).abs() < 1e-9);
+    assert!((pour.applied["precipitation"] - 0.5).abs() < 1e-9);
+    assert!(
+        (pour.applied["cloudiness"] - 0.75).abs() < 1e-9,
+        "clouds stay"
+    );
+    let fog = at("fog", 0);
+    assert_eq!(fog.applied["fog_distance_m"], 150.0);
+    assert!((fog.applied["fog_density"] - 0.85).abs() < 1e-9);
+    assert!((fog.applied["wind_intensity"] - 0.4).abs() < 1e-9);
+    let sun = at("assign_celestial_position", 0);
+    assert!((sun.applied["sun_azimuth_deg"] - 225.0).abs() < 1e-9);
+    assert!((sun.applied["sun_altitude_deg"] - 15.0).abs() < 1e-9);
+    assert_eq!(
+        at("time_of_day", 0).applied["seconds_since_midnight"],
+        52_200.0
+    );
+    // What the SSP's weather has no field for is said, not dropped.
+    let air = at("air", 0);
+    assert!((air.values["temperature"] - 287.15).abs() < 1e-9);
+    assert!(air.note.contains("temperature"), "{}", air.note);
+    assert!(at("wind", 0).note.contains("direction"));
+    // A simulator without weather: every change recorded, each noted.
+    let opts = RunOptions {
+        profile: Some("simian".into()),
+        record: true,
+        ..RunOptions::default()
+    };
+    let r = run(
+        &example("weather_change"),
+        &mut litesim_scenario::in_process(),
+        &opts,
+    )
+    .unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    assert_eq!(r.log.as_ref().unwrap().environment.len(), 8);
+    let noted = r
+        .summary
+        .notes
+        .iter()
+        .filter(|n| n.contains("is recorded in the log only"))
+        .count();
+    assert_eq!(noted, 7, "{:?}", r.summary.notes);
+}
+
+#[test]
+fn environment_actions_without_what_they_set_are_errors() {
+    let with = |call: &str| {
+        run_text(&format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        {call}\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n            duration(2s)\n"
+        ))
+        .unwrap_err()
+        .to_string()
+    };
+    let e = with("environment.rain()");
+    assert!(e.contains("environment.rain: needs its intensity"), "{e}");
+    let e = with(
+        "environment.assign_celestial_position(light_source: moon, azimuth: 0deg, elevation: 10deg)",
+    );
+    assert!(e.contains("light_source: moon is not supported"), "{e}");
+    let e = with("environment.air()");
+    assert!(e.contains("sets nothing"), "{e}");
+    // A sun the simulator cannot have is its refusal, at the action.
+    let e = with("environment.assign_celestial_position(azimuth: 0deg, elevation: 120deg)");
+    assert!(
+        e.contains("the simulator refused it") && e.contains(":9:9"),
+        "{e}"
+    );
+}

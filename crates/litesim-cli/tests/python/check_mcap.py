@@ -11,7 +11,11 @@ python3 check_mcap.py RUN.mcap LOG.json
 - every /osi/ground_truth message decoded with osi-python's own osi3
   classes: one moving object per actor, positions equal to log.json to 1 mm,
   timestamps equal to the log's times, lanes and boundaries present when the
-  run had a map.
+  run had a map;
+- a run that changed the environment: one /environment JSON message per
+  change of log.json's `environment`, with the first tick it holds for, and OSI's
+  environmental_conditions in every GroundTruth from the first change on
+  (none before).
 """
 import json
 import math
@@ -56,6 +60,14 @@ with open(path, "rb") as f:
         got = (s.name, s.encoding, topics[t].message_encoding)
         assert got == (name, senc, menc), f"{t}: {got}"
     json.loads(schema(f"/actors/{ids[0]}/state").data)  # a real JSON Schema
+    env = log.get("environment", [])
+    if env:
+        s = schema("/environment")
+        got = (s.name, s.encoding, topics["/environment"].message_encoding)
+        assert got == ("litesim.EnvironmentChange", "jsonschema", "json"), got
+        json.loads(s.data)
+    else:
+        assert "/environment" not in topics, "no change, no /environment topic"
     counts = summary.statistics.channel_message_counts
     for t in ["/scene", "/tf", "/osi/ground_truth"]:
         n = counts[topics[t].id]
@@ -70,6 +82,8 @@ with open(path, "rb") as f:
     time_to_tick = {round(v * 1e9): k for k, v in times.items()}
 
     n_gt = n_scene = n_tf = n_state = 0
+    env_seen = []
+    first_change = env[0]["tick"] if env else None
     lanes_seen = 0
     for sch, channel, message, decoded in reader.iter_decoded_messages():
         tick = time_to_tick.get(message.log_time)
@@ -93,6 +107,8 @@ with open(path, "rb") as f:
                 assert o.type in (2, 3)  # TYPE_VEHICLE, TYPE_PEDESTRIAN
             assert gt.host_vehicle_id.value >= 1
             lanes_seen = max(lanes_seen, len(gt.lane))
+            changed = first_change is not None and tick >= first_change
+            assert gt.HasField("environmental_conditions") == changed, (tick, first_change)
             if gt.lane:
                 bids = {b.id.value for b in gt.lane_boundary}
                 for lane in gt.lane:
@@ -112,6 +128,11 @@ with open(path, "rb") as f:
             for tr in decoded.transforms:
                 x, y = where[(tick, tr.child_frame_id)]
                 assert abs(tr.translation.x - x) <= 1e-3 and tr.parent_frame_id == "map"
+        elif channel.topic == "/environment":
+            env_seen.append((decoded["tick"], decoded["action"], decoded["values"]))
+            # Published with the first logged tick it holds for.
+            first = min(k for k in times if k >= decoded["tick"])
+            assert tick == first, (decoded["tick"], tick)
         elif channel.topic == "/map":
             assert sum(len(l.points) for e in decoded.entities for l in e.lines) > 0
         else:
@@ -121,6 +142,7 @@ with open(path, "rb") as f:
             assert abs(s["x"] - x) <= 1e-9 and abs(s["y"] - y) <= 1e-9
     assert n_gt == n_scene == n_tf == ticks, (n_gt, n_scene, n_tf, ticks)
     assert n_state == len(where), (n_state, len(where))
+    assert env_seen == [(e["tick"], e["action"], e["values"]) for e in env], env_seen
     if "--map" in sys.argv:
         assert lanes_seen > 0, "the run had a map: GroundTruth must carry its lanes"
-print(f"mcap ok: {ticks} ticks, {len(ids)} actors, {lanes_seen} lanes")
+print(f"mcap ok: {ticks} ticks, {len(ids)} actors, {lanes_seen} lanes, {len(env)} environment changes")

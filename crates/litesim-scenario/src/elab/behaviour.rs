@@ -421,6 +421,14 @@ impl Elab<'_> {
                 at,
             }));
         }
+        if base.is_some_and(|b| self.is_environment(b, sc)) {
+            if !with.is_empty() {
+                return Err(ScenarioError::Elaboration(format!(
+                    "{at}: environment.{name} takes no `with:` block (it changes the environment at its time)"
+                )));
+            }
+            return self.environment_action(&name, args, sc, at).map(Some);
+        }
         if let Some(action) = crate::intent::Action::parse(&name) {
             let actor = base.and_then(|b| self.actor_of(b, sc)).ok_or_else(|| {
                 ScenarioError::Elaboration(format!(

@@ -20,20 +20,28 @@ impl Elab<'_> {
         self.lib.ix.units.get(u).map_or(1.0, |u| u.factor)
     }
 
+    /// The SI offset of a unit (`celsius`: 273.15 K; most units: 0).
+    pub(super) fn unit_offset(&self, u: &str) -> f64 {
+        self.lib.ix.units.get(u).map_or(0.0, |u| u.offset)
+    }
+
     /// Resolves an expression in a scope.
     pub(super) fn cexpr(&self, e: &Expr, sc: &Scope) -> CExpr {
         match e {
             Expr::Int { value, .. } => CExpr::Const(Value::Num(*value as f64)),
             Expr::Float { value, .. } => CExpr::Const(Value::Num(*value)),
-            Expr::Physical { value, unit, .. } => CExpr::Const(Value::Num(value * self.unit(unit))),
+            Expr::Physical { value, unit, .. } => {
+                CExpr::Const(Value::Num(value * self.unit(unit) + self.unit_offset(unit)))
+            }
             Expr::Str { value, .. } => CExpr::Const(Value::Str(value.clone())),
             Expr::Bool { value, .. } => CExpr::Const(Value::Bool(*value)),
             Expr::EnumRef { member, .. } => CExpr::Const(Value::Enum(member.clone())),
             Expr::Range { lo, hi, unit, .. } => {
                 let f = unit.as_deref().map_or(1.0, |u| self.unit(u));
+                let off = unit.as_deref().map_or(0.0, |u| self.unit_offset(u));
                 let bound = |b: &Option<Box<Expr>>| {
                     b.as_deref().and_then(|x| match self.cexpr(x, sc) {
-                        CExpr::Const(Value::Num(v)) => Some(v * f),
+                        CExpr::Const(Value::Num(v)) => Some(v * f + off),
                         _ => None,
                     })
                 };

@@ -17,6 +17,7 @@ use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 
 mod behaviour;
+mod environment;
 mod exprs;
 mod stdlib;
 mod tree;

@@ -214,6 +214,20 @@ pub enum Node {
         /// Where.
         at: String,
     },
+    /// `environment.rain(…)` and the other environment actions: the
+    /// weather, the sun or the time of day changes at this time.
+    Environment {
+        /// Stable id: the node's place in a pre-order walk of the tree
+        /// (numbered once elaboration is done; [`Node::id`]).
+        #[serde(skip)]
+        id: u32,
+        /// The action (`rain`, `fog`, …; elaboration vetted it).
+        action: String,
+        /// Its arguments by parameter name.
+        args: BTreeMap<String, CExpr>,
+        /// Where.
+        at: String,
+    },
     /// `emit e`.
     Emit {
         /// Stable id: the node's place in a pre-order walk of the tree
@@ -236,6 +250,7 @@ impl Node {
             | Node::Action { id, .. }
             | Node::Wait { id, .. }
             | Node::Switch { id, .. }
+            | Node::Environment { id, .. }
             | Node::Emit { id, .. } => *id,
         }
     }
@@ -248,6 +263,7 @@ impl Node {
         | Node::Action { id, .. }
         | Node::Wait { id, .. }
         | Node::Switch { id, .. }
+        | Node::Environment { id, .. }
         | Node::Emit { id, .. }) = self;
         *id = *next;
         *next += 1;

@@ -273,6 +273,10 @@ pub struct Plan {
     pub unplaced: Vec<String>,
     /// Traffic-light switches in time order.
     pub lights: Vec<LightSwitch>,
+    /// Changes of the environment (weather, sun, time of day) in time
+    /// order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub environment: Vec<EnvChange>,
     /// Gaps to other actors that phases ask for at their end
     /// (`position(d, ahead_of: x, at: end)`): the runtime re-solves them
     /// against where `x` actually is.
@@ -426,6 +430,20 @@ pub struct LightSwitch {
     pub color: String,
 }
 
+/// The environment changes (`environment.rain(…)`, …).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct EnvChange {
+    /// When (s).
+    pub t: f64,
+    /// The action (`rain`, `fog`, `air`, `wind`, `clouds`, `snow`,
+    /// `assign_celestial_position`, `time_of_day`).
+    pub action: String,
+    /// Its numeric arguments in SI units, by parameter name.
+    pub values: BTreeMap<String, f64>,
+    /// Where it is written (`file:line:col`).
+    pub at: String,
+}
+
 mod conditions;
 mod motion;
 mod placement;
@@ -550,10 +568,12 @@ fn plan_once(
         duration,
         leaves,
         switches,
+        environment,
         conds,
         events,
     } = lay_out(root, sol, rng, cond_events, step_s)?;
     let lights = light_switches(switches, sol, rng)?;
+    let environment = timer::environment_changes(environment, sol, rng)?;
     let ids: BTreeMap<String, String> = test
         .actors
         .iter()
@@ -629,6 +649,7 @@ fn plan_once(
             violations,
             unplaced,
             lights,
+            environment,
             goals,
             keeps,
             reckless,

@@ -27,6 +27,9 @@ pub(super) fn reach_key(id: u32) -> String {
     format!("reach@{id}")
 }
 
+/// An environment action laid out: time, action, arguments, place.
+pub(super) type EnvNode<'a> = (f64, &'a str, &'a BTreeMap<String, CExpr>, &'a str);
+
 pub(super) struct Timer<'a> {
     /// The first `duration(…)` out of range, as an error message.
     pub(super) bad_duration: Option<String>,
@@ -43,6 +46,8 @@ pub(super) struct Timer<'a> {
     pub(super) until_after: BTreeMap<u32, Option<f64>>,
     /// Traffic-light switches: time, light path, colour, place.
     pub(super) switches: Vec<(f64, String, &'a CExpr, String)>,
+    /// Changes of the environment: time, action, arguments, place.
+    pub(super) environment: Vec<EnvNode<'a>>,
     /// Times at which state conditions hold, from the previous plan.
     pub(super) cond_events: &'a BTreeMap<String, f64>,
     /// State conditions met in this layout: key, start time, condition.
@@ -151,7 +156,7 @@ impl<'a> Timer<'a> {
                     .as_ref()
                     .and_then(|e| eval(e, self.sol, &mut self.rng))
                     .and_then(|v| v.num()),
-                Node::Emit { .. } | Node::Switch { .. } => Some(0.0),
+                Node::Emit { .. } | Node::Switch { .. } | Node::Environment { .. } => Some(0.0),
                 Node::Action { action, id, .. } => self.action_natural(*action, *id),
             }
         };
@@ -321,6 +326,12 @@ impl<'a> Timer<'a> {
                 self.switches.push((t0, light.clone(), color, at.clone()));
                 t0
             }
+            Node::Environment {
+                action, args, at, ..
+            } => {
+                self.environment.push((t0, action, args, at));
+                t0
+            }
             Node::Wait { .. } => t0 + dur.unwrap_or(0.0),
         }
     }
@@ -334,6 +345,8 @@ pub(super) struct Layout<'a> {
     pub(super) leaves: Vec<Leaf<'a>>,
     /// Traffic-light switches: time, light path, colour, place.
     pub(super) switches: Vec<(f64, String, &'a CExpr, String)>,
+    /// Changes of the environment: time, action, arguments, place.
+    pub(super) environment: Vec<EnvNode<'a>>,
     /// State conditions met: key, start time, condition.
     pub(super) conds: Vec<(String, f64, CExpr)>,
     /// Event times (labels' start/end, emits).
@@ -359,6 +372,7 @@ pub(super) fn lay_out<'a>(
         choice: BTreeMap::new(),
         until_after: BTreeMap::new(),
         switches: Vec::new(),
+        environment: Vec::new(),
         bad_duration: None,
         cond_events,
         conds: Vec::new(),
@@ -383,6 +397,7 @@ pub(super) fn lay_out<'a>(
         timer.leaves.clear();
         timer.seen.clear();
         timer.switches.clear();
+        timer.environment.clear();
         timer.conds.clear();
         duration = timer.assign(root, 0.0, None, &mut memo).max(step_s);
         if timer.seen == timer.events {
@@ -408,9 +423,45 @@ pub(super) fn lay_out<'a>(
         duration,
         leaves: timer.leaves,
         switches: timer.switches,
+        environment: timer.environment,
         conds,
         events: timer.events,
     })
+}
+
+/// The changes of the environment with their arguments evaluated (SI),
+/// in time order.
+pub(super) fn environment_changes(
+    nodes: Vec<EnvNode<'_>>,
+    sol: &Solution,
+    rng: &mut Rng,
+) -> Result<Vec<super::EnvChange>, ScenarioError> {
+    let mut out = Vec::with_capacity(nodes.len());
+    for (t, action, args, at) in nodes {
+        let mut values = BTreeMap::new();
+        for (k, e) in args {
+            match eval(e, sol, rng) {
+                Some(Value::Num(v)) => {
+                    values.insert(k.clone(), v);
+                }
+                // Enums (the light source) were vetted by elaboration.
+                Some(Value::Enum(_)) => {}
+                _ => {
+                    return Err(ScenarioError::Plan(format!(
+                        "{at}: environment.{action}: {k} has no value the engine can evaluate"
+                    )));
+                }
+            }
+        }
+        out.push(super::EnvChange {
+            t,
+            action: action.to_string(),
+            values,
+            at: at.to_string(),
+        });
+    }
+    out.sort_by(|a, b| a.t.total_cmp(&b.t));
+    Ok(out)
 }
 
 /// The traffic-light switches with their lights (from the solution) and

@@ -98,6 +98,8 @@ pub struct Executed {
     pub driven: std::collections::BTreeSet<String>,
     /// What the SUT reported (an emergency stage that fired, and why).
     pub sut_notes: Vec<String>,
+    /// What the simulator could not take of the environment's changes.
+    pub environment_notes: Vec<String>,
     /// `wait`/`until` conditions looked at on the simulated state that
     /// never held.
     pub never_held: Vec<String>,

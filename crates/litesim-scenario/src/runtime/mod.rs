@@ -15,6 +15,7 @@ pub(crate) mod cast;
 pub mod config;
 pub(crate) mod controllers;
 pub mod driver;
+pub(crate) mod environment;
 pub(crate) mod lights;
 pub(crate) mod live;
 pub(crate) mod observe;

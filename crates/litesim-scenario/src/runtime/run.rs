@@ -132,6 +132,7 @@ pub(crate) struct Runtime<'a> {
     /// Per actor: driven by pedals and steering (planned, dynamic mode).
     dynamic: Vec<bool>,
     lights: Lights,
+    environment: super::environment::Environment,
     live: Live,
     world: World,
     observer: Option<Observer>,
@@ -162,6 +163,14 @@ pub(crate) struct Runtime<'a> {
     pacer: Option<crate::realtime::Pacer>,
     realtime_failure: Option<String>,
     sut_error: Option<String>,
+}
+
+/// The earlier of two steps, either maybe none.
+fn min_tick(a: Option<u64>, b: Option<u64>) -> Option<u64> {
+    match (a, b) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
 }
 
 /// Each goal's (actor, reference) indices.
@@ -344,6 +353,7 @@ impl<'a> Runtime<'a> {
             driven,
             dynamic,
             lights,
+            environment: Default::default(),
             world,
             observer: None,
             sut: None,
@@ -403,7 +413,17 @@ impl<'a> Runtime<'a> {
         }
         self.lights
             .switch_due(self.ssp.get(), &self.plan, k, step_ms)?;
-        let next_switch = self.lights.next_tick(&self.plan, step_ms);
+        self.environment.apply_due(
+            self.ssp.get(),
+            &self.plan,
+            (k, step_ms),
+            self.rb.rec.as_mut(),
+        )?;
+        // A chunk ends where the next switch or change is made.
+        let next_switch = min_tick(
+            self.lights.next_tick(&self.plan, step_ms),
+            self.environment.next_tick(&self.plan, step_ms),
+        );
         let n_steps = chunk_steps(k, self.chunk.min(self.steps - k), next_switch);
         let ego_lateral = self.observe();
         self.headed = Some((n_steps, ego_lateral));
@@ -481,6 +501,7 @@ impl<'a> Runtime<'a> {
         rb.next_goal = plan.goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
         rb.next_lane_goal = plan.lane_goals.iter().filter(|g| g.t1 <= t + 1e-9).count();
         self.lights.replanned(plan, k, step_ms);
+        self.environment.replanned(plan, k, step_ms);
         rb.tracking.cum.clear();
         rb.goal_braking = vec![None; plan.goals.len()];
         self.planned.replanned();
@@ -589,7 +610,10 @@ impl<'a> Runtime<'a> {
         }
         // The next chunk's clock as the loop's head will make it: from here
         // to the end or the next light switch.
-        let switch = self.lights.next_after(&self.plan, k, step_ms);
+        let switch = min_tick(
+            self.lights.next_after(&self.plan, k, step_ms),
+            self.environment.next_after(&self.plan, k, step_ms),
+        );
         let c = Clock {
             now_ms: k * step_ms,
             step_ms,
@@ -662,6 +686,7 @@ impl<'a> Runtime<'a> {
             coverage: samples.into_iter().flatten().collect(),
             driven,
             sut_notes,
+            environment_notes: std::mem::take(&mut self.environment.notes),
             never_held,
         };
         Ok(Finished {
