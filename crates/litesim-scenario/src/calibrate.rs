@@ -199,6 +199,7 @@ pub fn reference_plan(m: Manoeuvre, step_s: f64) -> Plan {
         unplaced: Vec::new(),
         lights: Vec::new(),
         environment: Vec::new(),
+        exact: std::collections::BTreeMap::new(),
         goals: Vec::new(),
         keeps: Vec::new(),
         reckless: Vec::new(),

@@ -46,11 +46,17 @@ pub enum Action {
     /// `change_time_headway(target, reference)`: brings the time headway
     /// to the actor ahead to `target`; ends when it is reached.
     ChangeTimeHeadway,
+    /// `assign_position(position | odr_point | route_point)`: is there at
+    /// once (exactness over physics); takes no time.
+    AssignPosition,
+    /// `assign_orientation(orientation)`: has that heading at once, kept
+    /// while it stands; takes no time.
+    AssignOrientation,
 }
 
 impl Action {
     /// Every action, in the order the domain declares them.
-    pub const ALL: [Action; 13] = [
+    pub const ALL: [Action; 15] = [
         Action::Drive,
         Action::RemainStationary,
         Action::Walk,
@@ -64,6 +70,8 @@ impl Action {
         Action::KeepTimeHeadway,
         Action::ChangeSpaceGap,
         Action::ChangeTimeHeadway,
+        Action::AssignPosition,
+        Action::AssignOrientation,
     ];
 
     /// The action called `name`; `None` for names the domain does not have
@@ -83,6 +91,8 @@ impl Action {
             "keep_time_headway" => Action::KeepTimeHeadway,
             "change_space_gap" => Action::ChangeSpaceGap,
             "change_time_headway" => Action::ChangeTimeHeadway,
+            "assign_position" => Action::AssignPosition,
+            "assign_orientation" => Action::AssignOrientation,
             _ => return None,
         })
     }
@@ -103,6 +113,8 @@ impl Action {
             Action::KeepTimeHeadway => "keep_time_headway",
             Action::ChangeSpaceGap => "change_space_gap",
             Action::ChangeTimeHeadway => "change_time_headway",
+            Action::AssignPosition => "assign_position",
+            Action::AssignOrientation => "assign_orientation",
         }
     }
 }
@@ -159,6 +171,11 @@ pub enum ModKind {
     KeepSpaceGap,
     /// The time headway a `keep_time_headway` action keeps (likewise).
     KeepTimeHeadway,
+    /// `yaw(angle, …)`, and the heading `assign_orientation` gives.
+    Yaw,
+    /// The place an `assign_position` action jumps to (made by
+    /// elaboration from its argument).
+    AssignPosition,
     /// Any other modifier: planning has no use for it (a note names it).
     Other,
 }
@@ -182,6 +199,7 @@ impl ModKind {
             "distance" => ModKind::Distance,
             "physical_movement" => ModKind::PhysicalMovement,
             "avoid_collisions" => ModKind::AvoidCollisions,
+            "yaw" => ModKind::Yaw,
             _ => ModKind::Other,
         }
     }
@@ -421,12 +439,68 @@ pub enum Intent {
         /// The option's name.
         option: String,
     },
+    /// `yaw(angle, relative_to, measure_by)`: the heading for the phase.
+    Yaw {
+        /// Radians.
+        angle: f64,
+        /// Relative to this actor's planned heading, if given.
+        relative_to: Option<String>,
+        /// A compass heading (clockwise from north, +y) rather than one
+        /// relative to the road.
+        north: bool,
+        /// Kept after the phase while the actor stands
+        /// (`assign_orientation`).
+        hold: bool,
+    },
+    /// Where `assign_position` puts the actor.
+    AssignPosition {
+        /// The place.
+        place: Place,
+    },
     /// A modifier the planner has no use for (kept so a note can name it).
     Other {
         /// Its name.
         name: String,
         /// When.
         at: At,
+    },
+}
+
+/// A place on the map an actor is put at.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Place {
+    /// A point of the map's frame (m): the lane there, beside its centre
+    /// as far as the point is.
+    Xy {
+        /// x.
+        x: f64,
+        /// y.
+        y: f64,
+    },
+    /// OpenDRIVE road and lane ids, `s` along the road's reference line,
+    /// `t` sideways from the lane's centre (left positive).
+    Odr {
+        /// Road id.
+        road: String,
+        /// Lane id ("-1").
+        lane: String,
+        /// s (m).
+        s: f64,
+        /// t (m).
+        t: f64,
+    },
+    /// A road of the scenario: its lane `lane` (1 = the first from the
+    /// right the way the actor drives), `s` along it, `t` sideways.
+    Route {
+        /// Road id.
+        road: String,
+        /// Lane number.
+        lane: f64,
+        /// s (m).
+        s: f64,
+        /// t (m).
+        t: f64,
     },
 }
 
@@ -453,6 +527,8 @@ impl Intent {
         let num = |k: &str| vals.get(k).and_then(Value::num);
         let text = |k: &str| vals.get(k).and_then(|v| v.text().map(String::from));
         let strict = vals.get("run_mode").and_then(Value::text) != Some("best_effort");
+        // An id written as text ("-1") or as a number (-1).
+        let id = |k: &str| text(k).or_else(|| num(k).map(|n| format!("{}", n as i64)));
         let side = |default: Side| match text("side").as_deref() {
             Some("left") => Side::Left,
             Some("right") => Side::Right,
@@ -553,6 +629,32 @@ impl Intent {
             ModKind::PhysicalMovement => Intent::PhysicalMovement {
                 option: text("option").unwrap_or_default(),
             },
+            ModKind::Yaw => Intent::Yaw {
+                angle: num("angle")?,
+                relative_to: refs.get("relative_to").cloned(),
+                north: text("measure_by").as_deref() == Some("relative_to_north"),
+                hold: vals.get("hold").and_then(Value::boolean).unwrap_or(false),
+            },
+            ModKind::AssignPosition => Intent::AssignPosition {
+                place: match text("kind").as_deref()? {
+                    "position" => Place::Xy {
+                        x: num("position.x").unwrap_or(0.0),
+                        y: num("position.y").unwrap_or(0.0),
+                    },
+                    "odr_point" => Place::Odr {
+                        road: id("odr_point.road_id")?,
+                        lane: id("odr_point.lane_id")?,
+                        s: num("odr_point.s").unwrap_or(0.0),
+                        t: num("odr_point.t").unwrap_or(0.0),
+                    },
+                    _ => Place::Route {
+                        road: text("route_point.route")?,
+                        lane: num("route_point.lane").unwrap_or(1.0),
+                        s: num("route_point.s").unwrap_or(0.0),
+                        t: num("route_point.t").unwrap_or(0.0),
+                    },
+                },
+            },
             ModKind::Duration | ModKind::Until | ModKind::Other => Intent::Other {
                 name: name.to_string(),
                 at,
@@ -576,7 +678,9 @@ impl Intent {
             | Intent::Other { at, .. } => *at,
             Intent::PhysicalMovement { .. }
             | Intent::KeepGap { .. }
-            | Intent::AvoidCollisions { .. } => At::All,
+            | Intent::AvoidCollisions { .. }
+            | Intent::Yaw { .. }
+            | Intent::AssignPosition { .. } => At::All,
         }
     }
 

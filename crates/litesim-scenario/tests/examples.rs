@@ -63,6 +63,7 @@ const ALL: &[&str] = &[
     "follow",
     "headway_change",
     "hold_and_travel",
+    "jaywalker",
     "lane_change",
     "lead_brakes",
     "obstacle_avoidance",

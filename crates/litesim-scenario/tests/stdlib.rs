@@ -749,3 +749,165 @@ fn environment_actions_without_what_they_set_are_errors() {
         "{e}"
     );
 }
+
+/// A scenario on the straight map where sut.car drives at 50 km/h for
+/// 2 s, then `then` happens (an action of sut.car's or `b`'s), then it
+/// drives 2 s more.
+fn jump_text(then: &str) -> String {
+    format!(
+        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(50kph)\n                along(r, start_offset: 20m, at: start)\n                lane(1, at: start)\n                duration(2s)\n            {then}\n            sut.car.drive() with:\n                duration(2s)\n        b.drive() with:\n            speed(30kph)\n            lane(2, at: start)\n            position(10m, ahead_of: sut.car, at: start)\n"
+    )
+}
+
+#[test]
+fn assign_position_teleports_on_its_tick() {
+    let log_x = |r: &RunResult, id: &str, k: usize| {
+        let log = r.log.as_ref().unwrap();
+        let t = log.tracks.iter().find(|t| t.id == id).unwrap();
+        (t.state.x[k], t.state.y[k])
+    };
+    for (then, x, y) in [
+        (
+            "jump: sut.car.assign_position(position: position_3d(x: 300m, y: -5m))",
+            300.0,
+            -5.0,
+        ),
+        (
+            "jump: sut.car.assign_position(odr_point: odr_point(road_id: \"1\", lane_id: \"-2\", s: 250m, t: 0.5m))",
+            250.0,
+            -4.75,
+        ),
+        (
+            "jump: sut.car.assign_position(route_point: route_point(r, s: 200m, lane: 3))",
+            200.0,
+            -1.75,
+        ),
+    ] {
+        let r = run_text(&jump_text(then)).unwrap_or_else(|e| panic!("{then}: {e}"));
+        assert!(r.summary.pass, "{then}: {:?}", r.summary.failures);
+        let (t0, t1) = phase(&r, "jump");
+        assert_eq!((t0, t1), (2.0, 2.0), "it takes no time");
+        // 20 ms steps: tick 100 is t = 2 s, the action's tick.
+        let k = tick_at(&r, 2.0);
+        let (bx, _) = log_x(&r, "sut.car", k - 1);
+        let (ax, ay) = log_x(&r, "sut.car", k);
+        assert!(
+            (bx - (20.0 + kph(50.0) * 1.98)).abs() < 0.01,
+            "{then}: {bx} before"
+        );
+        assert!(
+            (ax - x).abs() < 1e-6 && (ay - y).abs() < 1e-6,
+            "{then}: ({ax}, {ay})"
+        );
+        // Then it drives on from there at its speed.
+        let (x1, _) = log_x(&r, "sut.car", k + 50);
+        assert!((x1 - x - kph(50.0)).abs() < 0.01, "{then}: {x1}");
+    }
+    // A driven vehicle that jumps keeps its plan, with a note.
+    let r = run_text(&jump_text(
+        "b.assign_position(position: position_3d(x: 400m, y: -5.25m))",
+    ))
+    .unwrap();
+    assert!(
+        r.summary
+            .notes
+            .iter()
+            .any(|n| n.contains("b keeps its plan: assign_position at")),
+        "{:?}",
+        r.summary.notes
+    );
+}
+
+#[test]
+fn what_assign_position_cannot_place_is_an_error_at_the_action() {
+    let e = |then: &str| match run_text(&jump_text(then)) {
+        Ok(_) => panic!("{then}: no error"),
+        Err(e) => e.to_string(),
+    };
+    let s = e("sut.car.assign_position(position: position_3d(x: 300m, y: 80m))");
+    assert!(
+        s.contains("is on no road of the map") && s.contains(":16:13"),
+        "{s}"
+    );
+    let s = e("sut.car.assign_position(odr_point: odr_point(road_id: \"7\", lane_id: \"-1\"))");
+    assert!(s.contains("the map has no road '7'"), "{s}");
+    let s =
+        e("sut.car.assign_position(odr_point: odr_point(road_id: \"1\", lane_id: \"-9\", s: 10m))");
+    assert!(s.contains("has no lane -9"), "{s}");
+    let s = e(
+        "sut.car.assign_position(odr_point: odr_point(road_id: \"1\", lane_id: \"-1\", s: 900m))",
+    );
+    assert!(s.contains("at s = 900.0 m"), "{s}");
+    let s = e("sut.car.assign_position()");
+    assert!(
+        s.contains("needs one of position, odr_point, route_point (none given)"),
+        "{s}"
+    );
+    let s = e("sut.car.assign_position(position: position_3d(q: 1m))");
+    assert!(
+        s.contains("position_3d has no field 'q' (its fields: x, y, z)"),
+        "{s}"
+    );
+    let s = e(
+        "sut.car.assign_position(position: position_3d(x: 1m), odr_point: odr_point(road_id: \"1\", lane_id: \"-1\"))",
+    );
+    assert!(s.contains("(position and odr_point given)"), "{s}");
+    // A SUT drives its car where its commands take it.
+    let f = example_file(&jump_text(
+        "sut.car.assign_position(position: position_3d(x: 300m, y: -5.25m))",
+    ));
+    let p = prepare(f.path(), &Default::default()).unwrap();
+    let opts = RunOptions {
+        sut: litesim_scenario::sut::SutChoice::Acc,
+        ..RunOptions::default()
+    };
+    let s = run(&p, &mut litesim_scenario::in_process(), &opts)
+        .unwrap_err()
+        .to_string();
+    assert!(s.contains("a system under test drives sut.car"), "{s}");
+}
+
+#[test]
+fn yaw_holds_the_heading_and_assign_orientation_keeps_it_while_standing() {
+    let r = go("jaywalker", Npc::Driver);
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let log = r.log.as_ref().unwrap();
+    let track = |id: &str| log.tracks.iter().find(|t| t.id == id).unwrap();
+    // The pedestrian faces across the road (90° from its heading, +y here)
+    // waiting and walking: within 1° at every tick.
+    let (ped, van) = (track("ped"), track("van"));
+    for k in 0..ped.state.yaw.len() {
+        let off = (ped.state.yaw[k] - 90f64.to_radians()).abs().to_degrees();
+        assert!(off < 1.0, "ped at tick {k}: {off}° off");
+        let off = (van.state.yaw[k] - 15f64.to_radians()).abs().to_degrees();
+        assert!(off < 1.0, "van at tick {k}: {off}° off");
+    }
+    // It walks across: 5 km/h for 6 s to the left (from standing, at
+    // 2.5 m/s²: 0.3 m less).
+    let n = ped.state.y.len() - 1;
+    let walked = ped.state.y[n] - ped.state.y[0];
+    assert!((walked - kph(5.0) * 6.0).abs() < 0.5, "{walked} m");
+    // The van stands where assign_position put it: lane -3's centre, 0.5 m
+    // to its right, at s = 85 m.
+    assert!((van.state.x[n] - 85.0).abs() < 1e-6 && (van.state.y[n] + 9.25).abs() < 1e-6);
+    // Compass and relative headings; refused measures.
+    let heading = |with: &str| {
+        let r = run_text(&jump_text(&format!(
+            "turn: sut.car.remain_stationary() with:\n                {with}\n                duration(1s)"
+        )))
+        .unwrap();
+        sample(&r, "sut.car", 2.5).yaw.to_degrees()
+    };
+    assert!((heading("yaw(0deg, measure_by: relative_to_north)") - 90.0).abs() < 1e-9);
+    assert!((heading("yaw(90deg, measure_by: relative_to_north)") - 0.0).abs() < 1e-9);
+    assert!((heading("yaw(-30deg, relative_to: b)") + 30.0).abs() < 1e-9);
+    let e = run_text(&jump_text(
+        "sut.car.remain_stationary() with:\n                yaw(10deg, measure_by: length_to_width)\n                duration(1s)",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("yaw(measure_by: length_to_width) is not supported"),
+        "{e}"
+    );
+}

@@ -329,6 +329,9 @@ impl Elab<'_> {
                             )));
                         }
                     }
+                    if kind == crate::intent::ModKind::Yaw {
+                        yaw_supported(&bound, &self.lib.at(*span))?;
+                    }
                     out.push(Modifier {
                         kind,
                         args: bound,
@@ -506,11 +509,9 @@ impl Elab<'_> {
     ) -> Result<(), ScenarioError> {
         let name = action.name();
         let params = self.lib.params(name);
-        let call = super::stdlib::StdCall {
-            name,
-            at,
-            bound: self.bind(args, &params, sc),
-        };
+        let bound = self.bind(args, &params, sc);
+        self.check_literals(&bound, at)?;
+        let call = super::stdlib::StdCall { name, at, bound };
         call.lower(action, mods)
     }
 
@@ -641,6 +642,28 @@ fn contradictions(out: &[Modifier]) -> Result<(), ScenarioError> {
                 h.at, h.name, s.name, s.at
             )));
         }
+    }
+    Ok(())
+}
+
+/// What litesim plans of `yaw(…)`: the whole phase (`at: all`), measured
+/// from the road, from north or from another actor's heading.
+fn yaw_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), ScenarioError> {
+    let refuse = |what: String| {
+        Err(ScenarioError::Elaboration(format!(
+            "{at}: yaw({what}) is not supported by litesim (docs/osc-stdlib.md)"
+        )))
+    };
+    if let Some(CExpr::Const(Value::Enum(m))) = bound.get("measure_by")
+        && m != "relative_to_road"
+        && m != "relative_to_north"
+    {
+        return refuse(format!("measure_by: {m}"));
+    }
+    if let Some(CExpr::Const(Value::Enum(a))) = bound.get("at")
+        && a != "all"
+    {
+        return refuse(format!("at: {a}"));
     }
     Ok(())
 }

@@ -154,8 +154,78 @@ impl Elab<'_> {
                 Some(n) => n.text.clone(),
                 None => params.get(i).cloned().unwrap_or_else(|| format!("#{i}")),
             };
-            out.insert(name, self.cexpr(&a.value, sc));
+            match self.literal(&a.value, sc) {
+                Some((ty, fields)) => {
+                    for (f, v) in fields {
+                        out.insert(format!("{name}.{f}"), v);
+                    }
+                    out.insert(name, CExpr::Const(Value::Str(ty)));
+                }
+                None => {
+                    out.insert(name, self.cexpr(&a.value, sc));
+                }
+            }
         }
         out
+    }
+
+    /// Every field a struct literal among `bound` names is one of its
+    /// type's (`position_3d(q: 1m)` is an error naming the fields).
+    pub(super) fn check_literals(
+        &self,
+        bound: &BTreeMap<String, CExpr>,
+        at: &str,
+    ) -> Result<(), ScenarioError> {
+        for key in bound.keys() {
+            let Some((owner, field)) = key.rsplit_once('.') else {
+                continue;
+            };
+            let Some(CExpr::Const(Value::Str(ty))) = bound.get(owner) else {
+                continue;
+            };
+            let fields = self.lib.params(ty);
+            if !fields.iter().any(|f| f == field) {
+                return Err(ScenarioError::Elaboration(format!(
+                    "{at}: {ty} has no field '{field}' (its fields: {})",
+                    fields.join(", ")
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// `T(field: v, …)` where `T` is a declared struct: litesim's struct
+    /// literal (`position_3d(x: 10m, y: 2m)`, `odr_point("1", "-1", s:
+    /// 30m)`), as its type and its fields (positional ones in declaration
+    /// order; nested literals as `field.sub`). A bound argument holds the
+    /// type under its name and each field under `name.field`.
+    pub(super) fn literal(&self, e: &Expr, sc: &Scope) -> Option<(String, Vec<(String, CExpr)>)> {
+        let Expr::Call { callee, args, .. } = e else {
+            return None;
+        };
+        let Expr::Ident { name, .. } = &**callee else {
+            return None;
+        };
+        self.lib
+            .ix
+            .compounds
+            .get(name)
+            .filter(|c| c.kind == DeclKind::Struct)?;
+        let fields = self.lib.params(name);
+        let mut out = Vec::new();
+        for (i, a) in args.iter().enumerate() {
+            let f = match &a.name {
+                Some(n) => n.text.clone(),
+                None => fields.get(i).cloned().unwrap_or_else(|| format!("#{i}")),
+            };
+            match self.literal(&a.value, sc) {
+                Some((t, sub)) => {
+                    out.extend(sub.into_iter().map(|(g, v)| (format!("{f}.{g}"), v)));
+                    out.push((f, CExpr::Const(Value::Str(t))));
+                }
+                None => out.push((f, self.cexpr(&a.value, sc))),
+            }
+        }
+        Some((name.clone(), out))
     }
 }

@@ -51,6 +51,8 @@ impl StdCall<'_> {
             | Action::KeepTimeHeadway
             | Action::ChangeSpaceGap
             | Action::ChangeTimeHeadway => self.keep_gap(action, mods),
+            Action::AssignPosition => self.assign_position(mods),
+            Action::AssignOrientation => self.assign_orientation(mods),
             Action::Drive | Action::RemainStationary | Action::Walk | Action::Move => Ok(()),
         }
     }
@@ -187,6 +189,58 @@ impl StdCall<'_> {
             ModKind::KeepTimeHeadway
         };
         mods.push(self.implicit(kind, self.name, args));
+        Ok(())
+    }
+
+    /// `assign_position(position | odr_point | route_point)`: the one
+    /// given, as a literal (`position_3d(x: 10m, y: 2m)`), is the place
+    /// the actor jumps to.
+    fn assign_position(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
+        let given: Vec<&str> = ["position", "odr_point", "route_point"]
+            .into_iter()
+            .filter(|k| self.bound.contains_key(*k))
+            .collect();
+        let [kind] = given[..] else {
+            return Err(self.err(format!(
+                "assign_position needs one of position, odr_point, route_point ({} given), e.g. `assign_position(odr_point: odr_point(road_id: \"1\", lane_id: \"-1\", s: 30m))`",
+                if given.is_empty() { "none".to_string() } else { given.join(" and ") }
+            )));
+        };
+        if !matches!(self.bound.get(kind), Some(CExpr::Const(Value::Str(_)))) {
+            return Err(self.err(format!(
+                "assign_position({kind}: …) takes a literal (`{kind}(…)`): a field holding one is not supported by litesim"
+            )));
+        }
+        if matches!(self.bound.get("position.z"), Some(CExpr::Const(Value::Num(z))) if *z != 0.0) {
+            return self.refuse("position: position_3d(z: …)");
+        }
+        let mut args: Vec<(&str, CExpr)> = vec![("kind", CExpr::Const(Value::Str(kind.into())))];
+        for (k, v) in &self.bound {
+            if k.strip_prefix(kind).is_some_and(|r| r.starts_with('.')) {
+                args.push((k.as_str(), v.clone()));
+            }
+        }
+        mods.push(self.implicit(ModKind::AssignPosition, "assign_position", args));
+        Ok(())
+    }
+
+    /// `assign_orientation(orientation_3d(yaw: …))`: the heading relative
+    /// to the road, kept while the actor stands; roll and pitch are refused.
+    fn assign_orientation(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
+        for p in ["orientation.roll", "orientation.pitch"] {
+            if !self.is_zero(p) {
+                return self.refuse(&format!("{p}: …"));
+            }
+        }
+        let yaw = self.required(
+            "orientation.yaw",
+            "assign_orientation(orientation_3d(yaw: 90deg))",
+        )?;
+        mods.push(self.implicit(
+            ModKind::Yaw,
+            "yaw",
+            vec![("angle", yaw), ("hold", CExpr::Const(Value::Bool(true)))],
+        ));
         Ok(())
     }
 }

@@ -104,6 +104,11 @@ pub struct ActorPlan {
     pub width: f64,
     /// Samples every [`Plan::dt`].
     pub samples: Vec<PlanSample>,
+    /// Samples the actor jumps to (`assign_position`), in order: the plan
+    /// goes straight on from the sample before until the jump's time,
+    /// never moving between the two places.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub jumps: Vec<usize>,
     #[serde(skip)]
     pub(crate) heading_trig: HeadingTrig,
 }
@@ -146,6 +151,7 @@ impl ActorPlan {
             length: size.0,
             width: size.1,
             samples: Vec::new(),
+            jumps: Vec::new(),
             heading_trig: HeadingTrig::default(),
         }
     }
@@ -187,6 +193,18 @@ impl ActorPlan {
         }
         let u = t / dt - k;
         let (a, b) = (&self.samples[i], &self.samples[i + 1]);
+        // No motion into a jump: from the sample before, straight on at
+        // its speed and heading until the jump's time.
+        if !self.jumps.is_empty() && self.jumps.binary_search(&(i + 1)).is_ok() {
+            let (s, c) = self.trig(i);
+            let d = a.v * (t - a.t);
+            return PlanSample {
+                t,
+                x: a.x + c * d,
+                y: a.y + s * d,
+                ..*a
+            };
+        }
         let (x, y) = between(a, b, u, self.trig(i), self.trig(i + 1));
         PlanSample {
             t,
@@ -273,6 +291,11 @@ pub struct Plan {
     pub unplaced: Vec<String>,
     /// Traffic-light switches in time order.
     pub lights: Vec<LightSwitch>,
+    /// Actors whose plan asks for exactness over physics (a jump, a
+    /// heading of their own), with the first place that asks: no driver
+    /// takes them over (`--npc driver`), and a SUT may not drive one.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub exact: BTreeMap<String, String>,
     /// Changes of the environment (weather, sun, time of day) in time
     /// order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -618,6 +641,7 @@ fn plan_once(
         reached,
         keeps,
         reckless,
+        exact,
         ..
     } = move_all(&cx, &mut plans, &order, free)?;
     let mut phases: Vec<Phase> = rleaves
@@ -649,6 +673,7 @@ fn plan_once(
             violations,
             unplaced,
             lights,
+            exact,
             environment,
             goals,
             keeps,

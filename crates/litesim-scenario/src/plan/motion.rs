@@ -2,6 +2,7 @@
 //! walking across, the goals its phases set.
 
 use super::*;
+use crate::intent::Place;
 
 /// Per-actor motion state while sampling.
 #[derive(Clone, Debug)]
@@ -107,6 +108,11 @@ pub(super) struct Moved {
     pub(super) keeps: Vec<super::KeepGoal>,
     /// Phases that do not avoid collisions: (actor, t0, t1).
     pub(super) reckless: Vec<(String, f64, f64)>,
+    /// Samples the actor jumps to (`assign_position`).
+    pub(super) jumps: Vec<usize>,
+    /// Actors whose plan asks for exactness, with the first place that
+    /// asks.
+    pub(super) exact: BTreeMap<String, String>,
 }
 
 /// What every actor's motion reads: the map, the leaves, where each actor
@@ -137,6 +143,8 @@ pub(super) fn move_all(
     let mut all = Moved::default();
     let mut gather = |i: usize, plans: &mut [ActorPlan], m: Moved| {
         plans[i].samples = m.samples;
+        plans[i].jumps = m.jumps;
+        all.exact.extend(m.exact);
         all.violations.extend(m.violations);
         all.notes.extend(m.notes);
         all.goals.extend(m.goals);
@@ -186,8 +194,25 @@ pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
                     relative: Some(_),
                     ..
                 } | Intent::KeepGap { .. }
+                    | Intent::Yaw {
+                        relative_to: Some(_),
+                        ..
+                    }
             )
         })
+}
+
+/// A heading the plan sets (`yaw`, `assign_orientation`).
+#[derive(Clone, Copy, Debug)]
+struct Heading {
+    /// Radians from the reference.
+    angle: f64,
+    /// The reference: another actor's plan (index), else the road or north.
+    relative_to: Option<usize>,
+    /// Compass heading: clockwise from north (+y).
+    north: bool,
+    /// Kept after its phase while the actor stands.
+    hold: bool,
 }
 
 /// How a target speed follows another actor's planned speed.
@@ -244,6 +269,8 @@ struct Mover<'a> {
     accel_down: f64,
     /// A linear speed change to reach by a time: (v0, v1, t1).
     end_speed: Option<(f64, f64, f64)>,
+    /// A heading of its own (`yaw`, `assign_orientation`).
+    heading: Option<Heading>,
     /// A strict speed not reached yet, with its place.
     strict_speed: Option<(f64, String)>,
     stationary: bool,
@@ -275,6 +302,7 @@ impl<'a> Mover<'a> {
             accel_up: ACCEL_UP,
             accel_down: ACCEL_DOWN,
             end_speed: None,
+            heading: None,
             strict_speed: None,
             stationary: false,
             dead_end: false,
@@ -321,7 +349,7 @@ impl<'a> Mover<'a> {
             self.speed(t);
             self.note_reached(t, prev_v);
             self.carry_gap(t, plans);
-            let (sample, centre) = self.pose(t, prev_v, plans[self.i].kind);
+            let (sample, centre) = self.pose(t, prev_v, plans);
             self.out.samples.push(sample);
             self.advance(t, centre);
         }
@@ -374,6 +402,8 @@ impl<'a> Mover<'a> {
         self.follow = None;
         self.accel_up = ACCEL_UP;
         self.accel_down = ACCEL_DOWN;
+        // A held heading outlives its phase (while the actor stands).
+        self.heading = self.heading.filter(|h| h.hold);
         let mut keep_speed = false;
         let first = self.leaf_i == 0;
         for m in &l.mods {
@@ -445,6 +475,25 @@ impl<'a> Mover<'a> {
                     self.start_gap(l, t, reference, (*headway, *target), plans)?;
                 }
                 Intent::KeepPosition { .. } => self.stationary = true,
+                Intent::Yaw {
+                    angle,
+                    relative_to,
+                    north,
+                    hold,
+                } => {
+                    let relative_to = match relative_to {
+                        Some(o) => Some(self.planned_before(l, o, "yaw", plans)?),
+                        None => None,
+                    };
+                    self.heading = Some(Heading {
+                        angle: *angle,
+                        relative_to,
+                        north: *north,
+                        hold: *hold,
+                    });
+                    self.exact(l, "yaw");
+                }
+                Intent::AssignPosition { place } => self.teleport(l, k, place)?,
                 Intent::AvoidCollisions { avoid: false } => {
                     self.out.reckless.push((self.id.clone(), l.t0, l.t1));
                 }
@@ -486,6 +535,96 @@ impl<'a> Mover<'a> {
             }
             _ => {}
         }
+        Ok(())
+    }
+
+    /// Notes that this actor's plan asks for exactness (`what` at the
+    /// phase `l`), the first time.
+    fn exact(&mut self, l: &RLeaf, what: &str) {
+        self.out
+            .exact
+            .entry(self.id.clone())
+            .or_insert_with(|| format!("{what} at {}", l.at));
+    }
+
+    /// `assign_position`: the actor is at `place` from sample `k` on.
+    fn teleport(&mut self, l: &RLeaf, k: usize, place: &Place) -> Result<(), ScenarioError> {
+        let net = self.cx.net;
+        let err = |what: String| {
+            ScenarioError::Plan(format!("{}: {}'s assign_position: {what}", l.at, self.id))
+        };
+        let road_of = |id: &str| {
+            net.road_index(id)
+                .ok_or_else(|| err(format!("the map has no road '{id}'")))
+        };
+        let (pos, lateral) = match place {
+            &Place::Xy { x, y } => {
+                let p = net
+                    .locate(litesim_core::Vec2::new(x, y))
+                    .ok_or_else(|| err(format!("({x:.2}, {y:.2}) is on no road of the map")))?;
+                (
+                    LanePos {
+                        road: p.road,
+                        lane: p.lane,
+                        s: p.s,
+                    },
+                    p.offset,
+                )
+            }
+            Place::Odr { road, lane, s, t } => {
+                let r = road_of(road)?;
+                let lane: i32 = lane
+                    .trim()
+                    .parse()
+                    .map_err(|_| err(format!("lane_id '{lane}' is not a lane id (an integer)")))?;
+                (
+                    LanePos {
+                        road: r,
+                        lane,
+                        s: *s,
+                    },
+                    *t,
+                )
+            }
+            Place::Route { road, lane, s, t } => {
+                let r = road_of(road)?;
+                let lanes = net.lanes_same_way(r, *s, true);
+                let Some(&id) = lanes.get(lane_index(lanes.len(), *lane)) else {
+                    return Err(err(format!(
+                        "road '{road}' has no lane {lane} at s = {s:.1} m"
+                    )));
+                };
+                (
+                    LanePos {
+                        road: r,
+                        lane: id,
+                        s: *s,
+                    },
+                    *t,
+                )
+            }
+        };
+        let length = net.roads()[pos.road].length;
+        if !(0.0..=length).contains(&pos.s)
+            || net.lane_pose_at(pos.road, pos.lane, pos.s, 0.0).is_none()
+        {
+            return Err(err(format!(
+                "road '{}' has no lane {} at s = {:.1} m",
+                net.roads()[pos.road].id,
+                pos.lane,
+                pos.s
+            )));
+        }
+        let mo = &mut self.mo;
+        mo.pos = pos;
+        mo.lateral = lateral;
+        mo.change = None;
+        self.reached = None;
+        self.dead_end = false;
+        if k > 0 {
+            self.out.jumps.push(k);
+        }
+        self.exact(l, "assign_position");
         Ok(())
     }
 
@@ -900,8 +1039,9 @@ impl<'a> Mover<'a> {
         &mut self,
         t: f64,
         prev_v: f64,
-        kind: ActorClass,
+        plans: &[ActorPlan],
     ) -> (PlanSample, Option<litesim_core::Pose>) {
+        let kind = plans[self.i].kind;
         let net = self.cx.net;
         let mo = &mut self.mo;
         let mut lat_rate = 0.0;
@@ -953,6 +1093,24 @@ impl<'a> Mover<'a> {
         }
         if kind == ActorClass::Stationary {
             yaw = p.yaw;
+        }
+        if let Some(h) = self.heading {
+            if h.hold && mo.v > 0.1 {
+                // Moving again: its lane's heading again.
+                self.heading = None;
+            } else {
+                let base = match (h.relative_to, h.north) {
+                    (Some(j), _) => plans[j].at(t, self.cx.dt).yaw,
+                    (None, true) => std::f64::consts::FRAC_PI_2,
+                    (None, false) => p.yaw,
+                };
+                let sign = if h.north && h.relative_to.is_none() {
+                    -1.0
+                } else {
+                    1.0
+                };
+                yaw = wrap_angle(base + sign * h.angle);
+            }
         }
         let sample = PlanSample {
             t,

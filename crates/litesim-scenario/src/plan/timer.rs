@@ -112,7 +112,7 @@ impl<'a> Timer<'a> {
     fn action_natural(&self, action: Action, id: u32) -> Option<f64> {
         match action {
             Action::ChangeLane => Some(super::LANE_CHANGE_S),
-            Action::AssignSpeed => Some(0.0),
+            Action::AssignSpeed | Action::AssignPosition | Action::AssignOrientation => Some(0.0),
             Action::ChangeSpeed | Action::ChangeSpaceGap | Action::ChangeTimeHeadway => Some(
                 self.cond_events
                     .get(&reach_key(id))

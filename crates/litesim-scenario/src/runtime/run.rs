@@ -199,8 +199,11 @@ fn pedal_driven(plan: &Plan, cfg: &ExecConfig, ego_i: Option<usize>, driven: &[b
     (0..plan.actors.len())
         .map(|i| {
             let a = &plan.actors[i];
+            // A plan that asks for exactness (a jump, a heading of its
+            // own) is replayed as it is, never chased with pedals.
             Some(i) != ego_i
                 && !driven[i]
+                && !plan.exact.contains_key(&a.id)
                 && cfg.mode == DriveMode::Dynamic
                 && a.kind == litesim_core::ActorClass::Vehicle
                 && a.samples.iter().any(|s| s.v > 0.0)
@@ -296,6 +299,11 @@ impl<'a> Runtime<'a> {
             })?),
             None => None,
         };
+        if let Some(why) = ego_i.and_then(|e| plan.exact.get(&plan.actors[e].id)) {
+            return Err(ScenarioError::Plan(format!(
+                "{why}: sut.car's plan asks for exactness over physics, but a system under test drives sut.car (the SUT's car goes where its commands take it; use --sut planned)"
+            )));
+        }
         let sim = cast::init(ssp.get(), &cfg)?;
         let mut rec = cfg.record.then(|| recorder(&sim, &cfg));
         let dynamic = pedal_driven(&plan, &cfg, ego_i, &driven);

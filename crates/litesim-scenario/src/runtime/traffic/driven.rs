@@ -249,6 +249,7 @@ impl Driven {
                     v: v.v,
                     a: 0.0,
                 }],
+                jumps: Vec::new(),
                 heading_trig: Default::default(),
             });
         }
@@ -263,6 +264,13 @@ impl Driven {
     fn place_npcs(&mut self, net: &RoadNetwork, plan: &Plan) {
         for (i, a) in plan.actors.iter().enumerate() {
             if a.ego || a.kind != ActorClass::Vehicle || a.samples.iter().all(|s| s.v <= 0.0) {
+                continue;
+            }
+            if let Some(why) = plan.exact.get(&a.id) {
+                self.notes.push(format!(
+                    "{} keeps its plan: {why} asks for exactness over physics",
+                    a.id
+                ));
                 continue;
             }
             let s0 = a.samples[0];
