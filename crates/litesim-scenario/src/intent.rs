@@ -52,11 +52,21 @@ pub enum Action {
     /// `assign_orientation(orientation)`: has that heading at once, kept
     /// while it stands; takes no time.
     AssignOrientation,
+    /// `follow_path(absolute | relative, …)`: along a path at its own
+    /// speed; ends at the path's end.
+    FollowPath,
+    /// `replay_path(…)`: likewise (a path has no times to be exact to).
+    ReplayPath,
+    /// `follow_trajectory(…)`: the trajectory's speed at each time as its
+    /// target, within its acceleration; ends at the last point.
+    FollowTrajectory,
+    /// `replay_trajectory(…)`: where the trajectory is at each time.
+    ReplayTrajectory,
 }
 
 impl Action {
     /// Every action, in the order the domain declares them.
-    pub const ALL: [Action; 15] = [
+    pub const ALL: [Action; 19] = [
         Action::Drive,
         Action::RemainStationary,
         Action::Walk,
@@ -72,6 +82,10 @@ impl Action {
         Action::ChangeTimeHeadway,
         Action::AssignPosition,
         Action::AssignOrientation,
+        Action::FollowPath,
+        Action::ReplayPath,
+        Action::FollowTrajectory,
+        Action::ReplayTrajectory,
     ];
 
     /// The action called `name`; `None` for names the domain does not have
@@ -93,6 +107,10 @@ impl Action {
             "change_time_headway" => Action::ChangeTimeHeadway,
             "assign_position" => Action::AssignPosition,
             "assign_orientation" => Action::AssignOrientation,
+            "follow_path" => Action::FollowPath,
+            "replay_path" => Action::ReplayPath,
+            "follow_trajectory" => Action::FollowTrajectory,
+            "replay_trajectory" => Action::ReplayTrajectory,
             _ => return None,
         })
     }
@@ -115,7 +133,27 @@ impl Action {
             Action::ChangeTimeHeadway => "change_time_headway",
             Action::AssignPosition => "assign_position",
             Action::AssignOrientation => "assign_orientation",
+            Action::FollowPath => "follow_path",
+            Action::ReplayPath => "replay_path",
+            Action::FollowTrajectory => "follow_trajectory",
+            Action::ReplayTrajectory => "replay_trajectory",
         }
+    }
+
+    /// A path or trajectory action.
+    pub fn follows_path(self) -> bool {
+        matches!(
+            self,
+            Action::FollowPath
+                | Action::ReplayPath
+                | Action::FollowTrajectory
+                | Action::ReplayTrajectory
+        )
+    }
+
+    /// A trajectory action (its path has times).
+    pub fn timed(self) -> bool {
+        matches!(self, Action::FollowTrajectory | Action::ReplayTrajectory)
     }
 }
 
@@ -176,6 +214,8 @@ pub enum ModKind {
     /// The place an `assign_position` action jumps to (made by
     /// elaboration from its argument).
     AssignPosition,
+    /// The path a path or trajectory action follows (likewise).
+    FollowPath,
     /// Any other modifier: planning has no use for it (a note names it).
     Other,
 }
@@ -457,6 +497,20 @@ pub enum Intent {
         /// The place.
         place: Place,
     },
+    /// The path a path or trajectory action follows.
+    FollowPath {
+        /// Index into the test's paths.
+        path: usize,
+        /// A relative path's reference (the actor itself when `None`).
+        reference: Option<String>,
+        /// A relative path's offsets are along the world's axes
+        /// (`world_relative`), not the reference's (`object_relative`).
+        world: bool,
+        /// Metres of the path skipped at its start, and left at its end.
+        offsets: (f64, f64),
+        /// Where the trajectory is at each time (`replay_trajectory`).
+        exact: bool,
+    },
     /// A modifier the planner has no use for (kept so a note can name it).
     Other {
         /// Its name.
@@ -504,6 +558,83 @@ pub enum Place {
     },
 }
 
+impl Place {
+    /// The place `assign_position`'s arguments give (`kind` names which;
+    /// the fields are under `kind.field`).
+    fn decode(vals: &BTreeMap<String, Value>) -> Option<Self> {
+        let num = |k: &str| vals.get(k).and_then(Value::num);
+        let text = |k: &str| vals.get(k).and_then(|v| v.text().map(String::from));
+        // An id written as text ("-1") or as a number (-1).
+        let id = |k: &str| text(k).or_else(|| num(k).map(|n| format!("{}", n as i64)));
+        Some(match text("kind").as_deref()? {
+            "position" => Place::Xy {
+                x: num("position.x").unwrap_or(0.0),
+                y: num("position.y").unwrap_or(0.0),
+            },
+            "odr_point" => Place::Odr {
+                road: id("odr_point.road_id")?,
+                lane: id("odr_point.lane_id")?,
+                s: num("odr_point.s").unwrap_or(0.0),
+                t: num("odr_point.t").unwrap_or(0.0),
+            },
+            _ => Place::Route {
+                road: text("route_point.route")?,
+                lane: num("route_point.lane").unwrap_or(1.0),
+                s: num("route_point.s").unwrap_or(0.0),
+                t: num("route_point.t").unwrap_or(0.0),
+            },
+        })
+    }
+}
+
+/// `lane(…)` decoded: a number (from the left as a negative one) or a
+/// relation to another actor.
+fn lane_intent(
+    vals: &BTreeMap<String, Value>,
+    refs: &BTreeMap<String, String>,
+    at: At,
+    strict: bool,
+) -> Intent {
+    let num = |k: &str| vals.get(k).and_then(Value::num);
+    let text = |k: &str| vals.get(k).and_then(|v| v.text().map(String::from));
+    let side = |default: Side| match text("side").as_deref() {
+        Some("left") => Side::Left,
+        Some("right") => Side::Right,
+        _ => default,
+    };
+    Intent::Lane {
+        // `from: left` (CARLA's numbering) as a negative number.
+        lane: num("lane").map(|n| {
+            if text("from").as_deref() == Some("left") {
+                -n
+            } else {
+                n
+            }
+        }),
+        // The first in parameter-name order, as written in the
+        // domain (left_of, right_of, same_as).
+        reference: [
+            LaneRelation::LeftOf,
+            LaneRelation::RightOf,
+            LaneRelation::SameAs,
+        ]
+        .into_iter()
+        .find_map(|r| refs.get(r.name()).map(|o| (r, o.clone())))
+        // The standard's form: `side_of: x, side: left|right`.
+        .or_else(|| {
+            refs.get("side_of").map(|o| {
+                let r = match side(Side::Left) {
+                    Side::Left => LaneRelation::LeftOf,
+                    Side::Right => LaneRelation::RightOf,
+                };
+                (r, o.clone())
+            })
+        }),
+        at,
+        strict,
+    }
+}
+
 /// The `speed` modifier's references to another actor and the sign of the
 /// offset each means; at most one of them may be given.
 pub const RELATIVE_SPEED: [(&str, f64); 3] = [
@@ -527,8 +658,6 @@ impl Intent {
         let num = |k: &str| vals.get(k).and_then(Value::num);
         let text = |k: &str| vals.get(k).and_then(|v| v.text().map(String::from));
         let strict = vals.get("run_mode").and_then(Value::text) != Some("best_effort");
-        // An id written as text ("-1") or as a number (-1).
-        let id = |k: &str| text(k).or_else(|| num(k).map(|n| format!("{}", n as i64)));
         let side = |default: Side| match text("side").as_deref() {
             Some("left") => Side::Left,
             Some("right") => Side::Right,
@@ -563,37 +692,7 @@ impl Intent {
                 at,
                 strict,
             },
-            ModKind::Lane => Intent::Lane {
-                // `from: left` (CARLA's numbering) as a negative number.
-                lane: num("lane").map(|n| {
-                    if text("from").as_deref() == Some("left") {
-                        -n
-                    } else {
-                        n
-                    }
-                }),
-                // The first in parameter-name order, as written in the
-                // domain (left_of, right_of, same_as).
-                reference: [
-                    LaneRelation::LeftOf,
-                    LaneRelation::RightOf,
-                    LaneRelation::SameAs,
-                ]
-                .into_iter()
-                .find_map(|r| refs.get(r.name()).map(|o| (r, o.clone())))
-                // The standard's form: `side_of: x, side: left|right`.
-                .or_else(|| {
-                    refs.get("side_of").map(|o| {
-                        let r = match side(Side::Left) {
-                            Side::Left => LaneRelation::LeftOf,
-                            Side::Right => LaneRelation::RightOf,
-                        };
-                        (r, o.clone())
-                    })
-                }),
-                at,
-                strict,
-            },
+            ModKind::Lane => lane_intent(vals, refs, at, strict),
             ModKind::ChangeLane => Intent::ChangeLane {
                 lanes: num("lane_changes")
                     .or_else(|| num("num_of_lanes"))
@@ -636,24 +735,17 @@ impl Intent {
                 hold: vals.get("hold").and_then(Value::boolean).unwrap_or(false),
             },
             ModKind::AssignPosition => Intent::AssignPosition {
-                place: match text("kind").as_deref()? {
-                    "position" => Place::Xy {
-                        x: num("position.x").unwrap_or(0.0),
-                        y: num("position.y").unwrap_or(0.0),
-                    },
-                    "odr_point" => Place::Odr {
-                        road: id("odr_point.road_id")?,
-                        lane: id("odr_point.lane_id")?,
-                        s: num("odr_point.s").unwrap_or(0.0),
-                        t: num("odr_point.t").unwrap_or(0.0),
-                    },
-                    _ => Place::Route {
-                        road: text("route_point.route")?,
-                        lane: num("route_point.lane").unwrap_or(1.0),
-                        s: num("route_point.s").unwrap_or(0.0),
-                        t: num("route_point.t").unwrap_or(0.0),
-                    },
-                },
+                place: Place::decode(vals)?,
+            },
+            ModKind::FollowPath => Intent::FollowPath {
+                path: num("path")? as usize,
+                reference: refs.get("reference").cloned(),
+                world: text("transform").as_deref() == Some("world_relative"),
+                offsets: (
+                    num("start_offset").unwrap_or(0.0),
+                    num("end_offset").unwrap_or(0.0),
+                ),
+                exact: vals.get("exact").and_then(Value::boolean).unwrap_or(false),
             },
             ModKind::Duration | ModKind::Until | ModKind::Other => Intent::Other {
                 name: name.to_string(),
@@ -680,7 +772,8 @@ impl Intent {
             | Intent::KeepGap { .. }
             | Intent::AvoidCollisions { .. }
             | Intent::Yaw { .. }
-            | Intent::AssignPosition { .. } => At::All,
+            | Intent::AssignPosition { .. }
+            | Intent::FollowPath { .. } => At::All,
         }
     }
 

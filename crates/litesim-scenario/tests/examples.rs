@@ -75,6 +75,7 @@ const ALL: &[&str] = &[
     "platoon",
     "pedestrian_crossing",
     "random_duration",
+    "recorded_path",
     "red_light_run",
     "ring_follow",
     "same_road_pair",

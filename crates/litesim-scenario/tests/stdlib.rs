@@ -911,3 +911,178 @@ fn yaw_holds_the_heading_and_assign_orientation_keeps_it_while_standing() {
         "{e}"
     );
 }
+
+#[test]
+fn a_recorded_trajectory_replays_exactly_and_a_relative_path_is_ridden() {
+    let r = go("recorded_path", Npc::Driver);
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    // The recording: t, x, y at 10 Hz.
+    let csv = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../examples/scenarios/recorded_swerve.csv"),
+    )
+    .unwrap();
+    let rec: Vec<[f64; 3]> = csv
+        .lines()
+        .filter(|l| l.starts_with(|c: char| c.is_ascii_digit()))
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|c| c.parse().unwrap()).collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect();
+    let log = r.log.as_ref().unwrap();
+    let track = |id: &str| log.tracks.iter().find(|t| t.id == id).unwrap();
+    let sw = track("swerver");
+    // At every tick where the recording has a point, exactly there.
+    let mut checked = 0;
+    for (k, &time) in log.time.iter().enumerate() {
+        if let Some(p) = rec.iter().find(|p| (p[0] - time).abs() < 1e-9) {
+            assert!(
+                (sw.state.x[k] - p[1]).abs() < 1e-6 && (sw.state.y[k] - p[2]).abs() < 1e-6,
+                "at {time} s: ({}, {}) for ({}, {})",
+                sw.state.x[k],
+                sw.state.y[k],
+                p[1],
+                p[2]
+            );
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 100);
+    // The trajectory lasts its 10 s: the phase ends with it.
+    assert_eq!(phase(&r, "replay"), (0.0, 10.0));
+    // The rider's path, relative to where it starts: 1 m to the left
+    // after 30 m, then on along its lane.
+    let rider = track("rider");
+    let start = sample(&r, "rider", 0.0);
+    let (y0, x0) = (start.y, start.x);
+    let k = tick_at(&r, 7.0);
+    assert!(
+        (rider.state.y[k] - y0 - 1.0).abs() < 1e-6,
+        "{} from {y0}",
+        rider.state.y[k]
+    );
+    // 30 m ahead along the path (30.05 m of it), then 5 m/s in its lane;
+    // the plan leaves the path at its 0.1 s step (at most 0.5 m).
+    let want = x0 + 30.0 + 5.0 * (7.0 - 30.05 / 5.0);
+    assert!(
+        (rider.state.x[k] - want).abs() < 0.6,
+        "{}",
+        rider.state.x[k]
+    );
+}
+
+#[test]
+fn a_path_ends_when_its_last_point_is_passed_and_a_trajectory_is_followed_within_limits() {
+    // 30 m at 10 m/s: the follow_path phase takes 3 s (the plan's 0.1 s).
+    let text = |action: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(36kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        go: {action}\n        sut.car.drive() with:\n            duration(1s)\n"
+        )
+    };
+    let r = run_text(&text(
+        "sut.car.follow_path(relative: relative_path(points: [position_3d(x: 0m, y: 0m), position_3d(x: 30m, y: 0m)]))",
+    ))
+    .unwrap();
+    let (t0, t1) = phase(&r, "go");
+    assert!((t1 - t0 - 3.0).abs() < 0.11, "{t0}..{t1}");
+    // A trajectory whose speed jumps from 10 to 20 m/s at 2 s: replayed,
+    // the log has the jump; followed, the car takes it at 2.5 m/s² and
+    // ends where the trajectory does, later.
+    let traj = "trajectory(points: [position_3d(x: 30m, y: -8.75m), position_3d(x: 50m, y: -8.75m), position_3d(x: 90m, y: -8.75m)], time_stamps: [0s, 2s, 4s])";
+    let replay = run_text(&text(&format!(
+        "sut.car.replay_trajectory(absolute: {traj})"
+    )))
+    .unwrap();
+    assert_eq!(phase(&replay, "go").1 - phase(&replay, "go").0, 4.0);
+    let follow = run_text(&text(&format!(
+        "sut.car.follow_trajectory(absolute: {traj})"
+    )))
+    .unwrap();
+    let (f0, f1) = phase(&follow, "go");
+    assert!(f1 - f0 > 4.0 && f1 - f0 < 5.5, "{f0}..{f1}");
+    let s = sample(&follow, "sut.car", f0 + 2.2);
+    assert!(
+        s.v < 20.0 - 1.0 && s.v > 10.0,
+        "{} m/s 0.2 s after the step",
+        s.v
+    );
+    let end = sample(&follow, "sut.car", f1);
+    assert!((end.x - 90.0).abs() < 1.0, "{}", end.x);
+}
+
+#[test]
+fn bad_paths_are_errors_naming_the_file_line_or_the_literal() {
+    let e = |action: &str| match run_text(&format!(
+        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(36kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        {action}\n"
+    )) {
+        Ok(_) => panic!("{action}: no error"),
+        Err(e) => e.to_string(),
+    };
+    let s = e("sut.car.replay_path(absolute: path(file: \"no_such_drive.csv\"))");
+    assert!(
+        s.contains("no_such_drive.csv: cannot read the path file"),
+        "{s}"
+    );
+    // A file beside the test: NaN at its line 3.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/scenarios");
+    let bad = tempfile::Builder::new()
+        .suffix(".csv")
+        .tempfile_in(&dir)
+        .unwrap();
+    std::fs::write(bad.path(), "x,y\n0,0\n5,nan\n").unwrap();
+    let name = bad.path().file_name().unwrap().to_str().unwrap();
+    let s = e(&format!(
+        "sut.car.follow_path(absolute: path(file: \"{name}\"))"
+    ));
+    assert!(
+        s.contains(&format!("{name}:3: y = nan is not a finite number")),
+        "{s}"
+    );
+    std::fs::write(bad.path(), "t,x,y\n0,0,0\n1,5,0\n0.5,9,0\n").unwrap();
+    let s = e(&format!(
+        "sut.car.replay_trajectory(absolute: trajectory(file: \"{name}\"))"
+    ));
+    assert!(
+        s.contains(&format!("{name}:4: t = 0.5 s does not increase")),
+        "{s}"
+    );
+    std::fs::write(bad.path(), "# nothing yet\n").unwrap();
+    let s = e(&format!(
+        "sut.car.follow_path(absolute: path(file: \"{name}\"))"
+    ));
+    assert!(s.contains("the path file has no points"), "{s}");
+    // Literals.
+    let s = e("sut.car.follow_path(absolute: path(points: [position_3d(x: 0m, y: 0m)]))");
+    assert!(
+        s.contains("point 1: a path needs at least two points (1 given)"),
+        "{s}"
+    );
+    let s = e(
+        "sut.car.follow_trajectory(absolute: trajectory(points: [position_3d(x: 0m), position_3d(x: 9m)]))",
+    );
+    assert!(s.contains("a trajectory needs its time_stamps"), "{s}");
+    let s = e(
+        "sut.car.follow_path(absolute: relative_path(points: [position_3d(x: 0m), position_3d(x: 9m)]))",
+    );
+    assert!(
+        s.contains("follow_path(absolute: …) takes a path or trajectory"),
+        "{s}"
+    );
+    let s = e(
+        "sut.car.follow_path(absolute: path(points: [position_3d(x: 0m), position_3d(x: 9m)], interpolation: path_interpolation!smooth))",
+    );
+    assert!(s.contains("interpolation: smooth) is not supported"), "{s}");
+    let s = e(
+        "sut.car.follow_path(absolute: path(points: [position_3d(x: 0m), position_3d(x: 9m)]), transform: road_relative)",
+    );
+    assert!(
+        s.contains("follow_path(transform: road_relative) is not supported"),
+        "{s}"
+    );
+    let s = e("sut.car.follow_path()");
+    assert!(
+        s.contains("follow_path needs its absolute or relative path"),
+        "{s}"
+    );
+}

@@ -509,7 +509,46 @@ impl Elab<'_> {
     ) -> Result<(), ScenarioError> {
         let name = action.name();
         let params = self.lib.params(name);
-        let bound = self.bind(args, &params, sc);
+        // A path or trajectory is read here (a literal of points or a CSV
+        // file): the action names it by index.
+        let mut path = None;
+        let mut rest: Vec<Arg> = Vec::with_capacity(args.len());
+        for (i, a) in args.iter().enumerate() {
+            let key = a.name.as_ref().map_or_else(
+                || params.get(i).cloned().unwrap_or_default(),
+                |n| n.text.clone(),
+            );
+            if action.follows_path() && (key == "absolute" || key == "relative") {
+                let idx = self.path_def(&a.value, action.timed(), at)?;
+                if path.replace((key.clone(), idx)).is_some() {
+                    return Err(ScenarioError::Elaboration(format!(
+                        "{at}: {name} takes one of absolute and relative, not both"
+                    )));
+                }
+                continue;
+            }
+            rest.push(Arg {
+                name: Some(a.name.clone().unwrap_or_else(|| litesim_osc::ast::Name {
+                    text: key,
+                    span: a.value.span(),
+                })),
+                value: a.value.clone(),
+            });
+        }
+        let mut bound = self.bind(&rest, &params, sc);
+        if let Some((key, idx)) = path {
+            if (key == "relative") != self.test.paths[idx].relative {
+                return Err(ScenarioError::Elaboration(format!(
+                    "{at}: {name}({key}: …) takes a {}",
+                    if key == "relative" {
+                        "relative_path or relative_trajectory"
+                    } else {
+                        "path or trajectory"
+                    }
+                )));
+            }
+            bound.insert("path".into(), CExpr::Const(Value::Num(idx as f64)));
+        }
         self.check_literals(&bound, at)?;
         let call = super::stdlib::StdCall { name, at, bound };
         call.lower(action, mods)

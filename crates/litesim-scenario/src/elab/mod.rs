@@ -19,6 +19,8 @@ use std::collections::{BTreeMap, BTreeSet};
 mod behaviour;
 mod environment;
 mod exprs;
+mod paths;
+pub use paths::{MAX_PATH_POINTS, PathDef, PathPoint, read_csv};
 mod stdlib;
 mod tree;
 pub use tree::*;

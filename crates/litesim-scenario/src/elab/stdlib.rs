@@ -53,6 +53,10 @@ impl StdCall<'_> {
             | Action::ChangeTimeHeadway => self.keep_gap(action, mods),
             Action::AssignPosition => self.assign_position(mods),
             Action::AssignOrientation => self.assign_orientation(mods),
+            Action::FollowPath
+            | Action::ReplayPath
+            | Action::FollowTrajectory
+            | Action::ReplayTrajectory => self.follow_path(action, mods),
             Action::Drive | Action::RemainStationary | Action::Walk | Action::Move => Ok(()),
         }
     }
@@ -241,6 +245,38 @@ impl StdCall<'_> {
             "yaw",
             vec![("angle", yaw), ("hold", CExpr::Const(Value::Bool(true)))],
         ));
+        Ok(())
+    }
+
+    /// A path or trajectory action: the path elaboration read (`path`, an
+    /// index), its reference and transform, as the modifier that plans it.
+    fn follow_path(&self, action: Action, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
+        let Some(path) = self.bound.get("path").cloned() else {
+            return Err(self.err(format!(
+                "{} needs its absolute or relative {}",
+                self.name,
+                if action.timed() { "trajectory" } else { "path" }
+            )));
+        };
+        if let Some(CExpr::Const(Value::Enum(t))) = self.bound.get("transform")
+            && t != "object_relative"
+            && t != "world_relative"
+        {
+            return self.refuse(&format!("transform: {t}"));
+        }
+        let mut args = vec![
+            ("path", path),
+            (
+                "exact",
+                CExpr::Const(Value::Bool(action == Action::ReplayTrajectory)),
+            ),
+        ];
+        for k in ["reference", "transform", "start_offset", "end_offset"] {
+            if let Some(v) = self.bound.get(k) {
+                args.push((k, v.clone()));
+            }
+        }
+        mods.push(self.implicit(ModKind::FollowPath, self.name, args));
         Ok(())
     }
 }

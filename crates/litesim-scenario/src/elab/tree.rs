@@ -414,4 +414,6 @@ pub struct Test {
     pub notes: Vec<String>,
     /// `cover`/`record` items, in the order met.
     pub covers: Vec<crate::coverage::CoverItem>,
+    /// Paths and trajectories the actions follow, by index.
+    pub paths: Vec<super::paths::PathDef>,
 }

@@ -622,6 +622,7 @@ fn plan_once(
         rleaves: &rleaves,
         placed: &placed,
         known: cond_events,
+        paths: &test.paths,
         dt: plan_dt,
         n: (duration / plan_dt).ceil() as usize + 1,
     };

@@ -113,7 +113,13 @@ impl<'a> Timer<'a> {
         match action {
             Action::ChangeLane => Some(super::LANE_CHANGE_S),
             Action::AssignSpeed | Action::AssignPosition | Action::AssignOrientation => Some(0.0),
-            Action::ChangeSpeed | Action::ChangeSpaceGap | Action::ChangeTimeHeadway => Some(
+            Action::ChangeSpeed
+            | Action::ChangeSpaceGap
+            | Action::ChangeTimeHeadway
+            | Action::FollowPath
+            | Action::ReplayPath
+            | Action::FollowTrajectory
+            | Action::ReplayTrajectory => Some(
                 self.cond_events
                     .get(&reach_key(id))
                     .copied()

@@ -2,7 +2,9 @@
 //! walking across, the goals its phases set.
 
 use super::*;
-use crate::intent::Place;
+
+mod exact;
+mod path;
 
 /// Per-actor motion state while sampling.
 #[derive(Clone, Debug)]
@@ -123,6 +125,8 @@ pub(super) struct MoveCx<'a> {
     pub(super) placed: &'a BTreeMap<String, Motion>,
     /// The times known from the layouts before (conditions, `reach@N`).
     pub(super) known: &'a BTreeMap<String, f64>,
+    /// The test's paths and trajectories.
+    pub(super) paths: &'a [crate::elab::PathDef],
     /// Plan step (s).
     pub(super) dt: f64,
     /// Samples per actor.
@@ -241,6 +245,8 @@ enum Reach {
     /// `change_space_gap` / `change_time_headway`: its [`Follow::Change`]
     /// target.
     Gap,
+    /// A path or trajectory action: the end of its path.
+    Path,
 }
 
 /// A changed space gap is reached within this (m).
@@ -271,6 +277,10 @@ struct Mover<'a> {
     end_speed: Option<(f64, f64, f64)>,
     /// A heading of its own (`yaw`, `assign_orientation`).
     heading: Option<Heading>,
+    /// A path or trajectory being followed.
+    on_path: Option<path::OnPath>,
+    /// Where a path left it, off the roads: it stands there.
+    parked: Option<PlanSample>,
     /// A strict speed not reached yet, with its place.
     strict_speed: Option<(f64, String)>,
     stationary: bool,
@@ -303,6 +313,8 @@ impl<'a> Mover<'a> {
             accel_down: ACCEL_DOWN,
             end_speed: None,
             heading: None,
+            on_path: None,
+            parked: None,
             strict_speed: None,
             stationary: false,
             dead_end: false,
@@ -332,6 +344,7 @@ impl<'a> Mover<'a> {
             }
             self.check_along_end(t);
             self.gap_reached(t);
+            self.path_reached(t);
             // Enter phases that start now.
             while self.leaf_i < self.my.len() && self.my[self.leaf_i].t0 <= t + 1e-9 {
                 match self.enter(k, t, plans) {
@@ -345,10 +358,16 @@ impl<'a> Mover<'a> {
                 self.leaf_i += 1;
             }
             self.follow(t, plans);
+            self.path_target(t);
             let prev_v = self.mo.v;
             self.speed(t);
             self.note_reached(t, prev_v);
             self.carry_gap(t, plans);
+            if let Some(sample) = self.path_sample(t, prev_v) {
+                self.out.samples.push(sample);
+                self.path_advance();
+                continue;
+            }
             let (sample, centre) = self.pose(t, prev_v, plans);
             self.out.samples.push(sample);
             self.advance(t, centre);
@@ -399,118 +418,16 @@ impl<'a> Mover<'a> {
         self.stationary = l.action == Action::RemainStationary;
         self.end_speed = None;
         self.unreached();
+        self.leave_path(t);
         self.follow = None;
         self.accel_up = ACCEL_UP;
         self.accel_down = ACCEL_DOWN;
         // A held heading outlives its phase (while the actor stands).
         self.heading = self.heading.filter(|h| h.hold);
         let mut keep_speed = false;
-        let first = self.leaf_i == 0;
         for m in &l.mods {
-            match m {
-                Intent::Along {
-                    road: Some(road),
-                    at: At::End,
-                    ..
-                } => {
-                    self.along_end.push((l.t1, road.clone(), l.at.clone()));
-                }
-                Intent::Lateral {
-                    side_of: Some(o),
-                    at,
-                    ..
-                } if *at != At::End => self.out.side_follows.push(SideFollow {
-                    actor: self.id.clone(),
-                    reference: o.clone(),
-                    t0: l.t0,
-                    t1: l.t1,
-                }),
-                Intent::Acceleration { accel, .. } => {
-                    self.accel_up = accel.abs().max(0.1);
-                    self.accel_down = accel.abs().max(0.1);
-                }
-                Intent::Speed {
-                    speed,
-                    at,
-                    strict,
-                    relative,
-                    ..
-                } => {
-                    let v = self.relative_speed(l, t, (*speed, *at), relative, plans)?;
-                    match at {
-                        At::End => self.end_speed = Some((self.mo.v, v, l.t1)),
-                        _ => {
-                            if first || (*at == At::Start && k == 0) {
-                                self.mo.v = v;
-                            }
-                            self.target = Some(v);
-                            if *strict && !first {
-                                self.strict_speed = Some((v, l.at.clone()));
-                            }
-                        }
-                    }
-                }
-                Intent::Position {
-                    distance,
-                    reference: Some((order, o)),
-                    at: At::End,
-                    strict,
-                    ..
-                } => self.gap_goal(l, t, plans, (*distance, order.sign(), o, *strict)),
-                &Intent::ChangeLane {
-                    lanes: nl, side, ..
-                } => self.change_lane(l, nl, side)?,
-                Intent::Lane {
-                    lane,
-                    reference,
-                    at: At::End,
-                    strict,
-                } => self.lane_goal(l, *lane, reference.as_ref(), *strict),
-                Intent::KeepSpeed { .. } => keep_speed = true,
-                Intent::KeepGap {
-                    reference,
-                    headway,
-                    target,
-                } => {
-                    self.start_gap(l, t, reference, (*headway, *target), plans)?;
-                }
-                Intent::KeepPosition { .. } => self.stationary = true,
-                Intent::Yaw {
-                    angle,
-                    relative_to,
-                    north,
-                    hold,
-                } => {
-                    let relative_to = match relative_to {
-                        Some(o) => Some(self.planned_before(l, o, "yaw", plans)?),
-                        None => None,
-                    };
-                    self.heading = Some(Heading {
-                        angle: *angle,
-                        relative_to,
-                        north: *north,
-                        hold: *hold,
-                    });
-                    self.exact(l, "yaw");
-                }
-                Intent::AssignPosition { place } => self.teleport(l, k, place)?,
-                Intent::AvoidCollisions { avoid: false } => {
-                    self.out.reckless.push((self.id.clone(), l.t0, l.t1));
-                }
-                // Travels `d` by the phase's end: a linear speed change from
-                // the speed it has, (v0 + v1) / 2 · T = d.
-                &Intent::Distance { distance, .. } => {
-                    let dur = (l.t1 - t).max(self.cx.dt);
-                    let v1 = (2.0 * distance / dur - self.mo.v).max(0.0);
-                    self.end_speed = Some((self.mo.v, v1, l.t1));
-                }
-                Intent::PhysicalMovement { option } if option == "prefer_non_physical" => {
-                    self.out.notes.push(format!(
-                        "{}: physical_movement(prefer_non_physical): {} moves physically (within its acceleration), as the preference allows",
-                        l.at, self.id
-                    ));
-                }
-                _ => {}
+            if self.modifier(l, m, (k, t), plans)? {
+                keep_speed = true;
             }
         }
         match l.action {
@@ -538,94 +455,124 @@ impl<'a> Mover<'a> {
         Ok(())
     }
 
-    /// Notes that this actor's plan asks for exactness (`what` at the
-    /// phase `l`), the first time.
-    fn exact(&mut self, l: &RLeaf, what: &str) {
-        self.out
-            .exact
-            .entry(self.id.clone())
-            .or_insert_with(|| format!("{what} at {}", l.at));
-    }
-
-    /// `assign_position`: the actor is at `place` from sample `k` on.
-    fn teleport(&mut self, l: &RLeaf, k: usize, place: &Place) -> Result<(), ScenarioError> {
-        let net = self.cx.net;
-        let err = |what: String| {
-            ScenarioError::Plan(format!("{}: {}'s assign_position: {what}", l.at, self.id))
-        };
-        let road_of = |id: &str| {
-            net.road_index(id)
-                .ok_or_else(|| err(format!("the map has no road '{id}'")))
-        };
-        let (pos, lateral) = match place {
-            &Place::Xy { x, y } => {
-                let p = net
-                    .locate(litesim_core::Vec2::new(x, y))
-                    .ok_or_else(|| err(format!("({x:.2}, {y:.2}) is on no road of the map")))?;
-                (
-                    LanePos {
-                        road: p.road,
-                        lane: p.lane,
-                        s: p.s,
-                    },
-                    p.offset,
-                )
+    /// One modifier of the phase `l` entered at sample `k` (time `t`):
+    /// what it sets. True for `keep_speed()` (the action's speed is then
+    /// the one the actor has).
+    fn modifier(
+        &mut self,
+        l: &RLeaf,
+        m: &Intent,
+        (k, t): (usize, f64),
+        plans: &[ActorPlan],
+    ) -> Result<bool, ScenarioError> {
+        let first = self.leaf_i == 0;
+        match m {
+            Intent::Along {
+                road: Some(road),
+                at: At::End,
+                ..
+            } => {
+                self.along_end.push((l.t1, road.clone(), l.at.clone()));
             }
-            Place::Odr { road, lane, s, t } => {
-                let r = road_of(road)?;
-                let lane: i32 = lane
-                    .trim()
-                    .parse()
-                    .map_err(|_| err(format!("lane_id '{lane}' is not a lane id (an integer)")))?;
-                (
-                    LanePos {
-                        road: r,
-                        lane,
-                        s: *s,
-                    },
-                    *t,
-                )
+            Intent::Lateral {
+                side_of: Some(o),
+                at,
+                ..
+            } if *at != At::End => self.out.side_follows.push(SideFollow {
+                actor: self.id.clone(),
+                reference: o.clone(),
+                t0: l.t0,
+                t1: l.t1,
+            }),
+            Intent::Acceleration { accel, .. } => {
+                self.accel_up = accel.abs().max(0.1);
+                self.accel_down = accel.abs().max(0.1);
             }
-            Place::Route { road, lane, s, t } => {
-                let r = road_of(road)?;
-                let lanes = net.lanes_same_way(r, *s, true);
-                let Some(&id) = lanes.get(lane_index(lanes.len(), *lane)) else {
-                    return Err(err(format!(
-                        "road '{road}' has no lane {lane} at s = {s:.1} m"
-                    )));
+            Intent::Speed {
+                speed,
+                at,
+                strict,
+                relative,
+                ..
+            } => {
+                let v = self.relative_speed(l, t, (*speed, *at), relative, plans)?;
+                match at {
+                    At::End => self.end_speed = Some((self.mo.v, v, l.t1)),
+                    _ => {
+                        if first || (*at == At::Start && k == 0) {
+                            self.mo.v = v;
+                        }
+                        self.target = Some(v);
+                        if *strict && !first {
+                            self.strict_speed = Some((v, l.at.clone()));
+                        }
+                    }
+                }
+            }
+            Intent::Position {
+                distance,
+                reference: Some((order, o)),
+                at: At::End,
+                strict,
+                ..
+            } => self.gap_goal(l, t, plans, (*distance, order.sign(), o, *strict)),
+            &Intent::ChangeLane {
+                lanes: nl, side, ..
+            } => self.change_lane(l, nl, side)?,
+            Intent::Lane {
+                lane,
+                reference,
+                at: At::End,
+                strict,
+            } => self.lane_goal(l, *lane, reference.as_ref(), *strict),
+            Intent::KeepSpeed { .. } => return Ok(true),
+            Intent::KeepGap {
+                reference,
+                headway,
+                target,
+            } => {
+                self.start_gap(l, t, reference, (*headway, *target), plans)?;
+            }
+            Intent::KeepPosition { .. } => self.stationary = true,
+            Intent::Yaw {
+                angle,
+                relative_to,
+                north,
+                hold,
+            } => {
+                let relative_to = match relative_to {
+                    Some(o) => Some(self.planned_before(l, o, "yaw", plans)?),
+                    None => None,
                 };
-                (
-                    LanePos {
-                        road: r,
-                        lane: id,
-                        s: *s,
-                    },
-                    *t,
-                )
+                self.heading = Some(Heading {
+                    angle: *angle,
+                    relative_to,
+                    north: *north,
+                    hold: *hold,
+                });
+                self.exact(l, "yaw");
             }
-        };
-        let length = net.roads()[pos.road].length;
-        if !(0.0..=length).contains(&pos.s)
-            || net.lane_pose_at(pos.road, pos.lane, pos.s, 0.0).is_none()
-        {
-            return Err(err(format!(
-                "road '{}' has no lane {} at s = {:.1} m",
-                net.roads()[pos.road].id,
-                pos.lane,
-                pos.s
-            )));
+            Intent::AssignPosition { place } => self.teleport(l, k, place)?,
+            Intent::FollowPath { .. } => self.start_path(l, (k, t), m, plans)?,
+            Intent::AvoidCollisions { avoid: false } => {
+                self.out.reckless.push((self.id.clone(), l.t0, l.t1));
+            }
+            // Travels `d` by the phase's end: a linear speed change from
+            // the speed it has, (v0 + v1) / 2 · T = d.
+            &Intent::Distance { distance, .. } => {
+                let dur = (l.t1 - t).max(self.cx.dt);
+                let v1 = (2.0 * distance / dur - self.mo.v).max(0.0);
+                self.end_speed = Some((self.mo.v, v1, l.t1));
+            }
+            Intent::PhysicalMovement { option } if option == "prefer_non_physical" => {
+                self.out.notes.push(format!(
+                    "{}: physical_movement(prefer_non_physical): {} moves physically (within its acceleration), as the preference allows",
+                    l.at, self.id
+                ));
+            }
+            _ => {}
         }
-        let mo = &mut self.mo;
-        mo.pos = pos;
-        mo.lateral = lateral;
-        mo.change = None;
-        self.reached = None;
-        self.dead_end = false;
-        if k > 0 {
-            self.out.jumps.push(k);
-        }
-        self.exact(l, "assign_position");
-        Ok(())
+        Ok(false)
     }
 
     /// A `change_speed` whose phase ends (or the plan does) before it
@@ -638,6 +585,7 @@ impl<'a> Mover<'a> {
             };
             let what = match (reach, self.follow) {
                 (Reach::Speed(v), _) => format!("{v:.2} m/s"),
+                (Reach::Path, _) => "the end of its path".into(),
                 (
                     Reach::Gap,
                     Some((
