@@ -62,11 +62,18 @@ pub enum Action {
     FollowTrajectory,
     /// `replay_trajectory(…)`: where the trajectory is at each time.
     ReplayTrajectory,
+    /// `assign_acceleration(a)`: has it at once; takes no time.
+    AssignAcceleration,
+    /// `change_acceleration(target, …)`: reaches it at its jerk; ends when
+    /// reached.
+    ChangeAcceleration,
+    /// `keep_acceleration()`: holds the acceleration it has, for the phase.
+    KeepAcceleration,
 }
 
 impl Action {
     /// Every action, in the order the domain declares them.
-    pub const ALL: [Action; 19] = [
+    pub const ALL: [Action; 22] = [
         Action::Drive,
         Action::RemainStationary,
         Action::Walk,
@@ -86,6 +93,9 @@ impl Action {
         Action::ReplayPath,
         Action::FollowTrajectory,
         Action::ReplayTrajectory,
+        Action::AssignAcceleration,
+        Action::ChangeAcceleration,
+        Action::KeepAcceleration,
     ];
 
     /// The action called `name`; `None` for names the domain does not have
@@ -111,6 +121,9 @@ impl Action {
             "replay_path" => Action::ReplayPath,
             "follow_trajectory" => Action::FollowTrajectory,
             "replay_trajectory" => Action::ReplayTrajectory,
+            "assign_acceleration" => Action::AssignAcceleration,
+            "change_acceleration" => Action::ChangeAcceleration,
+            "keep_acceleration" => Action::KeepAcceleration,
             _ => return None,
         })
     }
@@ -137,6 +150,9 @@ impl Action {
             Action::ReplayPath => "replay_path",
             Action::FollowTrajectory => "follow_trajectory",
             Action::ReplayTrajectory => "replay_trajectory",
+            Action::AssignAcceleration => "assign_acceleration",
+            Action::ChangeAcceleration => "change_acceleration",
+            Action::KeepAcceleration => "keep_acceleration",
         }
     }
 
@@ -216,6 +232,8 @@ pub enum ModKind {
     AssignPosition,
     /// The path a path or trajectory action follows (likewise).
     FollowPath,
+    /// The acceleration an acceleration action sets or keeps (likewise).
+    Accel,
     /// Any other modifier: planning has no use for it (a note names it).
     Other,
 }
@@ -488,6 +506,9 @@ pub enum Intent {
         /// A compass heading (clockwise from north, +y) rather than one
         /// relative to the road.
         north: bool,
+        /// A heading in the map's frame (0 along +x, counter-clockwise):
+        /// `orientation(…, measured_by: absolute)`.
+        world: bool,
         /// Kept after the phase while the actor stands
         /// (`assign_orientation`).
         hold: bool,
@@ -496,6 +517,14 @@ pub enum Intent {
     AssignPosition {
         /// The place.
         place: Place,
+    },
+    /// The acceleration an acceleration action sets (`target`, at `jerk`
+    /// or at once) or keeps (no target).
+    Accel {
+        /// m/s².
+        target: Option<f64>,
+        /// m/s³; `None`: at once.
+        jerk: Option<f64>,
     },
     /// The path a path or trajectory action follows.
     FollowPath {
@@ -584,6 +613,39 @@ impl Place {
                 t: num("route_point.t").unwrap_or(0.0),
             },
         })
+    }
+}
+
+/// `lateral(…)` decoded: beside the lane centre or beside another actor.
+fn lateral_intent(
+    vals: &BTreeMap<String, Value>,
+    refs: &BTreeMap<String, String>,
+    at: At,
+) -> Intent {
+    let num = |k: &str| vals.get(k).and_then(Value::num);
+    let side = |default: Side| match vals.get("side").and_then(Value::text) {
+        Some("left") => Side::Left,
+        Some("right") => Side::Right,
+        _ => default,
+    };
+
+    // `left_of: x` is `side_of: x, side: left`; `same_as: x`
+    // beside it by `distance` (0 when not given).
+    let (side_of, side, default) = match (
+        refs.get("left_of"),
+        refs.get("right_of"),
+        refs.get("same_as"),
+    ) {
+        (Some(o), ..) => (Some(o.clone()), Side::Left, 2.0),
+        (_, Some(o), _) => (Some(o.clone()), Side::Right, 2.0),
+        (.., Some(o)) => (Some(o.clone()), side(Side::Left), 0.0),
+        _ => (refs.get("side_of").cloned(), side(Side::Right), 2.0),
+    };
+    Intent::Lateral {
+        distance: num("distance").unwrap_or(default),
+        side,
+        side_of,
+        at,
     }
 }
 
@@ -700,12 +762,7 @@ impl Intent {
                 side: side(Side::Left),
                 at,
             },
-            ModKind::Lateral => Intent::Lateral {
-                distance: num("distance").unwrap_or(2.0),
-                side: side(Side::Right),
-                side_of: refs.get("side_of").cloned(),
-                at,
-            },
+            ModKind::Lateral => lateral_intent(vals, refs, at),
             ModKind::Along => Intent::Along {
                 road: text("road"),
                 start_offset: num("start_offset"),
@@ -732,10 +789,15 @@ impl Intent {
                 angle: num("angle")?,
                 relative_to: refs.get("relative_to").cloned(),
                 north: text("measure_by").as_deref() == Some("relative_to_north"),
+                world: text("measure_by").as_deref() == Some("absolute"),
                 hold: vals.get("hold").and_then(Value::boolean).unwrap_or(false),
             },
             ModKind::AssignPosition => Intent::AssignPosition {
                 place: Place::decode(vals)?,
+            },
+            ModKind::Accel => Intent::Accel {
+                target: num("target"),
+                jerk: num("jerk"),
             },
             ModKind::FollowPath => Intent::FollowPath {
                 path: num("path")? as usize,
@@ -773,7 +835,8 @@ impl Intent {
             | Intent::AvoidCollisions { .. }
             | Intent::Yaw { .. }
             | Intent::AssignPosition { .. }
-            | Intent::FollowPath { .. } => At::All,
+            | Intent::FollowPath { .. }
+            | Intent::Accel { .. } => At::All,
         }
     }
 

@@ -1086,3 +1086,115 @@ fn bad_paths_are_errors_naming_the_file_line_or_the_literal() {
         "{s}"
     );
 }
+
+#[test]
+fn acceleration_actions_set_change_and_keep_the_acceleration() {
+    let text = |actions: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n{actions}"
+        )
+    };
+    // change_acceleration to −3 m/s² at 6 m/s³: 0.5 s, then kept while
+    // the next phase drives on (its speed falls 3 m/s a second).
+    let r = run_text(&text(
+        "        go: sut.car.change_acceleration(-3mpsps, rate_peak: 6mpspsps)\n        on: sut.car.drive() with:\n            duration(2s)\n",
+    ))
+    .unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (g0, g1) = phase(&r, "go");
+    assert!((g1 - g0 - 0.5).abs() < 0.11, "{g0}..{g1}");
+    let (o0, o1) = phase(&r, "on");
+    let (v0, v1) = (sample(&r, "sut.car", o0).v, sample(&r, "sut.car", o1).v);
+    assert!((v0 - v1 - 6.0).abs() < 0.05, "{v0} → {v1}");
+    assert!((sample(&r, "sut.car", o0 + 1.0).a + 3.0).abs() < 1e-6);
+    // On the log too (20 ms ticks): the speed falls 3 m/s per second.
+    let log = r.log.as_ref().unwrap();
+    let ego = &log.tracks[0];
+    let (a, b) = (tick_at(&r, o0 + 0.5), tick_at(&r, o0 + 1.5));
+    assert!((ego.state.speed[a] - ego.state.speed[b] - 3.0).abs() < 0.01);
+    // assign_acceleration at once, then keep_acceleration for 2 s: +2 m/s.
+    let r = run_text(&text(
+        "        set: sut.car.assign_acceleration(1mpsps)\n        hold: sut.car.keep_acceleration() with:\n            duration(2s)\n        sut.car.drive() with:\n            speed(40kph)\n            duration(3s)\n",
+    ))
+    .unwrap();
+    assert_eq!(phase(&r, "set").1 - phase(&r, "set").0, 0.0);
+    let (h0, h1) = phase(&r, "hold");
+    assert_eq!(h1 - h0, 2.0);
+    // 1 m/s² throughout the phase (a sample's speed is its step's).
+    let gained = sample(&r, "sut.car", h0 + 1.5).v - sample(&r, "sut.car", h0 + 0.5).v;
+    assert!((gained - 1.0).abs() < 1e-6, "{gained}");
+    // A speed phase after it ends the acceleration: 40 km/h at its end.
+    assert!((r.plan.actors[0].samples.last().unwrap().v - kph(40.0)).abs() < 1e-6);
+    // A braking kept to a stop stands; a change beyond the limits is noted.
+    let r = run_text(&text(
+        "        sut.car.change_acceleration(-12mpsps, rate_peak: 40mpspsps)\n        sut.car.drive() with:\n            duration(4s)\n",
+    ))
+    .unwrap();
+    assert!(
+        r.summary
+            .notes
+            .iter()
+            .any(|n| n
+                .contains("change_acceleration of -12.00 m/s² is beyond its limits: -8.00 m/s²")),
+        "{:?}",
+        r.summary.notes
+    );
+    assert_eq!(r.plan.actors[0].samples.last().unwrap().v, 0.0);
+    let e = run_text(&text(
+        "        sut.car.change_acceleration(-1mpsps) with:\n            speed(10kph)\n",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("change_acceleration() at") && e.contains("a speed modifier contradicts it"),
+        "{e}"
+    );
+}
+
+#[test]
+fn lateral_beside_another_actor_and_orientation_as_a_heading() {
+    let with = |mods: &str| {
+        run_text(&format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    p: person\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(20kph)\n            along(r, start_offset: 20m, at: start)\n            lane(2, at: start)\n        p.walk() with:\n            speed(4kph)\n            position(30m, ahead_of: sut.car, at: start)\n{mods}\n    with: duration(2s)\n"
+        ))
+    };
+    let y = |mods: &str| {
+        let r = with(mods).unwrap_or_else(|e| panic!("{mods}: {e}"));
+        (
+            sample(&r, "p", 0.0).y - sample(&r, "sut.car", 0.0).y,
+            sample(&r, "p", 1.0).yaw.to_degrees(),
+        )
+    };
+    let m = |s: &str| format!("            {s}");
+    assert!((y(&m("lateral(3m, left_of: sut.car, at: start)")).0 - 3.0).abs() < 1e-6);
+    assert!((y(&m("lateral(3m, right_of: sut.car, at: start)")).0 + 3.0).abs() < 1e-6);
+    assert!(y(&m("lateral(same_as: sut.car, at: start)")).0.abs() < 1e-6);
+    // orientation: a heading from the road, or in the map's frame.
+    let both = |o: &str| {
+        m(&format!(
+            "lateral(3m, left_of: sut.car, at: start)\n            {o}"
+        ))
+    };
+    assert!((y(&both("orientation(yaw: 90deg)")).1 - 90.0).abs() < 1e-6);
+    assert!((y(&both("orientation(yaw: 30deg, measured_by: absolute)")).1 - 30.0).abs() < 1e-6);
+    let e = |mods: &str| match with(mods) {
+        Ok(_) => panic!("{mods}: no error"),
+        Err(e) => e.to_string(),
+    };
+    let s = e(&m(
+        "lateral(3m, left_of: sut.car, right_of: sut.car, at: start)",
+    ));
+    assert!(
+        s.contains("lateral: left_of and right_of exclude each other"),
+        "{s}"
+    );
+    let s = e(&m(
+        "lateral(3m, left_of: sut.car, measure_by: closest, at: start)",
+    ));
+    assert!(
+        s.contains("lateral(measure_by: closest) is not supported"),
+        "{s}"
+    );
+    let s = e(&both("orientation(yaw: 0deg, pitch: 5deg)"));
+    assert!(s.contains("orientation(pitch: …) is not supported"), "{s}");
+}

@@ -329,8 +329,19 @@ impl Elab<'_> {
                             )));
                         }
                     }
+                    let at = self.lib.at(*span);
+                    let (kind, bound) = match name.as_str() {
+                        "orientation" => {
+                            (crate::intent::ModKind::Yaw, orientation_as_yaw(bound, &at)?)
+                        }
+                        "lateral" => {
+                            lateral_supported(&bound, &at)?;
+                            (kind, bound)
+                        }
+                        _ => (kind, bound),
+                    };
                     if kind == crate::intent::ModKind::Yaw {
-                        yaw_supported(&bound, &self.lib.at(*span))?;
+                        yaw_supported(&bound, &at)?;
                     }
                     out.push(Modifier {
                         kind,
@@ -694,8 +705,7 @@ fn yaw_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), Scenar
         )))
     };
     if let Some(CExpr::Const(Value::Enum(m))) = bound.get("measure_by")
-        && m != "relative_to_road"
-        && m != "relative_to_north"
+        && !["relative_to_road", "relative_to_north", "absolute"].contains(&m.as_str())
     {
         return refuse(format!("measure_by: {m}"));
     }
@@ -703,6 +713,64 @@ fn yaw_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), Scenar
         && a != "all"
     {
         return refuse(format!("at: {a}"));
+    }
+    Ok(())
+}
+
+/// `orientation(yaw, pitch, roll, relative_to, measured_by)` as the `yaw`
+/// modifier it is for litesim (a heading only: a non-zero pitch or roll
+/// is refused).
+fn orientation_as_yaw(
+    mut bound: BTreeMap<String, CExpr>,
+    at: &str,
+) -> Result<BTreeMap<String, CExpr>, ScenarioError> {
+    for k in ["pitch", "roll"] {
+        if matches!(bound.get(k), Some(CExpr::Const(Value::Num(v))) if *v != 0.0)
+            || matches!(bound.get(k), Some(e) if !matches!(e, CExpr::Const(_)))
+        {
+            return Err(ScenarioError::Elaboration(format!(
+                "{at}: orientation({k}: …) is not supported by litesim (a heading only)"
+            )));
+        }
+    }
+    let yaw = bound.remove("yaw").ok_or_else(|| {
+        ScenarioError::Elaboration(format!(
+            "{at}: orientation needs its yaw, e.g. `orientation(yaw: 90deg)`"
+        ))
+    })?;
+    let measure = match bound.remove("measured_by") {
+        Some(CExpr::Const(Value::Enum(m))) if m == "absolute" => "absolute",
+        _ => "relative_to_road",
+    };
+    bound.insert("angle".into(), yaw);
+    bound.insert(
+        "measure_by".into(),
+        CExpr::Const(Value::Enum(measure.into())),
+    );
+    bound.remove("pitch");
+    bound.remove("roll");
+    Ok(bound)
+}
+
+/// What litesim plans of `lateral(…)`: one reference at most, measured
+/// centre to centre.
+fn lateral_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), ScenarioError> {
+    let refs: Vec<&str> = ["side_of", "left_of", "right_of", "same_as"]
+        .into_iter()
+        .filter(|k| bound.contains_key(*k))
+        .collect();
+    if refs.len() > 1 {
+        return Err(ScenarioError::Elaboration(format!(
+            "{at}: lateral: {} exclude each other (give one reference actor)",
+            refs.join(" and ")
+        )));
+    }
+    if let Some(CExpr::Const(Value::Enum(m))) = bound.get("measure_by")
+        && m != "center_to_center"
+    {
+        return Err(ScenarioError::Elaboration(format!(
+            "{at}: lateral(measure_by: {m}) is not supported by litesim (it measures center_to_center)"
+        )));
     }
     Ok(())
 }

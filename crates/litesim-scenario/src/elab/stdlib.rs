@@ -57,6 +57,9 @@ impl StdCall<'_> {
             | Action::ReplayPath
             | Action::FollowTrajectory
             | Action::ReplayTrajectory => self.follow_path(action, mods),
+            Action::AssignAcceleration | Action::ChangeAcceleration | Action::KeepAcceleration => {
+                self.acceleration(action, mods)
+            }
             Action::Drive | Action::RemainStationary | Action::Walk | Action::Move => Ok(()),
         }
     }
@@ -277,6 +280,42 @@ impl StdCall<'_> {
             }
         }
         mods.push(self.implicit(ModKind::FollowPath, self.name, args));
+        Ok(())
+    }
+
+    /// An acceleration action as the modifier that plans it: a target
+    /// (assign: at once; change: at its `rate_peak` jerk, 2 m/s³ by
+    /// default) or none (keep).
+    fn acceleration(&self, action: Action, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
+        self.no_speed_modifier(mods, "sets the acceleration itself")?;
+        let mut args = Vec::new();
+        match action {
+            Action::AssignAcceleration => {
+                args.push((
+                    "target",
+                    self.required("acceleration", "assign_acceleration(1mpsps)")?,
+                ));
+            }
+            Action::ChangeAcceleration => {
+                if let Some(CExpr::Const(Value::Enum(p))) = self.bound.get("rate_profile")
+                    && p == "smooth"
+                {
+                    return self.refuse("rate_profile: smooth");
+                }
+                args.push((
+                    "target",
+                    self.required("target", "change_acceleration(-3mpsps)")?,
+                ));
+                let jerk = self
+                    .bound
+                    .get("rate_peak")
+                    .cloned()
+                    .unwrap_or(CExpr::Const(Value::Num(2.0)));
+                args.push(("jerk", jerk));
+            }
+            _ => {}
+        }
+        mods.push(self.implicit(ModKind::Accel, self.name, args));
         Ok(())
     }
 }

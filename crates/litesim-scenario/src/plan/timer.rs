@@ -112,14 +112,18 @@ impl<'a> Timer<'a> {
     fn action_natural(&self, action: Action, id: u32) -> Option<f64> {
         match action {
             Action::ChangeLane => Some(super::LANE_CHANGE_S),
-            Action::AssignSpeed | Action::AssignPosition | Action::AssignOrientation => Some(0.0),
+            Action::AssignSpeed
+            | Action::AssignPosition
+            | Action::AssignOrientation
+            | Action::AssignAcceleration => Some(0.0),
             Action::ChangeSpeed
             | Action::ChangeSpaceGap
             | Action::ChangeTimeHeadway
             | Action::FollowPath
             | Action::ReplayPath
             | Action::FollowTrajectory
-            | Action::ReplayTrajectory => Some(
+            | Action::ReplayTrajectory
+            | Action::ChangeAcceleration => Some(
                 self.cond_events
                     .get(&reach_key(id))
                     .copied()

@@ -206,6 +206,19 @@ pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
         })
 }
 
+/// Whether a modifier sets the actor's speed (and so ends an acceleration
+/// an acceleration action set).
+fn sets_speed(m: &Intent) -> bool {
+    matches!(
+        m,
+        Intent::Speed { .. }
+            | Intent::KeepSpeed { .. }
+            | Intent::Distance { .. }
+            | Intent::KeepPosition { .. }
+            | Intent::KeepGap { .. }
+    )
+}
+
 /// A heading the plan sets (`yaw`, `assign_orientation`).
 #[derive(Clone, Copy, Debug)]
 struct Heading {
@@ -215,6 +228,8 @@ struct Heading {
     relative_to: Option<usize>,
     /// Compass heading: clockwise from north (+y).
     north: bool,
+    /// In the map's frame (0 along +x).
+    world: bool,
     /// Kept after its phase while the actor stands.
     hold: bool,
 }
@@ -247,6 +262,23 @@ enum Reach {
     Gap,
     /// A path or trajectory action: the end of its path.
     Path,
+    /// `change_acceleration`: this acceleration (m/s²).
+    Accel(f64),
+}
+
+/// Most acceleration and deceleration a change or keep of the
+/// acceleration asks (m/s²): the domain's default vehicle limits.
+const ACCEL_LIMITS: (f64, f64) = (-8.0, 4.0);
+
+/// The acceleration an acceleration action set: speed follows it.
+#[derive(Clone, Copy, Debug)]
+struct Accel {
+    /// Now (m/s²).
+    a: f64,
+    /// Where it goes (m/s²).
+    target: f64,
+    /// How fast it gets there (m/s³); infinite: at once.
+    jerk: f64,
 }
 
 /// A changed space gap is reached within this (m).
@@ -281,6 +313,9 @@ struct Mover<'a> {
     on_path: Option<path::OnPath>,
     /// Where a path left it, off the roads: it stands there.
     parked: Option<PlanSample>,
+    /// An acceleration set by an acceleration action, kept until a phase
+    /// sets a speed.
+    accel: Option<Accel>,
     /// A strict speed not reached yet, with its place.
     strict_speed: Option<(f64, String)>,
     stationary: bool,
@@ -315,6 +350,7 @@ impl<'a> Mover<'a> {
             heading: None,
             on_path: None,
             parked: None,
+            accel: None,
             strict_speed: None,
             stationary: false,
             dead_end: false,
@@ -424,6 +460,10 @@ impl<'a> Mover<'a> {
         self.accel_down = ACCEL_DOWN;
         // A held heading outlives its phase (while the actor stands).
         self.heading = self.heading.filter(|h| h.hold);
+        // An acceleration lasts until a phase sets a speed.
+        if l.mods.iter().any(sets_speed) || self.stationary || l.action == Action::AssignSpeed {
+            self.accel = None;
+        }
         let mut keep_speed = false;
         for m in &l.mods {
             if self.modifier(l, m, (k, t), plans)? {
@@ -538,6 +578,7 @@ impl<'a> Mover<'a> {
                 angle,
                 relative_to,
                 north,
+                world,
                 hold,
             } => {
                 let relative_to = match relative_to {
@@ -548,12 +589,14 @@ impl<'a> Mover<'a> {
                     angle: *angle,
                     relative_to,
                     north: *north,
+                    world: *world,
                     hold: *hold,
                 });
                 self.exact(l, "yaw");
             }
             Intent::AssignPosition { place } => self.teleport(l, k, place)?,
             Intent::FollowPath { .. } => self.start_path(l, (k, t), m, plans)?,
+            &Intent::Accel { target, jerk } => self.set_accel(l, t, target, jerk),
             Intent::AvoidCollisions { avoid: false } => {
                 self.out.reckless.push((self.id.clone(), l.t0, l.t1));
             }
@@ -575,6 +618,42 @@ impl<'a> Mover<'a> {
         Ok(false)
     }
 
+    /// An acceleration action entered at `t`: `assign_acceleration` (a
+    /// target at once), `change_acceleration` (a target at a jerk, ended
+    /// when reached) or `keep_acceleration` (the acceleration it has). A
+    /// change or keep stays within [`ACCEL_LIMITS`] (noted when asked
+    /// beyond); an assignment is exact.
+    fn set_accel(&mut self, l: &RLeaf, t: f64, target: Option<f64>, jerk: Option<f64>) {
+        let now = self
+            .accel
+            .map(|a| a.a)
+            .or_else(|| self.out.samples.last().map(|s| s.a))
+            .unwrap_or(0.0);
+        let mut want = target.unwrap_or(now);
+        if l.action != Action::AssignAcceleration {
+            let bounded = want.clamp(ACCEL_LIMITS.0, ACCEL_LIMITS.1);
+            if bounded != want {
+                self.out.notes.push(format!(
+                    "{}: {}'s {} of {want:.2} m/s² is beyond its limits: {bounded:.2} m/s²",
+                    l.at, self.id, l.action
+                ));
+                want = bounded;
+            }
+        }
+        let jerk = jerk.map_or(f64::INFINITY, |j| j.abs().max(1e-3));
+        let a = if jerk.is_infinite() { want } else { now };
+        self.accel = Some(Accel {
+            a,
+            target: want,
+            jerk,
+        });
+        self.target = None;
+        self.end_speed = None;
+        if l.action == Action::ChangeAcceleration {
+            self.reaching = Some((l.id, Reach::Accel(want), t));
+        }
+    }
+
     /// A `change_speed` whose phase ends (or the plan does) before it
     /// reaches its target (a parent's duration cut it short): a note says
     /// so.
@@ -586,6 +665,7 @@ impl<'a> Mover<'a> {
             let what = match (reach, self.follow) {
                 (Reach::Speed(v), _) => format!("{v:.2} m/s"),
                 (Reach::Path, _) => "the end of its path".into(),
+                (Reach::Accel(a), _) => format!("{a:.2} m/s²"),
                 (
                     Reach::Gap,
                     Some((
@@ -617,6 +697,15 @@ impl<'a> Mover<'a> {
     /// takes that sample too and the next phase starts at the target; one
     /// already at its target takes no time.
     fn note_reached(&mut self, t: f64, prev_v: f64) {
+        if let Some((id, Reach::Accel(target), t0)) = self.reaching
+            && let Some(acc) = self.accel
+            && (acc.a - target).abs() < 1e-9
+        {
+            self.out
+                .reached
+                .push((super::timer::reach_key(id), t - t0 + self.cx.dt));
+            self.reaching = None;
+        }
         if let Some((id, Reach::Speed(v), t0)) = self.reaching
             && (self.mo.v - v).abs() < 1e-9
         {
@@ -955,6 +1044,17 @@ impl<'a> Mover<'a> {
         let mo = &mut self.mo;
         if self.stationary || self.dead_end {
             mo.v = 0.0;
+        } else if let Some(acc) = &mut self.accel {
+            let dt = self.cx.dt;
+            let step = acc.jerk * dt;
+            acc.a += (acc.target - acc.a).clamp(-step, step);
+            mo.v += acc.a * dt;
+            if mo.v <= 0.0 {
+                // Braked to a stop: it stands (speed is not negative).
+                mo.v = 0.0;
+                acc.a = acc.a.max(0.0);
+                acc.target = acc.target.max(0.0);
+            }
         } else if let Some((v0, v1, t1)) = self.end_speed {
             let l = &self.my[self.started.unwrap_or(0)];
             let u = ((t - l.t0) / (t1 - l.t0).max(1e-9)).clamp(0.0, 1.0);
@@ -1047,10 +1147,11 @@ impl<'a> Mover<'a> {
                 // Moving again: its lane's heading again.
                 self.heading = None;
             } else {
-                let base = match (h.relative_to, h.north) {
-                    (Some(j), _) => plans[j].at(t, self.cx.dt).yaw,
-                    (None, true) => std::f64::consts::FRAC_PI_2,
-                    (None, false) => p.yaw,
+                let base = match (h.relative_to, h.north, h.world) {
+                    (Some(j), ..) => plans[j].at(t, self.cx.dt).yaw,
+                    (None, true, _) => std::f64::consts::FRAC_PI_2,
+                    (None, _, true) => 0.0,
+                    (None, false, false) => p.yaw,
                 };
                 let sign = if h.north && h.relative_to.is_none() {
                     -1.0
