@@ -66,6 +66,14 @@ fn main() {
             "{start}            sut.car.drive() with:\n                speed(50kph)\n                acceleration(2mpsps)\n                duration(4.2s)\n            sut.car.drive() with:\n                duration(4s)\n            sut.car.drive() with:\n                speed(90kph)\n                acceleration(1.5mpsps)\n                duration(7.5s)\n            sut.car.drive() with:\n                duration(6s)\n"
         ),
     );
+    // The two tests as files, for timing `litesim run` on them (the
+    // user's path): `LITESIM_BENCH_WRITE=DIR` writes them into DIR (give
+    // examples/scenarios, where their relative imports resolve).
+    if let Ok(dir) = std::env::var("LITESIM_BENCH_WRITE") {
+        let dir = std::path::Path::new(&dir);
+        std::fs::write(dir.join("bench_stdlib_actions.osc"), &actions).unwrap();
+        std::fs::write(dir.join("bench_stdlib_before.osc"), &before).unwrap();
+    }
     let fa = example_file(&actions);
     let fb = example_file(&before);
     let pa = prepare(fa.path(), &LoadOptions::default()).unwrap();
@@ -85,6 +93,17 @@ fn main() {
     });
     g.bench_function("drive_with_speeds_equivalent", |b| {
         b.iter(|| black_box(run(&pb, &mut litesim_scenario::in_process(), &opts).unwrap()))
+    });
+    // The breakdown: planning alone (solve and plan, no simulation).
+    let plan_only = RunOptions {
+        plan_only: true,
+        ..opts.clone()
+    };
+    g.bench_function("plan_only/keep_time_headway_platoon", |b| {
+        b.iter(|| black_box(run(&pa, &mut litesim_scenario::in_process(), &plan_only).unwrap()))
+    });
+    g.bench_function("plan_only/drive_with_speeds_equivalent", |b| {
+        b.iter(|| black_box(run(&pb, &mut litesim_scenario::in_process(), &plan_only).unwrap()))
     });
     g.finish();
     c.final_summary();

@@ -30,6 +30,83 @@ pub(super) fn reach_key(id: u32) -> String {
 /// An environment action laid out: time, action, arguments, place.
 pub(super) type EnvNode<'a> = (f64, &'a str, &'a BTreeMap<String, CExpr>, &'a str);
 
+/// The time a `change_speed` (node id) will take, from the speed its
+/// actor has before it as far as the tree says it (the constant speed of
+/// its phase before, in tree order) and its rate: the layout's first guess,
+/// in the motion's steps of `dt`; actions whose start speed the tree does
+/// not tell are not guessed.
+fn reach_estimates(root: &Node, dt: f64) -> BTreeMap<u32, f64> {
+    fn constant(m: &Modifier, key: &str) -> Option<f64> {
+        match m.args.get(key) {
+            Some(CExpr::Const(Value::Num(v))) => Some(*v),
+            _ => None,
+        }
+    }
+    fn walk<'a>(
+        n: &'a Node,
+        dt: f64,
+        last: &mut BTreeMap<&'a str, f64>,
+        out: &mut BTreeMap<u32, f64>,
+    ) {
+        match n {
+            Node::Serial { children, .. }
+            | Node::Parallel { children, .. }
+            | Node::OneOf { children, .. } => {
+                for c in children {
+                    walk(c, dt, last, out);
+                }
+            }
+            Node::Action {
+                id,
+                actor,
+                action,
+                mods,
+                ..
+            } => {
+                let absolute = mods.iter().find(|m| {
+                    m.kind == ModKind::Speed
+                        && !crate::intent::RELATIVE_SPEED
+                            .iter()
+                            .any(|(k, _)| m.args.contains_key(*k))
+                });
+                let speed = absolute.and_then(|m| constant(m, "speed"));
+                let rate = mods
+                    .iter()
+                    .find(|m| m.kind == ModKind::Acceleration)
+                    .and_then(|m| constant(m, "acceleration"));
+                match (*action, speed, last.get(actor.as_str())) {
+                    (Action::ChangeSpeed, Some(v1), Some(&v0)) => {
+                        let up = v1 > v0;
+                        let a = rate
+                            .map_or(if up { ACCEL_UP } else { ACCEL_DOWN }, |a| a.abs().max(0.1));
+                        let steps = ((v1 - v0).abs() / (a * dt) - 1e-9).ceil().max(0.0);
+                        out.insert(*id, steps * dt);
+                    }
+                    (Action::RemainStationary, ..) => {
+                        last.insert(actor, 0.0);
+                        return;
+                    }
+                    (Action::KeepSpeed, ..) => return,
+                    _ => {}
+                }
+                match speed {
+                    Some(v) => {
+                        last.insert(actor, v);
+                    }
+                    None if mods.iter().any(|m| m.kind == ModKind::KeepSpeed) => {}
+                    None => {
+                        last.remove(actor.as_str());
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(root, dt, &mut BTreeMap::new(), &mut out);
+    out
+}
+
 pub(super) struct Timer<'a> {
     /// The first `duration(…)` out of range, as an error message.
     pub(super) bad_duration: Option<String>,
@@ -48,6 +125,8 @@ pub(super) struct Timer<'a> {
     pub(super) switches: Vec<(f64, String, &'a CExpr, String)>,
     /// Changes of the environment: time, action, arguments, place.
     pub(super) environment: Vec<EnvNode<'a>>,
+    /// First guesses of `change_speed` durations, by node id.
+    pub(super) estimates: BTreeMap<u32, f64>,
     /// Times at which state conditions hold, from the previous plan.
     pub(super) cond_events: &'a BTreeMap<String, f64>,
     /// State conditions met in this layout: key, start time, condition.
@@ -126,6 +205,7 @@ impl<'a> Timer<'a> {
             | Action::ChangeAcceleration => Some(
                 self.cond_events
                     .get(&reach_key(id))
+                    .or_else(|| self.estimates.get(&id))
                     .copied()
                     .unwrap_or(PROVISIONAL_REACH_S),
             ),
@@ -357,6 +437,9 @@ pub(super) struct Layout<'a> {
     pub(super) switches: Vec<(f64, String, &'a CExpr, String)>,
     /// Changes of the environment: time, action, arguments, place.
     pub(super) environment: Vec<EnvNode<'a>>,
+    /// The guesses of `change_speed` durations this layout used, by
+    /// node id.
+    pub(super) estimates: BTreeMap<u32, f64>,
     /// State conditions met: key, start time, condition.
     pub(super) conds: Vec<(String, f64, CExpr)>,
     /// Event times (labels' start/end, emits).
@@ -383,6 +466,7 @@ pub(super) fn lay_out<'a>(
         until_after: BTreeMap::new(),
         switches: Vec::new(),
         environment: Vec::new(),
+        estimates: reach_estimates(root, step_s * (0.1 / step_s).round().max(1.0)),
         bad_duration: None,
         cond_events,
         conds: Vec::new(),
@@ -434,6 +518,12 @@ pub(super) fn lay_out<'a>(
         leaves: timer.leaves,
         switches: timer.switches,
         environment: timer.environment,
+        // The guesses this layout used (no time found for them yet).
+        estimates: timer
+            .estimates
+            .into_iter()
+            .filter(|(id, _)| !cond_events.contains_key(&reach_key(*id)))
+            .collect(),
         conds,
         events: timer.events,
     })

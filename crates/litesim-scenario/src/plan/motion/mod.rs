@@ -1002,6 +1002,7 @@ impl<'a> Mover<'a> {
             gap,
             t0: l.t0,
             t1: l.t1,
+            index: None,
         });
     }
 

@@ -472,12 +472,10 @@ impl Driven {
         i: usize,
         t: f64,
     ) -> Option<(f64, Option<f64>)> {
-        let id = &plan.actors[i].id;
-        let k = plan
-            .keeps
-            .iter()
-            .find(|k| k.actor == *id && t >= k.t0 - 1e-9 && t < k.t1 - 1e-9)?;
-        let r = plan.actors.iter().position(|a| a.id == k.reference)?;
+        let (k, r) = plan.keeps.iter().find_map(|k| match k.index {
+            Some((a, r)) if a == i && t >= k.t0 - 1e-9 && t < k.t1 - 1e-9 => Some((k, r)),
+            _ => None,
+        })?;
 
         let ((me, yaw, v, len), (them, _, v_ahead, len_ahead)) = (states[i], states[r]);
         let gap = litesim_core::ahead_along(me, yaw, them) - (len + len_ahead) / 2.0;
