@@ -69,11 +69,14 @@ pub enum Action {
     ChangeAcceleration,
     /// `keep_acceleration()`: holds the acceleration it has, for the phase.
     KeepAcceleration,
+    /// `change_position(target_xyz | target_odr | target_st)`: drives to
+    /// the target; ends level with it.
+    ChangePosition,
 }
 
 impl Action {
     /// Every action, in the order the domain declares them.
-    pub const ALL: [Action; 22] = [
+    pub const ALL: [Action; 23] = [
         Action::Drive,
         Action::RemainStationary,
         Action::Walk,
@@ -96,6 +99,7 @@ impl Action {
         Action::AssignAcceleration,
         Action::ChangeAcceleration,
         Action::KeepAcceleration,
+        Action::ChangePosition,
     ];
 
     /// The action called `name`; `None` for names the domain does not have
@@ -124,6 +128,7 @@ impl Action {
             "assign_acceleration" => Action::AssignAcceleration,
             "change_acceleration" => Action::ChangeAcceleration,
             "keep_acceleration" => Action::KeepAcceleration,
+            "change_position" => Action::ChangePosition,
             _ => return None,
         })
     }
@@ -153,6 +158,7 @@ impl Action {
             Action::AssignAcceleration => "assign_acceleration",
             Action::ChangeAcceleration => "change_acceleration",
             Action::KeepAcceleration => "keep_acceleration",
+            Action::ChangePosition => "change_position",
         }
     }
 

@@ -1198,3 +1198,73 @@ fn lateral_beside_another_actor_and_orientation_as_a_heading() {
     let s = e(&both("orientation(yaw: 0deg, pitch: 5deg)"));
     assert!(s.contains("orientation(pitch: …) is not supported"), "{s}");
 }
+
+#[test]
+fn change_position_drives_to_the_target_and_ends_level_with_it() {
+    let text = |action: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        go: {action}\n        sut.car.drive() with:\n            duration(1s)\n"
+        )
+    };
+    for npc in [Npc::Planned, Npc::Driver] {
+        let f = example_file(&text(
+            "sut.car.change_position(target_odr: odr_point(road_id: \"1\", lane_id: \"-2\", s: 120m))",
+        ));
+        let p = prepare(f.path(), &Default::default()).unwrap();
+        let opts = RunOptions {
+            npc,
+            record: true,
+            ..RunOptions::default()
+        };
+        let r = run(&p, &mut litesim_scenario::in_process(), &opts).unwrap();
+        assert!(r.summary.pass, "{:?}", r.summary.failures);
+        let (g0, g1) = phase(&r, "go");
+        // (120 − 33.9) m at 50 km/h: 6.2 s, ending level with s = 120 m
+        // (within a plan step) in lane −2.
+        assert!((g1 - g0 - 86.1 / kph(50.0)).abs() < 0.11, "{g0}..{g1}");
+        let s = sample(&r, "sut.car", g1);
+        assert!((s.x - 120.0).abs() < kph(50.0) * 0.1 + 1e-6, "{}", s.x);
+        assert!((s.y + 5.25).abs() < 1e-6, "{}", s.y);
+    }
+    let e = |action: &str| match run_text(&text(action)) {
+        Ok(_) => panic!("{action}: no error"),
+        Err(e) => e.to_string(),
+    };
+    let s = e("sut.car.change_position(target_xyz: position_3d(x: 10m, y: -8.75m))");
+    assert!(s.contains("the target is not ahead of it"), "{s}");
+    let s = e(
+        "sut.car.change_position(target_odr: odr_point(road_id: \"1\", lane_id: \"-7\", s: 90m))",
+    );
+    assert!(
+        s.contains("change_position: road '1' has no lane -7"),
+        "{s}"
+    );
+    let s = e(
+        "sut.car.change_position(target_xyz: position_3d(x: 90m, y: -8.75m), on_road_network: false)",
+    );
+    assert!(
+        s.contains("change_position(on_road_network: false) is not supported"),
+        "{s}"
+    );
+}
+
+#[test]
+fn the_standard_movement_parameters_are_met_or_refused() {
+    let with = |m: &str| {
+        run_text(&jump_text(&format!(
+            "sut.car.drive() with:\n                speed(40kph, {m})\n                duration(1s)"
+        )))
+    };
+    // Monotonous: litesim's speed changes are monotonic ramps.
+    let r = with("movement_mode: monotonous").unwrap();
+    let v: Vec<f64> = r.plan.actors[0].samples.iter().map(|s| s.v).collect();
+    assert!(
+        v.windows(2).all(|w| w[1] <= w[0] + 1e-12) || v.windows(2).all(|w| w[1] >= w[0] - 1e-12)
+    );
+    assert!(with("track: actual").is_ok());
+    let e = with("track: projected").unwrap_err().to_string();
+    assert!(
+        e.contains("speed(track: projected) is not supported"),
+        "{e}"
+    );
+}

@@ -330,6 +330,13 @@ impl Elab<'_> {
                         }
                     }
                     let at = self.lib.at(*span);
+                    if let Some(CExpr::Const(Value::Enum(t))) = bound.get("track")
+                        && t != "actual"
+                    {
+                        return Err(ScenarioError::Elaboration(format!(
+                            "{at}: {name}(track: {t}) is not supported by litesim (constraints hold on the actual motion)"
+                        )));
+                    }
                     let (kind, bound) = match name.as_str() {
                         "orientation" => {
                             (crate::intent::ModKind::Yaw, orientation_as_yaw(bound, &at)?)

@@ -52,6 +52,7 @@ impl StdCall<'_> {
             | Action::ChangeSpaceGap
             | Action::ChangeTimeHeadway => self.keep_gap(action, mods),
             Action::AssignPosition => self.assign_position(mods),
+            Action::ChangePosition => self.change_position(mods),
             Action::AssignOrientation => self.assign_orientation(mods),
             Action::FollowPath
             | Action::ReplayPath
@@ -316,6 +317,58 @@ impl StdCall<'_> {
             _ => {}
         }
         mods.push(self.implicit(ModKind::Accel, self.name, args));
+        Ok(())
+    }
+
+    /// `change_position(target_xyz | target_odr | target_st)`: the target
+    /// as `assign_position`'s place (one of the three, a literal); off the
+    /// road network (`on_road_network: false`) is refused.
+    fn change_position(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
+        if matches!(
+            self.bound.get("on_road_network"),
+            Some(CExpr::Const(Value::Bool(false)))
+        ) {
+            return self.refuse("on_road_network: false");
+        }
+        let kinds = [
+            ("target_xyz", "position"),
+            ("target_odr", "odr_point"),
+            ("target_st", "route_point"),
+        ];
+        let given: Vec<(&str, &str)> = kinds
+            .into_iter()
+            .filter(|(k, _)| self.bound.contains_key(*k))
+            .collect();
+        let [(key, kind)] = given[..] else {
+            return Err(self.err(format!(
+                "change_position needs one of target_xyz, target_odr, target_st ({} given)",
+                if given.is_empty() {
+                    "none".to_string()
+                } else {
+                    given
+                        .iter()
+                        .map(|(k, _)| *k)
+                        .collect::<Vec<_>>()
+                        .join(" and ")
+                }
+            )));
+        };
+        if !matches!(self.bound.get(key), Some(CExpr::Const(Value::Str(_)))) {
+            return Err(self.err(format!("change_position({key}: …) takes a literal")));
+        }
+        let mut args: Vec<(String, CExpr)> =
+            vec![("kind".into(), CExpr::Const(Value::Str(kind.into())))];
+        for (k, v) in &self.bound {
+            if let Some(field) = k.strip_prefix(key).and_then(|r| r.strip_prefix('.')) {
+                args.push((format!("{kind}.{field}"), v.clone()));
+            }
+        }
+        mods.push(Modifier {
+            kind: ModKind::AssignPosition,
+            name: "change_position".into(),
+            args: args.into_iter().collect(),
+            at: self.at.to_string(),
+        });
         Ok(())
     }
 }

@@ -202,7 +202,8 @@ impl<'a> Timer<'a> {
             | Action::ReplayPath
             | Action::FollowTrajectory
             | Action::ReplayTrajectory
-            | Action::ChangeAcceleration => Some(
+            | Action::ChangeAcceleration
+            | Action::ChangePosition => Some(
                 self.cond_events
                     .get(&reach_key(id))
                     .or_else(|| self.estimates.get(&id))

@@ -14,16 +14,17 @@ impl Mover<'_> {
             .or_insert_with(|| format!("{what} at {}", l.at));
     }
 
-    /// `assign_position`: the actor is at `place` from sample `k` on.
-    pub(super) fn teleport(
-        &mut self,
+    /// The lane position and sideways offset of `place` for the phase
+    /// `l` (its action named in the errors: a point off the roads, an
+    /// unknown road or lane, an `s` beyond the road).
+    pub(super) fn resolve_place(
+        &self,
         l: &RLeaf,
-        k: usize,
         place: &Place,
-    ) -> Result<(), ScenarioError> {
+    ) -> Result<(LanePos, f64), ScenarioError> {
         let net = self.cx.net;
         let err = |what: String| {
-            ScenarioError::Plan(format!("{}: {}'s assign_position: {what}", l.at, self.id))
+            ScenarioError::Plan(format!("{}: {}'s {}: {what}", l.at, self.id, l.action))
         };
         let road_of = |id: &str| {
             net.road_index(id)
@@ -87,6 +88,17 @@ impl Mover<'_> {
                 pos.s
             )));
         }
+        Ok((pos, lateral))
+    }
+
+    /// `assign_position`: the actor is at `place` from sample `k` on.
+    pub(super) fn teleport(
+        &mut self,
+        l: &RLeaf,
+        k: usize,
+        place: &Place,
+    ) -> Result<(), ScenarioError> {
+        let (pos, lateral) = self.resolve_place(l, place)?;
         let mo = &mut self.mo;
         mo.pos = pos;
         mo.lateral = lateral;
@@ -98,5 +110,73 @@ impl Mover<'_> {
         }
         self.exact(l, "assign_position");
         Ok(())
+    }
+
+    /// `change_position(target)`: the actor drives on (its speed, its
+    /// modifiers) to the target, changing to the target's lane when it is
+    /// one beside its own on the same road; the phase ends when it is
+    /// level with the target (`Reach::Place`).
+    pub(super) fn start_change_position(
+        &mut self,
+        l: &RLeaf,
+        t: f64,
+        place: &Place,
+    ) -> Result<(), ScenarioError> {
+        let (pos, lateral) = self.resolve_place(l, place)?;
+        let net = self.cx.net;
+        let p = net.lane_pos_pose(pos, lateral);
+        let here = net.lane_pos_pose(self.mo.pos, self.mo.lateral);
+        let ahead = litesim_core::ahead_along(here.position.xy(), here.yaw, p.position.xy());
+        if ahead <= 0.0 {
+            return Err(ScenarioError::Plan(format!(
+                "{}: {}'s change_position: the target is not ahead of it ({:.1} m behind)",
+                l.at, self.id, -ahead
+            )));
+        }
+        if pos.road == self.mo.pos.road && pos.lane != self.mo.pos.lane {
+            let beside = (-3..=3).any(|d| net.lane_beside(self.mo.pos, d) == Some(pos.lane));
+            if !beside {
+                return Err(ScenarioError::Plan(format!(
+                    "{}: {}'s change_position: lane {} is not beside its lane {} on road {}",
+                    l.at,
+                    self.id,
+                    pos.lane,
+                    self.mo.pos.lane,
+                    net.roads()[pos.road].id
+                )));
+            }
+            self.mo.change = Some((
+                self.mo.pos.lane,
+                pos.lane,
+                t,
+                t + super::super::LANE_CHANGE_S,
+            ));
+        }
+        if self.target.is_none() && self.end_speed.is_none() && self.mo.v < 0.1 {
+            return Err(ScenarioError::Plan(format!(
+                "{}: {} stands and has no speed to change its position at: give it one (`with: speed(…)`)",
+                l.at, self.id
+            )));
+        }
+        self.reaching = Some((l.id, Reach::Place(p.position.x, p.position.y), t));
+        Ok(())
+    }
+
+    /// A `change_position` level with its target at `t` (the target no
+    /// longer ahead along the actor's heading): it ends at `t`. Checked
+    /// before the phases that start at `t` are entered.
+    pub(super) fn place_reached(&mut self, t: f64) {
+        let Some((id, Reach::Place(x, y), t0)) = self.reaching else {
+            return;
+        };
+        let here = self.cx.net.lane_pos_pose(self.mo.pos, self.mo.lateral);
+        let ahead =
+            litesim_core::ahead_along(here.position.xy(), here.yaw, litesim_core::Vec2::new(x, y));
+        if ahead <= 0.0 && t > t0 + 1e-9 {
+            self.out
+                .reached
+                .push((super::super::timer::reach_key(id), t - t0));
+            self.reaching = None;
+        }
     }
 }

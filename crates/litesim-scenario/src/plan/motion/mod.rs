@@ -264,6 +264,8 @@ enum Reach {
     Path,
     /// `change_acceleration`: this acceleration (m/s²).
     Accel(f64),
+    /// `change_position`: level with this point (m).
+    Place(f64, f64),
 }
 
 /// Most acceleration and deceleration a change or keep of the
@@ -381,6 +383,7 @@ impl<'a> Mover<'a> {
             self.check_along_end(t);
             self.gap_reached(t);
             self.path_reached(t);
+            self.place_reached(t);
             // Enter phases that start now.
             while self.leaf_i < self.my.len() && self.my[self.leaf_i].t0 <= t + 1e-9 {
                 match self.enter(k, t, plans) {
@@ -594,6 +597,9 @@ impl<'a> Mover<'a> {
                 });
                 self.exact(l, "yaw");
             }
+            Intent::AssignPosition { place } if l.action == Action::ChangePosition => {
+                self.start_change_position(l, t, place)?
+            }
             Intent::AssignPosition { place } => self.teleport(l, k, place)?,
             Intent::FollowPath { .. } => self.start_path(l, (k, t), m, plans)?,
             &Intent::Accel { target, jerk } => self.set_accel(l, t, target, jerk),
@@ -666,6 +672,7 @@ impl<'a> Mover<'a> {
                 (Reach::Speed(v), _) => format!("{v:.2} m/s"),
                 (Reach::Path, _) => "the end of its path".into(),
                 (Reach::Accel(a), _) => format!("{a:.2} m/s²"),
+                (Reach::Place(x, y), _) => format!("its target ({x:.1}, {y:.1})"),
                 (
                     Reach::Gap,
                     Some((
