@@ -599,6 +599,31 @@ struct Once {
     guessed: BTreeMap<String, f64>,
 }
 
+/// The phases of the leaves, in time order (then by actor).
+fn phases_of(rleaves: &[RLeaf]) -> Vec<Phase> {
+    let mut phases: Vec<Phase> = rleaves
+        .iter()
+        .map(|l| Phase {
+            label: l.label.clone(),
+            actor: l.actor.clone(),
+            action: l.action,
+            t0: l.t0,
+            t1: l.t1,
+        })
+        .collect();
+    phases.sort_by(|a, b| a.t0.total_cmp(&b.t0).then(a.actor.cmp(&b.actor)));
+    phases
+}
+
+/// The kept gaps with their actors' places among the plan's `actors`.
+fn index_keeps(mut keeps: Vec<KeepGoal>, actors: &[ActorPlan]) -> Vec<KeepGoal> {
+    for k in &mut keeps {
+        let at = |id: &str| actors.iter().position(|a| a.id == id);
+        k.index = at(&k.actor).zip(at(&k.reference));
+    }
+    keeps
+}
+
 /// One layout and sampling with state-condition times `cond_events`.
 fn plan_once(
     test: &Test,
@@ -620,7 +645,7 @@ fn plan_once(
         conds,
         events,
     } = lay_out(root, sol, rng, cond_events, step_s)?;
-    let guessed: BTreeMap<String, f64> = estimates
+    let guessed = estimates
         .into_iter()
         .map(|(id, d)| (timer::reach_key(id), d))
         .collect();
@@ -674,17 +699,7 @@ fn plan_once(
         exact,
         ..
     } = move_all(&cx, &mut plans, &order, free)?;
-    let mut phases: Vec<Phase> = rleaves
-        .iter()
-        .map(|l| Phase {
-            label: l.label.clone(),
-            actor: l.actor.clone(),
-            action: l.action,
-            t0: l.t0,
-            t1: l.t1,
-        })
-        .collect();
-    phases.sort_by(|a, b| a.t0.total_cmp(&b.t0).then(a.actor.cmp(&b.actor)));
+    let phases = phases_of(&rleaves);
     let keep: Vec<ActorPlan> = plans
         .into_iter()
         .zip(active)
@@ -694,11 +709,7 @@ fn plan_once(
         notes.push("no actor takes part in the behaviour".into());
     }
     goals.sort_by(|a, b| a.t1.total_cmp(&b.t1).then(a.actor.cmp(&b.actor)));
-    let mut keeps = keeps;
-    for k in &mut keeps {
-        let at = |id: &str| keep.iter().position(|a| a.id == id);
-        k.index = at(&k.actor).zip(at(&k.reference));
-    }
+    let keeps = index_keeps(keeps, &keep);
     Ok(Once {
         plan: Plan {
             dt: plan_dt,

@@ -577,26 +577,7 @@ impl<'a> Mover<'a> {
                 self.start_gap(l, t, reference, (*headway, *target), plans)?;
             }
             Intent::KeepPosition { .. } => self.stationary = true,
-            Intent::Yaw {
-                angle,
-                relative_to,
-                north,
-                world,
-                hold,
-            } => {
-                let relative_to = match relative_to {
-                    Some(o) => Some(self.planned_before(l, o, "yaw", plans)?),
-                    None => None,
-                };
-                self.heading = Some(Heading {
-                    angle: *angle,
-                    relative_to,
-                    north: *north,
-                    world: *world,
-                    hold: *hold,
-                });
-                self.exact(l, "yaw");
-            }
+            Intent::Yaw { .. } => self.set_heading(l, m, plans)?,
             Intent::AssignPosition { place } if l.action == Action::ChangePosition => {
                 self.start_change_position(l, t, place)?
             }
@@ -622,6 +603,38 @@ impl<'a> Mover<'a> {
             _ => {}
         }
         Ok(false)
+    }
+
+    /// `yaw(…)` or `assign_orientation`: the heading the phase sets.
+    fn set_heading(
+        &mut self,
+        l: &RLeaf,
+        m: &Intent,
+        plans: &[ActorPlan],
+    ) -> Result<(), ScenarioError> {
+        let &Intent::Yaw {
+            angle,
+            ref relative_to,
+            north,
+            world,
+            hold,
+        } = m
+        else {
+            return Ok(());
+        };
+        let relative_to = match relative_to {
+            Some(o) => Some(self.planned_before(l, o, "yaw", plans)?),
+            None => None,
+        };
+        self.heading = Some(Heading {
+            angle,
+            relative_to,
+            north,
+            world,
+            hold,
+        });
+        self.exact(l, "yaw");
+        Ok(())
     }
 
     /// An acceleration action entered at `t`: `assign_acceleration` (a
