@@ -554,7 +554,7 @@ fn check_osc_files() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert!(String::from_utf8_lossy(&out.stderr).contains("10 file(s), 0 error(s)"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("11 file(s), 0 error(s)"));
     // As the README shows it: a relative $FTX, from the repository root.
     let out = litesim()
         .current_dir(workspace())
