@@ -1268,3 +1268,16 @@ fn the_standard_movement_parameters_are_met_or_refused() {
         "{e}"
     );
 }
+
+#[test]
+fn an_argument_the_engine_cannot_evaluate_is_an_error_not_a_dropped_modifier() {
+    let e = run_text(&jump_text(
+        "sut.car.drive() with:\n                speed(position_3d(x: 3m).x)\n                duration(1s)",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("speed(speed: position_3d(x: 3m).x) cannot be evaluated by litesim"),
+        "{e}"
+    );
+}

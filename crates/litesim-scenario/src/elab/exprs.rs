@@ -65,7 +65,7 @@ impl Elab<'_> {
             ),
             Expr::Ident { .. } | Expr::Field { .. } => match self.path(e, sc) {
                 Some(p) => p,
-                None => CExpr::Opaque(format!("{e:?}")),
+                None => CExpr::Opaque(self.source_text(e.span())),
             },
             // The engine's own methods over two actors (osc/domain):
             // `a.gap_to(b)`, `a.ttc_to(b)`.
@@ -82,11 +82,18 @@ impl Elab<'_> {
             | Expr::Cast { span, .. }
             | Expr::Index { span, .. }
             | Expr::Call { span, .. }
-            | Expr::Error { span } => {
-                let f = self.lib.prog.sources.file(span.file);
-                CExpr::Opaque(f.text[span.start as usize..span.end as usize].to_string())
-            }
+            | Expr::Error { span } => CExpr::Opaque(self.source_text(*span)),
         }
+    }
+
+    /// The text an expression was written as (for what the engine cannot
+    /// evaluate and says so).
+    fn source_text(&self, span: Span) -> String {
+        let f = self.lib.prog.sources.file(span.file);
+        f.text
+            .get(span.start as usize..span.end as usize)
+            .unwrap_or("")
+            .to_string()
     }
 
     /// `a.b.c` → an absolute path or an enum constant.

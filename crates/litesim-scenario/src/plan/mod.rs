@@ -656,7 +656,7 @@ fn plan_once(
         .iter()
         .map(|a| (a.path.clone(), a.id.clone()))
         .collect();
-    let rleaves = resolve_leaves(leaves, &ids, sol, rng);
+    let rleaves = resolve_leaves(leaves, &ids, sol, rng)?;
 
     let mut plans = actor_plans(test, sol);
     // Actors that take part in no phase are not planned (nor created).

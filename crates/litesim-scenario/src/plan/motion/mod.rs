@@ -52,13 +52,15 @@ pub(super) struct RLeaf {
 }
 
 /// Resolves each leaf's modifier arguments once, in time order (seeded):
-/// actor references to ids, the rest evaluated on the solution.
+/// actor references to ids, the rest evaluated on the solution. An
+/// argument the engine cannot evaluate (a method call, arithmetic) is an
+/// error naming it, not a modifier quietly without it.
 pub(super) fn resolve_leaves(
     mut leaves: Vec<Leaf<'_>>,
     ids: &BTreeMap<String, String>,
     sol: &Solution,
     rng: &mut Rng,
-) -> Vec<RLeaf> {
+) -> Result<Vec<RLeaf>, ScenarioError> {
     leaves.sort_by(|a, b| a.t0.total_cmp(&b.t0).then(a.actor.cmp(&b.actor)));
     let mut rleaves = Vec::with_capacity(leaves.len());
     for l in &leaves {
@@ -72,6 +74,18 @@ pub(super) fn resolve_leaves(
                     refs.insert(k.clone(), a);
                 } else if let Some(v) = eval(e, sol, rng) {
                     vals.insert(k.clone(), v);
+                } else if m.kind != ModKind::Until
+                    && matches!(e, CExpr::Opaque(_) | CExpr::Binary(..) | CExpr::Unary(..))
+                {
+                    return Err(ScenarioError::Plan(format!(
+                        "{}: {}({k}: {}) cannot be evaluated by litesim (a constant, a parameter, a range or a list is)",
+                        m.at,
+                        m.name,
+                        match e {
+                            CExpr::Opaque(text) => text.clone(),
+                            other => crate::expr::show(other),
+                        }
+                    )));
                 }
             }
             if let Some(i) = Intent::decode((m.kind, &m.name), &at_kind(m), &vals, &refs) {
@@ -91,7 +105,7 @@ pub(super) fn resolve_leaves(
             mod_at,
         });
     }
-    rleaves
+    Ok(rleaves)
 }
 
 /// One actor's planned motion and what planning it found.
