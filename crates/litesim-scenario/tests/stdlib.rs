@@ -1281,3 +1281,32 @@ fn an_argument_the_engine_cannot_evaluate_is_an_error_not_a_dropped_modifier() {
         "{e}"
     );
 }
+
+#[test]
+fn along_trajectory_follows_a_trajectory_for_its_phase() {
+    let text = |m: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(36kph)\n        along(r, start_offset: 30m, at: start)\n        lane(1, at: start)\n        {m}\n        duration(8s)\n"
+        )
+    };
+    // 50 m at 10 m/s, edging 3.5 m to the left (into lane 2).
+    let r = run_text(&text(
+        "along_trajectory(trajectory(points: [position_3d(x: 30m, y: -8.75m), position_3d(x: 55m, y: -8.75m), position_3d(x: 80m, y: -5.25m)], time_stamps: [0s, 2.5s, 5s]))",
+    ))
+    .unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let s = sample(&r, "sut.car", 2.5);
+    assert!(
+        (s.x - 55.0).abs() < 0.6 && (s.y + 8.75).abs() < 1e-6,
+        "({}, {})",
+        s.x,
+        s.y
+    );
+    // After it, on in the lane it reached.
+    let end = sample(&r, "sut.car", 8.0);
+    assert!((end.y + 5.25).abs() < 0.05, "{}", end.y);
+    let e = run_text(&text("along_trajectory(start_offset: 1m)"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("along_trajectory needs its trajectory"), "{e}");
+}

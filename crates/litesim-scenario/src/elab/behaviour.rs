@@ -290,6 +290,56 @@ impl Elab<'_> {
         }
     }
 
+    /// `along_trajectory(trajectory, start_offset, end_offset)`: the
+    /// trajectory read like the trajectory actions', as the modifier that
+    /// follows it.
+    fn along_trajectory(
+        &mut self,
+        args: &[Arg],
+        params: &[String],
+        sc: &Scope,
+        span: Span,
+    ) -> Result<Modifier, ScenarioError> {
+        let at = self.lib.at(span);
+        let mut rest = Vec::new();
+        let mut path = None;
+        for (i, a) in args.iter().enumerate() {
+            let key = a.name.as_ref().map_or_else(
+                || params.get(i).cloned().unwrap_or_default(),
+                |n| n.text.clone(),
+            );
+            if key == "trajectory" {
+                path = Some(self.path_def(&a.value, true, &at)?);
+            } else {
+                rest.push(Arg {
+                    name: Some(litesim_osc::ast::Name {
+                        text: key,
+                        span: a.value.span(),
+                    }),
+                    value: a.value.clone(),
+                });
+            }
+        }
+        let Some(idx) = path else {
+            return Err(ScenarioError::Elaboration(format!(
+                "{at}: along_trajectory needs its trajectory, e.g. `along_trajectory(trajectory(file: \"drive.csv\"))`"
+            )));
+        };
+        if self.test.paths[idx].relative {
+            return Err(ScenarioError::Elaboration(format!(
+                "{at}: along_trajectory takes a trajectory, not a relative_trajectory"
+            )));
+        }
+        let mut bound = self.bind(&rest, params, sc);
+        bound.insert("path".into(), CExpr::Const(Value::Num(idx as f64)));
+        Ok(Modifier {
+            kind: crate::intent::ModKind::FollowPath,
+            name: "along_trajectory".into(),
+            args: bound,
+            at,
+        })
+    }
+
     pub(super) fn mods(
         &mut self,
         with: &[Member],
@@ -309,6 +359,10 @@ impl Elab<'_> {
                     };
                     let key = modifier_key(&name);
                     let params = self.lib.params(&key);
+                    if name == "along_trajectory" {
+                        out.push(self.along_trajectory(args, &params, sc, *span)?);
+                        continue;
+                    }
                     let mut bound = self.bind(args, &params, sc);
                     self.lib.ints_drawn(&key, &mut bound);
                     let kind = crate::intent::ModKind::of(&name);
