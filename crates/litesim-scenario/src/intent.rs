@@ -240,6 +240,9 @@ pub enum ModKind {
     FollowPath,
     /// The acceleration an acceleration action sets or keeps (likewise).
     Accel,
+    /// The offset from its lane's centre `follow_lane(offset)` keeps
+    /// (likewise).
+    LaneOffset,
     /// Any other modifier: planning has no use for it (a note names it).
     Other,
 }
@@ -532,6 +535,14 @@ pub enum Intent {
         /// m/s³; `None`: at once.
         jerk: Option<f64>,
     },
+    /// `follow_lane(offset, rate_peak)`: this far from the lane's centre
+    /// (m, left positive), reached at `rate` (m/s sideways).
+    LaneOffset {
+        /// Metres.
+        offset: f64,
+        /// m/s.
+        rate: f64,
+    },
     /// The path a path or trajectory action follows.
     FollowPath {
         /// Index into the test's paths.
@@ -801,6 +812,10 @@ impl Intent {
             ModKind::AssignPosition => Intent::AssignPosition {
                 place: Place::decode(vals)?,
             },
+            ModKind::LaneOffset => Intent::LaneOffset {
+                offset: num("offset")?,
+                rate: num("rate").map_or(0.5, |r| r.abs().max(0.01)),
+            },
             ModKind::Accel => Intent::Accel {
                 target: num("target"),
                 jerk: num("jerk"),
@@ -842,7 +857,8 @@ impl Intent {
             | Intent::Yaw { .. }
             | Intent::AssignPosition { .. }
             | Intent::FollowPath { .. }
-            | Intent::Accel { .. } => At::All,
+            | Intent::Accel { .. }
+            | Intent::LaneOffset { .. } => At::All,
         }
     }
 

@@ -200,10 +200,6 @@ fn what_the_actions_cannot_honour_is_an_error_naming_it() {
             "sut.car.change_lane(1, left, offset: 1m)",
             "change_lane(offset: …) is not supported",
         ),
-        (
-            "sut.car.follow_lane(offset: 0.5m) with:\n            duration(2s)",
-            "follow_lane(offset: …) is not supported",
-        ),
     ];
     for (action, says) in cases {
         let f = example_file(&format!(
@@ -1309,4 +1305,22 @@ fn along_trajectory_follows_a_trajectory_for_its_phase() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("along_trajectory needs its trajectory"), "{e}");
+}
+
+#[test]
+fn follow_lane_keeps_an_offset_from_the_lane_centre_for_its_phase() {
+    let r = run_text(&jump_text(
+        "side: sut.car.follow_lane(offset: -0.6m, rate_peak: 0.3mps) with:\n                duration(4s)",
+    ))
+    .unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (t0, t1) = phase(&r, "side");
+    let centre = sample(&r, "sut.car", t0 - 0.1).y;
+    // 0.6 m to the right at 0.3 m/s (a sample is where its step took it:
+    // 0.03 m a step from the phase's first): there after 2 s, kept to the
+    // phase's end, back towards the centre after it.
+    let off = |t: f64| sample(&r, "sut.car", t).y - centre;
+    assert!((off(t0 + 1.0) + 0.33).abs() < 1e-6, "{}", off(t0 + 1.0));
+    assert!((off(t0 + 3.0) + 0.6).abs() < 1e-6, "{}", off(t0 + 3.0));
+    assert!((off(t1 + 1.0) + 0.27).abs() < 1e-6, "{}", off(t1 + 1.0));
 }

@@ -38,13 +38,23 @@ impl StdCall<'_> {
                 Ok(())
             }
             Action::ChangeLane => self.change_lane(mods),
+            // An offset from the lane's centre, reached at `rate_peak`
+            // sideways (0.5 m/s by default) and held for the phase.
             Action::FollowLane => {
-                if !self.is_zero("offset") {
-                    return self.refuse("offset: …");
+                if self.bound.contains_key("target") {
+                    return self.refuse("target: …");
                 }
-                if self.bound.contains_key("rate_peak") {
-                    return self.refuse("rate_peak: …");
+                if self.is_zero("offset") {
+                    return Ok(());
                 }
+                let mut args = vec![(
+                    "offset",
+                    self.required("offset", "follow_lane(offset: 0.5m)")?,
+                )];
+                if let Some(r) = self.bound.get("rate_peak") {
+                    args.push(("rate", r.clone()));
+                }
+                mods.push(self.implicit(ModKind::LaneOffset, "follow_lane", args));
                 Ok(())
             }
             Action::KeepSpaceGap

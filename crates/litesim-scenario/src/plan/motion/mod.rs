@@ -332,6 +332,9 @@ struct Mover<'a> {
     /// An acceleration set by an acceleration action, kept until a phase
     /// sets a speed.
     accel: Option<Accel>,
+    /// A sideways offset from the lane's centre to go to (m) at a rate
+    /// (m/s): `follow_lane(offset)`, and back to 0 after its phase.
+    lane_offset: Option<(f64, f64)>,
     /// A strict speed not reached yet, with its place.
     strict_speed: Option<(f64, String)>,
     stationary: bool,
@@ -367,6 +370,7 @@ impl<'a> Mover<'a> {
             on_path: None,
             parked: None,
             accel: None,
+            lane_offset: None,
             strict_speed: None,
             stationary: false,
             dead_end: false,
@@ -421,6 +425,7 @@ impl<'a> Mover<'a> {
                 self.path_advance();
                 continue;
             }
+            self.shift_sideways();
             let (sample, centre) = self.pose(t, prev_v, plans);
             self.out.samples.push(sample);
             self.advance(t, centre);
@@ -477,6 +482,12 @@ impl<'a> Mover<'a> {
         self.accel_down = ACCEL_DOWN;
         // A held heading outlives its phase (while the actor stands).
         self.heading = self.heading.filter(|h| h.hold);
+        // A lane offset lasts its phase: back to the centre after it.
+        if let Some((off, rate)) = self.lane_offset
+            && off != 0.0
+        {
+            self.lane_offset = Some((0.0, rate));
+        }
         // An acceleration lasts until a phase sets a speed.
         if l.mods.iter().any(sets_speed) || self.stationary || l.action == Action::AssignSpeed {
             self.accel = None;
@@ -598,6 +609,10 @@ impl<'a> Mover<'a> {
             Intent::AssignPosition { place } => self.teleport(l, k, place)?,
             Intent::FollowPath { .. } => self.start_path(l, (k, t), m, plans)?,
             &Intent::Accel { target, jerk } => self.set_accel(l, t, target, jerk),
+            &Intent::LaneOffset { offset, rate } => {
+                self.lane_offset = Some((offset, rate));
+                self.exact(l, "follow_lane(offset: …)");
+            }
             Intent::AvoidCollisions { avoid: false } => {
                 self.out.reckless.push((self.id.clone(), l.t0, l.t1));
             }
@@ -649,6 +664,17 @@ impl<'a> Mover<'a> {
         });
         self.exact(l, "yaw");
         Ok(())
+    }
+
+    /// Moves one plan step towards the lane offset asked for.
+    fn shift_sideways(&mut self) {
+        if let Some((off, rate)) = self.lane_offset {
+            let step = rate * self.cx.dt;
+            self.mo.lateral += (off - self.mo.lateral).clamp(-step, step);
+            if off == 0.0 && self.mo.lateral == 0.0 {
+                self.lane_offset = None;
+            }
+        }
     }
 
     /// An acceleration action entered at `t`: `assign_acceleration` (a
