@@ -48,38 +48,52 @@ pub(super) fn change_json(c: &EnvironmentChange, ns: u64) -> Vec<u8> {
     serde_json::to_vec(&v).unwrap_or_default()
 }
 
-/// OSI's precipitation class of an intensity (m/s of water), by OSI's
-/// documented bounds in mm/h: very light below 0.5, light below 1.9,
-/// moderate below 8.1, heavy below 34, very heavy below 149, extreme
-/// beyond; none below 0.1.
-fn precipitation(intensity: f64) -> ec::Precipitation {
-    let mm_h = intensity * 3.6e6;
-    match mm_h {
-        x if x < 0.1 => ec::Precipitation::None,
-        x if x < 0.5 => ec::Precipitation::VeryLight,
-        x if x < 1.9 => ec::Precipitation::Light,
-        x if x < 8.1 => ec::Precipitation::Moderate,
-        x if x < 34.0 => ec::Precipitation::Heavy,
-        x if x < 149.0 => ec::Precipitation::VeryHeavy,
-        _ => ec::Precipitation::Extreme,
-    }
-}
+/// OSI's precipitation classes by their documented upper bounds in mm/h:
+/// none below 0.1, very light below 0.5, light below 1.9, moderate below
+/// 8.1, heavy below 34, very heavy below 149, extreme beyond.
+const PRECIPITATION: [(f64, ec::Precipitation); 6] = [
+    (0.1, ec::Precipitation::None),
+    (0.5, ec::Precipitation::VeryLight),
+    (1.9, ec::Precipitation::Light),
+    (8.1, ec::Precipitation::Moderate),
+    (34.0, ec::Precipitation::Heavy),
+    (149.0, ec::Precipitation::VeryHeavy),
+];
 
-/// OSI's fog class of a visual range (m), by OSI's documented bounds:
-/// dense below 50 m, thick below 200 m, light below 1 km, mist below 2 km,
+/// OSI's fog classes by their documented upper bounds of visual range in
+/// m: dense below 50, thick below 200, light below 1 km, mist below 2 km,
 /// poor below 4 km, moderate below 10 km, good below 40 km, excellent
 /// beyond.
+const FOG: [(f64, ec::Fog); 7] = [
+    (50.0, ec::Fog::Dense),
+    (200.0, ec::Fog::Thick),
+    (1_000.0, ec::Fog::Light),
+    (2_000.0, ec::Fog::Mist),
+    (4_000.0, ec::Fog::PoorVisibility),
+    (10_000.0, ec::Fog::ModerateVisibility),
+    (40_000.0, ec::Fog::GoodVisibility),
+];
+
+/// The class of `x` in a table of upper bounds, `beyond` past the last.
+fn class<C: Copy>(x: f64, table: &[(f64, C)], beyond: C) -> C {
+    table
+        .iter()
+        .find(|(b, _)| x < *b)
+        .map_or(beyond, |(_, c)| *c)
+}
+
+/// OSI's precipitation class of an intensity (m/s of water).
+fn precipitation(intensity: f64) -> ec::Precipitation {
+    class(
+        intensity * 3.6e6,
+        &PRECIPITATION,
+        ec::Precipitation::Extreme,
+    )
+}
+
+/// OSI's fog class of a visual range (m).
 fn fog(range: f64) -> ec::Fog {
-    match range {
-        x if x < 50.0 => ec::Fog::Dense,
-        x if x < 200.0 => ec::Fog::Thick,
-        x if x < 1_000.0 => ec::Fog::Light,
-        x if x < 2_000.0 => ec::Fog::Mist,
-        x if x < 4_000.0 => ec::Fog::PoorVisibility,
-        x if x < 10_000.0 => ec::Fog::ModerateVisibility,
-        x if x < 40_000.0 => ec::Fog::GoodVisibility,
-        _ => ec::Fog::ExcellentVisibility,
-    }
+    class(range, &FOG, ec::Fog::ExcellentVisibility)
 }
 
 /// The conditions after `c`: the fields its action sets, the others as

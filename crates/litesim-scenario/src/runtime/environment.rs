@@ -5,7 +5,7 @@
 //! profile without weather gets a run note, a value the SSP's weather has
 //! no field for (air, a wind's direction) a note in the log's record.
 
-use super::lights::switch_tick;
+use super::schedule::Schedule;
 use crate::error::ScenarioError;
 use crate::plan::{EnvChange, Plan};
 use litesim_log::{EnvironmentChange, LogRecorder};
@@ -27,7 +27,7 @@ const NO_FOG: f64 = 1_000.0;
 #[derive(Debug, Default)]
 pub struct Environment {
     weather: Weather,
-    next: usize,
+    next: Schedule,
     /// What the simulator could not take, for the run's notes.
     pub notes: Vec<String>,
 }
@@ -41,42 +41,29 @@ impl Environment {
         (k, step_ms): (u64, u64),
         mut rec: Option<&mut LogRecorder>,
     ) -> Result<(), ScenarioError> {
-        while let Some(c) = plan
-            .environment
-            .get(self.next)
-            .filter(|c| switch_tick(c.t, step_ms) <= k)
-        {
+        while let Some(c) = self.next.due(&plan.environment, k, step_ms) {
             let record = self.apply(ssp, c, k, step_ms)?;
             if let Some(r) = rec.as_deref_mut() {
                 r.environment(record);
             }
-            self.next += 1;
+            self.next.made();
         }
         Ok(())
     }
 
     /// The step of the next change not made yet.
     pub fn next_tick(&self, plan: &Plan, step_ms: u64) -> Option<u64> {
-        plan.environment
-            .get(self.next)
-            .map(|c| switch_tick(c.t, step_ms))
+        self.next.next_tick(&plan.environment, step_ms)
     }
 
     /// The step of the first change after step `k`.
     pub fn next_after(&self, plan: &Plan, k: u64, step_ms: u64) -> Option<u64> {
-        plan.environment[self.next.min(plan.environment.len())..]
-            .iter()
-            .map(|c| switch_tick(c.t, step_ms))
-            .find(|&at| at > k)
+        self.next.next_after(&plan.environment, k, step_ms)
     }
 
     /// A new plan's changes: those due before step `k` belong to the past.
     pub fn replanned(&mut self, plan: &Plan, k: u64, step_ms: u64) {
-        self.next = plan
-            .environment
-            .iter()
-            .filter(|c| switch_tick(c.t, step_ms) < k)
-            .count();
+        self.next.replanned(&plan.environment, k, step_ms);
     }
 
     /// One change: the simulator's weather or time of day set, and its

@@ -25,16 +25,11 @@ pub struct Lights {
     /// Each box's road as an index into the map's roads (compared per
     /// vehicle and step; a box on a road the map lacks never matches).
     pub box_roads: Vec<Option<usize>>,
-    /// The plan's next switch not made yet.
-    next: usize,
+    /// The plan's switches made so far.
+    next: super::schedule::Schedule,
     /// The SUT's view of the lights is current (it is rebuilt only after a
     /// switch).
     pub seen: bool,
-}
-
-/// The step at which a switch planned at `t` (s) happens.
-pub(crate) fn switch_tick(t: f64, step_ms: u64) -> u64 {
-    (t * 1000.0 / step_ms as f64).round() as u64
 }
 
 impl Lights {
@@ -76,7 +71,7 @@ impl Lights {
             info,
             red,
             box_roads,
-            next: 0,
+            next: Default::default(),
             seen: false,
         })
     }
@@ -89,8 +84,7 @@ impl Lights {
         k: u64,
         step_ms: u64,
     ) -> Result<(), ScenarioError> {
-        while self.next < plan.lights.len() && switch_tick(plan.lights[self.next].t, step_ms) <= k {
-            let sw = &plan.lights[self.next];
+        while let Some(sw) = self.next.due(&plan.lights, k, step_ms) {
             let info = self.info.as_mut().ok_or_else(|| {
                 ScenarioError::Plan(format!(
                     "traffic light '{}': the map has no traffic lights",
@@ -98,7 +92,7 @@ impl Lights {
                 ))
             })?;
             switch_light(ssp, info, &mut self.red, sw)?;
-            self.next += 1;
+            self.next.made();
             self.seen = false;
         }
         Ok(())
@@ -106,27 +100,18 @@ impl Lights {
 
     /// The step of the next switch not made yet.
     pub fn next_tick(&self, plan: &Plan, step_ms: u64) -> Option<u64> {
-        plan.lights
-            .get(self.next)
-            .map(|sw| switch_tick(sw.t, step_ms))
+        self.next.next_tick(&plan.lights, step_ms)
     }
 
     /// The step of the first switch after step `k` (the head of the loop
     /// makes every switch due by `k` first).
     pub fn next_after(&self, plan: &Plan, k: u64, step_ms: u64) -> Option<u64> {
-        plan.lights[self.next..]
-            .iter()
-            .map(|sw| switch_tick(sw.t, step_ms))
-            .find(|&at| at > k)
+        self.next.next_after(&plan.lights, k, step_ms)
     }
 
     /// A new plan's switches: those due before step `k` belong to the past.
     pub fn replanned(&mut self, plan: &Plan, k: u64, step_ms: u64) {
-        self.next = plan
-            .lights
-            .iter()
-            .filter(|sw| switch_tick(sw.t, step_ms) < k)
-            .count();
+        self.next.replanned(&plan.lights, k, step_ms);
     }
 
     /// Per box: shows yellow.

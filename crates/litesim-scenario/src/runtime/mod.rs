@@ -22,6 +22,7 @@ pub(crate) mod observe;
 pub(crate) mod readback;
 pub(crate) mod run;
 pub(crate) mod sample;
+pub(crate) mod schedule;
 pub mod traffic;
 
 pub use config::{DriveMode, ExecConfig, Executed, LiveEvent, POSTPONE_S, Replan};
