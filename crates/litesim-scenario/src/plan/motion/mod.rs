@@ -216,6 +216,10 @@ pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
                         relative_to: Some(_),
                         ..
                     }
+                    | Intent::FollowPath {
+                        reference: Some(_),
+                        ..
+                    }
             )
         })
 }

@@ -279,6 +279,10 @@ impl Mover<'_> {
                 self.reached = None;
             }
             None => {
+                self.out.notes.push(format!(
+                    "{}'s path ends off the map's roads at ({x:.1}, {y:.1}), t = {t:.1} s: it stands there from then on",
+                    self.id
+                ));
                 self.parked = Some(PlanSample {
                     t,
                     x,
