@@ -1324,3 +1324,23 @@ fn follow_lane_keeps_an_offset_from_the_lane_centre_for_its_phase() {
     assert!((off(t0 + 3.0) + 0.6).abs() < 1e-6, "{}", off(t0 + 3.0));
     assert!((off(t1 + 1.0) + 0.27).abs() < 1e-6, "{}", off(t1 + 1.0));
 }
+
+#[test]
+fn change_lane_relative_to_a_reference_ends_beside_its_lane() {
+    // b drives in lane 2 well ahead; sut.car, in lane 1, changes to the
+    // lane left of b's: lane 3.
+    let text = jump_text("go: sut.car.change_lane(1, left, reference: b)")
+        .replace("position(10m, ahead_of", "position(80m, ahead_of");
+    let r = run_text(&text).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (_, t1) = phase(&r, "go");
+    let (me, b) = (sample(&r, "sut.car", t1 + 1.0), sample(&r, "b", t1 + 1.0));
+    assert!((me.y - b.y - 3.5).abs() < 1e-6, "{} vs {}", me.y, b.y);
+    let e = run_text(&jump_text("sut.car.change_lane(2, left, reference: b)"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("num_of_lanes other than 1) is not supported"),
+        "{e}"
+    );
+}

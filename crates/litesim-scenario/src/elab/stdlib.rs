@@ -161,13 +161,35 @@ impl StdCall<'_> {
     }
 
     fn change_lane(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
-        for p in ["reference", "rate_peak"] {
-            if self.bound.contains_key(p) {
-                return self.refuse(&format!("{p}: …"));
-            }
+        if self.bound.contains_key("rate_peak") {
+            return self.refuse("rate_peak: …");
         }
         if !self.is_zero("offset") {
             return self.refuse("offset: …");
+        }
+        // Relative to another actor's lane: the lane beside it, as a lane
+        // goal by the phase's end (one lane over; more are refused).
+        if let Some(reference) = self.bound.get("reference").cloned() {
+            if !matches!(
+                self.bound.get("num_of_lanes"),
+                None | Some(CExpr::Const(Value::Num(1.0)))
+            ) {
+                return self.refuse("reference: …, num_of_lanes other than 1");
+            }
+            let side = match self.bound.get("side") {
+                Some(CExpr::Const(Value::Enum(s))) if s == "right" => "right_of",
+                _ => "left_of",
+            };
+            mods.push(self.implicit(
+                ModKind::Lane,
+                "lane",
+                vec![
+                    (side, reference),
+                    ("at", CExpr::Const(Value::Enum("end".into()))),
+                    ("run_mode", CExpr::Const(Value::Enum("best_effort".into()))),
+                ],
+            ));
+            return Ok(());
         }
         let lanes = self
             .bound
