@@ -97,7 +97,7 @@ pub struct Calibrated {
 
 /// A reference manoeuvre's plan at the given step.
 pub fn reference_plan(m: Manoeuvre, step_s: f64) -> Plan {
-    let dt = step_s * (0.1 / step_s).round().max(1.0);
+    let dt = crate::plan::plan_step(step_s);
     let (v0, duration): (f64, f64) = match m {
         Manoeuvre::Launch => (0.0, 12.0),
         Manoeuvre::Stop => (15.0, 10.0),

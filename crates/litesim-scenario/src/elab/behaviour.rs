@@ -4,6 +4,10 @@
 
 use super::*;
 
+/// The path argument of a call: under which key, and its index among the
+/// test's paths.
+type PathArg = Option<(String, usize)>;
+
 impl Elab<'_> {
     /// Declares a scenario's fields under `sc.ns`.
     pub(super) fn fields(
@@ -301,26 +305,14 @@ impl Elab<'_> {
         span: Span,
     ) -> Result<Modifier, ScenarioError> {
         let at = self.lib.at(span);
-        let mut rest = Vec::new();
-        let mut path = None;
-        for (i, a) in args.iter().enumerate() {
-            let key = a.name.as_ref().map_or_else(
-                || params.get(i).cloned().unwrap_or_default(),
-                |n| n.text.clone(),
-            );
-            if key == "trajectory" {
-                path = Some(self.path_def(&a.value, true, &at)?);
-            } else {
-                rest.push(Arg {
-                    name: Some(litesim_osc::ast::Name {
-                        text: key,
-                        span: a.value.span(),
-                    }),
-                    value: a.value.clone(),
-                });
-            }
-        }
-        let Some(idx) = path else {
+        let (path, rest) = self.split_path(
+            ("along_trajectory", args),
+            params,
+            &["trajectory"],
+            true,
+            &at,
+        )?;
+        let Some((_, idx)) = path else {
             return Err(ScenarioError::Elaboration(format!(
                 "{at}: along_trajectory needs its trajectory, e.g. `along_trajectory(trajectory(file: \"drive.csv\"))`"
             )));
@@ -338,6 +330,46 @@ impl Elab<'_> {
             args: bound,
             at,
         })
+    }
+
+    /// Splits a call's arguments: the one under one of `keys` (a path or
+    /// trajectory, `timed` for a trajectory: read here, a literal of
+    /// points or a CSV file, and named by its index in the test), and the
+    /// others, each named (positional ones by `params`). Two of `keys`
+    /// given is an error naming the call (`what`).
+    fn split_path(
+        &mut self,
+        (what, args): (&str, &[Arg]),
+        params: &[String],
+        keys: &[&str],
+        timed: bool,
+        at: &str,
+    ) -> Result<(PathArg, Vec<Arg>), ScenarioError> {
+        let mut path = None;
+        let mut rest = Vec::with_capacity(args.len());
+        for (i, a) in args.iter().enumerate() {
+            let key = a.name.as_ref().map_or_else(
+                || params.get(i).cloned().unwrap_or_default(),
+                |n| n.text.clone(),
+            );
+            if keys.contains(&key.as_str()) {
+                let idx = self.path_def(&a.value, timed, at)?;
+                if let Some((first, _)) = path.replace((key.clone(), idx)) {
+                    return Err(ScenarioError::Elaboration(format!(
+                        "{at}: {what} takes one of {first} and {key}, not both"
+                    )));
+                }
+                continue;
+            }
+            rest.push(Arg {
+                name: Some(litesim_osc::ast::Name {
+                    text: key,
+                    span: a.value.span(),
+                }),
+                value: a.value.clone(),
+            });
+        }
+        Ok((path, rest))
     }
 
     pub(super) fn mods(
@@ -581,32 +613,12 @@ impl Elab<'_> {
     ) -> Result<(), ScenarioError> {
         let name = action.name();
         let params = self.lib.params(name);
-        // A path or trajectory is read here (a literal of points or a CSV
-        // file): the action names it by index.
-        let mut path = None;
-        let mut rest: Vec<Arg> = Vec::with_capacity(args.len());
-        for (i, a) in args.iter().enumerate() {
-            let key = a.name.as_ref().map_or_else(
-                || params.get(i).cloned().unwrap_or_default(),
-                |n| n.text.clone(),
-            );
-            if action.follows_path() && (key == "absolute" || key == "relative") {
-                let idx = self.path_def(&a.value, action.timed(), at)?;
-                if path.replace((key.clone(), idx)).is_some() {
-                    return Err(ScenarioError::Elaboration(format!(
-                        "{at}: {name} takes one of absolute and relative, not both"
-                    )));
-                }
-                continue;
-            }
-            rest.push(Arg {
-                name: Some(a.name.clone().unwrap_or_else(|| litesim_osc::ast::Name {
-                    text: key,
-                    span: a.value.span(),
-                })),
-                value: a.value.clone(),
-            });
-        }
+        let keys: &[&str] = if action.follows_path() {
+            &["absolute", "relative"]
+        } else {
+            &[]
+        };
+        let (path, rest) = self.split_path((name, args), &params, keys, action.timed(), at)?;
         let mut bound = self.bind(&rest, &params, sc);
         if let Some((key, idx)) = path {
             if (key == "relative") != self.test.paths[idx].relative {

@@ -599,6 +599,12 @@ struct Once {
     guessed: BTreeMap<String, f64>,
 }
 
+/// The plan's step for a simulation step of `step_s`: the multiple of it
+/// nearest 0.1 s (at least one step).
+pub(crate) fn plan_step(step_s: f64) -> f64 {
+    step_s * (0.1 / step_s).round().max(1.0)
+}
+
 /// The phases of the leaves, in time order (then by actor).
 fn phases_of(rleaves: &[RLeaf]) -> Vec<Phase> {
     let mut phases: Vec<Phase> = rleaves
@@ -670,7 +676,7 @@ fn plan_once(
 
     // Motion, sampled every plan step, actors without dependencies on
     // others' futures first (position at: end reads the other's plan).
-    let plan_dt = step_s * (0.1 / step_s).round().max(1.0);
+    let plan_dt = plan_step(step_s);
     let cx = MoveCx {
         net,
         rleaves: &rleaves,

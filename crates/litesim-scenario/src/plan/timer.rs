@@ -467,7 +467,7 @@ pub(super) fn lay_out<'a>(
         until_after: BTreeMap::new(),
         switches: Vec::new(),
         environment: Vec::new(),
-        estimates: reach_estimates(root, step_s * (0.1 / step_s).round().max(1.0)),
+        estimates: reach_estimates(root, super::plan_step(step_s)),
         bad_duration: None,
         cond_events,
         conds: Vec::new(),
