@@ -633,6 +633,15 @@ impl Place {
     }
 }
 
+/// The `side` argument (`left` or `right`), `default` when not given.
+fn side_arg(vals: &BTreeMap<String, Value>, default: Side) -> Side {
+    match vals.get("side").and_then(Value::text) {
+        Some("left") => Side::Left,
+        Some("right") => Side::Right,
+        _ => default,
+    }
+}
+
 /// `lateral(…)` decoded: beside the lane centre or beside another actor.
 fn lateral_intent(
     vals: &BTreeMap<String, Value>,
@@ -640,11 +649,7 @@ fn lateral_intent(
     at: At,
 ) -> Intent {
     let num = |k: &str| vals.get(k).and_then(Value::num);
-    let side = |default: Side| match vals.get("side").and_then(Value::text) {
-        Some("left") => Side::Left,
-        Some("right") => Side::Right,
-        _ => default,
-    };
+    let side = |default| side_arg(vals, default);
 
     // `left_of: x` is `side_of: x, side: left`; `same_as: x`
     // beside it by `distance` (0 when not given).
@@ -676,11 +681,7 @@ fn lane_intent(
 ) -> Intent {
     let num = |k: &str| vals.get(k).and_then(Value::num);
     let text = |k: &str| vals.get(k).and_then(|v| v.text().map(String::from));
-    let side = |default: Side| match text("side").as_deref() {
-        Some("left") => Side::Left,
-        Some("right") => Side::Right,
-        _ => default,
-    };
+    let side = |default| side_arg(vals, default);
     Intent::Lane {
         // `from: left` (CARLA's numbering) as a negative number.
         lane: num("lane").map(|n| {
@@ -737,11 +738,7 @@ impl Intent {
         let num = |k: &str| vals.get(k).and_then(Value::num);
         let text = |k: &str| vals.get(k).and_then(|v| v.text().map(String::from));
         let strict = vals.get("run_mode").and_then(Value::text) != Some("best_effort");
-        let side = |default: Side| match text("side").as_deref() {
-            Some("left") => Side::Left,
-            Some("right") => Side::Right,
-            _ => default,
-        };
+        let side = |default| side_arg(vals, default);
         Some(match kind {
             ModKind::Speed | ModKind::ChangeSpeed => {
                 let relative = RELATIVE_SPEED
