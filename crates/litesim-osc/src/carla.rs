@@ -16,6 +16,7 @@
 //! | `a.drive(path)`                         | `a.drive()`, plus `along(path, at: start)` in the actor's first drive unless a `position` places it |
 //! | `set_position(d)`                       | `along(path, at: start, start_offset: d)`      |
 //! | `lane(n)` (numbered from the left)      | `lane(n, from: left)`                          |
+//! | `change_speed(v)` (the speed to reach)  | `change_speed(target: v)`                      |
 //! | (no simulator profile)                  | `extend sim_info: set profile = "carla-0.9.15"` |
 //! | `parallel(duration: t):`                | `parallel(): … with: duration(t)`              |
 //!
@@ -369,24 +370,7 @@ impl Lower<'_> {
         }
         *args = kept;
         let path = path.or_else(|| self.default_path.clone());
-        // `lane(n)`: CARLA numbers lanes from the left ("left to right:
-        // [1..n]"), litesim from the right unless told `from: left`.
-        for m in with.iter_mut() {
-            if let Member::Modifier {
-                call: Expr::Call { callee, args, span },
-                ..
-            } = m
-                && matches!(&**callee, Expr::Ident { name, .. } if name == "lane")
-                && args
-                    .iter()
-                    .any(|a| a.name.as_ref().is_none_or(|n| n.text == "lane"))
-                && !args
-                    .iter()
-                    .any(|a| a.name.as_ref().is_some_and(|n| n.text == "from"))
-            {
-                args.push(arg(Some("from"), ident("left", *span)));
-            }
-        }
+        lower_modifier_args(with);
         // `set_position(d)` → `along(path, at: start, start_offset: d)`.
         for m in with.iter_mut() {
             let Member::Modifier { call: mc, .. } = m else {
@@ -451,6 +435,46 @@ impl Lower<'_> {
                         span,
                     ),
                 });
+            }
+        }
+    }
+}
+
+/// The modifiers whose arguments mean another thing in scenario_runner:
+/// `lane(n)` counts from the left, `change_speed(v)` is the speed to reach.
+fn lower_modifier_args(with: &mut [Member]) {
+    // `lane(n)`: CARLA numbers lanes from the left ("left to right:
+    // [1..n]"), litesim from the right unless told `from: left`.
+    for m in with.iter_mut() {
+        if let Member::Modifier {
+            call: Expr::Call { callee, args, span },
+            ..
+        } = m
+            && matches!(&**callee, Expr::Ident { name, .. } if name == "lane")
+            && args
+                .iter()
+                .any(|a| a.name.as_ref().is_none_or(|n| n.text == "lane"))
+            && !args
+                .iter()
+                .any(|a| a.name.as_ref().is_some_and(|n| n.text == "from"))
+        {
+            args.push(arg(Some("from"), ident("left", *span)));
+        }
+    }
+    // `change_speed(v)`: scenario_runner reaches the speed v; the
+    // standard's argument is a change from the phase's start speed.
+    for m in with.iter_mut() {
+        if let Member::Modifier {
+            call: Expr::Call { callee, args, .. },
+            ..
+        } = m
+            && matches!(&**callee, Expr::Ident { name, .. } if name == "change_speed")
+        {
+            for a in args.iter_mut() {
+                if a.name.as_ref().is_none_or(|n| n.text == "speed") {
+                    let span = a.value.span();
+                    a.name = Some(name("target", span));
+                }
             }
         }
     }

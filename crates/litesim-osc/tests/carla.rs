@@ -162,6 +162,22 @@ fn a_carla_scenario_is_detected_checked_and_lowered() {
 }
 
 #[test]
+fn carla_change_speed_is_lowered_to_the_target_it_means() {
+    // scenario_runner's change_speed(v) reaches v; the standard's is a
+    // change by v, so the dialect names its argument `target`.
+    for (written, lowered) in [
+        ("change_speed(30kph)", "change_speed(target: 30kph)"),
+        ("change_speed(speed: 30kph)", "change_speed(target: 30kph)"),
+    ] {
+        let text = CUT_IN.replacen("speed(30kph)", written, 1);
+        let p = load(&text, &[], None);
+        assert_eq!(errors(&p), Vec::<String>::new());
+        let c = calls(top_main(&p));
+        assert!(c.iter().any(|x| x == lowered), "{written}: {c:?}");
+    }
+}
+
+#[test]
 fn a_litesim_program_stays_litesim() {
     let p = litesim_osc::load(&root().join("examples/scenarios/cut_in.osc"), &[], &|_| {
         None

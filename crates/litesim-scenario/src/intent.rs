@@ -398,6 +398,9 @@ pub enum Intent {
         strict: bool,
         /// Written as `change_speed` (it does not set the start speed).
         change: bool,
+        /// The standard's `change_speed(v)`: `speed` is a signed change
+        /// from the speed the phase starts with, not a target.
+        delta: bool,
         /// `faster_than: X` (+1), `slower_than: X` (−1) or `same_as: X` (0):
         /// the speed is X's speed plus the sign times `speed` (0 when not
         /// given), as X's plan has it at each sample of the phase.
@@ -405,10 +408,14 @@ pub enum Intent {
     },
     /// `acceleration(a)`: the rate of the phase's speed changes.
     Acceleration {
-        /// |a| (m/s²).
+        /// |a| (m/s²); relative to another actor, the signed offset's size.
         accel: f64,
         /// When.
         at: At,
+        /// `faster_than: X` (+1), `slower_than: X` (−1) or `same_as: X`
+        /// (0): the acceleration is X's planned one plus the sign times
+        /// `accel`, at every sample of the phase.
+        relative: Option<(f64, String)>,
     },
     /// `position(d | time: τ, ahead_of|behind: X)`.
     Position {
@@ -442,6 +449,10 @@ pub enum Intent {
         lanes: i32,
         /// Which way.
         side: Side,
+        /// The side was written; not written, the standard draws one
+        /// (seeded, when the leaves are resolved) and the planner takes the
+        /// other when the drawn one has no lane.
+        side_given: bool,
         /// When.
         at: At,
     },
@@ -462,6 +473,9 @@ pub enum Intent {
         road: Option<String>,
         /// Start s (m), if given.
         start_offset: Option<f64>,
+        /// `end_offset` (m), if given and not 0: the phase ends this far
+        /// before the road's end.
+        end_offset: Option<f64>,
         /// When.
         at: At,
     },
@@ -744,20 +758,30 @@ impl Intent {
                 let relative = RELATIVE_SPEED
                     .iter()
                     .find_map(|&(k, sign)| refs.get(k).map(|o| (sign, o.clone())));
+                let change = kind == ModKind::ChangeSpeed;
+                // `change_speed(target: v)`: litesim's (and CARLA's) target.
+                let target = num("target").filter(|_| change);
                 Intent::Speed {
                     // Relative to another actor, the speed is an offset: none
                     // given (`speed(same_as: x)`) is 0.
-                    speed: num("speed").or(relative.as_ref().map(|_| 0.0))?,
+                    speed: target.or(num("speed")).or(relative.as_ref().map(|_| 0.0))?,
                     at,
-                    strict: strict && kind == ModKind::Speed,
-                    change: kind == ModKind::ChangeSpeed,
+                    strict: strict && !change,
+                    change,
+                    delta: change && target.is_none(),
                     relative,
                 }
             }
-            ModKind::Acceleration => Intent::Acceleration {
-                accel: num("acceleration")?,
-                at,
-            },
+            ModKind::Acceleration => {
+                let relative = RELATIVE_SPEED
+                    .iter()
+                    .find_map(|&(k, sign)| refs.get(k).map(|o| (sign, o.clone())));
+                Intent::Acceleration {
+                    accel: num("acceleration").or(relative.as_ref().map(|_| 0.0))?,
+                    at,
+                    relative,
+                }
+            }
             ModKind::Position => Intent::Position {
                 distance: num("distance"),
                 time: num("time"),
@@ -771,14 +795,17 @@ impl Intent {
             ModKind::Lane => lane_intent(vals, refs, at, strict),
             ModKind::ChangeLane => Intent::ChangeLane {
                 lanes: num("lane_changes")
+                    .or_else(|| num("lane"))
                     .or_else(|| num("num_of_lanes"))
                     .unwrap_or(1.0) as i32,
                 side: side(Side::Left),
+                side_given: vals.contains_key("side"),
                 at,
             },
             ModKind::Lateral => lateral_intent(vals, refs, at),
             ModKind::Along => Intent::Along {
-                road: text("road"),
+                road: text("road").or_else(|| text("route")),
+                end_offset: num("end_offset").filter(|&e| e != 0.0),
                 start_offset: num("start_offset"),
                 at,
             },
@@ -948,6 +975,7 @@ mod tests {
                 at: At::End,
                 strict: true,
                 change: false,
+                delta: false,
                 relative: None,
             })
         );
@@ -990,6 +1018,7 @@ mod tests {
             Intent::ChangeLane {
                 lanes: 1,
                 side: Side::Left,
+                side_given: false,
                 at: At::All
             }
         );

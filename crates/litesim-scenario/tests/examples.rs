@@ -789,7 +789,7 @@ fn every_profile_and_model_config_runs_the_smoke_shape() {
 
 #[test]
 fn post_plan_checks_of_a_profile_stop_an_infeasible_plan_before_it_runs() {
-    let harsh = "extend top.main:\n    do sut.harsh()\nscenario sut.harsh:\n    r: one_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, at: start)\n            duration(2s)\n        sut.car.drive() with:\n            change_speed(0kph)\n            acceleration(12mpsps)\n            duration(3s)\n";
+    let harsh = "extend top.main:\n    do sut.harsh()\nscenario sut.harsh:\n    r: one_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, at: start)\n            duration(2s)\n        sut.car.drive() with:\n            change_speed(-60kph)\n            acceleration(12mpsps)\n            duration(3s)\n";
     let (_f, prep) = beside_smoke("profile_dspace_config.osc", harsh);
     // A failed test with its reasons (and a summary), not a crash; nothing ran.
     let s = run_default(&prep).unwrap().summary;

@@ -1344,3 +1344,186 @@ fn change_lane_relative_to_a_reference_ends_beside_its_lane() {
         "{e}"
     );
 }
+
+#[test]
+fn change_speed_is_a_change_from_the_phase_start_speed_or_a_target() {
+    // The standard's change_speed(-20kph) from 70 km/h is 50 km/h at the
+    // phase's end; litesim's target: 20kph is 20 km/h; in the first phase
+    // it ramps from the placed speed (speed(30kph, at: start)).
+    let text = |second: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        first: sut.car.drive() with:\n            speed(30kph, at: start)\n            change_speed(40kph)\n            along(r, at: start)\n            duration(8s)\n        second: sut.car.drive() with:\n            {second}\n            duration(8s)\n"
+        )
+    };
+    let r = run_text(&text("change_speed(-20kph)")).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (t0, t1) = phase(&r, "first");
+    let v = |t: f64| sample(&r, "sut.car", t).v;
+    // (the plan's first sample is one 0.1 s step into the ramp, 2.5 m/s²)
+    assert!((v(t0) - kph(30.0) - 0.25).abs() < 1e-9, "{}", v(t0));
+    // (the sample at a phase's end is the next phase's first step)
+    let dt = r.plan.dt;
+    assert!((v(t1 - dt) - kph(70.0)).abs() < 1e-6, "{}", v(t1 - dt));
+    let (_, t2) = phase(&r, "second");
+    assert!((v(t2 - dt) - kph(50.0)).abs() < 1e-6, "{}", v(t2 - dt));
+    // On the log too (the plan replayed).
+    let log = r.log.as_ref().unwrap();
+    let ego = log.tracks.iter().find(|t| t.id == "sut.car").unwrap();
+    let end = ego.state.speed[tick_at(&r, t2 - 1e-3).min(ego.state.speed.len() - 1)];
+    assert!((end - kph(50.0)).abs() < 0.1, "{end}");
+    let r = run_text(&text("change_speed(target: 20kph)")).unwrap();
+    let (_, t2) = phase(&r, "second");
+    assert!((sample(&r, "sut.car", t2 - dt).v - kph(20.0)).abs() < 1e-6);
+    // One of the two, and one at least.
+    for (second, says) in [
+        (
+            "change_speed(-5kph, target: 20kph)",
+            "`speed` (a change from the phase's start speed) and `target` (the speed to reach) exclude each other",
+        ),
+        ("change_speed()", "change_speed needs its change"),
+    ] {
+        let e = run_text(&text(second)).unwrap_err().to_string();
+        assert!(e.contains(":15:13") && e.contains(says), "{second}: {e}");
+    }
+}
+
+#[test]
+fn along_a_route_ends_its_phase_end_offset_before_the_road_end() {
+    // Road 1 of straight.xodr runs 500 m along +x; sut.car drives its
+    // right lane (forward). 20 m in at 50 km/h for 4 s, then along the
+    // route to 300 m before its end in 10 s.
+    let text = |second: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start, start_offset: 20m)\n            duration(4s)\n        second: sut.car.drive() with:\n            {second}\n            duration(10s)\n"
+        )
+    };
+    let r = run_text(&text("along(route: r, end_offset: 300m)")).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (t1, t2) = phase(&r, "second");
+    let x0 = sample(&r, "sut.car", t1).x;
+    let x = sample(&r, "sut.car", t2).x;
+    assert!((x0 - (20.0 + kph(50.0) * 4.0)).abs() < 0.5, "{x0}");
+    assert!((x - 200.0).abs() < 0.5, "at the phase's end x = {x}");
+    // On the log (the plan replayed) too.
+    let log = r.log.as_ref().unwrap();
+    let ego = log.tracks.iter().find(|t| t.id == "sut.car").unwrap();
+    let k = tick_at(&r, t2).min(ego.state.x.len() - 1);
+    assert!((ego.state.x[k] - 200.0).abs() < 0.5, "{}", ego.state.x[k]);
+    // What it cannot mean is an error at the modifier.
+    for (second, says) in [
+        (
+            "along(r, route: r)",
+            "`road` and `route` name the same thing",
+        ),
+        (
+            "along(r, at: start, end_offset: 10m)",
+            "the end offset is where the phase ends",
+        ),
+        (
+            "along(r, end_offset: 10m)\n            speed(30kph)",
+            "sets how far the phase goes; it contradicts speed",
+        ),
+        ("along(r, end_offset: 490m)", "already within the offset"),
+    ] {
+        let e = run_text(&text(second)).unwrap_err().to_string();
+        assert!(e.contains(":14:13") && e.contains(says), "{second}: {e}");
+    }
+}
+
+#[test]
+fn change_lane_without_a_side_draws_one_with_the_seed_where_there_is_a_lane() {
+    // Three lanes each way on straight.xodr (forward along +x: left is +y).
+    let text = |lane: u32, change: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(40kph)\n            along(r, at: start)\n            lane({lane}, at: start)\n            duration(1s)\n        sut.car.drive() with:\n            {change}\n            duration(5s)\n"
+        )
+    };
+    let moved = |text: &str, seed: u64| {
+        let f = example_file(text);
+        let p = prepare(f.path(), &Default::default()).unwrap();
+        let opts = RunOptions {
+            seed: Some(seed),
+            ..RunOptions::default()
+        };
+        let r = run(&p, &mut litesim_scenario::in_process(), &opts).unwrap();
+        let a = r.plan.actors.iter().find(|a| a.id == "sut.car").unwrap();
+        a.samples.last().unwrap().y - a.samples[0].y
+    };
+    // From the middle lane: both sides, each seed the same every time.
+    let middle = text(2, "change_lane(lane: 1)");
+    let sides: Vec<f64> = (1..=12).map(|s| moved(&middle, s).signum()).collect();
+    assert!(sides.contains(&1.0) && sides.contains(&-1.0), "{sides:?}");
+    assert_eq!(moved(&middle, 3).signum(), sides[2]);
+    for (s, side) in (1..=12).zip(&sides) {
+        let dy = moved(&middle, s);
+        assert!(
+            (dy.abs() - 3.5).abs() < 0.1 && dy.signum() == *side,
+            "seed {s}: {dy}"
+        );
+    }
+    // From the rightmost lane: always to the left, the only side with a lane.
+    let right = text(1, "change_lane(lane: 1)");
+    for s in 1..=6 {
+        let dy = moved(&right, s);
+        assert!((dy - 3.5).abs() < 0.1, "seed {s}: {dy}");
+    }
+    // Two names for the number of lanes, or none to change: errors.
+    let e = run_text(&text(2, "change_lane(1, lane: 1, side: left)"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains(":15:13") && e.contains("num_of_lanes and lane name the same number of lanes"),
+        "{e}"
+    );
+    let e = run_text(&text(2, "change_lane(lane: 0)"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("the number of lanes to change is at least 1"),
+        "{e}"
+    );
+}
+
+#[test]
+fn acceleration_relative_to_another_actor_follows_its_speed_changes() {
+    // sut.car speeds up at 2 m/s² from 40 km/h for 4 s, then brakes at
+    // 3 m/s² for 2 s; `twin` starts at 30 km/h and accelerates as it does
+    // (same_as), `eager` 0.5 m/s² more (faster_than).
+    let text = |twin: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    twin: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(40kph)\n                along(r, at: start)\n                lane(1, at: start)\n                duration(1s)\n            sut.car.drive() with:\n                change_speed(8mps)\n                acceleration(2mpsps)\n                duration(4s)\n            sut.car.drive() with:\n                change_speed(-6mps)\n                acceleration(3mpsps)\n                duration(2s)\n        twin.drive() with:\n            speed(30kph, at: start)\n            lane(left_of: sut.car, at: start)\n            position(20m, ahead_of: sut.car, at: start)\n            {twin}\n    with: duration(7s)\n"
+        )
+    };
+    for (modifier, offset) in [
+        ("acceleration(same_as: sut.car)", 0.0),
+        ("acceleration(0.5mpsps, faster_than: sut.car)", 0.5),
+        ("acceleration(0.5mpsps, slower_than: sut.car)", -0.5),
+    ] {
+        let r = run_text(&text(modifier)).unwrap();
+        assert!(r.summary.pass, "{modifier}: {:?}", r.summary.failures);
+        let ego = planned(&r, "sut.car");
+        let twin = planned(&r, "twin");
+        let (e0, t0) = (ego[0].1, twin[0].1);
+        for ((t, v), (_, ve)) in twin.iter().zip(&ego) {
+            let want = (t0 + (ve - e0) + offset * (t - twin[0].0)).max(0.0);
+            assert!(
+                (v - want).abs() < 1e-6,
+                "{modifier} at t = {t}: {v} m/s, {want} m/s asked (sut.car {ve})"
+            );
+        }
+    }
+    // Two references, or a speed beside it: errors naming both.
+    for (modifier, says) in [
+        (
+            "acceleration(same_as: sut.car, faster_than: sut.car)",
+            "faster_than and same_as exclude each other",
+        ),
+        (
+            "acceleration(same_as: sut.car)\n            speed(50kph)",
+            "an acceleration relative to another actor sets the speed at every step; it contradicts speed",
+        ),
+    ] {
+        let e = run_text(&text(modifier)).unwrap_err().to_string();
+        assert!(e.contains(":28:13") && e.contains(says), "{modifier}: {e}");
+    }
+}

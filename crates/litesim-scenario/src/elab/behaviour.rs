@@ -400,7 +400,9 @@ impl Elab<'_> {
                     let kind = crate::intent::ModKind::of(&name);
                     if matches!(
                         kind,
-                        crate::intent::ModKind::Speed | crate::intent::ModKind::ChangeSpeed
+                        crate::intent::ModKind::Speed
+                            | crate::intent::ModKind::ChangeSpeed
+                            | crate::intent::ModKind::Acceleration
                     ) {
                         let given: Vec<&str> = crate::intent::RELATIVE_SPEED
                             .iter()
@@ -423,19 +425,7 @@ impl Elab<'_> {
                             "{at}: {name}(track: {t}) is not supported by litesim (constraints hold on the actual motion)"
                         )));
                     }
-                    let (kind, bound) = match name.as_str() {
-                        "orientation" => {
-                            (crate::intent::ModKind::Yaw, orientation_as_yaw(bound, &at)?)
-                        }
-                        "lateral" => {
-                            lateral_supported(&bound, &at)?;
-                            (kind, bound)
-                        }
-                        _ => (kind, bound),
-                    };
-                    if kind == crate::intent::ModKind::Yaw {
-                        yaw_supported(&bound, &at)?;
-                    }
+                    let (kind, bound) = supported(&name, kind, bound, &at)?;
                     out.push(Modifier {
                         kind,
                         args: bound,
@@ -734,7 +724,10 @@ fn contradictions(out: &[Modifier]) -> Result<(), ScenarioError> {
     // and so do a speed and a change of it.
     use crate::intent::ModKind as K;
     let of = |k: &[K]| out.iter().find(|m| k.contains(&m.kind));
-    if let (Some(a), Some(b)) = (of(&[K::Speed]), of(&[K::ChangeSpeed])) {
+    // `speed(v, at: start)` is where a change starts from, not a rival.
+    let starts = |m: &Modifier| matches!(m.args.get("at"), Some(CExpr::Const(Value::Enum(a))) if a == "start");
+    let speed = out.iter().find(|m| m.kind == K::Speed && !starts(m));
+    if let (Some(a), Some(b)) = (speed, of(&[K::ChangeSpeed])) {
         return Err(ScenarioError::Elaboration(format!(
             "{}: speed contradicts change_speed at {}: give one of them",
             a.at, b.at
@@ -750,6 +743,51 @@ fn contradictions(out: &[Modifier]) -> Result<(), ScenarioError> {
                 )));
             }
         }
+    }
+    // An acceleration relative to another actor sets the speed at every
+    // sample, as a speed does.
+    let relative_accel = out.iter().find(|m| {
+        m.kind == K::Acceleration
+            && crate::intent::RELATIVE_SPEED
+                .iter()
+                .any(|(k, _)| m.args.contains_key(*k))
+    });
+    if let (Some(a), Some(s)) = (
+        relative_accel,
+        out.iter().find(|m| {
+            matches!(
+                m.kind,
+                K::ChangeSpeed | K::Distance | K::KeepSpeed | K::KeepPosition
+            ) || (m.kind == K::Speed && !starts(m))
+        }),
+    ) {
+        return Err(ScenarioError::Elaboration(format!(
+            "{}: an acceleration relative to another actor sets the speed at every step; it contradicts {} at {}",
+            a.at, s.name, s.at
+        )));
+    }
+    // `along(…, end_offset: e)` sets how far the phase goes, as
+    // `distance` does.
+    let ends = out.iter().find(|m| {
+        m.kind == K::Along
+            && !matches!(
+                m.args.get("end_offset"),
+                None | Some(CExpr::Const(Value::Num(0.0)))
+            )
+    });
+    if let (Some(a), Some(s)) = (
+        ends,
+        out.iter().find(|m| {
+            matches!(
+                m.kind,
+                K::ChangeSpeed | K::Distance | K::KeepSpeed | K::KeepPosition
+            ) || (m.kind == K::Speed && !starts(m))
+        }),
+    ) {
+        return Err(ScenarioError::Elaboration(format!(
+            "{}: along(…, end_offset: …) sets how far the phase goes; it contradicts {} at {}",
+            a.at, s.name, s.at
+        )));
     }
     for (holds, sets) in [
         (K::KeepSpeed, &[K::Speed, K::ChangeSpeed, K::Distance][..]),
@@ -846,4 +884,82 @@ fn lateral_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), Sc
         )));
     }
     Ok(())
+}
+
+/// `change_speed` takes its change (`speed`, the standard's) or litesim's
+/// `target`: exactly one of them.
+fn change_speed_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), ScenarioError> {
+    match (bound.contains_key("speed"), bound.contains_key("target")) {
+        (true, false) | (false, true) => Ok(()),
+        (true, true) => Err(ScenarioError::Elaboration(format!(
+            "{at}: change_speed: `speed` (a change from the phase's start speed) and `target` (the speed to reach) exclude each other: give one"
+        ))),
+        (false, false) => Err(ScenarioError::Elaboration(format!(
+            "{at}: change_speed needs its change, e.g. `change_speed(-20kph)`, or litesim's `target: 50kph`"
+        ))),
+    }
+}
+
+/// `along`: its road as `road` (litesim's) or `route` (the standard's),
+/// not both; an `end_offset` is where the phase ends, so not `at: start`.
+fn along_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), ScenarioError> {
+    if bound.contains_key("road") && bound.contains_key("route") {
+        return Err(ScenarioError::Elaboration(format!(
+            "{at}: along: `road` and `route` name the same thing (litesim's name and the standard's): give one"
+        )));
+    }
+    let nonzero = !matches!(
+        bound.get("end_offset"),
+        None | Some(CExpr::Const(Value::Num(0.0)))
+    );
+    if nonzero && matches!(bound.get("at"), Some(CExpr::Const(Value::Enum(a))) if a == "start") {
+        return Err(ScenarioError::Elaboration(format!(
+            "{at}: along(…, at: start, end_offset: …): the end offset is where the phase ends; give it with `at: all` or `at: end`"
+        )));
+    }
+    Ok(())
+}
+
+/// What litesim takes of one written modifier, checked by its name (an
+/// error naming what it cannot honour); `orientation` becomes a `yaw`.
+fn supported(
+    name: &str,
+    kind: crate::intent::ModKind,
+    bound: BTreeMap<String, CExpr>,
+    at: &str,
+) -> Result<(crate::intent::ModKind, BTreeMap<String, CExpr>), ScenarioError> {
+    use crate::intent::ModKind as K;
+    let (kind, bound) = match name {
+        "orientation" => (K::Yaw, orientation_as_yaw(bound, at)?),
+        "lateral" => {
+            lateral_supported(&bound, at)?;
+            (kind, bound)
+        }
+        "change_speed" => {
+            change_speed_supported(&bound, at)?;
+            (kind, bound)
+        }
+        "along" => {
+            along_supported(&bound, at)?;
+            (kind, bound)
+        }
+        "change_lane" => {
+            let given: Vec<&str> = ["num_of_lanes", "lane_changes", "lane"]
+                .into_iter()
+                .filter(|k| bound.contains_key(*k))
+                .collect();
+            if given.len() > 1 {
+                return Err(ScenarioError::Elaboration(format!(
+                    "{at}: change_lane: {} name the same number of lanes (litesim's, CARLA's and the standard's names): give one",
+                    given.join(" and ")
+                )));
+            }
+            (kind, bound)
+        }
+        _ => (kind, bound),
+    };
+    if kind == K::Yaw {
+        yaw_supported(&bound, at)?;
+    }
+    Ok((kind, bound))
 }

@@ -88,7 +88,21 @@ pub(super) fn resolve_leaves(
                     )));
                 }
             }
-            if let Some(i) = Intent::decode((m.kind, &m.name), &at_kind(m), &vals, &refs) {
+            if let Some(mut i) = Intent::decode((m.kind, &m.name), &at_kind(m), &vals, &refs) {
+                // change_lane without a side: the standard's random side,
+                // drawn with the run's seed.
+                if let Intent::ChangeLane {
+                    side,
+                    side_given: false,
+                    ..
+                } = &mut i
+                {
+                    *side = if rng.next_u64().is_multiple_of(2) {
+                        Side::Left
+                    } else {
+                        Side::Right
+                    };
+                }
                 mods.push(i);
                 mod_at.push(m.at.clone());
             }
@@ -194,6 +208,15 @@ pub(super) fn move_all(
     Ok(all)
 }
 
+/// Where modifier `m` of leaf `l` is written (the action's place when it
+/// was made for the action).
+fn mod_at<'l>(l: &'l RLeaf, m: &Intent) -> &'l str {
+    l.mods
+        .iter()
+        .position(|x| std::ptr::eq(x, m))
+        .map_or(l.at.as_str(), |j| l.mod_at[j].as_str())
+}
+
 /// Whether actor `i`'s motion reads another actor's plan (a `position(…,
 /// at: end)` goal): it must move after the others.
 pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
@@ -209,6 +232,9 @@ pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
                     at: At::End,
                     ..
                 } | Intent::Speed {
+                    relative: Some(_),
+                    ..
+                } | Intent::Acceleration {
                     relative: Some(_),
                     ..
                 } | Intent::KeepGap { .. }
@@ -268,7 +294,21 @@ enum Follow {
         target: f64,
         headway: bool,
     },
+    /// Its acceleration plus `offset` (m/s²): `acceleration(…,
+    /// faster_than | slower_than | same_as: X)`. The speed is `v0` plus
+    /// X's change of speed since `t0` (from `ahead0`) plus `offset` · (t −
+    /// t0).
+    Accel {
+        offset: f64,
+        v0: f64,
+        ahead0: f64,
+        t0: f64,
+    },
 }
+
+/// The bound (m/s²) on an acceleration that follows another actor's: the
+/// planner's hardest braking.
+const RELATIVE_ACCEL_BOUND: f64 = 8.0;
 
 /// A `change_*` action under way and what ends it.
 #[derive(Clone, Copy, Debug)]
@@ -497,7 +537,11 @@ impl<'a> Mover<'a> {
             self.accel = None;
         }
         let mut keep_speed = false;
-        for m in &l.mods {
+        // A change of speed last: it starts from the speed the block's
+        // `speed(…, at: start)` gives, and its target is the phase's.
+        let is_change = |m: &&Intent| matches!(m, Intent::Speed { change: true, .. });
+        let (changes, others): (Vec<&Intent>, Vec<&Intent>) = l.mods.iter().partition(is_change);
+        for m in others.into_iter().chain(changes) {
             if self.modifier(l, m, (k, t), plans)? {
                 keep_speed = true;
             }
@@ -537,14 +581,19 @@ impl<'a> Mover<'a> {
         (k, t): (usize, f64),
         plans: &[ActorPlan],
     ) -> Result<bool, ScenarioError> {
-        let first = self.leaf_i == 0;
         match m {
             Intent::Along {
                 road: Some(road),
-                at: At::End,
+                at,
+                end_offset,
                 ..
             } => {
-                self.along_end.push((l.t1, road.clone(), l.at.clone()));
+                if *at == At::End {
+                    self.along_end.push((l.t1, road.clone(), l.at.clone()));
+                }
+                if let Some(e) = end_offset {
+                    self.end_offset((mod_at(l, m), l.t1), t, road, *e)?;
+                }
             }
             Intent::Lateral {
                 side_of: Some(o),
@@ -556,31 +605,33 @@ impl<'a> Mover<'a> {
                 t0: l.t0,
                 t1: l.t1,
             }),
-            Intent::Acceleration { accel, .. } => {
+            Intent::Acceleration {
+                accel,
+                relative: None,
+                ..
+            } => {
                 self.accel_up = accel.abs().max(0.1);
                 self.accel_down = accel.abs().max(0.1);
             }
-            Intent::Speed {
-                speed,
-                at,
-                strict,
-                relative,
+            Intent::Acceleration {
+                accel,
+                relative: Some((sign, o)),
                 ..
             } => {
-                let v = self.relative_speed(l, t, (*speed, *at), relative, plans)?;
-                match at {
-                    At::End => self.end_speed = Some((self.mo.v, v, l.t1)),
-                    _ => {
-                        if first || (*at == At::Start && k == 0) {
-                            self.mo.v = v;
-                        }
-                        self.target = Some(v);
-                        if *strict && !first {
-                            self.strict_speed = Some((v, l.at.clone()));
-                        }
-                    }
-                }
+                // X's speed changes plus the offset's, from the speeds
+                // both have now; within the planner's hardest bounds.
+                let j = self.planned_before(l, o, "acceleration", plans)?;
+                let how = Follow::Accel {
+                    offset: sign * accel,
+                    v0: self.mo.v,
+                    ahead0: plans[j].at(t, self.cx.dt).v,
+                    t0: t,
+                };
+                self.follow = Some((j, how, l.t1));
+                self.accel_up = RELATIVE_ACCEL_BOUND;
+                self.accel_down = RELATIVE_ACCEL_BOUND;
             }
+            Intent::Speed { .. } => self.speed_modifier(l, m, (k, t), plans)?,
             Intent::Position {
                 distance,
                 reference: Some((order, o)),
@@ -589,8 +640,11 @@ impl<'a> Mover<'a> {
                 ..
             } => self.gap_goal(l, t, plans, (*distance, order.sign(), o, *strict)),
             &Intent::ChangeLane {
-                lanes: nl, side, ..
-            } => self.change_lane(l, nl, side)?,
+                lanes: nl,
+                side,
+                side_given,
+                ..
+            } => self.change_lane(l, nl, (side, side_given))?,
             Intent::Lane {
                 lane,
                 reference,
@@ -620,13 +674,8 @@ impl<'a> Mover<'a> {
             Intent::AvoidCollisions { avoid: false } => {
                 self.out.reckless.push((self.id.clone(), l.t0, l.t1));
             }
-            // Travels `d` by the phase's end: a linear speed change from
-            // the speed it has, (v0 + v1) / 2 · T = d.
-            &Intent::Distance { distance, .. } => {
-                let dur = (l.t1 - t).max(self.cx.dt);
-                let v1 = (2.0 * distance / dur - self.mo.v).max(0.0);
-                self.end_speed = Some((self.mo.v, v1, l.t1));
-            }
+            // Travels `d` by the phase's end.
+            &Intent::Distance { distance, .. } => self.travel_by(distance, t, l.t1),
             Intent::PhysicalMovement { option } if option == "prefer_non_physical" => {
                 self.out.notes.push(format!(
                     "{}: physical_movement(prefer_non_physical): {} moves physically (within its acceleration), as the preference allows",
@@ -636,6 +685,97 @@ impl<'a> Mover<'a> {
             _ => {}
         }
         Ok(false)
+    }
+
+    /// `along(road, end_offset: e)`: the phase ends `e` before the road's
+    /// end, the distance to there travelled like `distance(d)`'s (a linear
+    /// speed change from the speed it has). The actor must be on that road
+    /// at the phase's start, short of that place.
+    fn end_offset(
+        &mut self,
+        (at, t1): (&str, f64),
+        t: f64,
+        road: &str,
+        e: f64,
+    ) -> Result<(), ScenarioError> {
+        let net = self.cx.net;
+        let pos = self.mo.pos;
+        let r = &net.roads()[pos.road];
+        if r.id != road {
+            return Err(ScenarioError::Plan(format!(
+                "{at}: along(…, end_offset: {e} m): {} is on road {} at the phase's start (t = {t:.1} s), not on road {road}; end_offset is measured on the road it drives",
+                self.id, r.id
+            )));
+        }
+        let left = if net.travels_forward(pos) {
+            r.length - pos.s
+        } else {
+            pos.s
+        };
+        let d = left - e;
+        if d < 0.0 {
+            return Err(ScenarioError::Plan(format!(
+                "{at}: along(…, end_offset: {e} m): {} is {left:.1} m from the end of road {road} at the phase's start (t = {t:.1} s), already within the offset",
+                self.id
+            )));
+        }
+        self.travel_by(d, t, t1);
+        Ok(())
+    }
+
+    /// Travels `d` from `t` to `t1`: a linear speed change from the speed
+    /// it has, (v0 + v1) / 2 · T = d.
+    fn travel_by(&mut self, d: f64, t: f64, t1: f64) {
+        let dur = (t1 - t).max(self.cx.dt);
+        let v1 = (2.0 * d / dur - self.mo.v).max(0.0);
+        self.end_speed = Some((self.mo.v, v1, t1));
+    }
+
+    /// A `speed` or `change_speed` modifier of the phase `l` entered at
+    /// sample `k` (time `t`): the speed it starts with, its target, or the
+    /// speed at its end.
+    fn speed_modifier(
+        &mut self,
+        l: &RLeaf,
+        m: &Intent,
+        (k, t): (usize, f64),
+        plans: &[ActorPlan],
+    ) -> Result<(), ScenarioError> {
+        let &Intent::Speed {
+            speed,
+            at,
+            strict,
+            ref relative,
+            change,
+            delta,
+        } = m
+        else {
+            return Ok(());
+        };
+        let first = self.leaf_i == 0;
+        // The standard's change_speed: a change from the speed the phase
+        // starts with.
+        let speed = if delta {
+            (self.mo.v + speed).max(0.0)
+        } else {
+            speed
+        };
+        let v = self.relative_speed(l, t, (speed, at), relative, plans)?;
+        match at {
+            At::End => self.end_speed = Some((self.mo.v, v, l.t1)),
+            _ => {
+                // A change ramps from the speed it has, even in the actor's
+                // first phase.
+                if !change && (first || (at == At::Start && k == 0)) {
+                    self.mo.v = v;
+                }
+                self.target = Some(v);
+                if strict && !first {
+                    self.strict_speed = Some((v, l.at.clone()));
+                }
+            }
+        }
+        Ok(())
     }
 
     /// `yaw(…)` or `assign_orientation`: the heading the phase sets.
@@ -871,10 +1011,31 @@ impl<'a> Mover<'a> {
 
     /// `change_lane(n, side)`: a change to the lane `n` over, taking the
     /// phase clipped to [2 s, 6 s].
-    fn change_lane(&mut self, l: &RLeaf, nl: i32, side: Side) -> Result<(), ScenarioError> {
+    fn change_lane(
+        &mut self,
+        l: &RLeaf,
+        nl: i32,
+        (side, given): (Side, bool),
+    ) -> Result<(), ScenarioError> {
         let net = self.cx.net;
         let mo = &mut self.mo;
-        let d = if side == Side::Right { -nl } else { nl };
+        if nl < 1 {
+            return Err(ScenarioError::Plan(format!(
+                "{}: change_lane({nl}): the number of lanes to change is at least 1 (the side is `side`)",
+                l.at
+            )));
+        }
+        let signed = |s: Side| if s == Side::Right { -nl } else { nl };
+        let mut side = side;
+        // A drawn side without the lanes: the other one.
+        if !given && net.lane_beside(mo.pos, signed(side)).is_none() {
+            side = if side == Side::Left {
+                Side::Right
+            } else {
+                Side::Left
+            };
+        }
+        let d = signed(side);
         let to = net.lane_beside(mo.pos, d).ok_or_else(|| {
             ScenarioError::Plan(format!(
                 "{}: {} cannot change {nl} lane(s) to the {} on road {} (lane {})",
@@ -1087,6 +1248,12 @@ impl<'a> Mover<'a> {
         let ahead = plans[j].at(t, dt).v;
         let v = match how {
             Follow::Offset(off) => ahead + off,
+            Follow::Accel {
+                offset,
+                v0,
+                ahead0,
+                t0,
+            } => v0 + (ahead - ahead0) + offset * (t - t0),
             Follow::Headway(h) => self.mo.v + dt * (ahead - self.mo.v) / h,
             Follow::Change {
                 gap,
