@@ -507,6 +507,11 @@ pub enum Intent {
         /// The gap (m) or headway (s) to reach; `None` keeps the one it
         /// has.
         target: Option<f64>,
+        /// `direction: behind`: the reference is behind the actor (it
+        /// leads); `ahead`: ahead of it (it follows); `None`
+        /// (`keep_space_gap`'s `longitudinal`): whichever it is at the
+        /// phase's start.
+        behind: Option<bool>,
     },
     /// `avoid_collisions(avoid)`: drivers avoid others by default;
     /// `false` lets this one collide where the scenario asks it to.
@@ -819,6 +824,11 @@ impl Intent {
                 reference: refs.get("reference")?.clone(),
                 headway: kind == ModKind::KeepTimeHeadway,
                 target: num("target"),
+                behind: match text("direction").as_deref() {
+                    Some("behind") => Some(true),
+                    Some("longitudinal") => None,
+                    _ => Some(false),
+                },
             },
             ModKind::AvoidCollisions => Intent::AvoidCollisions {
                 avoid: !matches!(vals.get("avoid"), Some(Value::Bool(false))),

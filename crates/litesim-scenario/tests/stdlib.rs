@@ -389,12 +389,23 @@ fn a_platoon_keeps_its_time_headway_planned_and_driven() {
 
 #[test]
 fn a_gap_to_an_actor_not_ahead_is_a_planning_error() {
-    let e = run_text(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n        b.keep_space_gap(sut.car) with:\n            lane(same_as: sut.car, at: start)\n            position(20m, ahead_of: sut.car, at: start)\n    with: duration(3s)\n"
-    ))
-    .unwrap_err();
+    let text = |action: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n        b.{action} with:\n            lane(same_as: sut.car, at: start)\n            position(20m, ahead_of: sut.car, at: start)\n    with: duration(3s)\n"
+        )
+    };
+    // A headway to one ahead (the default direction) that is behind.
+    let e = run_text(&text("keep_time_headway(sut.car)")).unwrap_err();
     assert!(matches!(e, ScenarioError::Plan(_)), "{e:?}");
     assert!(e.to_string().contains("not ahead of it"), "{e}");
+    // A longitudinal space gap is kept on the side the reference is on:
+    // b leads sut.car by 20 m.
+    let r = run_text(&text("keep_space_gap(sut.car)")).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    assert!(r.plan.keeps[0].behind, "{:?}", r.plan.keeps);
+    let end = r.log.as_ref().unwrap().time.len() - 1;
+    let (gap, _) = logged_gap(&r, "b", "sut.car", end);
+    assert!((gap - 20.0).abs() < 0.1, "{gap}");
 }
 
 #[test]
@@ -1526,4 +1537,98 @@ fn acceleration_relative_to_another_actor_follows_its_speed_changes() {
         let e = run_text(&text(modifier)).unwrap_err().to_string();
         assert!(e.contains(":28:13") && e.contains(says), "{modifier}: {e}");
     }
+}
+
+/// A car 20 m ahead of sut.car (60 km/h, then 80 km/h from t = 3 s) that
+/// keeps or changes its gap or headway to sut.car behind it.
+fn leading_text(action: &str) -> String {
+    format!(
+        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    lead: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(60kph)\n                along(r, at: start, start_offset: 20m)\n                lane(1, at: start)\n                duration(3s)\n            sut.car.drive() with:\n                change_speed(20kph)\n                acceleration(1mpsps)\n                duration(11s)\n        serial():\n            lead.drive() with:\n                speed(60kph)\n                lane(same_as: sut.car, at: start)\n                position(20m, ahead_of: sut.car, at: start)\n                duration(1s)\n            ahead: lead.{action}\n            lead.drive() with:\n                duration(1s)\n    with: duration(14s)\n"
+    )
+}
+
+#[test]
+fn gaps_and_headways_kept_ahead_of_a_reference_behind() {
+    // keep_time_headway(direction: behind): 20 m at 60 km/h is 1.2 s,
+    // measured at the speed of the one behind; kept while sut.car speeds
+    // up to 80 km/h (26.7 m then), planned and driven.
+    let text = leading_text(
+        "keep_time_headway(reference: sut.car, direction: behind) with:\n                duration(12s)",
+    );
+    for npc in [Npc::Planned, Npc::Driver] {
+        let f = example_file(&text);
+        let p = prepare(f.path(), &Default::default()).unwrap();
+        let opts = RunOptions {
+            npc,
+            record: true,
+            ..RunOptions::default()
+        };
+        let r = run(&p, &mut litesim_scenario::in_process(), &opts).unwrap();
+        assert!(r.summary.pass, "{npc:?}: {:?}", r.summary.failures);
+        // Steady, within 0.01 s planned and 0.02 s driven; while sut.car
+        // accelerates (1 m/s² from 3 to ~8.6 s), 0.03 s and 0.1 s (a
+        // driver's speed tracking lags).
+        let (steady, moving) = if npc == Npc::Planned {
+            (0.01, 0.03)
+        } else {
+            (0.02, 0.1)
+        };
+        for (t, tol) in [(1.0, steady), (5.0, moving), (7.0, moving), (12.0, steady)] {
+            let (gap, headway) = logged_gap(&r, "lead", "sut.car", tick_at(&r, t));
+            assert!(
+                (headway - 1.2).abs() < tol,
+                "{npc:?} at {t} s: gap {gap:.2} m, headway {headway:.3} s"
+            );
+        }
+    }
+    // change_space_gap(40m, behind): it pulls away to 40 m ahead of
+    // sut.car and ends then (its end event, the next phase's start).
+    let r = run_text(&leading_text("change_space_gap(40m, behind, sut.car)")).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (t0, t1) = phase(&r, "ahead");
+    assert!(t1 > t0 + 2.0 && t1 < 15.0, "{t0}..{t1}");
+    let (gap, _) = logged_gap(&r, "lead", "sut.car", tick_at(&r, t1));
+    assert!(
+        (gap - 40.0).abs() < 0.5,
+        "gap {gap:.2} m at its end, t = {t1}"
+    );
+    // change_time_headway(2s, behind): likewise, at sut.car's speed:
+    // planned within 0.05 s at its end event; driven (the default
+    // options) with the driver's gentler pace, within 0.15 s then and
+    // 0.05 s three seconds on.
+    let r = run_text(&leading_text("change_time_headway(2s, behind, sut.car)")).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (_, t1) = phase(&r, "ahead");
+    let k = r.plan.actors[0]
+        .samples
+        .iter()
+        .position(|s| s.t >= t1 - 1e-9)
+        .unwrap();
+    let (gap, v) = gap_at(&r, "lead", "sut.car", k);
+    assert!(
+        (gap / v - 2.0).abs() <= 0.05,
+        "planned {:.3} s at t = {t1}",
+        gap / v
+    );
+    for (t, tol) in [(t1, 0.15), (t1 + 3.0, 0.05)] {
+        let (_, headway) = logged_gap(&r, "lead", "sut.car", tick_at(&r, t));
+        assert!(
+            (headway - 2.0).abs() < tol,
+            "driven {headway:.3} s at t = {t}"
+        );
+    }
+    // A reference that is not behind it: an error saying so.
+    let e = run_text(&leading_text(
+        "keep_space_gap(reference: sut.car, direction: lateral) with:\n                duration(18s)",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("direction: lateral"), "{e}");
+    let wrong = leading_text("keep_time_headway(reference: sut.car, direction: behind) with:\n                duration(18s)")
+        .replace("position(20m, ahead_of: sut.car", "position(20m, behind: sut.car");
+    let e = run_text(&wrong).unwrap_err().to_string();
+    assert!(
+        e.contains("direction: behind, which is not behind it when the phase starts"),
+        "{e}"
+    );
 }

@@ -212,14 +212,17 @@ impl StdCall<'_> {
             format!("{}(lead)", self.name)
         };
         let reference = self.required("reference", &example)?;
-        if let Some(CExpr::Const(Value::Enum(d))) = self.bound.get("direction")
-            && d != "longitudinal"
-            && d != "ahead"
-        {
-            return self.refuse(&format!("direction: {d}"));
+        let direction = match self.bound.get("direction") {
+            Some(CExpr::Const(Value::Enum(d))) => d.as_str(),
+            _ if action == Action::KeepSpaceGap => "longitudinal",
+            _ => "ahead",
+        };
+        if !matches!(direction, "longitudinal" | "ahead" | "behind") {
+            return self.refuse(&format!("direction: {direction}"));
         }
         self.no_speed_modifier(mods, "sets the speed itself")?;
         let mut args = vec![("reference", reference)];
+        args.push(("direction", CExpr::Const(Value::Enum(direction.into()))));
         if change {
             args.push(("target", self.required("target", &example)?));
         }

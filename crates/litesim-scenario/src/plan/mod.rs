@@ -62,6 +62,23 @@ pub fn gap_closing_speed(v_ahead: f64, gap: f64, want: f64, tau: f64) -> f64 {
 pub fn headway_closing_speed(v_ahead: f64, gap: f64, h: f64) -> f64 {
     (0.5 * (v_ahead + gap / h)).max(0.0)
 }
+
+/// The speed of an actor that keeps (or brings) its gap or time headway
+/// to one **behind** it (`direction: behind`): the one behind's speed
+/// plus the gap's shortfall closed over [`GAP_CLOSE_S`] for a space gap,
+/// or over the headway for a time headway measured at the speed of the one
+/// behind (the trailing actor's, as `position(time: …)` measures it):
+/// v = v_behind + h · a_behind + (h · v_behind − gap)/h — the headway's gap
+/// grows by h · a_behind, fed forward so that it is not lagged by h² ·
+/// a_behind.
+pub fn leading_speed((v_behind, a_behind): (f64, f64), gap: f64, want: f64, headway: bool) -> f64 {
+    if headway {
+        (v_behind + want * a_behind + (want * v_behind - gap) / want).max(0.0)
+    } else {
+        (v_behind + (want - gap) / GAP_CLOSE_S).max(0.0)
+    }
+}
+
 const ACCEL_UP: f64 = 2.5;
 const ACCEL_DOWN: f64 = 4.0;
 const WALK_SPEED: f64 = 1.4;
@@ -434,8 +451,12 @@ pub struct KeepGoal {
     pub reference: String,
     /// The time headway kept (s), or `None` for a space gap.
     pub headway: Option<f64>,
-    /// The bumper-to-bumper gap at the phase's start (m).
+    /// The bumper-to-bumper gap at the phase's start (m), or the one to
+    /// reach.
     pub gap: f64,
+    /// The reference is behind the actor (`direction: behind`): the actor
+    /// leads and keeps the gap or headway ahead of it.
+    pub behind: bool,
     /// Phase start (s).
     pub t0: f64,
     /// Phase end (s).

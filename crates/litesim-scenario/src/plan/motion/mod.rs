@@ -293,6 +293,9 @@ enum Follow {
         gap: f64,
         target: f64,
         headway: bool,
+        /// It is ahead of the other, which trails it
+        /// ([`super::leading_speed`]).
+        behind: bool,
     },
     /// Its acceleration plus `offset` (m/s²): `acceleration(…,
     /// faster_than | slower_than | same_as: X)`. The speed is `v0` plus
@@ -443,7 +446,7 @@ impl<'a> Mover<'a> {
                 self.mo.change = None;
             }
             self.check_along_end(t);
-            self.gap_reached(t);
+            self.gap_reached(t, plans);
             self.path_reached(t);
             self.place_reached(t);
             // Enter phases that start now.
@@ -656,8 +659,9 @@ impl<'a> Mover<'a> {
                 reference,
                 headway,
                 target,
+                behind,
             } => {
-                self.start_gap(l, t, reference, (*headway, *target), plans)?;
+                self.start_gap(l, t, reference, (*headway, *target, *behind), plans)?;
             }
             Intent::KeepPosition { .. } => self.stationary = true,
             Intent::Yaw { .. } => self.set_heading(l, m, plans)?,
@@ -929,23 +933,29 @@ impl<'a> Mover<'a> {
     /// headway at the speed it comes with): it ends at `t`. Checked before
     /// the phases that start at `t` are entered, so that in the next
     /// layout, where it ends at `t`, it is found reached again.
-    fn gap_reached(&mut self, t: f64) {
+    fn gap_reached(&mut self, t: f64, plans: &[ActorPlan]) {
         let Some((id, Reach::Gap, t0)) = self.reaching else {
             return;
         };
         let Some((
-            _,
+            j,
             Follow::Change {
                 gap,
                 target,
                 headway,
+                behind,
             },
             _,
         )) = self.follow
         else {
             return;
         };
-        let v = self.mo.v;
+        // A headway at the trailing actor's speed.
+        let v = if behind {
+            plans[j].at(t, self.cx.dt).v
+        } else {
+            self.mo.v
+        };
         let done = if headway {
             v > 0.1 && (gap / v - target).abs() <= HEADWAY_REACHED_S
         } else {
@@ -960,8 +970,9 @@ impl<'a> Mover<'a> {
     /// A changed gap moves on by the step from `t`: the one ahead's speed
     /// less this one's, over the plan's step.
     fn carry_gap(&mut self, t: f64, plans: &[ActorPlan]) {
-        if let Some((j, Follow::Change { gap, .. }, _)) = &mut self.follow {
-            *gap += (plans[*j].at(t, self.cx.dt).v - self.mo.v) * self.cx.dt;
+        if let Some((j, Follow::Change { gap, behind, .. }, _)) = &mut self.follow {
+            let closing = plans[*j].at(t, self.cx.dt).v - self.mo.v;
+            *gap += if *behind { -closing } else { closing } * self.cx.dt;
         }
     }
 
@@ -1149,15 +1160,16 @@ impl<'a> Mover<'a> {
 
     /// `keep_space_gap(o)` / `keep_time_headway(o)` entered at `t`: the
     /// gap (bumper to bumper, along `o`'s heading) or the headway (that gap
-    /// over this actor's speed) it has now is what it keeps; with a
+    /// over the trailing actor's speed) it has now is what it keeps; with a
     /// `target` (`change_space_gap`, `change_time_headway`) the gap or
-    /// headway it brings it to.
+    /// headway it brings it to. `behind`: `o` is behind this actor, which
+    /// leads.
     fn start_gap(
         &mut self,
         l: &RLeaf,
         t: f64,
         o: &str,
-        (headway, target): (bool, Option<f64>),
+        (headway, target, behind): (bool, Option<f64>, Option<bool>),
         plans: &[ActorPlan],
     ) -> Result<(), ScenarioError> {
         let what = if headway { "time headway" } else { "space gap" };
@@ -1165,66 +1177,86 @@ impl<'a> Mover<'a> {
         let (net, dt) = (self.cx.net, self.cx.dt);
         let me = net.lane_pos_pose(self.mo.pos, 0.0);
         let r = plans[j].at(t, dt);
-        let behind = -litesim_core::ahead_along(
+        let ahead_of_it = litesim_core::ahead_along(
             litesim_core::Vec2::new(r.x, r.y),
             r.yaw,
             litesim_core::Vec2::new(me.position.x, me.position.y),
         );
-        let gap = behind - (plans[j].length + plans[self.i].length) / 2.0;
+        // Longitudinal either way: the side it is on now.
+        let behind = behind.unwrap_or(ahead_of_it > 0.0);
+        let apart = if behind { ahead_of_it } else { -ahead_of_it };
+        let gap = apart - (plans[j].length + plans[self.i].length) / 2.0;
         if gap <= 0.0 {
+            let (side, dir) = if behind {
+                ("behind", ", direction: behind")
+            } else {
+                ("ahead of", "")
+            };
             return Err(ScenarioError::Plan(format!(
-                "{}: {} keeps a {what} to {o}, which is not ahead of it when the phase starts (gap {gap:.1} m)",
+                "{}: {} keeps a {what} to {o}{dir}, which is not {side} it when the phase starts (gap {gap:.1} m)",
                 l.at, self.id
             )));
         }
-        if let Some(target) = target {
-            if target <= 0.0 {
+        // The headway is measured at the trailing actor's speed.
+        let trailing_v = if behind { r.v } else { self.mo.v };
+        let target = match target {
+            Some(target) if target <= 0.0 => {
                 return Err(ScenarioError::Plan(format!(
                     "{}: {} changes its {what} to {o} to {target}, which is not positive",
                     l.at, self.id
                 )));
             }
-            let how = Follow::Change {
+            Some(target) => Some(target),
+            None if headway && trailing_v < 0.1 => {
+                return Err(ScenarioError::Plan(format!(
+                    "{}: {} keeps a time headway to {o} from standstill, where it has none (give {} a speed first)",
+                    l.at,
+                    self.id,
+                    if behind { o } else { "it" }
+                )));
+            }
+            None => None,
+        };
+        let keep = if headway { gap / trailing_v } else { gap };
+        let how = match target {
+            Some(target) => Follow::Change {
                 gap,
                 target,
                 headway,
-            };
-            self.follow = Some((j, how, l.t1));
-            self.push_keep(l, o, headway.then_some(target), target);
-            self.end_speed = None;
-            return Ok(());
-        }
-        let h = if headway {
-            if self.mo.v < 0.1 {
-                return Err(ScenarioError::Plan(format!(
-                    "{}: {} keeps a time headway to {o} from standstill, where it has none (give it a speed first)",
-                    l.at, self.id
-                )));
-            }
-            gap / self.mo.v
-        } else {
-            gap
-        };
-        // A space gap stays as it is when both go as fast.
-        let how = if headway {
-            Follow::Headway(h)
-        } else {
-            Follow::Offset(0.0)
+                behind,
+            },
+            // Kept ahead of one behind: brought to what it has, by the same law.
+            None if behind => Follow::Change {
+                gap,
+                target: keep,
+                headway,
+                behind,
+            },
+            None if headway => Follow::Headway(keep),
+            // A space gap stays as it is when both go as fast.
+            None => Follow::Offset(0.0),
         };
         self.follow = Some((j, how, l.t1));
-        self.push_keep(l, o, headway.then_some(h), gap);
+        let want = target.unwrap_or(keep);
+        self.push_keep(
+            l,
+            o,
+            (headway.then_some(want), behind),
+            target.unwrap_or(gap),
+        );
         self.end_speed = None;
         Ok(())
     }
 
     /// The gap or headway the phase `l` keeps to `o` (or changes to), for
     /// the driver that carries it.
-    fn push_keep(&mut self, l: &RLeaf, o: &str, headway: Option<f64>, gap: f64) {
+    fn push_keep(&mut self, l: &RLeaf, o: &str, (headway, behind): (Option<f64>, bool), gap: f64) {
         self.out.keeps.push(super::KeepGoal {
             actor: self.id.clone(),
             reference: o.to_string(),
             headway,
             gap,
+            behind,
             t0: l.t0,
             t1: l.t1,
             index: None,
@@ -1258,7 +1290,14 @@ impl<'a> Mover<'a> {
             Follow::Change {
                 gap,
                 target,
+                headway,
+                behind: true,
+            } => super::leading_speed((ahead, plans[j].at(t, dt).a), gap, target, headway),
+            Follow::Change {
+                gap,
+                target,
                 headway: true,
+                ..
             } => super::headway_closing_speed(ahead, gap, target),
             Follow::Change { gap, target, .. } => {
                 super::gap_closing_speed(ahead, gap, target, super::GAP_CLOSE_S)

@@ -19,6 +19,7 @@ use crate::elab::TrafficDecl;
 use crate::error::ScenarioError;
 use crate::plan::{
     ActorPlan, GAP_CLOSE_S, Plan, PlanSample, gap_closing_speed, headway_closing_speed,
+    leading_speed,
 };
 use crate::reactive::gap;
 use crate::state::BodyState;
@@ -425,7 +426,9 @@ impl Driven {
                 .any(|(who, t0, t1)| *who == a.id && t >= *t0 - 1e-9 && t < *t1 - 1e-9);
             if let Some((v_keep, h)) = self.gap_keeping_speed(plan, states, i, t) {
                 speed = v_keep;
-                time_gap = h;
+                // Leading one behind, its own time gap: the car-following
+                // model only bounds it by whoever is ahead.
+                time_gap = h.or(Some(self.traffic.vehicles[k as usize].params.time_gap));
                 // A kept gap brakes as firmly as a gap goal does.
                 firm = true;
             }
@@ -477,7 +480,18 @@ impl Driven {
             _ => None,
         })?;
 
-        let ((me, yaw, v, len), (them, _, v_ahead, len_ahead)) = (states[i], states[r]);
+        let ((me, yaw, v, len), (them, their_yaw, v_ahead, len_ahead)) = (states[i], states[r]);
+        if k.behind {
+            // It leads the reference (behind it), whatever is ahead of it
+            // for its car-following.
+            let gap = litesim_core::ahead_along(them, their_yaw, me) - (len + len_ahead) / 2.0;
+            let want = k.headway.unwrap_or(k.gap);
+            let a_behind = self.accel_of(r, v_ahead, t);
+            return Some((
+                leading_speed((v_ahead, a_behind), gap, want, k.headway.is_some()),
+                None,
+            ));
+        }
         let gap = litesim_core::ahead_along(me, yaw, them) - (len + len_ahead) / 2.0;
         Some(match k.headway {
             // The car-following model's own time gap at half the headway:
