@@ -458,12 +458,16 @@ pub enum Intent {
     },
     /// `lateral(distance, side, side_of: X)`: beside the lane (or beside another actor).
     Lateral {
-        /// Offset from the lane centre (m).
+        /// Offset from the lane centre (m), or the distance to the
+        /// reference as `measure` measures it.
         distance: f64,
         /// Which side.
         side: Side,
         /// The actor it stays beside, if any.
         side_of: Option<String>,
+        /// Between which edges `distance` is measured (beside a
+        /// reference; from a lane's centre, centre to centre).
+        measure: LatMeasure,
         /// When.
         at: At,
     },
@@ -661,6 +665,109 @@ fn side_arg(vals: &BTreeMap<String, Value>, default: Side) -> Side {
     }
 }
 
+/// `speed`, `change_speed` or `acceleration` decoded: absolute, or
+/// relative to another actor ([`RELATIVE_SPEED`]); `None` without a value.
+fn speed_intent(
+    kind: ModKind,
+    at: At,
+    vals: &BTreeMap<String, Value>,
+    refs: &BTreeMap<String, String>,
+) -> Option<Intent> {
+    let num = |k: &str| vals.get(k).and_then(Value::num);
+    let strict = vals.get("run_mode").and_then(Value::text) != Some("best_effort");
+    let relative = RELATIVE_SPEED
+        .iter()
+        .find_map(|&(k, sign)| refs.get(k).map(|o| (sign, o.clone())));
+    if kind == ModKind::Acceleration {
+        return Some(Intent::Acceleration {
+            accel: num("acceleration").or(relative.as_ref().map(|_| 0.0))?,
+            at,
+            relative,
+        });
+    }
+    let change = kind == ModKind::ChangeSpeed;
+    // `change_speed(target: v)`: litesim's (and CARLA's) target.
+    let target = num("target").filter(|_| change);
+    Some(Intent::Speed {
+        // Relative to another actor, the speed is an offset: none given
+        // (`speed(same_as: x)`) is 0.
+        speed: target.or(num("speed")).or(relative.as_ref().map(|_| 0.0))?,
+        at,
+        strict: strict && !change,
+        change,
+        delta: change && target.is_none(),
+        relative,
+    })
+}
+
+/// Between which sides of the two actors `lateral(…, measure_by: …)`
+/// measures its distance (the standard's `lat_measure_by`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LatMeasure {
+    /// The facing edges (the standard's default).
+    Closest,
+    /// This actor's edge or centre to the reference's (`left_to_right`:
+    /// its left edge to the reference's right edge).
+    Between(Edge, Edge),
+}
+
+/// A side of an actor's outline, or its centre line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Edge {
+    /// Its left edge.
+    Left,
+    /// Its centre line.
+    Center,
+    /// Its right edge.
+    Right,
+}
+
+impl Edge {
+    /// Its offset (m, left positive) from the centre, at width `w`.
+    fn offset(self, w: f64) -> f64 {
+        match self {
+            Edge::Left => w / 2.0,
+            Edge::Center => 0.0,
+            Edge::Right => -w / 2.0,
+        }
+    }
+}
+
+impl LatMeasure {
+    /// The measure named `text` (`None` for another name).
+    pub fn parse(text: &str) -> Option<Self> {
+        if text == "closest" {
+            return Some(Self::Closest);
+        }
+        let edge = |e: &str| match e {
+            "left" => Some(Edge::Left),
+            "center" => Some(Edge::Center),
+            "right" => Some(Edge::Right),
+            _ => None,
+        };
+        let (mine, theirs) = text.split_once("_to_")?;
+        Some(Self::Between(edge(mine)?, edge(theirs)?))
+    }
+
+    /// The offset (m, left positive) of this actor's centre from the
+    /// reference's that puts `distance` between the measured edges on
+    /// `side`: the edges' offset (this actor's less the reference's) is
+    /// the distance towards that side, so centre = side · distance − own
+    /// edge + reference's edge, with widths `w_me`, `w_ref`.
+    pub fn centre_offset(self, distance: f64, side: Side, (w_me, w_ref): (f64, f64)) -> f64 {
+        let s = if side == Side::Left { 1.0 } else { -1.0 };
+        let (me, them) = match self {
+            // Facing edges: its edge towards the reference, the
+            // reference's towards it.
+            Self::Closest => (-s * w_me / 2.0, s * w_ref / 2.0),
+            Self::Between(mine, theirs) => (mine.offset(w_me), theirs.offset(w_ref)),
+        };
+        s * distance - me + them
+    }
+}
+
 /// `lateral(…)` decoded: beside the lane centre or beside another actor.
 fn lateral_intent(
     vals: &BTreeMap<String, Value>,
@@ -682,10 +789,22 @@ fn lateral_intent(
         (.., Some(o)) => (Some(o.clone()), side(Side::Left), 0.0),
         _ => (refs.get("side_of").cloned(), side(Side::Right), 2.0),
     };
+    // Beside a reference, the standard measures between the facing edges
+    // unless told otherwise; from a lane's centre, the centre's offset.
+    let measure = vals
+        .get("measure_by")
+        .and_then(Value::text)
+        .and_then(LatMeasure::parse)
+        .unwrap_or(if side_of.is_some() && !refs.contains_key("same_as") {
+            LatMeasure::Closest
+        } else {
+            LatMeasure::Between(Edge::Center, Edge::Center)
+        });
     Intent::Lateral {
         distance: num("distance").unwrap_or(default),
         side,
         side_of,
+        measure,
         at,
     }
 }
@@ -759,33 +878,8 @@ impl Intent {
         let strict = vals.get("run_mode").and_then(Value::text) != Some("best_effort");
         let side = |default| side_arg(vals, default);
         Some(match kind {
-            ModKind::Speed | ModKind::ChangeSpeed => {
-                let relative = RELATIVE_SPEED
-                    .iter()
-                    .find_map(|&(k, sign)| refs.get(k).map(|o| (sign, o.clone())));
-                let change = kind == ModKind::ChangeSpeed;
-                // `change_speed(target: v)`: litesim's (and CARLA's) target.
-                let target = num("target").filter(|_| change);
-                Intent::Speed {
-                    // Relative to another actor, the speed is an offset: none
-                    // given (`speed(same_as: x)`) is 0.
-                    speed: target.or(num("speed")).or(relative.as_ref().map(|_| 0.0))?,
-                    at,
-                    strict: strict && !change,
-                    change,
-                    delta: change && target.is_none(),
-                    relative,
-                }
-            }
-            ModKind::Acceleration => {
-                let relative = RELATIVE_SPEED
-                    .iter()
-                    .find_map(|&(k, sign)| refs.get(k).map(|o| (sign, o.clone())));
-                Intent::Acceleration {
-                    accel: num("acceleration").or(relative.as_ref().map(|_| 0.0))?,
-                    at,
-                    relative,
-                }
+            ModKind::Speed | ModKind::ChangeSpeed | ModKind::Acceleration => {
+                speed_intent(kind, at, vals, refs)?
             }
             ModKind::Position => Intent::Position {
                 distance: num("distance"),

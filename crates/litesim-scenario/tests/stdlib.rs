@@ -1173,9 +1173,47 @@ fn lateral_beside_another_actor_and_orientation_as_a_heading() {
         )
     };
     let m = |s: &str| format!("            {s}");
-    assert!((y(&m("lateral(3m, left_of: sut.car, at: start)")).0 - 3.0).abs() < 1e-6);
-    assert!((y(&m("lateral(3m, right_of: sut.car, at: start)")).0 + 3.0).abs() < 1e-6);
-    assert!(y(&m("lateral(same_as: sut.car, at: start)")).0.abs() < 1e-6);
+    // The standard's measure (closest, the default) is between the facing
+    // edges: 3 m plus half the car's width (1.9 m) and half the
+    // person's; the others between the edges they name.
+    let (car_w, person_w) = {
+        let r = with(&m("lateral(same_as: sut.car, at: start)")).unwrap();
+        let w = |id: &str| r.plan.actors.iter().find(|a| a.id == id).unwrap().width;
+        (w("sut.car"), w("p"))
+    };
+    assert_eq!(car_w, 1.9);
+    let half = (car_w + person_w) / 2.0;
+    for (modifier, want) in [
+        ("lateral(3m, left_of: sut.car, at: start)", 3.0 + half),
+        ("lateral(3m, right_of: sut.car, at: start)", -3.0 - half),
+        (
+            "lateral(3m, left_of: sut.car, measure_by: center_to_center, at: start)",
+            3.0,
+        ),
+        (
+            "lateral(3m, right_of: sut.car, measure_by: center_to_center, at: start)",
+            -3.0,
+        ),
+        (
+            "lateral(3m, left_of: sut.car, measure_by: left_to_left, at: start)",
+            3.0 - person_w / 2.0 + 0.95,
+        ),
+        (
+            "lateral(3m, left_of: sut.car, measure_by: right_to_center, at: start)",
+            3.0 + person_w / 2.0,
+        ),
+        (
+            "lateral(3m, right_of: sut.car, measure_by: left_to_right, at: start)",
+            -3.0 - person_w / 2.0 - 0.95,
+        ),
+        ("lateral(same_as: sut.car, at: start)", 0.0),
+    ] {
+        let got = y(&m(modifier)).0;
+        assert!(
+            (got - want).abs() < 1e-6,
+            "{modifier}: {got} m, {want} m asked"
+        );
+    }
     // orientation: a heading from the road, or in the map's frame.
     let both = |o: &str| {
         m(&format!(
@@ -1193,13 +1231,6 @@ fn lateral_beside_another_actor_and_orientation_as_a_heading() {
     ));
     assert!(
         s.contains("lateral: left_of and right_of exclude each other"),
-        "{s}"
-    );
-    let s = e(&m(
-        "lateral(3m, left_of: sut.car, measure_by: closest, at: start)",
-    ));
-    assert!(
-        s.contains("lateral(measure_by: closest) is not supported"),
         "{s}"
     );
     let s = e(&both("orientation(yaw: 0deg, pitch: 5deg)"));

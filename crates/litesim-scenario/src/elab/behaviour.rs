@@ -876,13 +876,6 @@ fn lateral_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), Sc
             refs.join(" and ")
         )));
     }
-    if let Some(CExpr::Const(Value::Enum(m))) = bound.get("measure_by")
-        && m != "center_to_center"
-    {
-        return Err(ScenarioError::Elaboration(format!(
-            "{at}: lateral(measure_by: {m}) is not supported by litesim (it measures center_to_center)"
-        )));
-    }
     Ok(())
 }
 

@@ -105,16 +105,7 @@ pub(super) fn place(
     }
     at_a_gap(&cx, &mut mo, mods, unplaced);
     // Beside another actor (people, cyclists at the kerb).
-    if let Some((d, side)) = starting().find_map(|m| match m {
-        Intent::Lateral { distance, side, .. } => Some((*distance, *side)),
-        _ => None,
-    }) {
-        let sgn = if side == Side::Left { 1.0 } else { -1.0 };
-        mo.lateral = sgn * d;
-        if me.kind == ActorClass::Person || me.kind == ActorClass::Animal {
-            mo.across = -sgn; // walk towards and across the lane
-        }
-    }
+    beside(&cx, &mut mo, starting());
     // Initial speed: a speed modifier of the first phase (at start/all), else
     // the reference actor's speed, else a seeded 30–50 km/h for vehicles.
     let v0 = starting().find_map(|m| match m {
@@ -556,4 +547,32 @@ pub(super) fn place_all(
         pending = next;
     }
     Ok((placed, unplaced))
+}
+
+/// `lateral(…)` at the start: the offset from the lane centre (beside a
+/// reference, as its `measure_by` measures between the two outlines); a
+/// person or an animal then walks towards and across the lane.
+fn beside<'m>(cx: &Cx<'_>, mo: &mut Motion, mut starting: impl Iterator<Item = &'m Intent>) {
+    let Some((d, side, o, measure)) = starting.find_map(|m| match m {
+        Intent::Lateral {
+            distance,
+            side,
+            side_of,
+            measure,
+            ..
+        } => Some((*distance, *side, side_of, *measure)),
+        _ => None,
+    }) else {
+        return;
+    };
+    let sgn = if side == Side::Left { 1.0 } else { -1.0 };
+    // A reference's width (a lane centre has none).
+    let w_ref = o
+        .as_ref()
+        .and_then(|o| cx.index.get(o))
+        .map_or(0.0, |&j| cx.plans[j].width);
+    mo.lateral = measure.centre_offset(d, side, (cx.me.width, w_ref));
+    if cx.me.kind == ActorClass::Person || cx.me.kind == ActorClass::Animal {
+        mo.across = -sgn; // walk towards and across the lane
+    }
 }
