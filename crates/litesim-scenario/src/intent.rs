@@ -401,6 +401,9 @@ pub enum Intent {
         /// The standard's `change_speed(v)`: `speed` is a signed change
         /// from the speed the phase starts with, not a target.
         delta: bool,
+        /// `change_speed(…, rate_profile: smooth)`: reached along a
+        /// half-cosine whose steepest slope is the phase's rate.
+        smooth: bool,
         /// `faster_than: X` (+1), `slower_than: X` (−1) or `same_as: X` (0):
         /// the speed is X's speed plus the sign times `speed` (0 when not
         /// given), as X's plan has it at each sample of the phase.
@@ -557,6 +560,9 @@ pub enum Intent {
         target: Option<f64>,
         /// m/s³; `None`: at once.
         jerk: Option<f64>,
+        /// `rate_profile: smooth`: along a half-cosine whose steepest
+        /// slope is `jerk`.
+        smooth: bool,
     },
     /// `follow_lane(offset, rate_peak)`: this far from the lane's centre
     /// (m, left positive), reached at `rate` (m/s sideways).
@@ -696,6 +702,7 @@ fn speed_intent(
         strict: strict && !change,
         change,
         delta: change && target.is_none(),
+        smooth: vals.get("rate_profile").and_then(Value::text) == Some("smooth"),
         relative,
     })
 }
@@ -947,6 +954,7 @@ impl Intent {
             ModKind::Accel => Intent::Accel {
                 target: num("target"),
                 jerk: num("jerk"),
+                smooth: text("rate_profile").as_deref() == Some("smooth"),
             },
             ModKind::FollowPath => Intent::FollowPath {
                 path: num("path")? as usize,
@@ -1080,6 +1088,7 @@ mod tests {
                 strict: true,
                 change: false,
                 delta: false,
+                smooth: false,
                 relative: None,
             })
         );

@@ -193,10 +193,6 @@ fn what_the_actions_cannot_honour_is_an_error_naming_it() {
             "a speed modifier contradicts it",
         ),
         (
-            "sut.car.change_speed(50kph, rate_profile: smooth)",
-            "change_speed(rate_profile: smooth) is not supported",
-        ),
-        (
             "sut.car.change_lane(1, left, offset: 1m)",
             "change_lane(offset: …) is not supported",
         ),
@@ -1662,4 +1658,54 @@ fn gaps_and_headways_kept_ahead_of_a_reference_behind() {
         e.contains("direction: behind, which is not behind it when the phase starts"),
         "{e}"
     );
+}
+
+#[test]
+fn a_smooth_rate_profile_shapes_speed_and_acceleration_changes() {
+    let text = |action: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        go: {action}\n        sut.car.drive() with:\n            duration(1s)\n"
+        )
+    };
+    // change_speed from 60 to 90 km/h, smooth with a 2 m/s² peak: a
+    // half-cosine of π/2 · Δv / peak = 6.54 s, halfway (75 km/h) at its
+    // middle, its steepest rate the peak; it ends when reached.
+    let r = run_text(&text(
+        "sut.car.change_speed(90kph, rate_profile: smooth, rate_peak: 2mpsps)",
+    ))
+    .unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (t0, t1) = phase(&r, "go");
+    let want = std::f64::consts::FRAC_PI_2 * kph(30.0) / 2.0;
+    assert!((t1 - t0 - want).abs() <= 0.1 + 1e-9, "{t0}..{t1}, {want} s");
+    let v = |t: f64| sample(&r, "sut.car", t).v;
+    // (a sample's speed is its step's: the ramp starts a step before)
+    let mid = t0 + want / 2.0 - r.plan.dt;
+    assert!((v(mid) - kph(75.0)).abs() < 0.05, "{}", v(mid));
+    let samples = &r.plan.actors[0].samples;
+    let steepest = samples
+        .windows(2)
+        .map(|w| (w[1].v - w[0].v) / (w[1].t - w[0].t))
+        .fold(0.0_f64, f64::max);
+    assert!((steepest - 2.0).abs() < 0.02, "{steepest}");
+    // Gentle at both ends, unlike the constant-rate ramp.
+    assert!(v(t0 + 0.2) - v(t0) < 0.05, "{} → {}", v(t0), v(t0 + 0.2));
+    assert!((v(t1 - r.plan.dt) - kph(90.0)).abs() < 1e-6);
+    // change_acceleration to −3 m/s², smooth with a 6 m/s³ peak jerk:
+    // π/2 · 3 / 6 = 0.79 s.
+    let r = run_text(&text(
+        "sut.car.change_acceleration(-3mpsps, rate_profile: smooth, rate_peak: 6mpspsps)",
+    ))
+    .unwrap();
+    let (g0, g1) = phase(&r, "go");
+    let want = std::f64::consts::FRAC_PI_2 * 3.0 / 6.0;
+    assert!((g1 - g0 - want).abs() <= 0.1 + 1e-9, "{g0}..{g1}, {want} s");
+    let a = |t: f64| sample(&r, "sut.car", t).a;
+    let samples = &r.plan.actors[0].samples;
+    let steepest = samples
+        .windows(2)
+        .map(|w| (w[0].a - w[1].a) / (w[1].t - w[0].t))
+        .fold(0.0_f64, f64::max);
+    assert!(steepest > 5.5 && steepest <= 6.0 + 1e-9, "{steepest}");
+    assert!((a(g1 + 0.5) + 3.0).abs() < 1e-6, "{}", a(g1 + 0.5));
 }

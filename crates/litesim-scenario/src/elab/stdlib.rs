@@ -113,6 +113,16 @@ impl StdCall<'_> {
         }
     }
 
+    /// `rate_profile: smooth`: the change follows a half-cosine (the other
+    /// profiles, `none`, `constant` and `asap`, are the constant-rate ramp).
+    fn smooth(&self) -> bool {
+        matches!(self.bound.get("rate_profile"), Some(CExpr::Const(Value::Enum(p))) if p == "smooth")
+    }
+
+    fn smooth_arg() -> CExpr {
+        CExpr::Const(Value::Enum("smooth".into()))
+    }
+
     /// `speed(v, run_mode: best_effort)`: a target the action reaches at
     /// its own pace (never a strict miss).
     fn best_effort_speed(&self, v: CExpr) -> Modifier {
@@ -144,12 +154,11 @@ impl StdCall<'_> {
     fn change_speed(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
         let target = self.required("target", "change_speed(80kph)")?;
         self.no_speed_modifier(mods, "sets the speed itself")?;
-        if let Some(CExpr::Const(Value::Enum(p))) = self.bound.get("rate_profile")
-            && p == "smooth"
-        {
-            return self.refuse("rate_profile: smooth");
+        let mut speed = self.best_effort_speed(target);
+        if self.smooth() {
+            speed.args.insert("rate_profile".into(), Self::smooth_arg());
         }
-        mods.push(self.best_effort_speed(target));
+        mods.push(speed);
         if let Some(rate) = self.bound.get("rate_peak").cloned() {
             mods.push(self.implicit(
                 ModKind::Acceleration,
@@ -333,10 +342,8 @@ impl StdCall<'_> {
                 ));
             }
             Action::ChangeAcceleration => {
-                if let Some(CExpr::Const(Value::Enum(p))) = self.bound.get("rate_profile")
-                    && p == "smooth"
-                {
-                    return self.refuse("rate_profile: smooth");
+                if self.smooth() {
+                    args.push(("rate_profile", Self::smooth_arg()));
                 }
                 args.push((
                     "target",

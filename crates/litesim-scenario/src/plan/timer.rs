@@ -79,6 +79,15 @@ fn reach_estimates(root: &Node, dt: f64) -> BTreeMap<u32, f64> {
                         let up = v1 > v0;
                         let a = rate
                             .map_or(if up { ACCEL_UP } else { ACCEL_DOWN }, |a| a.abs().max(0.1));
+                        // A smooth profile's mean rate is 2/π of its peak.
+                        let smooth = absolute.is_some_and(|m| {
+                            matches!(m.args.get("rate_profile"), Some(CExpr::Const(Value::Enum(p))) if p == "smooth")
+                        });
+                        let a = if smooth {
+                            a / std::f64::consts::FRAC_PI_2
+                        } else {
+                            a
+                        };
                         let steps = ((v1 - v0).abs() / (a * dt) - 1e-9).ceil().max(0.0);
                         out.insert(*id, steps * dt);
                     }

@@ -342,6 +342,36 @@ struct Accel {
     target: f64,
     /// How fast it gets there (m/s³); infinite: at once.
     jerk: f64,
+    /// `rate_profile: smooth`: along this half-cosine instead of at a
+    /// constant jerk.
+    smooth: Option<Ramp>,
+}
+
+/// A change along a half-cosine, `from` + (`to` − `from`) · (1 − cos πu)/2
+/// with u = (t − `t0`)/`dur`: `rate_profile: smooth`. Its steepest slope,
+/// halfway, is π/2 · |to − from| / dur: the `rate_peak` it is made with.
+#[derive(Clone, Copy, Debug)]
+struct Ramp {
+    from: f64,
+    to: f64,
+    t0: f64,
+    dur: f64,
+}
+
+impl Ramp {
+    /// The ramp from `from` to `to` starting at `t0` whose steepest slope
+    /// is `peak`.
+    fn new(from: f64, to: f64, t0: f64, peak: f64) -> Self {
+        let dur = std::f64::consts::FRAC_PI_2 * (to - from).abs() / peak.abs().max(1e-3);
+        Ramp { from, to, t0, dur }
+    }
+
+    /// Its value at `t`, and whether it has arrived.
+    fn at(&self, t: f64) -> (f64, bool) {
+        let u = ((t - self.t0) / self.dur.max(1e-9)).clamp(0.0, 1.0);
+        let w = 0.5 * (1.0 - (std::f64::consts::PI * u).cos());
+        (self.from + (self.to - self.from) * w, u >= 1.0)
+    }
 }
 
 /// A changed space gap is reached within this (m).
@@ -379,6 +409,8 @@ struct Mover<'a> {
     /// An acceleration set by an acceleration action, kept until a phase
     /// sets a speed.
     accel: Option<Accel>,
+    /// A `change_speed(…, rate_profile: smooth)` under way.
+    smooth: Option<Ramp>,
     /// A sideways offset from the lane's centre to go to (m) at a rate
     /// (m/s): `follow_lane(offset)`, and back to 0 after its phase.
     lane_offset: Option<(f64, f64)>,
@@ -417,6 +449,7 @@ impl<'a> Mover<'a> {
             on_path: None,
             parked: None,
             accel: None,
+            smooth: None,
             lane_offset: None,
             strict_speed: None,
             stationary: false,
@@ -522,6 +555,7 @@ impl<'a> Mover<'a> {
         self.started = Some(self.leaf_i);
         self.stationary = l.action == Action::RemainStationary;
         self.end_speed = None;
+        self.smooth = None;
         self.unreached();
         self.leave_path(t);
         self.follow = None;
@@ -558,6 +592,19 @@ impl<'a> Mover<'a> {
             Action::ChangeSpeed => {
                 if let Some(v) = self.target {
                     self.reaching = Some((l.id, Reach::Speed(v), t));
+                    let smooth = l
+                        .mods
+                        .iter()
+                        .any(|m| matches!(m, Intent::Speed { smooth: true, .. }));
+                    if smooth && v != self.mo.v {
+                        let peak = if v > self.mo.v {
+                            self.accel_up
+                        } else {
+                            self.accel_down
+                        };
+                        // The next sample is one step in.
+                        self.smooth = Some(Ramp::new(self.mo.v, v, t - self.cx.dt, peak));
+                    }
                 }
             }
             Action::ChangeSpaceGap | Action::ChangeTimeHeadway => {
@@ -670,7 +717,11 @@ impl<'a> Mover<'a> {
             }
             Intent::AssignPosition { place } => self.teleport(l, k, place)?,
             Intent::FollowPath { .. } => self.start_path(l, (k, t), m, plans)?,
-            &Intent::Accel { target, jerk } => self.set_accel(l, t, target, jerk),
+            &Intent::Accel {
+                target,
+                jerk,
+                smooth,
+            } => self.set_accel(l, t, target, (jerk, smooth)),
             &Intent::LaneOffset { offset, rate } => {
                 self.lane_offset = Some((offset, rate));
                 self.exact(l, "follow_lane(offset: …)");
@@ -752,6 +803,7 @@ impl<'a> Mover<'a> {
             ref relative,
             change,
             delta,
+            ..
         } = m
         else {
             return Ok(());
@@ -830,7 +882,13 @@ impl<'a> Mover<'a> {
     /// when reached) or `keep_acceleration` (the acceleration it has). A
     /// change or keep stays within [`ACCEL_LIMITS`] (noted when asked
     /// beyond); an assignment is exact.
-    fn set_accel(&mut self, l: &RLeaf, t: f64, target: Option<f64>, jerk: Option<f64>) {
+    fn set_accel(
+        &mut self,
+        l: &RLeaf,
+        t: f64,
+        target: Option<f64>,
+        (jerk, smooth): (Option<f64>, bool),
+    ) {
         let now = self
             .accel
             .map(|a| a.a)
@@ -849,10 +907,14 @@ impl<'a> Mover<'a> {
         }
         let jerk = jerk.map_or(f64::INFINITY, |j| j.abs().max(1e-3));
         let a = if jerk.is_infinite() { want } else { now };
+        // The next sample is one step in.
+        let smooth =
+            (smooth && jerk.is_finite()).then(|| Ramp::new(now, want, t - self.cx.dt, jerk));
         self.accel = Some(Accel {
             a,
             target: want,
             jerk,
+            smooth,
         });
         self.target = None;
         self.end_speed = None;
@@ -1317,14 +1379,31 @@ impl<'a> Mover<'a> {
             mo.v = 0.0;
         } else if let Some(acc) = &mut self.accel {
             let dt = self.cx.dt;
-            let step = acc.jerk * dt;
-            acc.a += (acc.target - acc.a).clamp(-step, step);
+            match acc.smooth {
+                Some(r) => {
+                    let (a, done) = r.at(t);
+                    acc.a = a;
+                    if done {
+                        acc.smooth = None;
+                    }
+                }
+                None => {
+                    let step = acc.jerk * dt;
+                    acc.a += (acc.target - acc.a).clamp(-step, step);
+                }
+            }
             mo.v += acc.a * dt;
             if mo.v <= 0.0 {
                 // Braked to a stop: it stands (speed is not negative).
                 mo.v = 0.0;
                 acc.a = acc.a.max(0.0);
                 acc.target = acc.target.max(0.0);
+            }
+        } else if let Some(r) = self.smooth {
+            let (v, done) = r.at(t);
+            mo.v = v;
+            if done {
+                self.smooth = None;
             }
         } else if let Some((v0, v1, t1)) = self.end_speed {
             let l = &self.my[self.started.unwrap_or(0)];
