@@ -456,6 +456,14 @@ pub enum Intent {
         /// (seeded, when the leaves are resolved) and the planner takes the
         /// other when the drawn one has no lane.
         side_given: bool,
+        /// `side: inside` (true: towards the road's centre, the left under
+        /// right-hand traffic) or `outside` (false): the planner takes the
+        /// side from the road's rule.
+        inside: Option<bool>,
+        /// `rate_peak` (m/s): the peak sideways speed, which sets how long
+        /// the change takes (its sideways profile's peak is 1.5 · width /
+        /// time); `None`: the phase's time within 2–6 s.
+        rate: Option<f64>,
         /// When.
         at: At,
     },
@@ -906,6 +914,12 @@ impl Intent {
                     .unwrap_or(1.0) as i32,
                 side: side(Side::Left),
                 side_given: vals.contains_key("side"),
+                inside: match text("side").as_deref() {
+                    Some("inside") => Some(true),
+                    Some("outside") => Some(false),
+                    _ => None,
+                },
+                rate: num("rate").map(|r| r.abs().max(0.01)),
                 at,
             },
             ModKind::Lateral => lateral_intent(vals, refs, at),
@@ -1132,6 +1146,8 @@ mod tests {
                 lanes: 1,
                 side: Side::Left,
                 side_given: false,
+                inside: None,
+                rate: None,
                 at: At::All
             }
         );

@@ -187,16 +187,10 @@ fn speed_and_lane_actions_end_when_done_and_hold_for_their_phase() {
 
 #[test]
 fn what_the_actions_cannot_honour_is_an_error_naming_it() {
-    let cases = [
-        (
-            "sut.car.keep_speed() with:\n            speed(50kph)\n            duration(2s)",
-            "a speed modifier contradicts it",
-        ),
-        (
-            "sut.car.change_lane(1, left, offset: 1m)",
-            "change_lane(offset: …) is not supported",
-        ),
-    ];
+    let cases = [(
+        "sut.car.keep_speed() with:\n            speed(50kph)\n            duration(2s)",
+        "a speed modifier contradicts it",
+    )];
     for (action, says) in cases {
         let f = example_file(&format!(
             "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            duration(1s)\n        {action}\n"
@@ -1708,4 +1702,68 @@ fn a_smooth_rate_profile_shapes_speed_and_acceleration_changes() {
         .fold(0.0_f64, f64::max);
     assert!(steepest > 5.5 && steepest <= 6.0 + 1e-9, "{steepest}");
     assert!((a(g1 + 0.5) + 3.0).abs() < 1e-6, "{}", a(g1 + 0.5));
+}
+
+#[test]
+fn change_lane_at_a_sideways_rate_inside_outside_with_an_offset_or_to_the_same_lane() {
+    // Lanes 3.5 m wide, forward along +x (left is +y), right-hand traffic.
+    let far =
+        |then: &str| jump_text(then).replace("position(10m, ahead_of", "position(80m, ahead_of");
+    let y = |r: &RunResult, id: &str, t: f64| sample(r, id, t).y;
+    // rate_peak 1 m/s: the smoothstep's 1.5 · 3.5 m / 1 m/s = 5.25 s, the
+    // action's duration to the plan's step, its peak sideways speed 1 m/s.
+    let r = run_text(&far("go: sut.car.change_lane(1, left, rate_peak: 1mps)")).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (t0, t1) = phase(&r, "go");
+    assert!((t1 - t0 - 5.3).abs() < 1e-6, "{t0}..{t1}");
+    let samples = &r
+        .plan
+        .actors
+        .iter()
+        .find(|a| a.id == "sut.car")
+        .unwrap()
+        .samples;
+    let peak = samples
+        .windows(2)
+        .map(|w| (w[1].y - w[0].y) / (w[1].t - w[0].t))
+        .fold(0.0_f64, f64::max);
+    assert!((peak - 1.0).abs() < 0.02, "{peak}");
+    assert!((y(&r, "sut.car", t1) - y(&r, "sut.car", t0) - 3.5).abs() < 1e-6);
+    // inside: towards the road's centre (the left here); outside: away.
+    let r = run_text(&far("go: sut.car.change_lane(1, inside)")).unwrap();
+    let (t0, t1) = phase(&r, "go");
+    assert!((y(&r, "sut.car", t1) - y(&r, "sut.car", t0) - 3.5).abs() < 1e-6);
+    let r = run_text(
+        &far("go: sut.car.change_lane(1, outside)")
+            .replace("lane(1, at: start)\n", "lane(2, at: start)\n"),
+    )
+    .unwrap();
+    let (t0, t1) = phase(&r, "go");
+    assert!((y(&r, "sut.car", t1) - y(&r, "sut.car", t0) + 3.5).abs() < 1e-6);
+    // offset: 0.5 m left of the target lane's centre at its end.
+    let r = run_text(&far("go: sut.car.change_lane(1, left, offset: 0.5m)")).unwrap();
+    let (t0, t1) = phase(&r, "go");
+    // (at its last sample: from the next phase on, back to the centre)
+    let dt = r.plan.dt;
+    let moved = y(&r, "sut.car", t1 - dt) - y(&r, "sut.car", t0 - dt);
+    assert!((moved - 4.0).abs() < 0.05, "{moved}");
+    // same: into the reference's lane (b drives lane 2) by its end.
+    let r = run_text(&far("go: sut.car.change_lane(side: same, reference: b)")).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (_, t1) = phase(&r, "go");
+    assert!((y(&r, "sut.car", t1 + 1.0) - y(&r, "b", t1 + 1.0)).abs() < 1e-6);
+    // same without a reference, inside with one: errors at the action.
+    for (action, says) in [
+        (
+            "sut.car.change_lane(side: same)",
+            "changes to the lane of its `reference`, which is not given",
+        ),
+        (
+            "sut.car.change_lane(1, inside, reference: b)",
+            "change_lane(reference: …, side: inside) is not supported",
+        ),
+    ] {
+        let e = run_text(&far(action)).unwrap_err().to_string();
+        assert!(e.contains(says) && e.contains(":16:13"), "{action}: {e}");
+    }
 }

@@ -170,14 +170,23 @@ impl StdCall<'_> {
     }
 
     fn change_lane(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
-        if self.bound.contains_key("rate_peak") {
-            return self.refuse("rate_peak: …");
-        }
+        let side = match self.bound.get("side") {
+            Some(CExpr::Const(Value::Enum(s))) => Some(s.as_str()),
+            _ => None,
+        };
+        // An offset from the target lane's centre, reached sideways at
+        // follow_lane's pace and held for the phase.
         if !self.is_zero("offset") {
-            return self.refuse("offset: …");
+            let offset = self
+                .bound
+                .get("offset")
+                .cloned()
+                .unwrap_or(CExpr::Const(Value::Num(0.0)));
+            mods.push(self.implicit(ModKind::LaneOffset, "change_lane", vec![("offset", offset)]));
         }
-        // Relative to another actor's lane: the lane beside it, as a lane
-        // goal by the phase's end (one lane over; more are refused).
+        // Relative to another actor's lane: the lane beside it (or its own
+        // lane, `same`), as a lane goal by the phase's end (one lane over;
+        // more are refused).
         if let Some(reference) = self.bound.get("reference").cloned() {
             if !matches!(
                 self.bound.get("num_of_lanes"),
@@ -185,20 +194,33 @@ impl StdCall<'_> {
             ) {
                 return self.refuse("reference: …, num_of_lanes other than 1");
             }
-            let side = match self.bound.get("side") {
-                Some(CExpr::Const(Value::Enum(s))) if s == "right" => "right_of",
+            if self.bound.contains_key("rate_peak") {
+                return self.refuse("reference: …, rate_peak: …");
+            }
+            let relation = match side {
+                Some("right") => "right_of",
+                Some("same") => "same_as",
+                Some(s @ ("inside" | "outside")) => {
+                    return self.refuse(&format!("reference: …, side: {s}"));
+                }
                 _ => "left_of",
             };
             mods.push(self.implicit(
                 ModKind::Lane,
                 "lane",
                 vec![
-                    (side, reference),
+                    (relation, reference),
                     ("at", CExpr::Const(Value::Enum("end".into()))),
                     ("run_mode", CExpr::Const(Value::Enum("best_effort".into()))),
                 ],
             ));
             return Ok(());
+        }
+        if side == Some("same") {
+            return Err(self.err(format!(
+                "{}(side: same) changes to the lane of its `reference`, which is not given",
+                self.name
+            )));
         }
         let lanes = self
             .bound
@@ -208,6 +230,10 @@ impl StdCall<'_> {
         let mut args = vec![("num_of_lanes", lanes)];
         if let Some(side) = self.bound.get("side").cloned() {
             args.push(("side", side));
+        }
+        // The peak sideways speed sets how long the change takes.
+        if let Some(rate) = self.bound.get("rate_peak").cloned() {
+            args.push(("rate", rate));
         }
         mods.push(self.implicit(ModKind::ChangeLane, "change_lane", args));
         Ok(())

@@ -91,6 +91,20 @@ fn reach_estimates(root: &Node, dt: f64) -> BTreeMap<u32, f64> {
                         let steps = ((v1 - v0).abs() / (a * dt) - 1e-9).ceil().max(0.0);
                         out.insert(*id, steps * dt);
                     }
+                    // A lane change at a sideways rate: the smoothstep's
+                    // 1.5 · width / rate over lanes of the usual 3.5 m.
+                    (Action::ChangeLane, ..) => {
+                        let of = |k: &str| {
+                            mods.iter()
+                                .find(|m| m.kind == ModKind::ChangeLane)
+                                .and_then(|m| constant(m, k))
+                        };
+                        if let Some(r) = of("rate") {
+                            let lanes = of("num_of_lanes").unwrap_or(1.0).max(1.0);
+                            let len = (1.5 * 3.5 * lanes / r.abs().max(0.01)).max(0.5);
+                            out.insert(*id, (len / dt - 1e-9).ceil() * dt);
+                        }
+                    }
                     (Action::RemainStationary, ..) => {
                         last.insert(actor, 0.0);
                         return;
@@ -199,7 +213,15 @@ impl<'a> Timer<'a> {
     /// Other actions last their phase (none).
     fn action_natural(&self, action: Action, id: u32) -> Option<f64> {
         match action {
-            Action::ChangeLane => Some(super::LANE_CHANGE_S),
+            // Its usual time, or one its sideways rate sets (the motion's
+            // in the previous layout, else a guess).
+            Action::ChangeLane => Some(
+                self.cond_events
+                    .get(&reach_key(id))
+                    .or_else(|| self.estimates.get(&id))
+                    .copied()
+                    .unwrap_or(super::LANE_CHANGE_S),
+            ),
             Action::AssignSpeed
             | Action::AssignPosition
             | Action::AssignOrientation

@@ -693,8 +693,10 @@ impl<'a> Mover<'a> {
                 lanes: nl,
                 side,
                 side_given,
+                inside,
+                rate,
                 ..
-            } => self.change_lane(l, nl, (side, side_given))?,
+            } => self.change_lane(l, nl, (side, side_given, inside), rate)?,
             Intent::Lane {
                 lane,
                 reference,
@@ -1088,10 +1090,23 @@ impl<'a> Mover<'a> {
         &mut self,
         l: &RLeaf,
         nl: i32,
-        (side, given): (Side, bool),
+        (side, given, inside): (Side, bool, Option<bool>),
+        rate: Option<f64>,
     ) -> Result<(), ScenarioError> {
         let net = self.cx.net;
         let mo = &mut self.mo;
+        // Towards the road's centre: the left under right-hand traffic.
+        let side = match inside {
+            Some(inside) => {
+                let rht = net.roads()[mo.pos.road].rule == litesim_map::model::Rule::Rht;
+                if inside == rht {
+                    Side::Left
+                } else {
+                    Side::Right
+                }
+            }
+            None => side,
+        };
         if nl < 1 {
             return Err(ScenarioError::Plan(format!(
                 "{}: change_lane({nl}): the number of lanes to change is at least 1 (the side is `side`)",
@@ -1120,7 +1135,26 @@ impl<'a> Mover<'a> {
             ))
         })?;
         if to != mo.pos.lane {
-            let len = (l.t1 - l.t0).clamp(2.0, 6.0);
+            let len = match rate {
+                // The smoothstep's peak sideways speed is 1.5 · width / time.
+                Some(r) => {
+                    let from = net.lane_pos_pose(mo.pos, 0.0).position;
+                    let there = net
+                        .lane_pos_pose(LanePos { lane: to, ..mo.pos }, 0.0)
+                        .position;
+                    let width = (there.x - from.x).hypot(there.y - from.y);
+                    let len = (1.5 * width / r).max(0.5);
+                    // The action lasts that long (to the plan's step): its
+                    // natural duration in the next layout.
+                    let steps = (len / self.cx.dt - 1e-9).ceil();
+                    self.out
+                        .reached
+                        .push((super::timer::reach_key(l.id), steps * self.cx.dt));
+                    len
+                }
+                None => (l.t1 - l.t0).clamp(2.0, 6.0),
+            };
+            let mo = &mut self.mo;
             mo.change = Some((mo.pos.lane, to, l.t0, l.t0 + len));
         }
         Ok(())
