@@ -555,6 +555,9 @@ pub enum Intent {
         /// Kept after the phase while the actor stands
         /// (`assign_orientation`).
         hold: bool,
+        /// `at: start` (its first sample only), `end` (turned to by the
+        /// phase's end) or `all`.
+        when: At,
     },
     /// Where `assign_position` puts the actor.
     AssignPosition {
@@ -952,11 +955,19 @@ impl Intent {
                 option: text("option").unwrap_or_default(),
             },
             ModKind::Yaw => Intent::Yaw {
-                angle: num("angle")?,
+                // Between axes of the two actors: its length to the
+                // other's width is the other's heading plus a right angle.
+                angle: num("angle")?
+                    + match text("measure_by").as_deref() {
+                        Some("length_to_width") => std::f64::consts::FRAC_PI_2,
+                        Some("width_to_length") => -std::f64::consts::FRAC_PI_2,
+                        _ => 0.0,
+                    },
                 relative_to: refs.get("relative_to").cloned(),
                 north: text("measure_by").as_deref() == Some("relative_to_north"),
                 world: text("measure_by").as_deref() == Some("absolute"),
                 hold: vals.get("hold").and_then(Value::boolean).unwrap_or(false),
+                when: at,
             },
             ModKind::AssignPosition => Intent::AssignPosition {
                 place: Place::decode(vals)?,

@@ -898,15 +898,47 @@ fn yaw_holds_the_heading_and_assign_orientation_keeps_it_while_standing() {
     assert!((heading("yaw(0deg, measure_by: relative_to_north)") - 90.0).abs() < 1e-9);
     assert!((heading("yaw(90deg, measure_by: relative_to_north)") - 0.0).abs() < 1e-9);
     assert!((heading("yaw(-30deg, relative_to: b)") + 30.0).abs() < 1e-9);
+    // Between the two actors' axes (b heads along +x, 0°): its length to
+    // b's width is b's heading plus a right angle, its width to b's
+    // length minus one; length to length and width to width as relative.
+    for (measure, want) in [
+        ("length_to_length", 10.0),
+        ("width_to_width", 10.0),
+        ("length_to_width", 100.0),
+        ("width_to_length", -80.0),
+    ] {
+        let got = heading(&format!(
+            "yaw(10deg, relative_to: b, measure_by: {measure})"
+        ));
+        assert!((got - want).abs() < 1e-9, "{measure}: {got}°");
+    }
     let e = run_text(&jump_text(
         "sut.car.remain_stationary() with:\n                yaw(10deg, measure_by: length_to_width)\n                duration(1s)",
     ))
     .unwrap_err()
     .to_string();
     assert!(
-        e.contains("yaw(measure_by: length_to_width) is not supported"),
+        e.contains("yaw(measure_by: length_to_width) measures between its axes and another actor's: give that actor as `relative_to`"),
         "{e}"
     );
+    // at: start — its first sample only; at: end — turned to by the
+    // phase's last sample, from the road's heading (0°) at its start.
+    let turned = |with: &str| {
+        let r = run_text(&jump_text(&format!(
+            "turn: sut.car.remain_stationary() with:\n                {with}\n                duration(2s)"
+        )))
+        .unwrap();
+        let (t0, t1) = phase(&r, "turn");
+        let dt = r.plan.dt;
+        let yaw = |t: f64| sample(&r, "sut.car", t).yaw.to_degrees();
+        (yaw(t0), yaw(t0 + 1.0), yaw(t1 - dt))
+    };
+    let (first, mid, last) = turned("yaw(60deg, at: start)");
+    assert!((first - 60.0).abs() < 1e-9 && mid.abs() < 1e-9 && last.abs() < 1e-9);
+    let (first, mid, last) = turned("yaw(60deg, at: end)");
+    assert!(first > 0.0 && first < 5.0, "{first}");
+    assert!((mid - 33.0).abs() < 1e-6, "{mid}");
+    assert!((last - 60.0).abs() < 1e-9, "{last}");
 }
 
 #[test]

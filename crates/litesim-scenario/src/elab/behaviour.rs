@@ -815,15 +815,23 @@ fn yaw_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), Scenar
             "{at}: yaw({what}) is not supported by litesim (docs/osc-stdlib.md)"
         )))
     };
-    if let Some(CExpr::Const(Value::Enum(m))) = bound.get("measure_by")
-        && !["relative_to_road", "relative_to_north", "absolute"].contains(&m.as_str())
-    {
-        return refuse(format!("measure_by: {m}"));
-    }
-    if let Some(CExpr::Const(Value::Enum(a))) = bound.get("at")
-        && a != "all"
-    {
-        return refuse(format!("at: {a}"));
+    let between_axes = [
+        "length_to_length",
+        "length_to_width",
+        "width_to_length",
+        "width_to_width",
+    ];
+    if let Some(CExpr::Const(Value::Enum(m))) = bound.get("measure_by") {
+        if between_axes.contains(&m.as_str()) && !bound.contains_key("relative_to") {
+            return Err(ScenarioError::Elaboration(format!(
+                "{at}: yaw(measure_by: {m}) measures between its axes and another actor's: give that actor as `relative_to`"
+            )));
+        }
+        if !between_axes.contains(&m.as_str())
+            && !["relative_to_road", "relative_to_north", "absolute"].contains(&m.as_str())
+        {
+            return refuse(format!("measure_by: {m}"));
+        }
     }
     Ok(())
 }

@@ -276,6 +276,11 @@ struct Heading {
     world: bool,
     /// Kept after its phase while the actor stands.
     hold: bool,
+    /// `at: start`: its phase's first sample only (from `t0`); `at: end`:
+    /// turned to from the natural heading over the phase `t0`..`t1`.
+    when: At,
+    t0: f64,
+    t1: f64,
 }
 
 /// How a target speed follows another actor's planned speed.
@@ -849,6 +854,7 @@ impl<'a> Mover<'a> {
             north,
             world,
             hold,
+            when,
         } = m
         else {
             return Ok(());
@@ -863,6 +869,9 @@ impl<'a> Mover<'a> {
             north,
             world,
             hold,
+            when,
+            t0: l.t0,
+            t1: l.t1,
         });
         self.exact(l, "yaw");
         Ok(())
@@ -1527,8 +1536,8 @@ impl<'a> Mover<'a> {
             yaw = p.yaw;
         }
         if let Some(h) = self.heading {
-            if h.hold && mo.v > 0.1 {
-                // Moving again: its lane's heading again.
+            if (h.hold && mo.v > 0.1) || (h.when == At::Start && t > h.t0 + 1e-9) {
+                // Moving again (or past its start): its lane's heading again.
                 self.heading = None;
             } else {
                 let base = match (h.relative_to, h.north, h.world) {
@@ -1542,7 +1551,16 @@ impl<'a> Mover<'a> {
                 } else {
                     1.0
                 };
-                yaw = wrap_angle(base + sign * h.angle);
+                let want = wrap_angle(base + sign * h.angle);
+                yaw = match h.when {
+                    // Turned to by the phase's last sample (a sample's
+                    // heading is its step's).
+                    At::End => {
+                        let u = ((t - h.t0 + self.cx.dt) / (h.t1 - h.t0).max(1e-9)).clamp(0.0, 1.0);
+                        wrap_angle(yaw + wrap_angle(want - yaw) * u)
+                    }
+                    _ => want,
+                };
             }
         }
         let sample = PlanSample {
