@@ -1799,3 +1799,23 @@ fn change_lane_at_a_sideways_rate_inside_outside_with_an_offset_or_to_the_same_l
         assert!(e.contains(says) && e.contains(":16:13"), "{action}: {e}");
     }
 }
+
+#[test]
+fn the_2_0_era_target_of_assign_speed_and_assign_acceleration_is_taken() {
+    let r = run_text(&jump_text("set: sut.car.assign_speed(target: 20kph)")).unwrap();
+    let (_, t1) = phase(&r, "set");
+    assert!((sample(&r, "sut.car", t1).v - kph(20.0)).abs() < 1e-9);
+    let r = run_text(&jump_text(
+        "set: sut.car.assign_acceleration(target: -1mpsps)",
+    ))
+    .unwrap();
+    let (_, t1) = phase(&r, "set");
+    assert!((sample(&r, "sut.car", t1 + 0.5).a + 1.0).abs() < 1e-9);
+    let e = run_text(&jump_text("sut.car.assign_speed(20kph, target: 30kph)"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("assign_speed: `speed` and `target` (its 2.0-era name) are the same argument"),
+        "{e}"
+    );
+}

@@ -32,7 +32,7 @@ impl StdCall<'_> {
             }
             Action::ChangeSpeed => self.change_speed(mods),
             Action::AssignSpeed => {
-                let v = self.required("speed", "assign_speed(50kph)")?;
+                let v = self.either("speed", "target", "assign_speed(50kph)")?;
                 self.no_speed_modifier(mods, "sets the speed itself")?;
                 mods.push(self.best_effort_speed(v));
                 Ok(())
@@ -92,6 +92,19 @@ impl StdCall<'_> {
             .get(key)
             .cloned()
             .ok_or_else(|| self.err(format!("{} needs its {key}, e.g. `{example}`", self.name)))
+    }
+
+    /// The argument under its name `key` or its 2.0-era name `old` (one of
+    /// the two).
+    fn either(&self, key: &str, old: &str, example: &str) -> Result<CExpr, ScenarioError> {
+        match (self.bound.get(key), self.bound.get(old)) {
+            (Some(_), Some(_)) => Err(self.err(format!(
+                "{}: `{key}` and `{old}` (its 2.0-era name) are the same argument: give one",
+                self.name
+            ))),
+            (None, Some(v)) => Ok(v.clone()),
+            _ => self.required(key, example),
+        }
     }
 
     /// A length not given, or 0.
@@ -364,7 +377,7 @@ impl StdCall<'_> {
             Action::AssignAcceleration => {
                 args.push((
                     "target",
-                    self.required("acceleration", "assign_acceleration(1mpsps)")?,
+                    self.either("acceleration", "target", "assign_acceleration(1mpsps)")?,
                 ));
             }
             Action::ChangeAcceleration => {
