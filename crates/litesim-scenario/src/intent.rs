@@ -589,9 +589,9 @@ pub enum Intent {
         path: usize,
         /// A relative path's reference (the actor itself when `None`).
         reference: Option<String>,
-        /// A relative path's offsets are along the world's axes
-        /// (`world_relative`), not the reference's (`object_relative`).
-        world: bool,
+        /// How a relative path's points are placed on its reference
+        /// (`transform`).
+        frame: PathFrame,
         /// Metres of the path skipped at its start, and left at its end.
         offsets: (f64, f64),
         /// Where the trajectory is at each time (`replay_trajectory`).
@@ -716,6 +716,24 @@ fn speed_intent(
         smooth: vals.get("rate_profile").and_then(Value::text) == Some("smooth"),
         relative,
     })
+}
+
+/// How a relative path's points (x, y) are placed on its reference (the
+/// standard's `relative_transform`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PathFrame {
+    /// x ahead of the reference, y to its left (`object_relative`).
+    Object,
+    /// x and y along the map's axes (`world_relative`).
+    World,
+    /// x along the road from the reference (its direction of travel), y
+    /// sideways from where the reference is: the path bends with the road
+    /// (`road_relative`).
+    Road,
+    /// x along the reference's lane, y from that lane's centre
+    /// (`lane_relative`).
+    Lane,
 }
 
 /// Between which sides of the two actors `lateral(…, measure_by: …)`
@@ -984,7 +1002,12 @@ impl Intent {
             ModKind::FollowPath => Intent::FollowPath {
                 path: num("path")? as usize,
                 reference: refs.get("reference").cloned(),
-                world: text("transform").as_deref() == Some("world_relative"),
+                frame: match text("transform").as_deref() {
+                    Some("world_relative") => PathFrame::World,
+                    Some("road_relative") => PathFrame::Road,
+                    Some("lane_relative") => PathFrame::Lane,
+                    _ => PathFrame::Object,
+                },
                 offsets: (
                     num("start_offset").unwrap_or(0.0),
                     num("end_offset").unwrap_or(0.0),

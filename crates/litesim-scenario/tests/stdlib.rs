@@ -1106,7 +1106,7 @@ fn bad_paths_are_errors_naming_the_file_line_or_the_literal() {
         "sut.car.follow_path(absolute: path(points: [position_3d(x: 0m), position_3d(x: 9m)]), transform: road_relative)",
     );
     assert!(
-        s.contains("follow_path(transform: road_relative) is not supported"),
+        s.contains("follow_path(absolute: …, transform: …): `transform` places a relative path"),
         "{s}"
     );
     let s = e("sut.car.follow_path()");
@@ -1816,6 +1816,72 @@ fn the_2_0_era_target_of_assign_speed_and_assign_acceleration_is_taken() {
         .to_string();
     assert!(
         e.contains("assign_speed: `speed` and `target` (its 2.0-era name) are the same argument"),
+        "{e}"
+    );
+}
+
+#[test]
+fn road_and_lane_relative_paths_bend_with_the_road() {
+    // On the curvy road: a path 1 m left of the lane's centre for 120 m
+    // (lane_relative), or 1 m left of where the car is (road_relative,
+    // the car 0.5 m left of its lane's centre: 1.5 m from it).
+    // Points every 4 m: a polyline's chords cut a curve by L²/8R (2 cm on
+    // the road's 100 m arc).
+    let points = (0..=30)
+        .map(|i| format!("position_3d(x: {}m, y: 1m)", 4 * i))
+        .collect::<Vec<_>>()
+        .join(", ");
+    let text = |transform: &str, start: &str| {
+        format!(
+            "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/curvy.xodr\"\nextend top.main:\n    do sut.s()\nscenario sut.s:\n    r: road\n    do serial():\n        sut.car.drive() with:\n            speed(40kph)\n            along(r, at: start, start_offset: 5m)\n            duration(1s)\n{start}        ride: sut.car.follow_path(relative: relative_path(points: [{points}]), transform: {transform}) with:\n            speed(40kph)\n        sut.car.drive() with:\n            duration(1s)\n"
+        )
+    };
+    // The distance of each planned sample of the ride from the lane's
+    // centre, by the map (left of travel positive).
+    let offsets = |r: &RunResult| {
+        let (t0, t1) = phase(r, "ride");
+        let text = std::fs::read_to_string(
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/maps/curvy.xodr"),
+        )
+        .unwrap();
+        let net = litesim_map::RoadNetwork::from_xodr(&text, "curvy.xodr").unwrap();
+        let a = r.plan.actors.iter().find(|a| a.id == "sut.car").unwrap();
+        a.samples
+            .iter()
+            .filter(|s| s.t > t0 + 0.5 && s.t < t1 - 0.5)
+            .map(|s| {
+                let at = net.locate(litesim_core::Vec2::new(s.x, s.y)).unwrap();
+                at.offset
+            })
+            .collect::<Vec<f64>>()
+    };
+    let r = run_text(&text("lane_relative", "")).unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let off = offsets(&r);
+    assert!(off.len() > 50, "{}", off.len());
+    for o in &off {
+        assert!((o.abs() - 1.0).abs() < 0.03, "{o} m from the lane's centre");
+    }
+    let r = run_text(&text(
+        "road_relative",
+        "        sut.car.follow_lane(offset: 0.5m) with:\n            duration(2s)\n",
+    ))
+    .unwrap();
+    for o in offsets(&r) {
+        assert!((o.abs() - 1.5).abs() < 0.04, "{o} m from the lane's centre");
+    }
+    // The same points placed object_relative go straight: off the curve.
+    let r = run_text(&text("object_relative", "")).unwrap();
+    let worst = offsets(&r)
+        .into_iter()
+        .fold(0.0_f64, |m, o| m.max((o.abs() - 1.0).abs()));
+    assert!(worst > 0.5, "{worst}");
+    // A point beyond the road's ends: an error naming it.
+    let e = run_text(&text("lane_relative", "").replace("x: 120m", "x: 900m"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("point 31 of its path") && e.contains("beyond the road's ends"),
         "{e}"
     );
 }

@@ -621,6 +621,17 @@ impl Elab<'_> {
                     }
                 )));
             }
+            // An absolute path is where it is: a reference or a transform
+            // would mean nothing.
+            if key == "absolute"
+                && let Some(k) = ["reference", "transform"]
+                    .into_iter()
+                    .find(|k| bound.contains_key(*k))
+            {
+                return Err(ScenarioError::Elaboration(format!(
+                    "{at}: {name}(absolute: …, {k}: …): `{k}` places a relative path; an absolute one is where its points are"
+                )));
+            }
             bound.insert("path".into(), CExpr::Const(Value::Num(idx as f64)));
         }
         self.check_literals(&bound, at)?;

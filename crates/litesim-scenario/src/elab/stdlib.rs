@@ -346,8 +346,13 @@ impl StdCall<'_> {
             )));
         };
         if let Some(CExpr::Const(Value::Enum(t))) = self.bound.get("transform")
-            && t != "object_relative"
-            && t != "world_relative"
+            && ![
+                "object_relative",
+                "world_relative",
+                "road_relative",
+                "lane_relative",
+            ]
+            .contains(&t.as_str())
         {
             return self.refuse(&format!("transform: {t}"));
         }

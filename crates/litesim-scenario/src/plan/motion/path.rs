@@ -6,6 +6,7 @@
 
 use super::*;
 use crate::elab::PathDef;
+use crate::intent::PathFrame;
 
 /// A path being followed.
 #[derive(Clone, Debug)]
@@ -78,7 +79,7 @@ impl Mover<'_> {
         let &Intent::FollowPath {
             path,
             ref reference,
-            world,
+            frame,
             offsets: (start, end_off),
             exact,
         } = intent
@@ -89,29 +90,12 @@ impl Mover<'_> {
         let err = |what: String| {
             ScenarioError::Plan(format!("{}: {}'s {}: {what}", l.at, self.id, l.action))
         };
-        // The reference's pose now: another actor's plan, or this one.
-        let (rx, ry, ryaw) = match (def.relative, reference) {
-            (false, _) => (0.0, 0.0, 0.0),
-            (true, Some(o)) => {
-                let j = self.planned_before(l, o, "path", plans)?;
-                let p = plans[j].at(t, self.cx.dt);
-                (p.x, p.y, p.yaw)
+        let mut pts = match frame {
+            PathFrame::Road | PathFrame::Lane if def.relative => {
+                self.on_the_road(l, t, (def, reference, frame), plans)?
             }
-            (true, None) => {
-                let p = self.cx.net.lane_pos_pose(self.mo.pos, self.mo.lateral);
-                (p.position.x, p.position.y, p.yaw)
-            }
+            _ => self.on_the_reference(l, t, (def, reference, frame), plans)?,
         };
-        let (s, c) = if world {
-            (0.0, 1.0)
-        } else {
-            math::sin_cos(ryaw)
-        };
-        let mut pts: Vec<(f64, f64, f64)> = def
-            .points
-            .iter()
-            .map(|p| (rx + c * p.x - s * p.y, ry + s * p.x + c * p.y, f64::NAN))
-            .collect();
         let mut cum = Vec::with_capacity(pts.len());
         let mut total = 0.0;
         for i in 0..pts.len() {
@@ -123,7 +107,8 @@ impl Mover<'_> {
         if total <= 1e-6 {
             return Err(err(format!("its path ({}) has no length", def.source)));
         }
-        // Headings: given ones (turned with the reference), else along it.
+        // Headings: given ones (turned with the reference, or the road
+        // there: the third value holds that base), else along it.
         for i in 0..pts.len() {
             let (a, b) = (
                 pts[i.saturating_sub(1).min(pts.len() - 2)],
@@ -131,8 +116,7 @@ impl Mover<'_> {
             );
             let along = (b.1 - a.1).atan2(b.0 - a.0);
             pts[i].2 = match def.points[i].h {
-                Some(h) if def.relative && !world => wrap_angle(ryaw + h),
-                Some(h) => h,
+                Some(h) => wrap_angle(pts[i].2 + h),
                 None => along,
             };
         }
@@ -293,5 +277,110 @@ impl Mover<'_> {
                 });
             }
         }
+    }
+}
+
+impl Mover<'_> {
+    /// A path's points in the map's frame, placed on its reference's pose
+    /// now (`object_relative`, `world_relative`) or absolute; each with the
+    /// heading its own given heading is relative to (the third value).
+    fn on_the_reference(
+        &self,
+        l: &RLeaf,
+        t: f64,
+        (def, reference, frame): (&PathDef, &Option<String>, PathFrame),
+        plans: &[ActorPlan],
+    ) -> Result<Vec<(f64, f64, f64)>, ScenarioError> {
+        // The reference's pose now: another actor's plan, or this one.
+        let (rx, ry, ryaw) = match (def.relative, reference) {
+            (false, _) => (0.0, 0.0, 0.0),
+            (true, Some(o)) => {
+                let j = self.planned_before(l, o, "path", plans)?;
+                let p = plans[j].at(t, self.cx.dt);
+                (p.x, p.y, p.yaw)
+            }
+            (true, None) => {
+                let p = self.cx.net.lane_pos_pose(self.mo.pos, self.mo.lateral);
+                (p.position.x, p.position.y, p.yaw)
+            }
+        };
+        let world = frame == PathFrame::World || !def.relative;
+        let (s, c) = if world {
+            (0.0, 1.0)
+        } else {
+            math::sin_cos(ryaw)
+        };
+        let base = if world { 0.0 } else { ryaw };
+        Ok(def
+            .points
+            .iter()
+            .map(|p| (rx + c * p.x - s * p.y, ry + s * p.x + c * p.y, base))
+            .collect())
+    }
+
+    /// A relative path's points along the road its reference is on
+    /// (`road_relative`: x along the road in its direction of travel, y
+    /// sideways from the reference; `lane_relative`: y from its lane's
+    /// centre), so that the path bends with the road; each with the lane's
+    /// heading there (its given heading is relative to it). A point off
+    /// that road's ends is an error.
+    fn on_the_road(
+        &self,
+        l: &RLeaf,
+        t: f64,
+        (def, reference, frame): (&PathDef, &Option<String>, PathFrame),
+        plans: &[ActorPlan],
+    ) -> Result<Vec<(f64, f64, f64)>, ScenarioError> {
+        let net = self.cx.net;
+        let err = |what: String| {
+            ScenarioError::Plan(format!("{}: {}'s {}: {what}", l.at, self.id, l.action))
+        };
+        // Where the reference is: road, lane, s and its offset from the
+        // lane's centre (left of its travel).
+        let (pos, offset) = match reference {
+            Some(o) => {
+                let j = self.planned_before(l, o, "path", plans)?;
+                let p = plans[j].at(t, self.cx.dt);
+                let at = net.locate(litesim_core::Vec2::new(p.x, p.y)).ok_or_else(|| {
+                    err(format!("its reference {o} is off the roads, where a {frame:?}-relative path has no road"))
+                })?;
+                let pos = LanePos {
+                    road: at.road,
+                    lane: at.lane,
+                    s: at.s,
+                };
+                let dir = if net.travels_forward(pos) { 1.0 } else { -1.0 };
+                (pos, dir * at.offset)
+            }
+            None => (self.mo.pos, self.mo.lateral),
+        };
+        let road = &net.roads()[pos.road];
+        let dir = if net.travels_forward(pos) { 1.0 } else { -1.0 };
+        let from = if frame == PathFrame::Road {
+            offset
+        } else {
+            0.0
+        };
+        def.points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let s = pos.s + dir * p.x;
+                let centre = net.lane_pose_at(pos.road, pos.lane, s, 0.0).filter(|_| (0.0..=road.length).contains(&s)).ok_or_else(|| {
+                    err(format!(
+                        "point {} of its path ({}) is {:.1} m along road {} from s = {:.1} m, beyond the road's ends (0–{:.1} m)",
+                        i + 1,
+                        def.source,
+                        p.x,
+                        road.id,
+                        pos.s,
+                        road.length
+                    ))
+                })?;
+                let (sn, cs) = math::sin_cos(centre.yaw);
+                let y = from + p.y;
+                Ok((centre.position.x - sn * y, centre.position.y + cs * y, centre.yaw))
+            })
+            .collect()
     }
 }
