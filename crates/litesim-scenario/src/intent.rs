@@ -528,6 +528,17 @@ pub enum Intent {
         /// phase's start.
         behind: Option<bool>,
     },
+    /// A gap sideways to `reference`: `keep_space_gap(…, direction:
+    /// lateral)` keeps the one it has, `change_space_gap(…, direction:
+    /// left | right | inside | outside)` brings it to `target`.
+    LateralGap {
+        /// The other actor.
+        reference: String,
+        /// The free space (m) to reach; `None` keeps the one it has.
+        target: Option<f64>,
+        /// Where the other actor is; `None`: where it is at the start.
+        side: Option<GapSide>,
+    },
     /// `avoid_collisions(avoid)`: drivers avoid others by default;
     /// `false` lets this one collide where the scenario asks it to.
     AvoidCollisions {
@@ -716,6 +727,60 @@ fn speed_intent(
         smooth: vals.get("rate_profile").and_then(Value::text) == Some("smooth"),
         relative,
     })
+}
+
+/// A kept or changed gap or headway decoded: along the road
+/// ([`Intent::KeepGap`]) or sideways ([`Intent::LateralGap`], a space gap
+/// whose `direction` is `lateral`, `left`, `right`, `inside` or
+/// `outside`); `None` without its reference.
+fn gap_intent(
+    kind: ModKind,
+    vals: &BTreeMap<String, Value>,
+    refs: &BTreeMap<String, String>,
+) -> Option<Intent> {
+    let direction = vals.get("direction").and_then(Value::text);
+    let reference = refs.get("reference")?.clone();
+    let target = vals.get("target").and_then(Value::num);
+    let side = match direction {
+        Some("left") => Some(GapSide::Left),
+        Some("right") => Some(GapSide::Right),
+        Some("inside") => Some(GapSide::Inside),
+        Some("outside") => Some(GapSide::Outside),
+        _ => None,
+    };
+    if kind == ModKind::KeepSpaceGap && (side.is_some() || direction == Some("lateral")) {
+        return Some(Intent::LateralGap {
+            reference,
+            target,
+            side,
+        });
+    }
+    Some(Intent::KeepGap {
+        reference,
+        headway: kind == ModKind::KeepTimeHeadway,
+        target,
+        behind: match direction {
+            Some("behind") => Some(true),
+            Some("longitudinal") => None,
+            _ => Some(false),
+        },
+    })
+}
+
+/// Where the other actor of a sideways gap is (`change_space_gap`'s
+/// `direction`): on the actor's left or right, or towards the road's
+/// centre (`inside`) or its edge (`outside`) by the road's traffic rule.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GapSide {
+    /// On its left.
+    Left,
+    /// On its right.
+    Right,
+    /// Towards the road's centre.
+    Inside,
+    /// Towards the road's edge.
+    Outside,
 }
 
 /// How a relative path's points (x, y) are placed on its reference (the
@@ -956,16 +1021,7 @@ impl Intent {
                 distance: num("distance")?,
                 at,
             },
-            ModKind::KeepSpaceGap | ModKind::KeepTimeHeadway => Intent::KeepGap {
-                reference: refs.get("reference")?.clone(),
-                headway: kind == ModKind::KeepTimeHeadway,
-                target: num("target"),
-                behind: match text("direction").as_deref() {
-                    Some("behind") => Some(true),
-                    Some("longitudinal") => None,
-                    _ => Some(false),
-                },
-            },
+            ModKind::KeepSpaceGap | ModKind::KeepTimeHeadway => gap_intent(kind, vals, refs)?,
             ModKind::AvoidCollisions => Intent::AvoidCollisions {
                 avoid: !matches!(vals.get("avoid"), Some(Value::Bool(false))),
             },
@@ -1037,6 +1093,7 @@ impl Intent {
             | Intent::Other { at, .. } => *at,
             Intent::PhysicalMovement { .. }
             | Intent::KeepGap { .. }
+            | Intent::LateralGap { .. }
             | Intent::AvoidCollisions { .. }
             | Intent::Yaw { .. }
             | Intent::AssignPosition { .. }

@@ -639,22 +639,13 @@ fn change_space_gap_reaches_its_gap_and_ends_then() {
 }
 
 #[test]
-fn a_gap_change_without_its_target_or_sideways_is_an_error() {
+fn a_gap_change_without_its_target_is_an_error() {
     let e = run_text(&format!(
         "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n        b.change_space_gap(reference: sut.car)\n    with: duration(3s)\n"
     ))
     .unwrap_err();
     assert!(
         e.to_string().contains("change_space_gap needs its target"),
-        "{e}"
-    );
-    let e = run_text(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n        b.change_space_gap(10m, left, sut.car)\n    with: duration(3s)\n"
-    ))
-    .unwrap_err();
-    assert!(
-        e.to_string()
-            .contains("change_space_gap(direction: left) is not supported"),
         "{e}"
     );
 }
@@ -1670,13 +1661,17 @@ fn gaps_and_headways_kept_ahead_of_a_reference_behind() {
             "driven {headway:.3} s at t = {t}"
         );
     }
-    // A reference that is not behind it: an error saying so.
+    // A lateral gap to one in line, a reference not behind it: errors
+    // saying so.
     let e = run_text(&leading_text(
         "keep_space_gap(reference: sut.car, direction: lateral) with:\n                duration(18s)",
     ))
     .unwrap_err()
     .to_string();
-    assert!(e.contains("direction: lateral"), "{e}");
+    assert!(
+        e.contains("keeps a lateral gap to sut.car, which is right in line with it"),
+        "{e}"
+    );
     let wrong = leading_text("keep_time_headway(reference: sut.car, direction: behind) with:\n                duration(18s)")
         .replace("position(20m, ahead_of: sut.car", "position(20m, behind: sut.car");
     let e = run_text(&wrong).unwrap_err().to_string();
@@ -1884,4 +1879,60 @@ fn road_and_lane_relative_paths_bend_with_the_road() {
         e.contains("point 31 of its path") && e.contains("beyond the road's ends"),
         "{e}"
     );
+}
+
+#[test]
+fn a_lateral_gap_is_kept_and_changed_sideways() {
+    // sut.car in lane 1, b beside it in lane 2 (3.5 m to its left), both
+    // at 50 km/h; b drifts 1 m towards sut.car from t = 1 s.
+    let text = |mine: &str| {
+        format!(
+            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(50kph)\n                along(r, start_offset: 20m, at: start)\n                lane(1, at: start)\n                duration(1s)\n            side: {mine}\n            sut.car.drive() with:\n                duration(3s)\n        serial():\n            b.drive() with:\n                speed(50kph)\n                lane(left_of: sut.car, at: start)\n                position(0m, ahead_of: sut.car, at: start)\n                duration(1s)\n            b.follow_lane(offset: -1m) with:\n                duration(9s)\n"
+        )
+    };
+    let free = |r: &RunResult, t: f64| {
+        let (a, b) = (sample(r, "sut.car", t), sample(r, "b", t));
+        (b.y - a.y).abs() - 1.9
+    };
+    // Kept: 1.6 m of free space all through, b moving or not.
+    let r = run_text(&text(
+        "sut.car.keep_space_gap(reference: b, direction: lateral) with:\n                speed(50kph)\n                duration(5s)",
+    ))
+    .unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (t0, t1) = phase(&r, "side");
+    let mut t = t0;
+    while t < t1 - 1e-9 {
+        assert!((free(&r, t) - 1.6).abs() < 0.06, "at {t}: {}", free(&r, t));
+        t += 0.1;
+    }
+    // b drifted 1 m; sut.car went with it.
+    let moved = sample(&r, "sut.car", t1 - 0.1).y - sample(&r, "sut.car", t0).y;
+    assert!((moved + 1.0).abs() < 0.06, "{moved}");
+    // Changed: to 0.5 m with b on its left, at 1 m/s sideways; it ends
+    // when reached (its end event then), and is back in its lane after.
+    let r = run_text(&text(
+        "sut.car.change_space_gap(0.5m, left, b) with:\n                speed(50kph)",
+    ))
+    .unwrap();
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let (t0, t1) = phase(&r, "side");
+    assert!(t1 - t0 > 0.5 && t1 - t0 < 2.0, "{t0}..{t1}");
+    assert!((free(&r, t1) - 0.5).abs() < 0.12, "{}", free(&r, t1));
+    let lane_y = sample(&r, "sut.car", 0.0).y;
+    assert!((sample(&r, "sut.car", t1 + 2.9).y - lane_y).abs() < 1e-6);
+    // What it cannot mean is an error.
+    for (mine, says) in [
+        (
+            "sut.car.change_time_headway(1s, left, b)",
+            "'left' is not a member of enum headway_direction",
+        ),
+        (
+            "sut.car.change_space_gap(-1m, left, b) with:\n                speed(50kph)",
+            "which is negative",
+        ),
+    ] {
+        let e = run_text(&text(mine)).unwrap_err().to_string();
+        assert!(e.contains(says), "{mine}: {e}");
+    }
 }

@@ -265,10 +265,17 @@ impl StdCall<'_> {
             _ if action == Action::KeepSpaceGap => "longitudinal",
             _ => "ahead",
         };
-        if !matches!(direction, "longitudinal" | "ahead" | "behind") {
+        let sideways = matches!(
+            direction,
+            "lateral" | "left" | "right" | "inside" | "outside"
+        );
+        if !sideways && !matches!(direction, "longitudinal" | "ahead" | "behind") {
             return self.refuse(&format!("direction: {direction}"));
         }
-        self.no_speed_modifier(mods, "sets the speed itself")?;
+        // Sideways, the speed is the phase's own (its modifiers).
+        if !sideways {
+            self.no_speed_modifier(mods, "sets the speed itself")?;
+        }
         let mut args = vec![("reference", reference)];
         args.push(("direction", CExpr::Const(Value::Enum(direction.into()))));
         if change {

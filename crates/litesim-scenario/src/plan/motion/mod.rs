@@ -5,6 +5,7 @@ use super::*;
 
 mod exact;
 mod path;
+mod sideways;
 
 /// Per-actor motion state while sampling.
 #[derive(Clone, Debug)]
@@ -238,6 +239,7 @@ pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
                     relative: Some(_),
                     ..
                 } | Intent::KeepGap { .. }
+                    | Intent::LateralGap { .. }
                     | Intent::Yaw {
                         relative_to: Some(_),
                         ..
@@ -332,6 +334,8 @@ enum Reach {
     Accel(f64),
     /// `change_position`: level with this point (m).
     Place(f64, f64),
+    /// `change_space_gap` sideways: this free space (m) beside the other.
+    Side(f64),
 }
 
 /// Most acceleration and deceleration a change or keep of the
@@ -397,6 +401,8 @@ struct Mover<'a> {
     /// A `change_*` action under way: its node id, what ends it and its
     /// start.
     reaching: Option<(u32, Reach, f64)>,
+    /// A lateral gap kept or changed this phase.
+    side_gap: Option<sideways::SideGap>,
     /// The phase's target speed follows another actor's plan at every
     /// sample (a relative speed, a kept gap or headway): that actor's plan
     /// index, how, and the phase's end.
@@ -446,6 +452,7 @@ impl<'a> Mover<'a> {
             leaf_i: 0,
             target: None,
             reaching: None,
+            side_gap: None,
             follow: None,
             accel_up: ACCEL_UP,
             accel_down: ACCEL_DOWN,
@@ -485,6 +492,7 @@ impl<'a> Mover<'a> {
             }
             self.check_along_end(t);
             self.gap_reached(t, plans);
+            self.side_gap_reached(t, plans);
             self.path_reached(t);
             self.place_reached(t);
             // Enter phases that start now.
@@ -511,6 +519,7 @@ impl<'a> Mover<'a> {
                 continue;
             }
             self.shift_sideways();
+            self.shift_to_side_gap(t, plans);
             let (sample, centre) = self.pose(t, prev_v, plans);
             self.out.samples.push(sample);
             self.advance(t, centre);
@@ -568,6 +577,11 @@ impl<'a> Mover<'a> {
         self.accel_down = ACCEL_DOWN;
         // A held heading outlives its phase (while the actor stands).
         self.heading = self.heading.filter(|h| h.hold);
+        // A lateral gap lasts its phase: it stays where it is across its
+        // lane, and goes back to the centre as a lane offset does.
+        if self.side_gap.take().is_some() && self.mo.lateral != 0.0 {
+            self.lane_offset = Some((0.0, sideways::SIDE_GAP_RATE));
+        }
         // A lane offset lasts its phase: back to the centre after it.
         if let Some((off, rate)) = self.lane_offset
             && off != 0.0
@@ -612,7 +626,7 @@ impl<'a> Mover<'a> {
                     }
                 }
             }
-            Action::ChangeSpaceGap | Action::ChangeTimeHeadway => {
+            Action::ChangeSpaceGap | Action::ChangeTimeHeadway if self.side_gap.is_none() => {
                 self.reaching = Some((l.id, Reach::Gap, t));
             }
             // At once: exactness over physics.
@@ -660,32 +674,7 @@ impl<'a> Mover<'a> {
                 t0: l.t0,
                 t1: l.t1,
             }),
-            Intent::Acceleration {
-                accel,
-                relative: None,
-                ..
-            } => {
-                self.accel_up = accel.abs().max(0.1);
-                self.accel_down = accel.abs().max(0.1);
-            }
-            Intent::Acceleration {
-                accel,
-                relative: Some((sign, o)),
-                ..
-            } => {
-                // X's speed changes plus the offset's, from the speeds
-                // both have now; within the planner's hardest bounds.
-                let j = self.planned_before(l, o, "acceleration", plans)?;
-                let how = Follow::Accel {
-                    offset: sign * accel,
-                    v0: self.mo.v,
-                    ahead0: plans[j].at(t, self.cx.dt).v,
-                    t0: t,
-                };
-                self.follow = Some((j, how, l.t1));
-                self.accel_up = RELATIVE_ACCEL_BOUND;
-                self.accel_down = RELATIVE_ACCEL_BOUND;
-            }
+            Intent::Acceleration { .. } => self.acceleration_modifier(l, m, t, plans)?,
             Intent::Speed { .. } => self.speed_modifier(l, m, (k, t), plans)?,
             Intent::Position {
                 distance,
@@ -717,6 +706,11 @@ impl<'a> Mover<'a> {
             } => {
                 self.start_gap(l, t, reference, (*headway, *target, *behind), plans)?;
             }
+            Intent::LateralGap {
+                reference,
+                target,
+                side,
+            } => self.start_side_gap(l, t, (reference, *target, *side), plans)?,
             Intent::KeepPosition { .. } => self.stationary = true,
             Intent::Yaw { .. } => self.set_heading(l, m, plans)?,
             Intent::AssignPosition { place } if l.action == Action::ChangePosition => {
@@ -747,6 +741,43 @@ impl<'a> Mover<'a> {
             _ => {}
         }
         Ok(false)
+    }
+
+    /// `acceleration(a)`: the rate of the phase's speed changes; relative
+    /// to another actor, its speed changes plus the offset's from the
+    /// speeds both have now (within the planner's hardest bounds).
+    fn acceleration_modifier(
+        &mut self,
+        l: &RLeaf,
+        m: &Intent,
+        t: f64,
+        plans: &[ActorPlan],
+    ) -> Result<(), ScenarioError> {
+        let Intent::Acceleration {
+            accel, relative, ..
+        } = m
+        else {
+            return Ok(());
+        };
+        match relative {
+            None => {
+                self.accel_up = accel.abs().max(0.1);
+                self.accel_down = accel.abs().max(0.1);
+            }
+            Some((sign, o)) => {
+                let j = self.planned_before(l, o, "acceleration", plans)?;
+                let how = Follow::Accel {
+                    offset: sign * accel,
+                    v0: self.mo.v,
+                    ahead0: plans[j].at(t, self.cx.dt).v,
+                    t0: t,
+                };
+                self.follow = Some((j, how, l.t1));
+                self.accel_up = RELATIVE_ACCEL_BOUND;
+                self.accel_down = RELATIVE_ACCEL_BOUND;
+            }
+        }
+        Ok(())
     }
 
     /// `along(road, end_offset: e)`: the phase ends `e` before the road's
@@ -947,6 +978,7 @@ impl<'a> Mover<'a> {
                 (Reach::Path, _) => "the end of its path".into(),
                 (Reach::Accel(a), _) => format!("{a:.2} m/s²"),
                 (Reach::Place(x, y), _) => format!("its target ({x:.1}, {y:.1})"),
+                (Reach::Side(g), _) => format!("a lateral gap of {g:.2} m"),
                 (
                     Reach::Gap,
                     Some((
