@@ -574,6 +574,9 @@ pub enum Intent {
     AssignPosition {
         /// The place.
         place: Place,
+        /// `change_position(…, on_road_network: false)`: there in a
+        /// straight line, off the roads.
+        off_road: bool,
     },
     /// The acceleration an acceleration action sets (`target`, at `jerk`
     /// or at once) or keeps (no target).
@@ -1045,6 +1048,10 @@ impl Intent {
             },
             ModKind::AssignPosition => Intent::AssignPosition {
                 place: Place::decode(vals)?,
+                off_road: vals
+                    .get("off_road")
+                    .and_then(Value::boolean)
+                    .unwrap_or(false),
             },
             ModKind::LaneOffset => Intent::LaneOffset {
                 offset: num("offset")?,

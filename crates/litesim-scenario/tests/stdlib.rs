@@ -1290,13 +1290,47 @@ fn change_position_drives_to_the_target_and_ends_level_with_it() {
         s.contains("change_position: road '1' has no lane -7"),
         "{s}"
     );
+    // Off the road network: a straight line to the target, off the road
+    // (y = 20 m is beyond the road's edge), at its own speed; it ends
+    // there (its end event) and stands there after.
+    let r = run_text(&text(
+        "sut.car.change_position(target_xyz: position_3d(x: 120m, y: 20m), on_road_network: false)",
+    ))
+    .unwrap();
+    let (g0, g1) = phase(&r, "go");
+    let (a, b) = (sample(&r, "sut.car", g0), sample(&r, "sut.car", g1));
+    assert!(
+        (b.x - 120.0).abs() < 1e-6 && (b.y - 20.0).abs() < 1e-6,
+        "({}, {})",
+        b.x,
+        b.y
+    );
+    let len = (b.x - a.x).hypot(b.y - a.y);
+    assert!(
+        (g1 - g0 - len / kph(50.0)).abs() < 0.11,
+        "{g0}..{g1} for {len} m"
+    );
+    let mut t = g0;
+    while t < g1 {
+        let p = sample(&r, "sut.car", t);
+        // On the line from where it was to the target.
+        let cross = (p.x - a.x) * (b.y - a.y) - (p.y - a.y) * (b.x - a.x);
+        assert!((cross / len).abs() < 1e-6, "at {t}: ({}, {})", p.x, p.y);
+        t += 0.1;
+    }
+    let end = sample(&r, "sut.car", g1 + 0.9);
+    assert!((end.x - 120.0).abs() < 1e-6 && end.v == 0.0, "{end:?}");
     let s = e(
-        "sut.car.change_position(target_xyz: position_3d(x: 90m, y: -8.75m), on_road_network: false)",
+        "sut.car.change_position(target_xyz: position_3d(x: 90m, y: 20m), on_road_network: false, interpolation: smooth)",
     );
     assert!(
-        s.contains("change_position(on_road_network: false) is not supported"),
+        s.contains("change_position(interpolation: smooth) is not supported"),
         "{s}"
     );
+    let s = e(
+        "sut.car.change_position(target_xyz: position_3d(x: 90m, y: -8.75m), interpolation: straight_line)",
+    );
+    assert!(s.contains("shapes the way off the road network"), "{s}");
 }
 
 #[test]

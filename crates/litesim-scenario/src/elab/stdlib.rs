@@ -415,13 +415,23 @@ impl StdCall<'_> {
 
     /// `change_position(target_xyz | target_odr | target_st)`: the target
     /// as `assign_position`'s place (one of the three, a literal); off the
-    /// road network (`on_road_network: false`) is refused.
+    /// road network (`on_road_network: false`), in a straight line to it.
     fn change_position(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
-        if matches!(
+        let off_road = matches!(
             self.bound.get("on_road_network"),
             Some(CExpr::Const(Value::Bool(false)))
-        ) {
-            return self.refuse("on_road_network: false");
+        );
+        match self.bound.get("interpolation") {
+            Some(CExpr::Const(Value::Enum(i))) if i == "smooth" => {
+                return self.refuse("interpolation: smooth");
+            }
+            Some(_) if !off_road => {
+                return Err(self.err(format!(
+                    "{}(interpolation: …) shapes the way off the road network; on it the lanes are followed (give `on_road_network: false`)",
+                    self.name
+                )));
+            }
+            _ => {}
         }
         let kinds = [
             ("target_xyz", "position"),
@@ -449,8 +459,10 @@ impl StdCall<'_> {
         if !matches!(self.bound.get(key), Some(CExpr::Const(Value::Str(_)))) {
             return Err(self.err(format!("change_position({key}: …) takes a literal")));
         }
-        let mut args: Vec<(String, CExpr)> =
-            vec![("kind".into(), CExpr::Const(Value::Str(kind.into())))];
+        let mut args: Vec<(String, CExpr)> = vec![
+            ("kind".into(), CExpr::Const(Value::Str(kind.into()))),
+            ("off_road".into(), CExpr::Const(Value::Bool(off_road))),
+        ];
         for (k, v) in &self.bound {
             if let Some(field) = k.strip_prefix(key).and_then(|r| r.strip_prefix('.')) {
                 args.push((format!("{kind}.{field}"), v.clone()));

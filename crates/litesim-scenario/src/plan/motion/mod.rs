@@ -713,10 +713,14 @@ impl<'a> Mover<'a> {
             } => self.start_side_gap(l, t, (reference, *target, *side), plans)?,
             Intent::KeepPosition { .. } => self.stationary = true,
             Intent::Yaw { .. } => self.set_heading(l, m, plans)?,
-            Intent::AssignPosition { place } if l.action == Action::ChangePosition => {
+            Intent::AssignPosition {
+                place,
+                off_road: true,
+            } if l.action == Action::ChangePosition => self.start_straight(l, t, place)?,
+            Intent::AssignPosition { place, .. } if l.action == Action::ChangePosition => {
                 self.start_change_position(l, t, place)?
             }
-            Intent::AssignPosition { place } => self.teleport(l, k, place)?,
+            Intent::AssignPosition { place, .. } => self.teleport(l, k, place)?,
             Intent::FollowPath { .. } => self.start_path(l, (k, t), m, plans)?,
             &Intent::Accel {
                 target,

@@ -384,3 +384,55 @@ impl Mover<'_> {
             .collect()
     }
 }
+
+impl Mover<'_> {
+    /// `change_position(…, on_road_network: false)` entered at `t`: a
+    /// straight line from where it is to the target, driven
+    /// like a path at its own speed (its modifiers, else the speed it
+    /// has), ending there; a `position_3d` target may be off the roads.
+    pub(super) fn start_straight(
+        &mut self,
+        l: &RLeaf,
+        t: f64,
+        place: &crate::intent::Place,
+    ) -> Result<(), ScenarioError> {
+        let net = self.cx.net;
+        let (x1, y1) = match place {
+            crate::intent::Place::Xy { x, y } => (*x, *y),
+            other => {
+                let (pos, lateral) = self.resolve_place(l, other)?;
+                let p = net.lane_pos_pose(pos, lateral);
+                (p.position.x, p.position.y)
+            }
+        };
+        let here = net.lane_pos_pose(self.mo.pos, self.mo.lateral);
+        let (x0, y0) = (here.position.x, here.position.y);
+        let len = (x1 - x0).hypot(y1 - y0);
+        if len < 0.1 {
+            return Err(ScenarioError::Plan(format!(
+                "{}: {}'s change_position: it is at its target already",
+                l.at, self.id
+            )));
+        }
+        if self.target.is_none() && self.end_speed.is_none() && self.mo.v < 0.1 {
+            return Err(ScenarioError::Plan(format!(
+                "{}: {} stands and has no speed to change its position at: give it one (`with: speed(…)`)",
+                l.at, self.id
+            )));
+        }
+        let yaw = (y1 - y0).atan2(x1 - x0);
+        self.parked = None;
+        self.on_path = Some(OnPath {
+            pts: vec![(x0, y0, yaw), (x1, y1, yaw)],
+            cum: vec![0.0, len],
+            times: None,
+            s: 0.0,
+            end: len,
+            t0: t,
+            exact: false,
+        });
+        self.reaching = Some((l.id, Reach::Path, t));
+        self.exact(l, "change_position(on_road_network: false)");
+        Ok(())
+    }
+}
