@@ -61,6 +61,7 @@ const ALL: &[&str] = &[
     "cyclist_ahead",
     "emit_wait_until",
     "follow",
+    "gentle_stop",
     "headway_change",
     "hold_and_travel",
     "jaywalker",
@@ -90,6 +91,7 @@ const ALL: &[&str] = &[
     "truck_follow",
     "wait_then_go",
     "weather_change",
+    "wide_berth",
 ];
 
 #[test]
@@ -403,13 +405,15 @@ fn dynamic_runs_follow_the_plan() {
         // A hard stop (lead_brakes) lags its plan by about a metre under
         // the tuned brake loop; a car re-timed live (emit_wait_until's
         // parked car pulls away when the event comes) overshoots its speed
-        // by 0.4 m/s after its launch: 1.4 m.
+        // by 0.4 m/s after its launch: 1.4 m. A long stop to standstill
+        // (gentle_stop's 7 s smooth stop) ends 1.46 m short of its plan.
         let tol = if [
             "accelerate",
             "state_conditions",
             "lead_brakes",
             "emit_wait_until",
             "speed_and_lane_actions",
+            "gentle_stop",
         ]
         .contains(n)
         {
@@ -1216,4 +1220,87 @@ fn plan_keys_are_stable_ids_not_addresses() {
         serde_json::to_string(&a.plan).unwrap(),
         serde_json::to_string(&b.plan).unwrap()
     );
+}
+
+/// The phase labelled `label` of the plan: (start, end).
+fn phase_of(r: &RunResult, label: &str) -> (f64, f64) {
+    let p = r
+        .plan
+        .phases
+        .iter()
+        .find(|p| p.label.as_deref() == Some(label))
+        .unwrap_or_else(|| panic!("no phase {label}"));
+    (p.t0, p.t1)
+}
+
+#[test]
+fn gentle_stop_arrives_at_its_end_offset_and_stops_smoothly() {
+    let r = go("gentle_stop", 1, DriveMode::Kinematic);
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let a = &r.plan.actors[0];
+    let at = |t: f64| a.at(t, r.plan.dt);
+    // change_speed(-10kph) from 70 km/h: 60 km/h when it ends.
+    let (_, e1) = phase_of(&r, "ease");
+    assert!(
+        (at(e1 - r.plan.dt).v - 60.0 / 3.6).abs() < 1e-6,
+        "{}",
+        at(e1 - r.plan.dt).v
+    );
+    // along(route: r, end_offset: 320m): 180 m along the 500 m road.
+    let (_, a1) = phase_of(&r, "arrive");
+    assert!((at(a1).x - 180.0).abs() < 1.0, "{}", at(a1).x);
+    // The smooth stop: braking no firmer than 2.5 m/s², gentle at both
+    // ends, standing at its end.
+    let (s0, s1) = phase_of(&r, "stop");
+    let log = r.log.as_ref().unwrap();
+    let v = &log.tracks[0].state.speed;
+    let k = |t: f64| log.time.iter().position(|&x| x >= t - 1e-9).unwrap();
+    let firmest = (k(s0)..k(s1))
+        .map(|i| (v[i] - v[i + 1]) / log.dt)
+        .fold(0.0_f64, f64::max);
+    assert!(firmest <= 2.5 + 0.05 && firmest > 2.3, "{firmest}");
+    assert!(v[k(s0) + 1] > v[k(s0)] - 2.5 * log.dt * 0.2);
+    assert_eq!(*v.last().unwrap(), 0.0);
+}
+
+#[test]
+fn wide_berth_keeps_and_widens_the_space_beside_the_truck() {
+    let r = go("wide_berth", 1, DriveMode::Kinematic);
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    let width = |id: &str| r.plan.actors.iter().find(|a| a.id == id).unwrap().width;
+    let halves = (width("sut.car") + width("truck")) / 2.0;
+    let free = |t: f64| {
+        let (a, b) = (
+            r.plan
+                .actors
+                .iter()
+                .find(|a| a.id == "sut.car")
+                .unwrap()
+                .at(t, r.plan.dt),
+            r.plan
+                .actors
+                .iter()
+                .find(|a| a.id == "truck")
+                .unwrap()
+                .at(t, r.plan.dt),
+        );
+        (b.y - a.y).abs() - halves
+    };
+    // Kept while the truck drifts 0.8 m towards it.
+    let (b0, b1) = phase_of(&r, "beside");
+    let kept = free(b0);
+    let mut t = b0;
+    while t < b1 - 1e-9 {
+        assert!(
+            (free(t) - kept).abs() < 0.06,
+            "at {t}: {} for {kept}",
+            free(t)
+        );
+        t += 0.1;
+    }
+    // Widened to 2.5 m, the phase ending when it is (its last sample; the
+    // next one is a step back towards the lane's centre).
+    let (_, w1) = phase_of(&r, "widen");
+    let last = w1 - r.plan.dt;
+    assert!((free(last) - 2.5).abs() < 0.12, "{}", free(last));
 }

@@ -76,6 +76,8 @@ impl Mover<'_> {
                 l.at, self.id
             )));
         }
+        // It moves across for the gap, not back to its lane's centre.
+        self.lane_offset = None;
         self.side_gap = Some(SideGap {
             j,
             sign,
