@@ -162,7 +162,7 @@ impl Warp {
         goal: Option<(&GapGoal, &BodyState, &BodyState, f64)>,
     ) {
         let tau = self.tau(t);
-        let v_plan = plan.at(tau, plan_dt).v;
+        let v_plan = plan.speed_at(tau, plan_dt);
         let v_now = v_plan * self.rate;
         let v_want = match goal {
             Some((g, me, other, planned_gap)) => {

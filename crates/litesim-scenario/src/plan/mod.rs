@@ -191,6 +191,30 @@ impl ActorPlan {
         }
     }
 
+    /// The speed of [`ActorPlan::at`]`(t, dt)`, the same bits, without
+    /// the position (the planner's followers read the others' speeds
+    /// every sample).
+    pub fn speed_at(&self, t: f64, dt: f64) -> f64 {
+        let n = self.samples.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let k = (t / dt).floor();
+        if k < 0.0 {
+            return self.samples[0].v;
+        }
+        let i = k as usize;
+        if i + 1 >= n {
+            return self.samples[n - 1].v;
+        }
+        let (a, b) = (&self.samples[i], &self.samples[i + 1]);
+        if !self.jumps.is_empty() && self.jumps.binary_search(&(i + 1)).is_ok() {
+            return a.v;
+        }
+        let u = t / dt - k;
+        a.v + (b.v - a.v) * u
+    }
+
     /// The planned state at time `t` (held at the ends). Positions follow
     /// the samples' headings between them (a cubic Hermite curve along the
     /// headings where a vehicle follows its path, else linear); heading and

@@ -200,13 +200,11 @@ pub fn iidm(p: &DriverParams, v: f64, leader: Option<Leader>) -> f64 {
     let Some(l) = leader else {
         return a_free;
     };
-    let (a, b) = (p.max_accel, p.comfort_decel);
+    let a = p.max_accel;
     if l.gap <= 0.0 {
         return -p.emergency_decel;
     }
-    let dv = v - l.speed;
-    let s_star = p.min_gap + (v * p.time_gap + v * dv / (2.0 * (a * b).sqrt())).max(0.0);
-    let z = s_star / l.gap;
+    let z = desired_gap(p, v, l) / l.gap;
     if v <= p.desired_speed {
         if z >= 1.0 {
             a * (1.0 - z * z)
@@ -244,6 +242,33 @@ pub fn cah(p: &DriverParams, v: f64, l: Leader) -> f64 {
         let closing = (v - vl).max(0.0);
         al - closing * closing / (2.0 * s)
     }
+}
+
+/// [`acceleration`] behind `leader` where it may be below `floor`; where
+/// it is surely at least 0 and `floor` ≤ 0, 0 itself — a caller that takes
+/// the minimum with `floor` gets the same bits without the IIDM's power
+/// (`z^(2a/a_free)`, an `exp` and a `ln`). It is surely at least 0 with a
+/// gap (`gap > 0`), at most the desired speed, a positive free-road
+/// acceleration and the desired gap not yet reached (`z < 1`): the IIDM is
+/// then in (0, a_free], and the CAH blend never goes below the IIDM when
+/// the IIDM is the lower (b · tanh(x/b) ≥ x for x ≤ 0).
+pub fn acceleration_above(p: &DriverParams, v: f64, leader: Leader, floor: f64) -> f64 {
+    if floor <= 0.0
+        && leader.gap > 0.0
+        && v <= p.desired_speed
+        && free_accel(p, v) > 0.0
+        && desired_gap(p, v, leader) < leader.gap
+    {
+        return 0.0;
+    }
+    acceleration(p, v, Some(leader))
+}
+
+/// The IIDM's desired gap s* behind `l` at speed `v` (m).
+fn desired_gap(p: &DriverParams, v: f64, l: Leader) -> f64 {
+    let (a, b) = (p.max_accel, p.comfort_decel);
+    let dv = v - l.speed;
+    p.min_gap + (v * p.time_gap + v * dv / (2.0 * (a * b).sqrt())).max(0.0)
 }
 
 /// The ACC model's acceleration (IIDM blended with CAH), capped at the

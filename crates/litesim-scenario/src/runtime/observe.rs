@@ -144,7 +144,7 @@ impl Observer {
             self.hint = p.segment;
         }
         obs.distance_to_goal = rp.map_or(0.0, |p| self.route.length() - p.s);
-        obs.requested_speed = plan.actors[e].at(t, plan.dt).v;
+        obs.requested_speed = plan.actors[e].speed_at(t, plan.dt);
         obs.road = pos.zip(net).map(|(p, n)| RoadPos {
             road: n.od.roads[p.road].id.clone(),
             lane: p.lane,

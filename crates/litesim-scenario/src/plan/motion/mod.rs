@@ -773,7 +773,7 @@ impl<'a> Mover<'a> {
                 let how = Follow::Accel {
                     offset: sign * accel,
                     v0: self.mo.v,
-                    ahead0: plans[j].at(t, self.cx.dt).v,
+                    ahead0: plans[j].speed_at(t, self.cx.dt),
                     t0: t,
                 };
                 self.follow = Some((j, how, l.t1));
@@ -1061,7 +1061,7 @@ impl<'a> Mover<'a> {
         };
         // A headway at the trailing actor's speed.
         let v = if behind {
-            plans[j].at(t, self.cx.dt).v
+            plans[j].speed_at(t, self.cx.dt)
         } else {
             self.mo.v
         };
@@ -1080,7 +1080,7 @@ impl<'a> Mover<'a> {
     /// less this one's, over the plan's step.
     fn carry_gap(&mut self, t: f64, plans: &[ActorPlan]) {
         if let Some((j, Follow::Change { gap, behind, .. }, _)) = &mut self.follow {
-            let closing = plans[*j].at(t, self.cx.dt).v - self.mo.v;
+            let closing = plans[*j].speed_at(t, self.cx.dt) - self.mo.v;
             *gap += if *behind { -closing } else { closing } * self.cx.dt;
         }
     }
@@ -1275,7 +1275,7 @@ impl<'a> Mover<'a> {
             self.follow = Some((j, Follow::Offset(off), end));
         }
         let when = if at_end { end } else { t };
-        Ok((plans[j].at(when, self.cx.dt).v + off).max(0.0))
+        Ok((plans[j].speed_at(when, self.cx.dt) + off).max(0.0))
     }
 
     /// The plan index of `o`, an actor planned before this one (not this
@@ -1418,7 +1418,7 @@ impl<'a> Mover<'a> {
             return;
         }
         let dt = self.cx.dt;
-        let ahead = plans[j].at(t, dt).v;
+        let ahead = plans[j].speed_at(t, dt);
         let v = match how {
             Follow::Offset(off) => ahead + off,
             Follow::Accel {
@@ -1649,7 +1649,7 @@ pub(super) fn travel(p: &ActorPlan, t0: f64, t1: f64, dt: f64) -> f64 {
     let mut t = t0;
     while t < t1 - 1e-9 {
         let h = dt.min(t1 - t);
-        d += p.at(t, dt).v * h;
+        d += p.speed_at(t, dt) * h;
         t += h;
     }
     d

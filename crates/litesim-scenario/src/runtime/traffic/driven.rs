@@ -371,7 +371,7 @@ impl Driven {
             // The plan's speed one tracking time constant ahead: the
             // driver's first-order speed tracking then keeps the plan's
             // ramps without lagging them.
-            let mut speed = a.at(t + TRACK_TAU_S, plan.dt).v;
+            let mut speed = a.speed_at(t + TRACK_TAU_S, plan.dt);
             let mut firm = false;
             for g in &plan.goals {
                 if g.actor != a.id || t < g.t0 - 1e-9 || t >= g.t1 - 1e-9 {

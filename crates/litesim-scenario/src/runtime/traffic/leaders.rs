@@ -19,6 +19,23 @@ impl Traffic {
         u: f64,
         half: f64,
     ) -> (Leader, f64) {
+        self.leader_above(g, me, (lane, at), (u, half), None)
+    }
+
+    /// [`Traffic::leader`] for a caller that takes the minimum of its
+    /// acceleration and `floor` and does not look at which leader it is
+    /// when that acceleration is at least `floor`: each candidate's
+    /// acceleration is [`driver::acceleration_above`] `floor` (0 for one
+    /// surely not braking when `floor` ≤ 0), the same minimum with `floor`
+    /// at less cost. `None`: each exactly.
+    pub(super) fn leader_above(
+        &self,
+        g: &LaneGraph,
+        me: u32,
+        (lane, at): (u32, Option<usize>),
+        (u, half): (f64, f64),
+        floor: Option<f64>,
+    ) -> (Leader, f64) {
         let veh = &self.vehicles[me as usize];
         let p = &veh.follow_params();
         // The constraint that asks for the lowest acceleration wins.
@@ -31,7 +48,10 @@ impl Traffic {
             f64::INFINITY,
         );
         let mut consider = |l: Leader| {
-            let a = driver::acceleration(p, veh.v, Some(l));
+            let a = match floor {
+                Some(floor) => driver::acceleration_above(p, veh.v, l, floor),
+                None => driver::acceleration(p, veh.v, Some(l)),
+            };
             if a < best.1 {
                 best = (l, a);
             }

@@ -375,15 +375,28 @@ impl Traffic {
                 continue;
             }
             let half = 0.5 * v.length;
-            let (l, mut a) = self.leader(g, me, (v.lane, Some(at)), v.u, half);
+            let track = v.track();
+            // In a lane that ends, drivers look for a gap five times as
+            // often, standing or not; elsewhere standing drivers stay.
+            let ending = Self::dead_end_in(g, v.lane, v.u, v).is_finite();
+            let every = if ending { (period / 5).max(1) } else { period };
+            let weighs_change = v.from.is_none()
+                && v.goals.lane.is_none()
+                && !v.at_dead_end
+                && (v.v > 1.0 || ending)
+                && (self.tick + slot as u64).is_multiple_of(every);
+            // Unless MOBIL weighs a change (it reads the leader), only the
+            // minimum with the speed goal's tracking matters: a leader
+            // surely asking no braking need not be weighed exactly.
+            let floor = (!weighs_change && !v.goals.reckless).then_some(track);
+            let (l, mut a) = self.leader_above(g, me, (v.lane, Some(at)), (v.u, half), floor);
             if l.gap <= 0.0 {
                 touching.push((me, v.lane, v.u));
             }
             if let Some(f) = v.from {
                 // Mid-change: the slower of both lanes (highway-env).
-                a = a.min(self.leader(g, me, (f, None), v.u, half).1);
+                a = a.min(self.leader_above(g, me, (f, None), (v.u, half), floor).1);
             }
-            let track = v.track();
             a = a.min(self.courtesy(g, me)).min(track);
             if v.goals.reckless && track.is_finite() {
                 a = track;
@@ -395,16 +408,7 @@ impl Traffic {
             {
                 change = self.forced_change(g, me, target);
             }
-            // In a lane that ends, drivers look for a gap five times as
-            // often, standing or not; elsewhere standing drivers stay.
-            let ending = Self::dead_end_in(g, v.lane, v.u, v).is_finite();
-            let every = if ending { (period / 5).max(1) } else { period };
-            if v.from.is_none()
-                && v.goals.lane.is_none()
-                && !v.at_dead_end
-                && (v.v > 1.0 || ending)
-                && (self.tick + slot as u64).is_multiple_of(every)
-            {
+            if weighs_change {
                 change = self.mobil(g, me, a, l);
             }
             decided[slot] = (a, change);
