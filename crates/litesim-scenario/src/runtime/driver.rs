@@ -451,4 +451,26 @@ mod tests {
                 .contains("desired_speed")
         );
     }
+
+    proptest::proptest! {
+        /// Taking the minimum with a floor ≤ 0, the shortcut gives the same
+        /// bits as the exact acceleration, for any category, speed, leader
+        /// and floor.
+        #[test]
+        fn the_minimum_with_a_non_positive_floor_is_exact(
+            cat in 0usize..4,
+            v0 in 1.0f64..60.0,
+            v in 0.0f64..70.0,
+            gap in -1.0f64..200.0,
+            speed in 0.0f64..70.0,
+            accel in -9.0f64..3.0,
+            floor in -9.0f64..0.0,
+        ) {
+            let p = DriverParams::for_category(["car", "truck", "bus", "motorcycle"][cat], v0);
+            let l = Leader { gap, speed, accel };
+            let exact = acceleration(&p, v, Some(l)).min(floor);
+            let short = acceleration_above(&p, v, l, floor).min(floor);
+            proptest::prop_assert_eq!(exact.to_bits(), short.to_bits());
+        }
+    }
 }
