@@ -757,21 +757,20 @@ fn contradictions(out: &[Modifier]) -> Result<(), ScenarioError> {
     }
     // An acceleration relative to another actor sets the speed at every
     // sample, as a speed does.
+    // What sets the phase's speed (a start speed does not).
+    let speed_setter = out.iter().find(|m| {
+        matches!(
+            m.kind,
+            K::ChangeSpeed | K::Distance | K::KeepSpeed | K::KeepPosition
+        ) || (m.kind == K::Speed && !starts(m))
+    });
     let relative_accel = out.iter().find(|m| {
         m.kind == K::Acceleration
             && crate::intent::RELATIVE_SPEED
                 .iter()
                 .any(|(k, _)| m.args.contains_key(*k))
     });
-    if let (Some(a), Some(s)) = (
-        relative_accel,
-        out.iter().find(|m| {
-            matches!(
-                m.kind,
-                K::ChangeSpeed | K::Distance | K::KeepSpeed | K::KeepPosition
-            ) || (m.kind == K::Speed && !starts(m))
-        }),
-    ) {
+    if let (Some(a), Some(s)) = (relative_accel, speed_setter) {
         return Err(ScenarioError::Elaboration(format!(
             "{}: an acceleration relative to another actor sets the speed at every step; it contradicts {} at {}",
             a.at, s.name, s.at
@@ -786,15 +785,7 @@ fn contradictions(out: &[Modifier]) -> Result<(), ScenarioError> {
                 None | Some(CExpr::Const(Value::Num(0.0)))
             )
     });
-    if let (Some(a), Some(s)) = (
-        ends,
-        out.iter().find(|m| {
-            matches!(
-                m.kind,
-                K::ChangeSpeed | K::Distance | K::KeepSpeed | K::KeepPosition
-            ) || (m.kind == K::Speed && !starts(m))
-        }),
-    ) {
+    if let (Some(a), Some(s)) = (ends, speed_setter) {
         return Err(ScenarioError::Elaboration(format!(
             "{}: along(…, end_offset: …) sets how far the phase goes; it contradicts {} at {}",
             a.at, s.name, s.at
