@@ -305,6 +305,25 @@ pub enum Side {
     Right,
 }
 
+impl Side {
+    /// +1 for the left, −1 for the right: the sign of an offset to it
+    /// (left positive).
+    pub fn sign(self) -> f64 {
+        match self {
+            Side::Left => 1.0,
+            Side::Right => -1.0,
+        }
+    }
+
+    /// The side opposite.
+    pub fn other(self) -> Side {
+        match self {
+            Side::Left => Side::Right,
+            Side::Right => Side::Left,
+        }
+    }
+}
+
 /// A longitudinal relation to another actor (`position(…, ahead_of: X)`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -861,7 +880,7 @@ impl LatMeasure {
     /// the distance towards that side, so centre = side · distance − own
     /// edge + reference's edge, with widths `w_me`, `w_ref`.
     pub fn centre_offset(self, distance: f64, side: Side, (w_me, w_ref): (f64, f64)) -> f64 {
-        let s = if side == Side::Left { 1.0 } else { -1.0 };
+        let s = side.sign();
         let (me, them) = match self {
             // Facing edges: its edge towards the reference, the
             // reference's towards it.

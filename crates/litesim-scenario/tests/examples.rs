@@ -10,7 +10,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 mod common;
-use common::{example, example_file, root, smoke};
+use common::{example, example_file, phase, root, smoke};
 
 fn go(name: &str, seed: u64, mode: DriveMode) -> RunResult {
     let prep = example(name);
@@ -1222,17 +1222,6 @@ fn plan_keys_are_stable_ids_not_addresses() {
     );
 }
 
-/// The phase labelled `label` of the plan: (start, end).
-fn phase_of(r: &RunResult, label: &str) -> (f64, f64) {
-    let p = r
-        .plan
-        .phases
-        .iter()
-        .find(|p| p.label.as_deref() == Some(label))
-        .unwrap_or_else(|| panic!("no phase {label}"));
-    (p.t0, p.t1)
-}
-
 #[test]
 fn gentle_stop_arrives_at_its_end_offset_and_stops_smoothly() {
     let r = go("gentle_stop", 1, DriveMode::Kinematic);
@@ -1240,18 +1229,18 @@ fn gentle_stop_arrives_at_its_end_offset_and_stops_smoothly() {
     let a = &r.plan.actors[0];
     let at = |t: f64| a.at(t, r.plan.dt);
     // change_speed(-10kph) from 70 km/h: 60 km/h when it ends.
-    let (_, e1) = phase_of(&r, "ease");
+    let (_, e1) = phase(&r, "ease");
     assert!(
         (at(e1 - r.plan.dt).v - 60.0 / 3.6).abs() < 1e-6,
         "{}",
         at(e1 - r.plan.dt).v
     );
     // along(route: r, end_offset: 320m): 180 m along the 500 m road.
-    let (_, a1) = phase_of(&r, "arrive");
+    let (_, a1) = phase(&r, "arrive");
     assert!((at(a1).x - 180.0).abs() < 1.0, "{}", at(a1).x);
     // The smooth stop: braking no firmer than 2.5 m/s², gentle at both
     // ends, standing at its end.
-    let (s0, s1) = phase_of(&r, "stop");
+    let (s0, s1) = phase(&r, "stop");
     let log = r.log.as_ref().unwrap();
     let v = &log.tracks[0].state.speed;
     let k = |t: f64| log.time.iter().position(|&x| x >= t - 1e-9).unwrap();
@@ -1287,7 +1276,7 @@ fn wide_berth_keeps_and_widens_the_space_beside_the_truck() {
         (b.y - a.y).abs() - halves
     };
     // Kept while the truck drifts 0.8 m towards it.
-    let (b0, b1) = phase_of(&r, "beside");
+    let (b0, b1) = phase(&r, "beside");
     let kept = free(b0);
     let mut t = b0;
     while t < b1 - 1e-9 {
@@ -1300,7 +1289,7 @@ fn wide_berth_keeps_and_widens_the_space_beside_the_truck() {
     }
     // Widened to 2.5 m, the phase ending when it is (its last sample; the
     // next one is a step back towards the lane's centre).
-    let (_, w1) = phase_of(&r, "widen");
+    let (_, w1) = phase(&r, "widen");
     let last = w1 - r.plan.dt;
     assert!((free(last) - 2.5).abs() < 0.12, "{}", free(last));
 }

@@ -6,7 +6,7 @@
 use litesim_scenario::{Npc, RunOptions, RunResult, ScenarioError, prepare, run};
 
 mod common;
-use common::{example, example_file};
+use common::{example, example_file, phase};
 
 /// Runs a prepared example with its other vehicles replaying their plans
 /// (`Npc::Planned`) or driven (`Npc::Driver`), recording the log.
@@ -96,10 +96,14 @@ fn run_text(text: &str) -> Result<RunResult, ScenarioError> {
 
 const HEADER: &str = "import \"../../osc/domain/config.osc\"\nextend test_config:\n    set map = \"../maps/straight.xodr\"\n";
 
+/// The opening of a test written here: `sut.s`, the test's scenario on
+/// sut.car, with a two-way road `r`.
+const SUT_S: &str = "extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n";
+
 #[test]
 fn two_speed_references_at_once_are_an_error_at_the_modifier() {
     let f = example_file(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    a: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n        a.drive() with:\n            speed(5kph, faster_than: sut.car, slower_than: sut.car)\n    with: duration(2s)\n"
+        "{HEADER}{SUT_S}    a: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n        a.drive() with:\n            speed(5kph, faster_than: sut.car, slower_than: sut.car)\n    with: duration(2s)\n"
     ));
     let e = prepare(f.path(), &Default::default()).unwrap_err();
     assert!(matches!(e, ScenarioError::Elaboration(_)), "{e:?}");
@@ -114,22 +118,11 @@ fn two_speed_references_at_once_are_an_error_at_the_modifier() {
 #[test]
 fn a_speed_relative_to_itself_is_a_planning_error() {
     let e = run_text(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(same_as: sut.car)\n        along(r, at: start)\n        duration(2s)\n"
+        "{HEADER}{SUT_S}    do sut.car.drive() with:\n        speed(same_as: sut.car)\n        along(r, at: start)\n        duration(2s)\n"
     ))
     .unwrap_err();
     assert!(matches!(e, ScenarioError::Plan(_)), "{e:?}");
     assert!(e.to_string().contains("relative to sut.car"), "{e}");
-}
-
-/// A phase of the plan by label: (t0, t1).
-fn phase(r: &RunResult, label: &str) -> (f64, f64) {
-    let p = r
-        .plan
-        .phases
-        .iter()
-        .find(|p| p.label.as_deref() == Some(label))
-        .unwrap_or_else(|| panic!("no phase {label}"));
-    (p.t0, p.t1)
 }
 
 /// The planned sample of `id` at time `t`.
@@ -193,7 +186,7 @@ fn what_the_actions_cannot_honour_is_an_error_naming_it() {
     )];
     for (action, says) in cases {
         let f = example_file(&format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            duration(1s)\n        {action}\n"
+            "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            duration(1s)\n        {action}\n"
         ));
         let e = prepare(f.path(), &Default::default()).unwrap_err();
         assert!(
@@ -210,7 +203,7 @@ fn what_the_actions_cannot_honour_is_an_error_naming_it() {
 fn move_and_keep_lane_plan_like_a_drive_in_its_lane() {
     let body = |action: &str, m: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.{action}() with:\n        speed(40kph)\n        along(r, at: start)\n        lane(1, at: start)\n{m}        duration(4s)\n"
+            "{HEADER}{SUT_S}    do sut.car.{action}() with:\n        speed(40kph)\n        along(r, at: start)\n        lane(1, at: start)\n{m}        duration(4s)\n"
         )
     };
     let plan = |text: String| {
@@ -291,7 +284,7 @@ fn a_held_speed_or_position_contradicted_in_the_same_block_is_an_error() {
         ),
     ] {
         let f = example_file(&format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n            along(r, at: start)\n            {mods}\n            duration(2s)\n"
+            "{HEADER}{SUT_S}    do sut.car.drive() with:\n            along(r, at: start)\n            {mods}\n            duration(2s)\n"
         ));
         let e = prepare(f.path(), &Default::default()).unwrap_err();
         assert!(matches!(e, ScenarioError::Elaboration(_)), "{mods}: {e:?}");
@@ -300,7 +293,7 @@ fn a_held_speed_or_position_contradicted_in_the_same_block_is_an_error() {
     // An action that holds or sets the speed, with a modifier that sets
     // it otherwise: the same error, at the modifier and the action.
     let e = run_text(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            duration(1s)\n        sut.car.keep_speed() with:\n            distance(20m)\n            duration(2s)\n"
+        "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n            duration(1s)\n        sut.car.keep_speed() with:\n            distance(20m)\n            duration(2s)\n"
     ))
     .unwrap_err();
     assert!(matches!(e, ScenarioError::Elaboration(_)), "{e:?}");
@@ -310,7 +303,7 @@ fn a_held_speed_or_position_contradicted_in_the_same_block_is_an_error() {
     );
     // A preference litesim cannot take is noted, not dropped.
     let r = run_text(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(30kph)\n        along(r, at: start)\n        physical_movement(prefer_non_physical)\n        duration(2s)\n"
+        "{HEADER}{SUT_S}    do sut.car.drive() with:\n        speed(30kph)\n        along(r, at: start)\n        physical_movement(prefer_non_physical)\n        duration(2s)\n"
     ))
     .unwrap();
     assert!(
@@ -381,7 +374,7 @@ fn a_platoon_keeps_its_time_headway_planned_and_driven() {
 fn a_gap_to_an_actor_not_ahead_is_a_planning_error() {
     let text = |action: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n        b.{action} with:\n            lane(same_as: sut.car, at: start)\n            position(20m, ahead_of: sut.car, at: start)\n    with: duration(3s)\n"
+            "{HEADER}{SUT_S}    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n        b.{action} with:\n            lane(same_as: sut.car, at: start)\n            position(20m, ahead_of: sut.car, at: start)\n    with: duration(3s)\n"
         )
     };
     // A headway to one ahead (the default direction) that is behind.
@@ -440,7 +433,7 @@ fn conflicting_modifiers_are_an_error_naming_both() {
         ),
     ] {
         let f = example_file(&format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n        b.drive() with:\n            {mods}\n    with: duration(2s)\n"
+            "{HEADER}{SUT_S}    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(30kph)\n            along(r, at: start)\n        b.drive() with:\n            {mods}\n    with: duration(2s)\n"
         ));
         let e = prepare(f.path(), &Default::default()).unwrap_err();
         assert!(matches!(e, ScenarioError::Elaboration(_)), "{mods}: {e:?}");
@@ -478,7 +471,7 @@ fn keep_space_gap_holds_the_gap_while_the_reference_brakes() {
 #[test]
 fn a_speed_change_cut_short_by_its_parent_is_noted() {
     let r = run_text(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            along(r, at: start)\n            duration(1s)\n        sut.car.change_speed(90kph, rate_peak: 1mpsps) with:\n            duration(3s)\n"
+        "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(10kph)\n            along(r, at: start)\n            duration(1s)\n        sut.car.change_speed(90kph, rate_peak: 1mpsps) with:\n            duration(3s)\n"
     ))
     .unwrap();
     assert!(
@@ -627,7 +620,7 @@ fn change_space_gap_reaches_its_gap_and_ends_then() {
     // A driven vehicle carries the same goal: an NPC closing from 80 m to
     // 25 m behind sut.car ends within 1 m of it and keeps it.
     let r = run_text(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, start_offset: 120m, at: start)\n            lane(1, at: start)\n        serial():\n            b.drive() with:\n                speed(90kph)\n                lane(same_as: sut.car, at: start)\n                position(80m, behind: sut.car, at: start)\n                duration(1s)\n            close: b.change_space_gap(25m, reference: sut.car)\n            b.keep_space_gap(sut.car) with:\n                duration(5s)\n"
+        "{HEADER}{SUT_S}    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, start_offset: 120m, at: start)\n            lane(1, at: start)\n        serial():\n            b.drive() with:\n                speed(90kph)\n                lane(same_as: sut.car, at: start)\n                position(80m, behind: sut.car, at: start)\n                duration(1s)\n            close: b.change_space_gap(25m, reference: sut.car)\n            b.keep_space_gap(sut.car) with:\n                duration(5s)\n"
     ))
     .unwrap();
     assert!(r.summary.pass, "{:?}", r.summary.failures);
@@ -641,7 +634,7 @@ fn change_space_gap_reaches_its_gap_and_ends_then() {
 #[test]
 fn a_gap_change_without_its_target_is_an_error() {
     let e = run_text(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n        b.change_space_gap(reference: sut.car)\n    with: duration(3s)\n"
+        "{HEADER}{SUT_S}    b: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n        b.change_space_gap(reference: sut.car)\n    with: duration(3s)\n"
     ))
     .unwrap_err();
     assert!(
@@ -717,7 +710,7 @@ fn weather_changes_during_a_run_and_is_in_the_log() {
 fn environment_actions_without_what_they_set_are_errors() {
     let with = |call: &str| {
         run_text(&format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        {call}\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n            duration(2s)\n"
+            "{HEADER}{SUT_S}    do serial():\n        {call}\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start)\n            lane(1, at: start)\n            duration(2s)\n"
         ))
         .unwrap_err()
         .to_string()
@@ -743,7 +736,7 @@ fn environment_actions_without_what_they_set_are_errors() {
 /// drives 2 s more.
 fn jump_text(then: &str) -> String {
     format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(50kph)\n                along(r, start_offset: 20m, at: start)\n                lane(1, at: start)\n                duration(2s)\n            {then}\n            sut.car.drive() with:\n                duration(2s)\n        b.drive() with:\n            speed(30kph)\n            lane(2, at: start)\n            position(10m, ahead_of: sut.car, at: start)\n"
+        "{HEADER}{SUT_S}    b: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(50kph)\n                along(r, start_offset: 20m, at: start)\n                lane(1, at: start)\n                duration(2s)\n            {then}\n            sut.car.drive() with:\n                duration(2s)\n        b.drive() with:\n            speed(30kph)\n            lane(2, at: start)\n            position(10m, ahead_of: sut.car, at: start)\n"
     )
 }
 
@@ -997,7 +990,7 @@ fn a_path_ends_when_its_last_point_is_passed_and_a_trajectory_is_followed_within
     // 30 m at 10 m/s: the follow_path phase takes 3 s (the plan's 0.1 s).
     let text = |action: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(36kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        go: {action}\n        sut.car.drive() with:\n            duration(1s)\n"
+            "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(36kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        go: {action}\n        sut.car.drive() with:\n            duration(1s)\n"
         )
     };
     let r = run_text(&text(
@@ -1034,7 +1027,7 @@ fn a_path_ends_when_its_last_point_is_passed_and_a_trajectory_is_followed_within
 #[test]
 fn bad_paths_are_errors_naming_the_file_line_or_the_literal() {
     let e = |action: &str| match run_text(&format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(36kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        {action}\n"
+        "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(36kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        {action}\n"
     )) {
         Ok(_) => panic!("{action}: no error"),
         Err(e) => e.to_string(),
@@ -1111,7 +1104,7 @@ fn bad_paths_are_errors_naming_the_file_line_or_the_literal() {
 fn acceleration_actions_set_change_and_keep_the_acceleration() {
     let text = |actions: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n{actions}"
+            "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n{actions}"
         )
     };
     // change_acceleration to −3 m/s² at 6 m/s³: 0.5 s, then kept while
@@ -1175,7 +1168,7 @@ fn acceleration_actions_set_change_and_keep_the_acceleration() {
 fn lateral_beside_another_actor_and_orientation_as_a_heading() {
     let with = |mods: &str| {
         run_text(&format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    p: person\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(20kph)\n            along(r, start_offset: 20m, at: start)\n            lane(2, at: start)\n        p.walk() with:\n            speed(4kph)\n            position(30m, ahead_of: sut.car, at: start)\n{mods}\n    with: duration(2s)\n"
+            "{HEADER}{SUT_S}    p: person\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(20kph)\n            along(r, start_offset: 20m, at: start)\n            lane(2, at: start)\n        p.walk() with:\n            speed(4kph)\n            position(30m, ahead_of: sut.car, at: start)\n{mods}\n    with: duration(2s)\n"
         ))
     };
     let y = |mods: &str| {
@@ -1254,7 +1247,7 @@ fn lateral_beside_another_actor_and_orientation_as_a_heading() {
 fn change_position_drives_to_the_target_and_ends_level_with_it() {
     let text = |action: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        go: {action}\n        sut.car.drive() with:\n            duration(1s)\n"
+            "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        go: {action}\n        sut.car.drive() with:\n            duration(1s)\n"
         )
     };
     for npc in [Npc::Planned, Npc::Driver] {
@@ -1371,7 +1364,7 @@ fn an_argument_the_engine_cannot_evaluate_is_an_error_not_a_dropped_modifier() {
 fn along_trajectory_follows_a_trajectory_for_its_phase() {
     let text = |m: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do sut.car.drive() with:\n        speed(36kph)\n        along(r, start_offset: 30m, at: start)\n        lane(1, at: start)\n        {m}\n        duration(8s)\n"
+            "{HEADER}{SUT_S}    do sut.car.drive() with:\n        speed(36kph)\n        along(r, start_offset: 30m, at: start)\n        lane(1, at: start)\n        {m}\n        duration(8s)\n"
         )
     };
     // 50 m at 10 m/s, edging 3.5 m to the left (into lane 2).
@@ -1441,7 +1434,7 @@ fn change_speed_is_a_change_from_the_phase_start_speed_or_a_target() {
     // it ramps from the placed speed (speed(30kph, at: start)).
     let text = |second: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        first: sut.car.drive() with:\n            speed(30kph, at: start)\n            change_speed(40kph)\n            along(r, at: start)\n            duration(8s)\n        second: sut.car.drive() with:\n            {second}\n            duration(8s)\n"
+            "{HEADER}{SUT_S}    do serial():\n        first: sut.car.drive() with:\n            speed(30kph, at: start)\n            change_speed(40kph)\n            along(r, at: start)\n            duration(8s)\n        second: sut.car.drive() with:\n            {second}\n            duration(8s)\n"
         )
     };
     let r = run_text(&text("change_speed(-20kph)")).unwrap();
@@ -1483,7 +1476,7 @@ fn along_a_route_ends_its_phase_end_offset_before_the_road_end() {
     // route to 300 m before its end in 10 s.
     let text = |second: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start, start_offset: 20m)\n            duration(4s)\n        second: sut.car.drive() with:\n            {second}\n            duration(10s)\n"
+            "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(50kph)\n            along(r, at: start, start_offset: 20m)\n            duration(4s)\n        second: sut.car.drive() with:\n            {second}\n            duration(10s)\n"
         )
     };
     let r = run_text(&text("along(route: r, end_offset: 300m)")).unwrap();
@@ -1524,7 +1517,7 @@ fn change_lane_without_a_side_draws_one_with_the_seed_where_there_is_a_lane() {
     // Three lanes each way on straight.xodr (forward along +x: left is +y).
     let text = |lane: u32, change: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(40kph)\n            along(r, at: start)\n            lane({lane}, at: start)\n            duration(1s)\n        sut.car.drive() with:\n            {change}\n            duration(5s)\n"
+            "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(40kph)\n            along(r, at: start)\n            lane({lane}, at: start)\n            duration(1s)\n        sut.car.drive() with:\n            {change}\n            duration(5s)\n"
         )
     };
     let moved = |text: &str, seed: u64| {
@@ -1580,7 +1573,7 @@ fn acceleration_relative_to_another_actor_follows_its_speed_changes() {
     // (same_as), `eager` 0.5 m/s² more (faster_than).
     let text = |twin: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    twin: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(40kph)\n                along(r, at: start)\n                lane(1, at: start)\n                duration(1s)\n            sut.car.drive() with:\n                change_speed(8mps)\n                acceleration(2mpsps)\n                duration(4s)\n            sut.car.drive() with:\n                change_speed(-6mps)\n                acceleration(3mpsps)\n                duration(2s)\n        twin.drive() with:\n            speed(30kph, at: start)\n            lane(left_of: sut.car, at: start)\n            position(20m, ahead_of: sut.car, at: start)\n            {twin}\n    with: duration(7s)\n"
+            "{HEADER}{SUT_S}    twin: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(40kph)\n                along(r, at: start)\n                lane(1, at: start)\n                duration(1s)\n            sut.car.drive() with:\n                change_speed(8mps)\n                acceleration(2mpsps)\n                duration(4s)\n            sut.car.drive() with:\n                change_speed(-6mps)\n                acceleration(3mpsps)\n                duration(2s)\n        twin.drive() with:\n            speed(30kph, at: start)\n            lane(left_of: sut.car, at: start)\n            position(20m, ahead_of: sut.car, at: start)\n            {twin}\n    with: duration(7s)\n"
         )
     };
     for (modifier, offset) in [
@@ -1621,7 +1614,7 @@ fn acceleration_relative_to_another_actor_follows_its_speed_changes() {
 /// keeps or changes its gap or headway to sut.car behind it.
 fn leading_text(action: &str) -> String {
     format!(
-        "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    lead: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(60kph)\n                along(r, at: start, start_offset: 20m)\n                lane(1, at: start)\n                duration(3s)\n            sut.car.drive() with:\n                change_speed(20kph)\n                acceleration(1mpsps)\n                duration(11s)\n        serial():\n            lead.drive() with:\n                speed(60kph)\n                lane(same_as: sut.car, at: start)\n                position(20m, ahead_of: sut.car, at: start)\n                duration(1s)\n            ahead: lead.{action}\n            lead.drive() with:\n                duration(1s)\n    with: duration(14s)\n"
+        "{HEADER}{SUT_S}    lead: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(60kph)\n                along(r, at: start, start_offset: 20m)\n                lane(1, at: start)\n                duration(3s)\n            sut.car.drive() with:\n                change_speed(20kph)\n                acceleration(1mpsps)\n                duration(11s)\n        serial():\n            lead.drive() with:\n                speed(60kph)\n                lane(same_as: sut.car, at: start)\n                position(20m, ahead_of: sut.car, at: start)\n                duration(1s)\n            ahead: lead.{action}\n            lead.drive() with:\n                duration(1s)\n    with: duration(14s)\n"
     )
 }
 
@@ -1719,7 +1712,7 @@ fn gaps_and_headways_kept_ahead_of_a_reference_behind() {
 fn a_smooth_rate_profile_shapes_speed_and_acceleration_changes() {
     let text = |action: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    do serial():\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        go: {action}\n        sut.car.drive() with:\n            duration(1s)\n"
+            "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(60kph)\n            along(r, start_offset: 20m, at: start)\n            lane(1, at: start)\n            duration(1s)\n        go: {action}\n        sut.car.drive() with:\n            duration(1s)\n"
         )
     };
     // change_speed from 60 to 90 km/h, smooth with a 2 m/s² peak: a
@@ -1921,7 +1914,7 @@ fn a_lateral_gap_is_kept_and_changed_sideways() {
     // at 50 km/h; b drifts 1 m towards sut.car from t = 1 s.
     let text = |mine: &str| {
         format!(
-            "{HEADER}extend top.main:\n    do sut.s()\nscenario sut.s:\n    r: two_way_road\n    b: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(50kph)\n                along(r, start_offset: 20m, at: start)\n                lane(1, at: start)\n                duration(1s)\n            side: {mine}\n            sut.car.drive() with:\n                duration(3s)\n        serial():\n            b.drive() with:\n                speed(50kph)\n                lane(left_of: sut.car, at: start)\n                position(0m, ahead_of: sut.car, at: start)\n                duration(1s)\n            b.follow_lane(offset: -1m) with:\n                duration(9s)\n"
+            "{HEADER}{SUT_S}    b: vehicle\n    do parallel(overlap: equal):\n        serial():\n            sut.car.drive() with:\n                speed(50kph)\n                along(r, start_offset: 20m, at: start)\n                lane(1, at: start)\n                duration(1s)\n            side: {mine}\n            sut.car.drive() with:\n                duration(3s)\n        serial():\n            b.drive() with:\n                speed(50kph)\n                lane(left_of: sut.car, at: start)\n                position(0m, ahead_of: sut.car, at: start)\n                duration(1s)\n            b.follow_lane(offset: -1m) with:\n                duration(9s)\n"
         )
     };
     let free = |r: &RunResult, t: f64| {

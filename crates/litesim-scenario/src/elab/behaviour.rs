@@ -404,18 +404,13 @@ impl Elab<'_> {
                             | crate::intent::ModKind::ChangeSpeed
                             | crate::intent::ModKind::Acceleration
                     ) {
-                        let given: Vec<&str> = crate::intent::RELATIVE_SPEED
-                            .iter()
-                            .map(|(k, _)| *k)
-                            .filter(|k| bound.contains_key(*k))
-                            .collect();
-                        if given.len() > 1 {
-                            return Err(ScenarioError::Elaboration(format!(
-                                "{}: {name}: {} exclude each other (give one reference actor)",
-                                self.lib.at(*span),
-                                given.join(" and ")
-                            )));
-                        }
+                        let refs = crate::intent::RELATIVE_SPEED.map(|(k, _)| k);
+                        at_most_one(
+                            &bound,
+                            &refs,
+                            (&self.lib.at(*span), &name),
+                            "exclude each other (give one reference actor)",
+                        )?;
                     }
                     let at = self.lib.at(*span);
                     if let Some(CExpr::Const(Value::Enum(t))) = bound.get("track")
@@ -876,14 +871,31 @@ fn orientation_as_yaw(
 /// What litesim plans of `lateral(…)`: one reference at most, measured
 /// centre to centre.
 fn lateral_supported(bound: &BTreeMap<String, CExpr>, at: &str) -> Result<(), ScenarioError> {
-    let refs: Vec<&str> = ["side_of", "left_of", "right_of", "same_as"]
-        .into_iter()
+    at_most_one(
+        bound,
+        &["side_of", "left_of", "right_of", "same_as"],
+        (at, "lateral"),
+        "exclude each other (give one reference actor)",
+    )
+}
+
+/// At most one of `keys` given to the modifier `what` (at `at`); two or
+/// more are an error naming them and `why`.
+fn at_most_one(
+    bound: &BTreeMap<String, CExpr>,
+    keys: &[&str],
+    (at, what): (&str, &str),
+    why: &str,
+) -> Result<(), ScenarioError> {
+    let given: Vec<&str> = keys
+        .iter()
+        .copied()
         .filter(|k| bound.contains_key(*k))
         .collect();
-    if refs.len() > 1 {
+    if given.len() > 1 {
         return Err(ScenarioError::Elaboration(format!(
-            "{at}: lateral: {} exclude each other (give one reference actor)",
-            refs.join(" and ")
+            "{at}: {what}: {} {why}",
+            given.join(" and ")
         )));
     }
     Ok(())
@@ -947,16 +959,12 @@ fn supported(
             (kind, bound)
         }
         "change_lane" => {
-            let given: Vec<&str> = ["num_of_lanes", "lane_changes", "lane"]
-                .into_iter()
-                .filter(|k| bound.contains_key(*k))
-                .collect();
-            if given.len() > 1 {
-                return Err(ScenarioError::Elaboration(format!(
-                    "{at}: change_lane: {} name the same number of lanes (litesim's, CARLA's and the standard's names): give one",
-                    given.join(" and ")
-                )));
-            }
+            at_most_one(
+                &bound,
+                &["num_of_lanes", "lane_changes", "lane"],
+                (at, "change_lane"),
+                "name the same number of lanes (litesim's, CARLA's and the standard's names): give one",
+            )?;
             (kind, bound)
         }
         _ => (kind, bound),

@@ -129,7 +129,16 @@ impl StdCall<'_> {
     /// `rate_profile: smooth`: the change follows a half-cosine (the other
     /// profiles, `none`, `constant` and `asap`, are the constant-rate ramp).
     fn smooth(&self) -> bool {
-        matches!(self.bound.get("rate_profile"), Some(CExpr::Const(Value::Enum(p))) if p == "smooth")
+        self.enum_arg("rate_profile") == Some("smooth")
+    }
+
+    /// The enum literal given as `key` (`side: left` is `Some("left")`);
+    /// `None` when not given or not a literal.
+    fn enum_arg(&self, key: &str) -> Option<&str> {
+        match self.bound.get(key) {
+            Some(CExpr::Const(Value::Enum(e))) => Some(e.as_str()),
+            _ => None,
+        }
     }
 
     fn smooth_arg() -> CExpr {
@@ -183,10 +192,7 @@ impl StdCall<'_> {
     }
 
     fn change_lane(&self, mods: &mut Vec<Modifier>) -> Result<(), ScenarioError> {
-        let side = match self.bound.get("side") {
-            Some(CExpr::Const(Value::Enum(s))) => Some(s.as_str()),
-            _ => None,
-        };
+        let side = self.enum_arg("side");
         // An offset from the target lane's centre, reached sideways at
         // follow_lane's pace and held for the phase.
         if !self.is_zero("offset") {
@@ -260,10 +266,10 @@ impl StdCall<'_> {
             format!("{}(lead)", self.name)
         };
         let reference = self.required("reference", &example)?;
-        let direction = match self.bound.get("direction") {
-            Some(CExpr::Const(Value::Enum(d))) => d.as_str(),
-            _ if action == Action::KeepSpaceGap => "longitudinal",
-            _ => "ahead",
+        let direction = match self.enum_arg("direction") {
+            Some(d) => d,
+            None if action == Action::KeepSpaceGap => "longitudinal",
+            None => "ahead",
         };
         let sideways = matches!(
             direction,
@@ -352,17 +358,6 @@ impl StdCall<'_> {
                 if action.timed() { "trajectory" } else { "path" }
             )));
         };
-        if let Some(CExpr::Const(Value::Enum(t))) = self.bound.get("transform")
-            && ![
-                "object_relative",
-                "world_relative",
-                "road_relative",
-                "lane_relative",
-            ]
-            .contains(&t.as_str())
-        {
-            return self.refuse(&format!("transform: {t}"));
-        }
         let mut args = vec![
             ("path", path),
             (
@@ -422,7 +417,7 @@ impl StdCall<'_> {
             Some(CExpr::Const(Value::Bool(false)))
         );
         match self.bound.get("interpolation") {
-            Some(CExpr::Const(Value::Enum(i))) if i == "smooth" => {
+            _ if self.enum_arg("interpolation") == Some("smooth") => {
                 return self.refuse("interpolation: smooth");
             }
             Some(_) if !off_road => {

@@ -44,6 +44,18 @@ pub const DEFAULT_PHASE_S: f64 = 5.0;
 /// action without a duration lasts this long, and so do the drivers'.
 pub const LANE_CHANGE_S: f64 = 3.0;
 
+/// How long a lane change `width` metres across takes at the peak
+/// sideways speed `rate` (`change_lane(…, rate_peak)`): the smoothstep's
+/// peak is 1.5 · width / time; at least 0.5 s.
+pub(crate) fn lane_change_time(width: f64, rate: f64) -> f64 {
+    (1.5 * width / rate.abs().max(0.01)).max(0.5)
+}
+
+/// `s` seconds to the end of the plan step it falls in (steps of `dt`).
+pub(crate) fn in_steps(s: f64, dt: f64) -> f64 {
+    (s / dt - 1e-9).ceil() * dt
+}
+
 /// Seconds over which a kept or changed space gap's error is closed (the
 /// planner's and the drivers' law alike).
 pub const GAP_CLOSE_S: f64 = 2.0;

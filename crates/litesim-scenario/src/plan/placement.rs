@@ -565,7 +565,7 @@ fn beside<'m>(cx: &Cx<'_>, mo: &mut Motion, mut starting: impl Iterator<Item = &
     }) else {
         return;
     };
-    let sgn = if side == Side::Left { 1.0 } else { -1.0 };
+    let sgn = side.sign();
     // A reference's width (a lane centre has none).
     let w_ref = o
         .as_ref()

@@ -91,8 +91,8 @@ fn reach_estimates(root: &Node, dt: f64) -> BTreeMap<u32, f64> {
                         let steps = ((v1 - v0).abs() / (a * dt) - 1e-9).ceil().max(0.0);
                         out.insert(*id, steps * dt);
                     }
-                    // A lane change at a sideways rate: the smoothstep's
-                    // 1.5 · width / rate over lanes of the usual 3.5 m.
+                    // A lane change at a sideways rate, over lanes of the
+                    // usual 3.5 m.
                     (Action::ChangeLane, ..) => {
                         let of = |k: &str| {
                             mods.iter()
@@ -101,8 +101,8 @@ fn reach_estimates(root: &Node, dt: f64) -> BTreeMap<u32, f64> {
                         };
                         if let Some(r) = of("rate") {
                             let lanes = of("num_of_lanes").unwrap_or(1.0).max(1.0);
-                            let len = (1.5 * 3.5 * lanes / r.abs().max(0.01)).max(0.5);
-                            out.insert(*id, (len / dt - 1e-9).ceil() * dt);
+                            let len = super::lane_change_time(3.5 * lanes, r);
+                            out.insert(*id, super::in_steps(len, dt));
                         }
                     }
                     (Action::RemainStationary, ..) => {

@@ -1,7 +1,7 @@
 //! Helpers shared by the scenario engine's test binaries.
 #![allow(dead_code)]
 
-use litesim_scenario::{LoadOptions, Prepared, prepare};
+use litesim_scenario::{LoadOptions, Prepared, RunResult, prepare};
 use std::path::PathBuf;
 
 /// The repository root.
@@ -72,4 +72,15 @@ pub fn traffic(n: usize, fast_every: Option<usize>) -> String {
         );
     }
     t + "    with: duration(10s)\n"
+}
+
+/// A phase of the plan by label: (t0, t1).
+pub fn phase(r: &RunResult, label: &str) -> (f64, f64) {
+    let p = r
+        .plan
+        .phases
+        .iter()
+        .find(|p| p.label.as_deref() == Some(label))
+        .unwrap_or_else(|| panic!("no phase {label}"));
+    (p.t0, p.t1)
 }

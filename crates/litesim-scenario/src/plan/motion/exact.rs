@@ -23,9 +23,7 @@ impl Mover<'_> {
         place: &Place,
     ) -> Result<(LanePos, f64), ScenarioError> {
         let net = self.cx.net;
-        let err = |what: String| {
-            ScenarioError::Plan(format!("{}: {}'s {}: {what}", l.at, self.id, l.action))
-        };
+        let err = |what: String| self.action_err(l, what);
         let road_of = |id: &str| {
             net.road_index(id)
                 .ok_or_else(|| err(format!("the map has no road '{id}'")))
@@ -128,22 +126,23 @@ impl Mover<'_> {
         let here = net.lane_pos_pose(self.mo.pos, self.mo.lateral);
         let ahead = litesim_core::ahead_along(here.position.xy(), here.yaw, p.position.xy());
         if ahead <= 0.0 {
-            return Err(ScenarioError::Plan(format!(
-                "{}: {}'s change_position: the target is not ahead of it ({:.1} m behind)",
-                l.at, self.id, -ahead
-            )));
+            return Err(self.action_err(
+                l,
+                format!("the target is not ahead of it ({:.1} m behind)", -ahead),
+            ));
         }
         if pos.road == self.mo.pos.road && pos.lane != self.mo.pos.lane {
             let beside = (-3..=3).any(|d| net.lane_beside(self.mo.pos, d) == Some(pos.lane));
             if !beside {
-                return Err(ScenarioError::Plan(format!(
-                    "{}: {}'s change_position: lane {} is not beside its lane {} on road {}",
-                    l.at,
-                    self.id,
-                    pos.lane,
-                    self.mo.pos.lane,
-                    net.roads()[pos.road].id
-                )));
+                return Err(self.action_err(
+                    l,
+                    format!(
+                        "lane {} is not beside its lane {} on road {}",
+                        pos.lane,
+                        self.mo.pos.lane,
+                        net.roads()[pos.road].id
+                    ),
+                ));
             }
             self.mo.change = Some((
                 self.mo.pos.lane,
@@ -152,12 +151,7 @@ impl Mover<'_> {
                 t + super::super::LANE_CHANGE_S,
             ));
         }
-        if self.target.is_none() && self.end_speed.is_none() && self.mo.v < 0.1 {
-            return Err(ScenarioError::Plan(format!(
-                "{}: {} stands and has no speed to change its position at: give it one (`with: speed(…)`)",
-                l.at, self.id
-            )));
-        }
+        self.needs_speed(l, "change its position")?;
         self.reaching = Some((l.id, Reach::Place(p.position.x, p.position.y), t));
         Ok(())
     }

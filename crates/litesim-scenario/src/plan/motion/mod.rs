@@ -912,6 +912,36 @@ impl<'a> Mover<'a> {
         Ok(())
     }
 
+    /// An error about the phase `l`'s action: at its place, naming the
+    /// actor and the action.
+    pub(super) fn action_err(&self, l: &RLeaf, what: String) -> ScenarioError {
+        ScenarioError::Plan(format!("{}: {}'s {}: {what}", l.at, self.id, l.action))
+    }
+
+    /// An error unless the actor has a speed to move by for the phase
+    /// `l`: it stands and no modifier gives it one.
+    pub(super) fn needs_speed(&self, l: &RLeaf, to: &str) -> Result<(), ScenarioError> {
+        if self.target.is_none() && self.end_speed.is_none() && self.mo.v < 0.1 {
+            return Err(ScenarioError::Plan(format!(
+                "{}: {} stands and has no speed to {to} at: give it one (`with: speed(…)`)",
+                l.at, self.id
+            )));
+        }
+        Ok(())
+    }
+
+    /// The side towards the road's centre (`inside`) or its edge, by the
+    /// traffic rule of the road it is on: the left under right-hand
+    /// traffic.
+    pub(super) fn inner_side(&self, inside: bool) -> Side {
+        let rht = self.cx.net.roads()[self.mo.pos.road].rule == litesim_map::model::Rule::Rht;
+        if inside == rht {
+            Side::Left
+        } else {
+            Side::Right
+        }
+    }
+
     /// Moves one plan step towards the lane offset asked for.
     fn shift_sideways(&mut self) {
         if let Some((off, rate)) = self.lane_offset {
@@ -1138,20 +1168,9 @@ impl<'a> Mover<'a> {
         (side, given, inside): (Side, bool, Option<bool>),
         rate: Option<f64>,
     ) -> Result<(), ScenarioError> {
+        let side = inside.map_or(side, |inside| self.inner_side(inside));
         let net = self.cx.net;
         let mo = &mut self.mo;
-        // Towards the road's centre: the left under right-hand traffic.
-        let side = match inside {
-            Some(inside) => {
-                let rht = net.roads()[mo.pos.road].rule == litesim_map::model::Rule::Rht;
-                if inside == rht {
-                    Side::Left
-                } else {
-                    Side::Right
-                }
-            }
-            None => side,
-        };
         if nl < 1 {
             return Err(ScenarioError::Plan(format!(
                 "{}: change_lane({nl}): the number of lanes to change is at least 1 (the side is `side`)",
@@ -1162,11 +1181,7 @@ impl<'a> Mover<'a> {
         let mut side = side;
         // A drawn side without the lanes: the other one.
         if !given && net.lane_beside(mo.pos, signed(side)).is_none() {
-            side = if side == Side::Left {
-                Side::Right
-            } else {
-                Side::Left
-            };
+            side = side.other();
         }
         let d = signed(side);
         let to = net.lane_beside(mo.pos, d).ok_or_else(|| {
@@ -1181,20 +1196,17 @@ impl<'a> Mover<'a> {
         })?;
         if to != mo.pos.lane {
             let len = match rate {
-                // The smoothstep's peak sideways speed is 1.5 · width / time.
                 Some(r) => {
                     let from = net.lane_pos_pose(mo.pos, 0.0).position;
                     let there = net
                         .lane_pos_pose(LanePos { lane: to, ..mo.pos }, 0.0)
                         .position;
-                    let width = (there.x - from.x).hypot(there.y - from.y);
-                    let len = (1.5 * width / r).max(0.5);
+                    let len = lane_change_time((there.x - from.x).hypot(there.y - from.y), r);
                     // The action lasts that long (to the plan's step): its
                     // natural duration in the next layout.
-                    let steps = (len / self.cx.dt - 1e-9).ceil();
                     self.out
                         .reached
-                        .push((super::timer::reach_key(l.id), steps * self.cx.dt));
+                        .push((super::timer::reach_key(l.id), in_steps(len, self.cx.dt)));
                     len
                 }
                 None => (l.t1 - l.t0).clamp(2.0, 6.0),

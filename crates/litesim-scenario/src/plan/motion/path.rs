@@ -87,9 +87,7 @@ impl Mover<'_> {
             return Ok(());
         };
         let def: &PathDef = &self.cx.paths[path];
-        let err = |what: String| {
-            ScenarioError::Plan(format!("{}: {}'s {}: {what}", l.at, self.id, l.action))
-        };
+        let err = |what: String| self.action_err(l, what);
         let mut pts = match frame {
             PathFrame::Road | PathFrame::Lane if def.relative => {
                 self.on_the_road(l, t, (def, reference, frame), plans)?
@@ -332,9 +330,7 @@ impl Mover<'_> {
         plans: &[ActorPlan],
     ) -> Result<Vec<(f64, f64, f64)>, ScenarioError> {
         let net = self.cx.net;
-        let err = |what: String| {
-            ScenarioError::Plan(format!("{}: {}'s {}: {what}", l.at, self.id, l.action))
-        };
+        let err = |what: String| self.action_err(l, what);
         // Where the reference is: road, lane, s and its offset from the
         // lane's centre (left of its travel).
         let (pos, offset) = match reference {
@@ -409,17 +405,9 @@ impl Mover<'_> {
         let (x0, y0) = (here.position.x, here.position.y);
         let len = (x1 - x0).hypot(y1 - y0);
         if len < 0.1 {
-            return Err(ScenarioError::Plan(format!(
-                "{}: {}'s change_position: it is at its target already",
-                l.at, self.id
-            )));
+            return Err(self.action_err(l, "it is at its target already".into()));
         }
-        if self.target.is_none() && self.end_speed.is_none() && self.mo.v < 0.1 {
-            return Err(ScenarioError::Plan(format!(
-                "{}: {} stands and has no speed to change its position at: give it one (`with: speed(…)`)",
-                l.at, self.id
-            )));
-        }
+        self.needs_speed(l, "change its position")?;
         let yaw = (y1 - y0).atan2(x1 - x0);
         self.parked = None;
         self.on_path = Some(OnPath {

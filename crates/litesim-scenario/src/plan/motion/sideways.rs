@@ -42,15 +42,8 @@ impl Mover<'_> {
         let sign = match side {
             Some(GapSide::Left) => 1.0,
             Some(GapSide::Right) => -1.0,
-            // Towards the road's centre: the left under right-hand traffic.
             Some(s @ (GapSide::Inside | GapSide::Outside)) => {
-                let rht =
-                    self.cx.net.roads()[self.mo.pos.road].rule == litesim_map::model::Rule::Rht;
-                if (s == GapSide::Inside) == rht {
-                    1.0
-                } else {
-                    -1.0
-                }
+                self.inner_side(s == GapSide::Inside).sign()
             }
             None if across == 0.0 => {
                 return Err(ScenarioError::Plan(format!(
