@@ -1963,3 +1963,46 @@ fn a_lateral_gap_is_kept_and_changed_sideways() {
         assert!(e.contains(says), "{mine}: {e}");
     }
 }
+
+#[test]
+fn physical_movement_chooses_between_exactness_and_physics() {
+    // 20 m in 2 s, then 40 m in 2 s: a step from 10 to 20 m/s at t = 2 s.
+    // Replayed, a trajectory is exactly where its points are at their
+    // times; must_be_physical makes the replay follow it within the
+    // vehicle's limits instead (it lags the step), and
+    // prefer_non_physical makes follow_trajectory exact.
+    let traj = "trajectory(points: [position_3d(x: 30m, y: -8.75m), position_3d(x: 50m, y: -8.75m), position_3d(x: 90m, y: -8.75m)], time_stamps: [0s, 2s, 4s])";
+    let text = |action: &str| {
+        format!(
+            "{HEADER}{SUT_S}    swerver: vehicle\n    do parallel(overlap: equal):\n        sut.car.drive() with:\n            speed(40kph)\n            along(r, start_offset: 100m, at: start)\n            lane(2, at: start)\n        swerver.{action}\n"
+        )
+    };
+    let furthest = |action: &str| {
+        let r = run_text(&text(action)).unwrap_or_else(|e| panic!("{action}: {e}"));
+        assert!(r.summary.pass, "{action}: {:?}", r.summary.failures);
+        [(0.0, 30.0), (2.0, 50.0), (4.0, 90.0)]
+            .iter()
+            .map(|&(t, x)| (sample(&r, "swerver", t).x - x).abs())
+            .fold(0.0_f64, f64::max)
+    };
+    assert!(furthest(&format!("replay_trajectory(absolute: {traj})")) < 1e-6);
+    assert!(
+        furthest(&format!(
+            "follow_trajectory(absolute: {traj}) with:\n            physical_movement(prefer_non_physical)"
+        )) < 1e-6
+    );
+    let off = furthest(&format!(
+        "replay_trajectory(absolute: {traj}) with:\n            physical_movement(must_be_physical)"
+    ));
+    assert!(off > 1.0, "{off}");
+    // An assignment cannot be physical: an error naming both.
+    let e = run_text(&format!(
+        "{HEADER}{SUT_S}    do serial():\n        sut.car.drive() with:\n            speed(40kph)\n            along(r, at: start)\n            duration(1s)\n        sut.car.assign_speed(20kph) with:\n            physical_movement(must_be_physical)\n"
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.contains("assign_speed is exact (at once), which physical_movement(must_be_physical)"),
+        "{e}"
+    );
+}

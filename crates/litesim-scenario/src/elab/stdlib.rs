@@ -23,6 +23,22 @@ impl StdCall<'_> {
         action: Action,
         mods: &mut Vec<Modifier>,
     ) -> Result<(), ScenarioError> {
+        // An assignment is exact by definition: it cannot also be physical.
+        if matches!(
+            action,
+            Action::AssignSpeed
+                | Action::AssignPosition
+                | Action::AssignOrientation
+                | Action::AssignAcceleration
+        ) && let Some(m) = mods.iter().find(|m| {
+            m.kind == ModKind::PhysicalMovement
+                && matches!(m.args.get("option"), Some(CExpr::Const(Value::Enum(o))) if o == "must_be_physical")
+        }) {
+            return Err(self.err(format!(
+                "{} is exact (at once), which physical_movement(must_be_physical) at {} forbids: use its change_* action, which keeps to the vehicle's limits",
+                self.name, m.at
+            )));
+        }
         match action {
             // What the keep_speed() modifier asks.
             Action::KeepSpeed => {

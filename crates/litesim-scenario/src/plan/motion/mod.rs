@@ -736,7 +736,13 @@ impl<'a> Mover<'a> {
             }
             // Travels `d` by the phase's end.
             &Intent::Distance { distance, .. } => self.travel_by(distance, t, l.t1),
-            Intent::PhysicalMovement { option } if option == "prefer_non_physical" => {
+            // A trajectory takes it exactly (`motion/path`).
+            Intent::PhysicalMovement { option }
+                if option == "prefer_non_physical"
+                    && !l.mods.iter().any(|m| {
+                        matches!(m, Intent::FollowPath { path, .. } if self.cx.paths[*path].timed)
+                    }) =>
+            {
                 self.out.notes.push(format!(
                     "{}: physical_movement(prefer_non_physical): {} moves physically (within its acceleration), as the preference allows",
                     l.at, self.id

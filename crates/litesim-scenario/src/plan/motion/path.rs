@@ -131,6 +131,16 @@ impl Mover<'_> {
                 .map(|p| p.t.unwrap_or(0.0) - t_first)
                 .collect()
         });
+        // physical_movement chooses between exactness and physics: a
+        // trajectory is where it is at each time only when neither
+        // physical option is asked (replay_*, or follow_* that prefers
+        // the non-physical); a path has no times to be exact to.
+        let exact = def.timed
+            && match physical_option(l) {
+                Some("must_be_physical" | "prefer_physical") => false,
+                Some("prefer_non_physical") => true,
+                _ => exact,
+            };
         let on = OnPath {
             pts,
             cum,
@@ -423,4 +433,12 @@ impl Mover<'_> {
         self.exact(l, "change_position(on_road_network: false)");
         Ok(())
     }
+}
+
+/// The `physical_movement(option)` of phase `l`, if it has one.
+fn physical_option(l: &RLeaf) -> Option<&str> {
+    l.mods.iter().find_map(|m| match m {
+        Intent::PhysicalMovement { option } => Some(option.as_str()),
+        _ => None,
+    })
 }
