@@ -1340,11 +1340,91 @@ fn the_standard_movement_parameters_are_met_or_refused() {
         v.windows(2).all(|w| w[1] <= w[0] + 1e-12) || v.windows(2).all(|w| w[1] >= w[0] - 1e-12)
     );
     assert!(with("track: actual").is_ok());
-    let e = with("track: projected").unwrap_err().to_string();
+    // Without a reference there is nothing to project: the same motion.
+    let (a, p) = (
+        with("track: actual").unwrap(),
+        with("track: projected").unwrap(),
+    );
+    assert_eq!(a.plan.actors[0].samples, p.plan.actors[0].samples);
+    // A sideways reference is followed as it moves: projected is refused.
+    let e = run_text(&jump_text(
+        "sut.car.drive() with:\n                lane(same_as: b, track: projected)\n                duration(1s)",
+    ))
+    .unwrap_err()
+    .to_string();
     assert!(
-        e.contains("speed(track: projected) is not supported"),
+        e.contains("lane(track: projected) is not supported by litesim"),
         "{e}"
     );
+}
+
+/// sut.car speeds up from 50 km/h at 0.6 m/s² in the phase `go` (2 s to
+/// 10 s, to 67 km/h); `b` beside it asks for its speed, `c` 50 m behind
+/// it (beyond a driver's 1.5 s time gap) to end 50 m behind it, each with
+/// `track` as given.
+fn projected_text(track: &str) -> String {
+    format!(
+        "{HEADER}{SUT_S}    b: vehicle\n    c: vehicle\n    do serial():\n        start: parallel(overlap: equal):\n            sut.car.drive() with:\n                speed(50kph)\n                along(r, start_offset: 100m, at: start)\n                lane(1, at: start)\n            b.drive() with:\n                speed(50kph)\n                lane(2, at: start)\n                position(0m, ahead_of: sut.car, at: start)\n            c.drive() with:\n                speed(50kph)\n                lane(1, at: start)\n                position(50m, behind: sut.car, at: start)\n        with: duration(2s)\n        go: parallel(overlap: equal):\n            sut.car.drive() with:\n                speed(67kph)\n                acceleration(0.6mpsps)\n            b.drive() with:\n                speed(same_as: sut.car, track: {track})\n            c.drive() with:\n                position(50m, behind: sut.car, at: end, track: {track})\n        with: duration(8s)\n"
+    )
+}
+
+#[test]
+fn track_projected_measures_against_the_reference_going_on_as_it_was() {
+    for npc in [Npc::Planned, Npc::Driver] {
+        let run_with = |track: &str| {
+            let f = example_file(&projected_text(track));
+            let p = prepare(f.path(), &Default::default()).unwrap();
+            let opts = RunOptions {
+                npc,
+                record: true,
+                ..RunOptions::default()
+            };
+            run(&p, &mut litesim_scenario::in_process(), &opts).unwrap()
+        };
+        let (actual, projected) = (run_with("actual"), run_with("projected"));
+        for r in [&actual, &projected] {
+            assert!(
+                r.summary.pass,
+                "{npc:?}: {}",
+                serde_json::to_string(&r.summary).unwrap()
+            );
+        }
+        let end = tick_at(&actual, 10.0);
+        let log_of = |r: &RunResult, id: &str| {
+            let log = r.log.as_ref().unwrap();
+            let t = log.tracks.iter().find(|t| t.id == id).unwrap();
+            (t.state.x[end], t.state.speed[end], t.length)
+        };
+        // speed(same_as): actual follows sut.car to 67 km/h; projected keeps
+        // the 50 km/h sut.car had when the phase began.
+        let (_, vb, _) = log_of(&actual, "b");
+        assert!((vb - kph(67.0)).abs() < 0.5, "{npc:?} actual: {vb}");
+        let (_, vb, _) = log_of(&projected, "b");
+        assert!((vb - kph(50.0)).abs() < 0.5, "{npc:?} projected: {vb}");
+        // position(50m, behind, at: end): actual is 50 m behind sut.car;
+        // projected 50 m behind where sut.car would be had it kept 50 km/h
+        // from the phase's start (its place at 2 s plus 8 s at 13.9 m/s).
+        let k0 = tick_at(&projected, 2.0);
+        for (r, projected) in [(&actual, false), (&projected, true)] {
+            let log = r.log.as_ref().unwrap();
+            let ego = log.tracks.iter().find(|t| t.id == "sut.car").unwrap();
+            let (xc, _, lc) = log_of(r, "c");
+            let x_ref = if projected {
+                ego.state.x[k0] + ego.state.speed[k0] * 8.0
+            } else {
+                ego.state.x[end]
+            };
+            let gap = x_ref - xc - (ego.length + lc) / 2.0;
+            assert!(
+                (gap - 50.0).abs() < 1.0,
+                "{npc:?} projected {projected}: {gap} m"
+            );
+        }
+        // The two differ by what sut.car gained by speeding up (19 m).
+        let (xa, _, _) = log_of(&actual, "c");
+        let (xp, _, _) = log_of(&projected, "c");
+        assert!((xa - xp - 19.0).abs() < 2.0, "{npc:?}: {xa} vs {xp}");
+    }
 }
 
 #[test]

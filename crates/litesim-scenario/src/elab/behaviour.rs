@@ -413,11 +413,17 @@ impl Elab<'_> {
                         )?;
                     }
                     let at = self.lib.at(*span);
+                    // `track: projected` reads a reference's motion as it
+                    // would have gone on from the phase's start: the
+                    // planner and the runtime do that for a speed, an
+                    // acceleration or a position relative to another
+                    // actor; the sideways references follow it as it moves.
                     if let Some(CExpr::Const(Value::Enum(t))) = bound.get("track")
-                        && t != "actual"
+                        && t == "projected"
+                        && matches!(name.as_str(), "lane" | "lateral" | "yaw" | "orientation")
                     {
                         return Err(ScenarioError::Elaboration(format!(
-                            "{at}: {name}(track: {t}) is not supported by litesim (constraints hold on the actual motion)"
+                            "{at}: {name}(track: {t}) is not supported by litesim: its reference is followed as it actually moves (speed, acceleration and position support track: projected)"
                         )));
                     }
                     let (kind, bound) = supported(&name, kind, bound, &at)?;

@@ -475,6 +475,56 @@ pub struct GapGoal {
     pub at: String,
     /// The phase's label, when labelled.
     pub label: Option<String>,
+    /// `track: projected`: the gap is to where the reference would be had
+    /// it gone on from the phase's start at the speed it had then, straight
+    /// along its heading, not to where it is.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub projected: Option<Projection>,
+}
+
+/// Where an actor was at a phase's start and how fast it went: the motion
+/// `track: projected` measures against (it keeps that speed and heading).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Projection {
+    /// Position at `t0` (m).
+    pub x: f64,
+    /// Position at `t0` (m).
+    pub y: f64,
+    /// Heading at `t0` (rad).
+    pub yaw: f64,
+    /// Speed at `t0` (m/s), kept.
+    pub speed: f64,
+    /// The phase's start (s).
+    pub t0: f64,
+}
+
+impl GapGoal {
+    /// The reference's body the gap is measured to at time `t`: `actual`
+    /// itself, or under `track: projected` the projection's place then
+    /// (with `actual`'s size).
+    pub fn reference_at(
+        &self,
+        actual: &crate::state::BodyState,
+        t: f64,
+    ) -> crate::state::BodyState {
+        match self.projected {
+            None => *actual,
+            Some(p) => {
+                let d = p.speed * (t - p.t0).max(0.0);
+                let (s, c) = p.yaw.sin_cos();
+                crate::state::BodyState {
+                    x: p.x + d * c,
+                    y: p.y + d * s,
+                    yaw: p.yaw,
+                    vx: p.speed * c,
+                    vy: p.speed * s,
+                    speed: p.speed,
+                    acceleration: 0.0,
+                    ..*actual
+                }
+            }
+        }
+    }
 }
 
 /// A phase asks `actor` to keep the gap or time headway it has to the

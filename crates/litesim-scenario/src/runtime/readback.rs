@@ -423,7 +423,7 @@ impl Readback {
             let Some((m, r)) = ix else {
                 continue;
             };
-            let got = crate::reactive::gap(g, &self.states[m], &self.states[r]);
+            let got = crate::reactive::gap(g, &self.states[m], &g.reference_at(&self.states[r], t));
             self.goal_results.push(GoalResult {
                 actor: g.actor.clone(),
                 reference: g.reference.clone(),

@@ -50,6 +50,11 @@ pub(super) struct RLeaf {
     pub(super) mods: Vec<Intent>,
     /// Where each of `mods` is written (`file:line:col`).
     pub(super) mod_at: Vec<String>,
+    /// Each of `mods` written with `track: projected`: the reference
+    /// actor's motion it reads is the one it would have kept from the
+    /// phase's start (its speed then, straight on along its heading), not
+    /// its actual one.
+    pub(super) projected: Vec<bool>,
 }
 
 /// Resolves each leaf's modifier arguments once, in time order (seeded):
@@ -67,6 +72,7 @@ pub(super) fn resolve_leaves(
     for l in &leaves {
         let mut mods = Vec::new();
         let mut mod_at = Vec::new();
+        let mut projected = Vec::new();
         for m in &l.mods {
             let mut vals = BTreeMap::new();
             let mut refs = BTreeMap::new();
@@ -104,6 +110,7 @@ pub(super) fn resolve_leaves(
                         Side::Right
                     };
                 }
+                projected.push(vals.get("track").and_then(Value::text) == Some("projected"));
                 mods.push(i);
                 mod_at.push(m.at.clone());
             }
@@ -118,6 +125,7 @@ pub(super) fn resolve_leaves(
             at: l.at.clone(),
             mods,
             mod_at,
+            projected,
         });
     }
     Ok(rleaves)
@@ -218,6 +226,14 @@ fn mod_at<'l>(l: &'l RLeaf, m: &Intent) -> &'l str {
         .map_or(l.at.as_str(), |j| l.mod_at[j].as_str())
 }
 
+/// Whether `m` (one of `l`'s modifiers) is written with `track: projected`.
+fn projected(l: &RLeaf, m: &Intent) -> bool {
+    l.mods
+        .iter()
+        .position(|x| std::ptr::eq(x, m))
+        .is_some_and(|j| l.projected[j])
+}
+
 /// Whether actor `i`'s motion reads another actor's plan (a `position(…,
 /// at: end)` goal): it must move after the others.
 pub(super) fn ties(rleaves: &[RLeaf], id: &str) -> bool {
@@ -313,6 +329,9 @@ enum Follow {
         v0: f64,
         ahead0: f64,
         t0: f64,
+        /// `track: projected`: X keeps the speed it had at `t0` (its
+        /// change since is 0).
+        projected: bool,
     },
 }
 
@@ -682,7 +701,12 @@ impl<'a> Mover<'a> {
                 at: At::End,
                 strict,
                 ..
-            } => self.gap_goal(l, t, plans, (*distance, order.sign(), o, *strict)),
+            } => self.gap_goal(
+                l,
+                t,
+                plans,
+                (*distance, order.sign(), o, *strict, projected(l, m)),
+            ),
             &Intent::ChangeLane {
                 lanes: nl,
                 side,
@@ -781,6 +805,7 @@ impl<'a> Mover<'a> {
                     v0: self.mo.v,
                     ahead0: plans[j].speed_at(t, self.cx.dt),
                     t0: t,
+                    projected: projected(l, m),
                 };
                 self.follow = Some((j, how, l.t1));
                 self.accel_up = RELATIVE_ACCEL_BOUND;
@@ -864,7 +889,7 @@ impl<'a> Mover<'a> {
         } else {
             speed
         };
-        let v = self.relative_speed(l, t, (speed, at), relative, plans)?;
+        let v = self.relative_speed(l, t, (speed, at, projected(l, m)), relative, plans)?;
         match at {
             At::End => self.end_speed = Some((self.mo.v, v, l.t1)),
             _ => {
@@ -1128,7 +1153,7 @@ impl<'a> Mover<'a> {
         l: &RLeaf,
         t: f64,
         plans: &[ActorPlan],
-        (distance, sign, o, strict): (Option<f64>, f64, &String, bool),
+        (distance, sign, o, strict, projected): (Option<f64>, f64, &String, bool, bool),
     ) {
         let Some(op) = plans.iter().find(|p| p.id == *o) else {
             return;
@@ -1138,6 +1163,14 @@ impl<'a> Mover<'a> {
         }
         let (net, dt) = (self.cx.net, self.cx.dt);
         let distance = distance.unwrap_or(5.0);
+        let here_other = op.at(t, dt);
+        let projected = projected.then_some(Projection {
+            x: here_other.x,
+            y: here_other.y,
+            yaw: here_other.yaw,
+            speed: here_other.v,
+            t0: t,
+        });
         self.out.goals.push(GapGoal {
             actor: self.id.clone(),
             reference: o.clone(),
@@ -1148,17 +1181,21 @@ impl<'a> Mover<'a> {
             strict,
             at: l.at.clone(),
             label: l.label.clone(),
+            projected,
         });
         let gap = distance + (op.length + plans[self.i].length) / 2.0;
         let me = net.lane_pos_pose(self.mo.pos, 0.0);
-        let here_other = op.at(t, dt);
         // Distance the other covers plus the change of gap.
         let now_gap = litesim_core::ahead_along(
             litesim_core::Vec2::new(here_other.x, here_other.y),
             here_other.yaw,
             litesim_core::Vec2::new(me.position.x, me.position.y),
         );
-        let other_travel = travel(op, t, l.t1, dt);
+        // Projected, the other goes on at the speed it has now.
+        let other_travel = match projected {
+            Some(p) => p.speed * (l.t1 - t),
+            None => travel(op, t, l.t1, dt),
+        };
         let need = other_travel + sign * gap - now_gap;
         let dur = (l.t1 - t).max(dt);
         let v1 = (2.0 * need / dur - self.mo.v).max(0.0);
@@ -1278,7 +1315,7 @@ impl<'a> Mover<'a> {
         &mut self,
         l: &RLeaf,
         t: f64,
-        (speed, at): (f64, At),
+        (speed, at, projected): (f64, At, bool),
         relative: &Option<(f64, String)>,
         plans: &[ActorPlan],
     ) -> Result<f64, ScenarioError> {
@@ -1289,6 +1326,11 @@ impl<'a> Mover<'a> {
         let off = sign * speed;
         let end = l.t1;
         let at_end = at == At::End;
+        // Projected, the other keeps the speed it has now: a constant
+        // target, nothing to follow.
+        if projected {
+            return Ok((plans[j].speed_at(t, self.cx.dt) + off).max(0.0));
+        }
         if !at_end {
             self.follow = Some((j, Follow::Offset(off), end));
         }
@@ -1444,7 +1486,8 @@ impl<'a> Mover<'a> {
                 v0,
                 ahead0,
                 t0,
-            } => v0 + (ahead - ahead0) + offset * (t - t0),
+                projected,
+            } => v0 + if projected { 0.0 } else { ahead - ahead0 } + offset * (t - t0),
             Follow::Headway(h) => self.mo.v + dt * (ahead - self.mo.v) / h,
             Follow::Change {
                 gap,

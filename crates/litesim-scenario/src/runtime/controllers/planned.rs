@@ -238,8 +238,9 @@ impl Planned {
                         ..BodyState::default()
                     }
                 };
-                let planned = crate::reactive::gap(g, &pb(i), &pb(r));
-                (g, see.world.state(i), see.world.state(r), planned)
+                let planned = crate::reactive::gap(g, &pb(i), &g.reference_at(&pb(r), ta));
+                let reference = g.reference_at(&see.world.state(r), t);
+                (g, see.world.state(i), reference, planned)
             });
             self.warps[i].advance(
                 a,

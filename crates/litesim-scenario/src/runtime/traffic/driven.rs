@@ -391,8 +391,13 @@ impl Driven {
                         ..BodyState::default()
                     }
                 };
-                let (me, reference) = (body(i), body(r));
-                let a_ref = self.accel_of(r, reference.speed, t);
+                let (me, reference) = (body(i), g.reference_at(&body(r), t));
+                // A projected reference does not brake: it keeps its speed.
+                let a_ref = if g.projected.is_some() {
+                    0.0
+                } else {
+                    self.accel_of(r, reference.speed, t)
+                };
                 let a = gap_pursuit(g, &me, &reference, a_ref, g.t1 - t);
                 let p = &self.traffic.vehicles[k as usize].params;
                 let limit = p.safe_decel.max(p.comfort_decel);
