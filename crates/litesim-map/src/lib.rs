@@ -23,7 +23,7 @@ pub mod network;
 pub mod parse;
 pub mod road;
 pub mod synth;
-mod xml;
+pub mod xml;
 
 pub use grid::{GridError, Obstacle, OccupancyGrid};
 pub use lanes::LanePos;

@@ -11,6 +11,9 @@
 //! Names and attribute values are slices of the input (no copies) unless a
 //! value has an entity or character reference. Element positions are byte
 //! offsets of their `<`; the caller turns them into line and column.
+//!
+//! Public because the OpenSCENARIO XML front end (`litesim-xosc`) reads its
+//! files with the same tree: one XML reader in the workspace.
 
 use quick_xml::events::Event;
 use quick_xml::reader::Reader;
@@ -18,7 +21,7 @@ use std::ops::Range;
 
 /// Not well-formed XML: where (byte offset) and what.
 #[derive(Debug)]
-pub(crate) struct XmlError {
+pub struct XmlError {
     /// Byte offset into the input.
     pub pos: usize,
     /// What is wrong (quick-xml's wording, or ours).
@@ -55,7 +58,7 @@ struct Attr {
 }
 
 /// The elements of one subtree (reused from subtree to subtree).
-pub(crate) struct Tree<'a> {
+pub struct Tree<'a> {
     text: &'a str,
     elems: Vec<Elem>,
     attrs: Vec<Attr>,
@@ -65,7 +68,7 @@ pub(crate) struct Tree<'a> {
 
 /// An element of a [`Tree`].
 #[derive(Clone, Copy)]
-pub(crate) struct Node<'t, 'a> {
+pub struct Node<'t, 'a> {
     tree: &'t Tree<'a>,
     id: u32,
 }
@@ -97,6 +100,21 @@ impl<'t, 'a> Node<'t, 'a> {
             })
     }
 
+    /// Every attribute as (local name, value), in document order.
+    pub fn attributes(&self) -> impl Iterator<Item = (&'a str, &'t str)> + use<'t, 'a> {
+        let tree = self.tree;
+        let e = self.elem();
+        tree.attrs[e.attrs.start as usize..e.attrs.end as usize]
+            .iter()
+            .map(move |a| {
+                let v = match &a.value {
+                    Value::Raw(r) => &tree.text[r.clone()],
+                    Value::Owned(i) => tree.owned[*i as usize].as_str(),
+                };
+                (&tree.text[a.name.clone()], v)
+            })
+    }
+
     /// The element's own text (text and CDATA directly inside it, joined),
     /// when it has any that is not only whitespace.
     pub fn text(&self) -> Option<&'t str> {
@@ -119,6 +137,7 @@ impl<'t, 'a> Node<'t, 'a> {
 }
 
 impl<'a> Tree<'a> {
+    /// An empty tree over `text` (filled by [`Stream::next`]).
     pub fn new(text: &'a str) -> Self {
         Self {
             text,
@@ -234,7 +253,7 @@ impl<'a> Tree<'a> {
 }
 
 /// Reads a document's top-level elements one by one.
-pub(crate) struct Stream<'a> {
+pub struct Stream<'a> {
     text: &'a str,
     reader: Reader<&'a [u8]>,
     /// Bytes before what the reader reads (a byte-order mark): added to
