@@ -33,7 +33,19 @@ impl RoadNetwork {
     /// travelled because the lane ends (a dead end or the map's edge) —
     /// 0 when the whole move fits. Placement uses it to tell a position
     /// that lies beyond the map from one that is on it.
-    pub fn advance_rest(&self, mut p: LanePos, mut ds: f64) -> (LanePos, f64) {
+    pub fn advance_rest(&self, p: LanePos, ds: f64) -> (LanePos, f64) {
+        self.advance_choosing(p, ds, &|next: &[LaneRef]| next.first().copied())
+    }
+
+    /// [`Self::advance_rest`], `choose` picking the lane to go on in from
+    /// the successors where the lane leaves its road forwards (a route's
+    /// next road at a junction); none chosen is a dead end.
+    pub fn advance_choosing(
+        &self,
+        mut p: LanePos,
+        mut ds: f64,
+        choose: &dyn Fn(&[LaneRef]) -> Option<LaneRef>,
+    ) -> (LanePos, f64) {
         for _ in 0..64 {
             let road = &self.roads()[p.road];
             let dir = if self.travels_forward(p) { 1.0 } else { -1.0 };
@@ -55,7 +67,7 @@ impl RoadNetwork {
                 lane: p.lane,
             };
             let next = if leaving_forward {
-                self.successors(here).into_iter().next()
+                choose(&self.successors(here))
             } else {
                 self.predecessor(here)
             };

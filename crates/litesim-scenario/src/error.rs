@@ -9,6 +9,10 @@ pub enum ScenarioError {
     /// The test's entry file could not be read.
     #[error(transparent)]
     Load(#[from] litesim_osc::LoadError),
+    /// An OpenSCENARIO XML file that cannot be read (file:line:col, the
+    /// element path, what was expected).
+    #[error(transparent)]
+    Xosc(#[from] litesim_xosc::XoscError),
     /// The test has errors: each diagnostic rendered (where, what, what was
     /// expected).
     #[error("{}", diagnostics.join("\n"))]

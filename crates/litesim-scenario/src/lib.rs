@@ -35,6 +35,7 @@ pub mod solve;
 pub mod state;
 pub mod stepped;
 pub mod sut;
+pub mod xosc;
 
 pub use error::ScenarioError;
 use load::calibration_file;
@@ -252,6 +253,10 @@ pub struct Summary {
     /// the test has none).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub coverage: Vec<coverage::Sample>,
+    /// An OpenSCENARIO XML storyboard's triggers as they fired, with the
+    /// time (absent for other tests).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub triggers: Vec<xosc::Fired>,
     /// What the engine saw but did not execute, and solver remarks.
     pub notes: Vec<String>,
 }

@@ -26,6 +26,12 @@ pub struct LoadOptions {
     /// (`--map-dir`); `None`: the test's folder, then `maps/` in it and in
     /// each folder above it.
     pub map_dir: Option<PathBuf>,
+    /// OpenSCENARIO XML global parameters set from outside (`--param
+    /// NAME=VALUE`, a distribution's variation).
+    pub params: Vec<(String, String)>,
+    /// The OpenSCENARIO XML entity a SUT drives (`--ego NAME`); none: the
+    /// one with an `ExternalController`.
+    pub ego: Option<String>,
 }
 
 /// The OpenDRIVE file of a CARLA map name: `NAME.xodr` in `map_dir`, or
@@ -118,6 +124,10 @@ pub struct Prepared {
     /// The map's lanes as drivers see them: built on first use (the first
     /// run with drivers), then shared by every run of a batch.
     pub lanes: Arc<std::sync::OnceLock<Arc<runtime::traffic::LaneGraph>>>,
+    /// An OpenSCENARIO XML scenario (a `.xosc` file): its storyboard runs
+    /// live on the runtime instead of a plan (`test` is then only the
+    /// run's configuration).
+    pub xosc: Option<Arc<crate::xosc::XoscTest>>,
     /// The driver gains runs read from files, per (calibration folder,
     /// look beside the test, profile): a file is found, read, parsed and
     /// hashed once per test, not once per seed.
@@ -191,8 +201,62 @@ pub(crate) fn conflict_areas(prep: &Prepared) -> Arc<[runtime::traffic::Conflict
     }
 }
 
-/// Loads, checks and elaborates a test; loads its map.
+/// Whether `path` names an OpenSCENARIO XML file.
+pub fn is_xosc(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xosc"))
+}
+
+/// Reads an OpenSCENARIO XML scenario and its map (`RoadNetwork/LogicFile`,
+/// relative to the file; `--map` overrides it).
+fn prepare_xosc(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioError> {
+    let text = litesim_core::files::read_text(path, litesim_xosc::MAX_FILE_BYTES)?;
+    let sc = litesim_xosc::read_str(&text, path, &opts.params)?;
+    let map_path = opts.map.clone().or_else(|| sc.map.clone()).ok_or_else(|| {
+        ScenarioError::Map(format!(
+            "{}: the scenario names no map (RoadNetwork/LogicFile): pass --map FILE.xodr",
+            path.display()
+        ))
+    })?;
+    let name = map_path.display().to_string();
+    let map_text = RoadNetwork::read_text(&map_path).map_err(|source| ScenarioError::MapParse {
+        name: name.clone(),
+        source,
+    })?;
+    let net =
+        RoadNetwork::from_xodr(&map_text, &name).map_err(|source| ScenarioError::MapParse {
+            name: name.clone(),
+            source,
+        })?;
+    let has_lights = net
+        .roads()
+        .iter()
+        .any(|r| r.signals.iter().any(|s| s.dynamic));
+    let mut test = elab::Test::default();
+    test.config.map = Some(name.clone());
+    Ok(Prepared {
+        lanes: Default::default(),
+        calibrations: Default::default(),
+        has_lights,
+        source_hash: sha256_hex(text.as_bytes()),
+        path: path.to_path_buf(),
+        test,
+        net: Some(Arc::new(net)),
+        map_text: Some(Arc::new(map_text)),
+        map_name: name,
+        xosc: Some(Arc::new(crate::xosc::XoscTest::new(
+            sc,
+            opts.ego.as_deref(),
+        )?)),
+    })
+}
+
+/// Loads, checks and elaborates a test; loads its map. An OpenSCENARIO
+/// XML file (`.xosc`) is read and checked; its storyboard runs live.
 pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioError> {
+    if is_xosc(path) {
+        return prepare_xosc(path, opts);
+    }
     let env = |k: &str| match &opts.env {
         Some(m) => m.get(k).cloned(),
         None => std::env::var(k).ok(),
@@ -283,6 +347,7 @@ pub fn prepare(path: &Path, opts: &LoadOptions) -> Result<Prepared, ScenarioErro
         net,
         map_text,
         map_name,
+        xosc: None,
     })
 }
 

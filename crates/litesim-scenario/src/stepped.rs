@@ -49,6 +49,9 @@ fn start<'a, P>(
 where
     P: Deref<Target = Prepared> + Clone + Send + 'a,
 {
+    if let Some(x) = prep.xosc.clone() {
+        return start_xosc(prep, ssp, opts, outside, &x);
+    }
     let seed = opts.seed.or(prep.test.config.seed).unwrap_or(1);
     let (profile, model) = simulator_of(&prep.test);
     let profile = opts.profile.clone().unwrap_or(profile);
@@ -138,6 +141,101 @@ where
             calibration: calibration_src,
             sut_name: opts.sut.name(),
             npc: opts.npc,
+            closed_loop,
+            thresholds: prep.test.config.thresholds.clone(),
+            map_name: prep.map_name.clone(),
+            net: prep.net.clone(),
+        },
+    })))
+}
+
+/// Sets an OpenSCENARIO XML run up: the entities placed by the Init
+/// actions, the storyboard controller driving them (every one but the
+/// SUT's car), the runtime built. Nothing is planned ahead: the
+/// storyboard runs live.
+fn start_xosc<'a, P>(
+    prep: P,
+    ssp: SspSlot<'a>,
+    opts: &RunOptions,
+    outside: bool,
+    x: &crate::xosc::XoscTest,
+) -> Result<Setup<'a>, ScenarioError>
+where
+    P: Deref<Target = Prepared> + Clone + Send + 'a,
+{
+    let seed = opts.seed.unwrap_or(1);
+    let (profile, model) = simulator_of(&prep.test);
+    let profile = opts.profile.clone().unwrap_or(profile);
+    let prof = litesim_ssp::Profile::builtin(&profile).ok();
+    let step_ms = prof.as_ref().map_or(20, |p| p.step_ms);
+    let (calibration, calibration_src) = match &opts.calibration {
+        Some(c) => (Some(*c), "given".to_string()),
+        None => prep
+            .calibration_read(opts, &profile)
+            .map_err(ScenarioError::Shared)?,
+    };
+    let mode = opts.mode.unwrap_or(DriveMode::Kinematic);
+    let test_name = prep
+        .path
+        .file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    let head = Heading {
+        test: test_name.clone(),
+        seed,
+        mode,
+        profile: profile.clone(),
+        model: model.clone(),
+        sut: opts.sut.name(),
+        npc: Npc::Planned,
+        calibration: calibration_src.clone(),
+    };
+    let sut = sut_slot(opts, outside)?;
+    let closed_loop = sut.is_some();
+    if closed_loop && x.ego.is_none() {
+        return Err(ScenarioError::Plan(format!(
+            "{}: a system under test needs an entity to drive: give one an ObjectController named ExternalController, or pass --ego NAME",
+            prep.path.display()
+        )));
+    }
+    let net = prep
+        .net
+        .clone()
+        .ok_or_else(|| ScenarioError::Map("an OpenSCENARIO XML run needs its map".into()))?;
+    let (plan, story, notes) =
+        crate::xosc::setup(x.scenario.clone(), net, step_ms, x.ego, closed_loop)?;
+    if opts.plan_only {
+        let r = unrun(
+            &prep,
+            head,
+            Verdict::Pass,
+            Vec::new(),
+            plan,
+            BTreeMap::new(),
+            notes,
+        );
+        return Ok(Setup::Done(Box::new(r)));
+    }
+    let cfg = exec_config(&prep, opts, &head, (step_ms, calibration), &BTreeMap::new());
+    let claims = story.driven.clone();
+    let mut rt = Runtime::new(ssp, plan, cfg, sut, None)?;
+    rt.set_story(Box::new(story), &claims);
+    let replan: Box<crate::runtime::Replan<'a>> = Box::new(|_: &BTreeMap<String, f64>| {
+        Err(ScenarioError::Plan(
+            "an OpenSCENARIO XML run is not planned ahead: nothing to plan again".into(),
+        ))
+    });
+    Ok(Setup::Ready(Box::new(Started {
+        rt,
+        replan,
+        ctx: Context {
+            test_name,
+            seed,
+            mode,
+            notes,
+            roads: BTreeMap::new(),
+            calibration: calibration_src,
+            sut_name: opts.sut.name(),
+            npc: Npc::Planned,
             closed_loop,
             thresholds: prep.test.config.thresholds.clone(),
             map_name: prep.map_name.clone(),
@@ -293,6 +391,7 @@ fn unrun(
             calibration: h.calibration,
             realtime: None,
             coverage: Vec::new(),
+            triggers: Vec::new(),
             notes,
         },
         plan,
@@ -376,6 +475,12 @@ impl Started<'_> {
         }
         notes.append(&mut ex.sut_notes);
         notes.append(&mut ex.environment_notes);
+        let mut triggers = Vec::new();
+        if let Some(r) = ex.story.take() {
+            notes.extend(r.notes);
+            notes.extend(r.ended);
+            triggers = r.triggers;
+        }
         // `plan`: the plan in force at the end (conditions that held at
         // other times than planned made a new one).
         let ego_id = plan.actors.iter().find(|a| a.ego).map(|a| a.id.clone());
@@ -413,6 +518,7 @@ impl Started<'_> {
                 calibration: calibration_src,
                 realtime: ex.realtime,
                 coverage: ex.coverage,
+                triggers,
                 notes,
             },
             plan,

@@ -85,6 +85,22 @@ pub struct Common {
     /// nearest ancestor that has one — never the current directory.
     #[arg(long, value_name = "DIR")]
     pub calibration_dir: Option<PathBuf>,
+    /// OpenSCENARIO XML: the entity a system under test drives (default:
+    /// the one whose ObjectController is an ExternalController).
+    #[arg(long, value_name = "NAME")]
+    pub ego: Option<String>,
+    /// OpenSCENARIO XML: sets a global parameter (repeatable), as a
+    /// distribution's variation does.
+    #[arg(long = "param", value_name = "NAME=VALUE", value_parser = param_arg)]
+    pub params: Vec<(String, String)>,
+}
+
+/// `NAME=VALUE` of `--param`.
+fn param_arg(s: &str) -> std::result::Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((n, v)) if !n.trim().is_empty() => Ok((n.trim().to_string(), v.to_string())),
+        _ => Err(format!("'{s}': expected NAME=VALUE")),
+    }
 }
 
 impl Common {
@@ -95,6 +111,8 @@ impl Common {
             env: None,
             dialect: dialect_choice(&self.dialect),
             map_dir: self.map_dir.clone(),
+            params: self.params.clone(),
+            ego: self.ego.clone(),
         }
     }
     /// The `--npc` choice.

@@ -325,7 +325,7 @@ pub struct Phase {
 }
 
 /// The whole plan.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Plan {
     /// Sample spacing (s).
     pub dt: f64,

@@ -103,6 +103,8 @@ pub struct Executed {
     /// `wait`/`until` conditions looked at on the simulated state that
     /// never held.
     pub never_held: Vec<String>,
+    /// What a scenario controller (an OpenSCENARIO storyboard) reported.
+    pub story: Option<super::ControllerReport>,
 }
 
 /// Plans the test again with the given condition times fixed.

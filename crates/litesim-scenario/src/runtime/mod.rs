@@ -26,6 +26,18 @@ pub(crate) mod schedule;
 pub mod traffic;
 
 pub use config::{DriveMode, ExecConfig, Executed, LiveEvent, POSTPONE_S, Replan};
+
+/// What a controller that runs a scenario of its own (an OpenSCENARIO
+/// storyboard) reports at the end of a run.
+#[derive(Clone, Debug, Default)]
+pub struct ControllerReport {
+    /// Triggers that fired, in order.
+    pub triggers: Vec<crate::xosc::Fired>,
+    /// What was read but not applied, and why.
+    pub notes: Vec<String>,
+    /// Why the scenario ended, when it ended before the run's time.
+    pub ended: Option<String>,
+}
 pub use controllers::pid::HEADING_LEVER_M;
 pub use controllers::seam::SutSlot;
 pub use run::{Finished, Head, SspSlot, execute};

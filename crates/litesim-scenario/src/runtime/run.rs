@@ -138,6 +138,11 @@ pub(crate) struct Runtime<'a> {
     observer: Option<Observer>,
     sut: Option<SutSeam<'a>>,
     drivers: Option<Drivers>,
+    /// A controller that runs a scenario of its own (an OpenSCENARIO
+    /// storyboard), driving the actors it claimed ([`Runtime::set_story`]).
+    story: Option<Box<dyn Controller + Send + 'a>>,
+    /// The scenario controller said the scenario is over.
+    ended: bool,
     planned: Planned,
     /// Per actor: the command it got last.
     controls: Vec<ControlSample>,
@@ -366,6 +371,8 @@ impl<'a> Runtime<'a> {
             observer: None,
             sut: None,
             drivers,
+            story: None,
+            ended: false,
             planned,
             rb,
             got: KinematicSteps::default(),
@@ -396,10 +403,35 @@ impl<'a> Runtime<'a> {
         self.observer = Some(observer);
     }
 
-    /// Whether the run is over (its steps done, the SUT failed, or real
-    /// time overran).
+    /// Hands the actors marked in `claims` to `story`, a controller that
+    /// runs a scenario of its own (an OpenSCENARIO storyboard): the
+    /// planned controller leaves them, and the world is observed every
+    /// step (the story's conditions read it).
+    pub fn set_story(&mut self, story: Box<dyn Controller + Send + 'a>, claims: &[bool]) {
+        for (d, c) in self.driven.iter_mut().zip(claims) {
+            *d |= *c;
+        }
+        self.dynamic = pedal_driven(&self.plan, &self.cfg, self.ego_i, &self.driven);
+        self.planned = planned_controller(
+            &self.sim,
+            &self.cast,
+            &self.dynamic,
+            self.ego_i,
+            &self.driven,
+            (false, false),
+        );
+        self.world = World::start(&self.plan, &self.cast.dims, self.ego_i);
+        self.chunk = 1;
+        self.story = Some(story);
+    }
+
+    /// Whether the run is over (its steps done, the SUT failed, real time
+    /// overran, or the scenario controller ended the scenario).
     pub fn over(&self) -> bool {
-        self.k >= self.steps || self.sut_error.is_some() || self.realtime_failure.is_some()
+        self.k >= self.steps
+            || self.ended
+            || self.sut_error.is_some()
+            || self.realtime_failure.is_some()
     }
 
     /// The step's head, once per step: live conditions (a re-plan asked
@@ -457,9 +489,14 @@ impl<'a> Runtime<'a> {
             return Ok(!self.over());
         };
         let k = self.k;
-        if let Flow::Stop(msg) = self.command(n_steps, ego_lateral)? {
-            self.sut_error = Some(msg);
-            return Ok(false);
+        match self.command(n_steps, ego_lateral)? {
+            Flow::Stop(msg) => {
+                self.sut_error = Some(msg);
+                return Ok(false);
+            }
+            // The scenario is over: this step is made, then no more.
+            Flow::End(_) => self.ended = true,
+            Flow::Go => {}
         }
         if let Some(p) = self.pacer.as_mut()
             && let Err(msg) = p.release(k)
@@ -553,17 +590,21 @@ impl<'a> Runtime<'a> {
             ssp: self.ssp.get(),
             controls: &mut self.controls,
         };
-        let mut controllers: [Option<&mut dyn Controller>; 3] = [
+        let mut controllers: [Option<&mut dyn Controller>; 4] = [
             self.sut.as_mut().map(|c| c as &mut dyn Controller),
             self.drivers.as_mut().map(|c| c as &mut dyn Controller),
+            self.story.as_mut().map(|c| &mut **c as &mut dyn Controller),
             Some(&mut self.planned),
         ];
+        let mut flow = Flow::Go;
         for c in controllers.iter_mut().flatten() {
-            if let Flow::Stop(msg) = c.command(&see, &mut act)? {
-                return Ok(Flow::Stop(msg));
+            match c.command(&see, &mut act)? {
+                Flow::Stop(msg) => return Ok(Flow::Stop(msg)),
+                Flow::End(msg) => flow = Flow::End(msg),
+                Flow::Go => {}
             }
         }
-        Ok(Flow::Go)
+        Ok(flow)
     }
 
     /// The simulator runs `n_steps` steps.
@@ -641,9 +682,12 @@ impl<'a> Runtime<'a> {
     pub fn finish(mut self) -> Result<Finished, ScenarioError> {
         let reason = if self.sut_error.is_some() {
             "system under test failed"
+        } else if self.ended {
+            "scenario ended"
         } else {
             "plan finished"
         };
+        let story = self.story.as_mut().and_then(|s| s.report());
         self.ssp.get().end_simulation(reason).map_err(ssp_err)?;
         let Readback {
             states,
@@ -696,6 +740,7 @@ impl<'a> Runtime<'a> {
             sut_notes,
             environment_notes: std::mem::take(&mut self.environment.notes),
             never_held,
+            story,
         };
         Ok(Finished {
             ex,

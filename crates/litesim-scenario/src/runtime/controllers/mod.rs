@@ -92,6 +92,9 @@ pub enum Flow {
     /// The system under test failed: the run stops here (the message says
     /// when and why).
     Stop(String),
+    /// The scenario is over (an OpenSCENARIO storyboard's stop trigger
+    /// fired): this step is made, then the run ends normally.
+    End(String),
 }
 
 /// Something that drives actors: called once per step, in the runtime's
@@ -100,6 +103,12 @@ pub enum Flow {
 pub trait Controller {
     /// Decides and sends this step's commands.
     fn command(&mut self, see: &See<'_>, act: &mut Act<'_>) -> Result<Flow, ScenarioError>;
+
+    /// What the controller has to report when the run ends (triggers
+    /// that fired, notes); most have nothing.
+    fn report(&mut self) -> Option<super::ControllerReport> {
+        None
+    }
 }
 
 /// An SSP error as the runtime's.
