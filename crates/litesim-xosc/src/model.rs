@@ -21,6 +21,8 @@ pub struct Scenario {
     /// Global parameters with their values after overrides, in declaration
     /// order.
     pub parameters: Vec<(String, String)>,
+    /// `VariableDeclarations` (1.2): name and initial value, in order.
+    pub variables: Vec<(String, String)>,
     /// `RoadNetwork/LogicFile`, resolved against the file's directory.
     pub map: Option<PathBuf>,
     /// `RoadNetwork/TrafficSignals`.

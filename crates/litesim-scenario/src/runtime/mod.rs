@@ -27,6 +27,12 @@ pub mod traffic;
 
 pub use config::{DriveMode, ExecConfig, Executed, LiveEvent, POSTPONE_S, Replan};
 
+/// An actor this far from the map's origin (m, in x or y) is not in the
+/// scenario — an OpenSCENARIO entity before its `AddEntityAction` or after
+/// its `DeleteEntityAction` waits there — and is not checked against the
+/// roads.
+pub const ABSENT_BEYOND_M: f64 = 1.0e5;
+
 /// What a controller that runs a scenario of its own (an OpenSCENARIO
 /// storyboard) reports at the end of a run.
 #[derive(Clone, Debug, Default)]

@@ -304,6 +304,12 @@ impl Readback {
             self.off.push(false);
             return;
         }
+        // Not in the scenario (an OpenSCENARIO entity before its
+        // AddEntityAction or after its DeleteEntityAction): not off a road.
+        if here.x.abs().max(here.y.abs()) > super::ABSENT_BEYOND_M {
+            self.off.push(false);
+            return;
+        }
         let pos = if vehicle {
             net.and_then(|n| n.locate_near(here, self.last_pos[i]))
         } else {

@@ -427,10 +427,17 @@ impl Storyboard {
             (continuous && transition.dimension == Dimension::Rate).then_some(transition.value);
         let dur =
             motion::check_duration(motion::duration(transition, v0, vt, Some((v0, vt))), &a.at)?;
+        // A relative target that is not continuous is the reference's
+        // speed when the action starts.
+        let target = if continuous {
+            target.clone()
+        } else {
+            SpeedTarget::Absolute(vt)
+        };
         let long = Long::Speed {
             ix,
             v0,
-            target: target.clone(),
+            target,
             shape: transition.shape,
             t0: t,
             dur,

@@ -68,6 +68,8 @@ pub struct Body {
     pub object_type: String,
     /// In the scenario (not deleted, or added).
     pub active: bool,
+    /// Moves along its lane (a vehicle); else straight on where it faces.
+    pub on_lanes: bool,
     /// Since when it has stood still (s).
     pub still_since: Option<f64>,
     /// Since when it has been off the road (s).
@@ -360,10 +362,10 @@ fn ego_route(net: &RoadNetwork, b: &Body, duration: f64) -> Vec<PlanSample> {
         .collect()
 }
 
-/// Where an entity waits while it is not in the scenario: far off the map
-/// and apart from the others.
+/// Where an entity waits while it is not in the scenario: beyond
+/// [`crate::runtime::ABSENT_BEYOND_M`], apart from the others.
 fn parked(i: usize) -> (f64, f64) {
-    (-1.0e6, 1.0e3 * i as f64)
+    (-10.0 * crate::runtime::ABSENT_BEYOND_M, 1.0e3 * i as f64)
 }
 
 impl Storyboard {
@@ -395,6 +397,7 @@ impl Storyboard {
                     traveled: 0.0,
                     object_type: object_type.into(),
                     active: false,
+                    on_lanes: matches!(e.kind, EntityKind::Vehicle { .. }),
                     still_since: None,
                     off_since: None,
                     end_since: None,
@@ -418,7 +421,7 @@ impl Storyboard {
             took: Vec::new(),
             took_now: Vec::new(),
             params: sc.parameters.iter().cloned().collect(),
-            vars: BTreeMap::new(),
+            vars: sc.variables.iter().cloned().collect(),
             signals: BTreeMap::new(),
             pending: Vec::new(),
             phases: sc.signal_controllers.iter().map(|c| (0, c.delay)).collect(),

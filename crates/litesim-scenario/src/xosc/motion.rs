@@ -206,17 +206,29 @@ impl Body {
     /// longitudinal action, its lane offset from its lateral one, or its
     /// trajectory. `others` are the other bodies as they were at `t`.
     pub fn step(&mut self, net: &RoadNetwork, t: f64, dt: f64, others: &[Body], done: &mut Done) {
-        let v_prev = self.v;
+        // A step change holds for the whole step (the speed is new from
+        // the step's start); any other change is integrated as a trapezoid.
+        let stepped = matches!(&self.long, Some(Long::Speed { dur, .. }) if *dur <= 0.0);
+        let v_before = self.v;
         self.step_speed(net, t, dt, others, done);
+        let v_prev = if stepped { self.v } else { v_before };
         if self.path.is_some() {
             self.step_path(net, t, dt, v_prev, done);
             return;
         }
         let ds = 0.5 * (v_prev + self.v) * dt;
         self.traveled += ds.abs();
+        let before = self.lane.map(|l| l.1);
         let offset = self.step_lateral(net, t + dt, others, done);
+        // Standing with nothing moving it sideways, it keeps its pose
+        // (a heading of its own, the end of a road).
+        if ds == 0.0 && before == Some(offset) {
+            return;
+        }
         match self.lane {
-            Some((p, _)) => {
+            // Vehicles go along their lanes; people, animals and objects
+            // straight on where they face.
+            Some((p, _)) if self.on_lanes => {
                 let route = self.route.clone();
                 let choose = |next: &[litesim_map::LaneRef]| -> Option<litesim_map::LaneRef> {
                     next.iter()
@@ -225,7 +237,7 @@ impl Body {
                         .copied()
                 };
                 let (np, rest) = net.advance_choosing(p, ds, &choose);
-                self.end_of_road = rest > 1e-9;
+                self.end_of_road = rest > 1e-9 || (np == p && self.end_of_road);
                 if self.end_of_road {
                     self.v = 0.0;
                 }
@@ -249,7 +261,7 @@ impl Body {
                     }
                 }
             }
-            None => {
+            _ => {
                 self.x += ds * self.yaw.cos();
                 self.y += ds * self.yaw.sin();
                 self.lane = place::lane_at(net, self.x, self.y);

@@ -425,6 +425,15 @@ impl<'a> Cx<'a> {
                 "boolean" => ParamType::Bool,
                 "dateTime" => ParamType::DateTime,
                 "double" => ParamType::Double,
+                "int" if self.version.1 < 2 => {
+                    return Err(self.err(
+                        d,
+                        format!(
+                            "parameterType int is OpenSCENARIO 1.2 and later (integer before); the file's FileHeader says 1.{}",
+                            self.version.1
+                        ),
+                    ));
+                }
                 "integer" | "int" => ParamType::Int,
                 "unsignedInt" | "unsignedShort" => ParamType::UInt,
                 _ => ParamType::String,
@@ -630,6 +639,7 @@ pub fn scenario_text(text: &str, path: &Path, overrides: &[(String, String)]) ->
         version: (1, 3),
         description: String::new(),
         parameters: Vec::new(),
+        variables: Vec::new(),
         map: None,
         signal_controllers: Vec::new(),
         entities: Vec::new(),
@@ -691,8 +701,20 @@ pub fn scenario_text(text: &str, path: &Path, overrides: &[(String, String)]) ->
                 cx.children(n, &["VariableDeclaration"])?;
                 for v in n.elements() {
                     cx.attrs(v, &["name", "variableType", "value"])?;
-                    cx.req(v, "name")?;
-                    cx.req(v, "value")?;
+                    cx.req_enum(
+                        v,
+                        "variableType",
+                        &[
+                            "boolean",
+                            "dateTime",
+                            "double",
+                            "int",
+                            "string",
+                            "unsignedInt",
+                            "unsignedShort",
+                        ],
+                    )?;
+                    sc.variables.push((cx.req(v, "name")?, cx.req(v, "value")?));
                 }
             }
             "MonitorDeclarations" => {
