@@ -37,3 +37,123 @@ fn the_cut_in_reads_with_its_catalogs_and_parameters() {
     assert_eq!(ev.priority, Priority::Override);
     assert!(ev.start.is_some());
 }
+
+/// `base` (a corpus file) with `from` replaced by `to`, read from beside
+/// the corpus.
+fn mutated(base: &str, from: &str, to: &str) -> Result<Scenario, XoscError> {
+    let text = std::fs::read_to_string(corpus(&format!("corpus/{base}.xosc"))).unwrap();
+    assert!(text.contains(from), "{base} has no {from}");
+    let text = text.replacen(from, to, 1);
+    read_str(&text, &corpus(&format!("corpus/{base}.bad.xosc")), &[])
+}
+
+fn err(r: Result<Scenario, XoscError>) -> String {
+    r.expect_err("an error").to_string()
+}
+
+#[test]
+fn bad_parameters_and_expressions_are_errors_at_their_place() {
+    let p = "parameters_and_expressions";
+    let e = err(mutated(p, r#"value="${$Speed / 2}""#, r#"value="${$Speed / (2 - 2)}""#));
+    assert!(e.contains("division by zero"), "{e}");
+    assert!(e.contains("parameters_and_expressions.bad.xosc:"), "{e}");
+    let e = err(mutated(p, r#"value="${$Speed / 2}""#, r#"value="${$Nope / 2}""#));
+    assert!(e.contains("unknown parameter $Nope"), "{e}");
+    // A reference to a later declaration (a cycle is one).
+    let e = err(mutated(p, r#"value="15""#, r#"value="$Half""#));
+    assert!(e.contains("refers to $Half, declared after it"), "{e}");
+    let e = err(mutated(p, r#"value="${$Speed / 2}""#, r#"value="$Half""#));
+    assert!(e.contains("refers to $Half, declared by itself"), "{e}");
+    let e = err(mutated(p, r#"AbsoluteTargetSpeed value="$Half""#, r#"AbsoluteTargetSpeed value="$Missing""#));
+    assert!(e.contains("unknown parameter $Missing"), "{e}");
+    // A value of the wrong type.
+    let e = err(mutated(p, r#"parameterType="double" value="15""#, r#"parameterType="double" value="fast""#));
+    assert!(e.contains(r#""fast" is not a value of its type Double"#), "{e}");
+    // Set from outside: known and unknown names.
+    let f = corpus("corpus/parameters_and_expressions.xosc");
+    let s = read(&f, &[("Speed".into(), "30".into())]).unwrap();
+    assert!(s.parameters.contains(&("Half".into(), "15".into())), "{:?}", s.parameters);
+    let e = read(&f, &[("Sped".into(), "30".into())]).unwrap_err().to_string();
+    assert!(e.contains("parameter 'Sped', which is not declared here"), "{e}");
+}
+
+#[test]
+fn missing_files_catalog_entries_and_references_are_errors() {
+    let e = err(mutated("speed_step", "../../maps/highway.xodr", "../../maps/nowhere.xodr"));
+    assert!(e.contains("the map ../../maps/nowhere.xodr is not there (tried "), "{e}");
+    let e = err(mutated("catalogs_and_controllers", r#"entryName="truck""#, r#"entryName="lorry""#));
+    assert!(e.contains("has no entry 'lorry' (it has car, truck)"), "{e}");
+    let e = err(mutated("catalogs_and_controllers", r#"catalogName="VehicleCatalog" entryName="truck""#, r#"catalogName="Trucks" entryName="truck""#));
+    assert!(e.contains("no catalog named 'Trucks'"), "{e}");
+    let e = err(mutated("catalogs_and_controllers", r#"parameterRef="Length""#, r#"parameterRef="Width""#));
+    assert!(e.contains("parameter 'Width', which is not declared here (declared: Length, MaxSpeed)"), "{e}");
+    let e = err(mutated("speed_step", r#"<EntityRef entityRef="Ego"/></Actors>"#, r#"<EntityRef entityRef="Egg"/></Actors>"#));
+    assert!(e.contains("entity 'Egg' does not exist (declared: Ego, Lead)"), "{e}");
+    let e = err(mutated("storyboard_element_state", r#"storyboardElementRef="speedup""#, r#"storyboardElementRef="speedy""#));
+    assert!(e.contains("storyboard element Event 'speedy' does not exist"), "{e}");
+    // An Event without a start trigger: fine from 1.1, an error in 1.0.
+    let text = std::fs::read_to_string(corpus("corpus/version_1_0.xosc")).unwrap();
+    let a = text.find("<StartTrigger><ConditionGroup><Condition name=\"go\"").unwrap();
+    let b = a + text[a..].find("</StartTrigger>").unwrap() + "</StartTrigger>".len();
+    let cut = format!("{}{}", &text[..a], &text[b..]);
+    let e = read_str(&cut, &corpus("corpus/v10.xosc"), &[]).unwrap_err().to_string();
+    assert!(e.contains("an Event needs a StartTrigger in OpenSCENARIO 1.0"), "{e}");
+}
+
+#[test]
+fn hostile_files_get_an_error_not_a_crash() {
+    // 10,000-deep nesting: refused at the first element out of place.
+    let deep = format!(
+        "<?xml version=\"1.0\"?><OpenSCENARIO><FileHeader revMajor=\"1\" revMinor=\"2\" date=\"d\" description=\"d\" author=\"a\"/>{}{}</OpenSCENARIO>",
+        "<Storyboard>".repeat(10_000),
+        "</Storyboard>".repeat(10_000)
+    );
+    let e = read_str(&deep, &corpus("deep.xosc"), &[]).unwrap_err().to_string();
+    assert!(e.contains("unexpected element <Storyboard> in <Storyboard>"), "{e}");
+    // Deep expressions.
+    let text = std::fs::read_to_string(corpus("corpus/parameters_and_expressions.xosc")).unwrap();
+    let nested = format!("${{{}1{}}}", "(".repeat(5_000), ")".repeat(5_000));
+    let e = read_str(
+        &text.replacen(r#"value="${$Speed / 2}""#, &format!("value=\"{nested}\""), 1),
+        &corpus("corpus/x.xosc"),
+        &[],
+    )
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("nested deeper than 64 levels"), "{e}");
+    // Not XML, not UTF-8, empty, truncated.
+    for (bad, says) in [
+        ("", "no root element"),
+        ("<OpenSCENARIO>", "malformed xml"),
+        ("<OpenSCENARIO><FileHeader", "malformed xml"),
+        ("<Other/>", "not <openscenario>"),
+    ] {
+        let e = read_str(bad, &corpus("x.xosc"), &[]).unwrap_err().to_string();
+        assert!(e.to_lowercase().contains(says), "{bad:?}: {e}");
+    }
+    // A file over the limit is refused before it is read.
+    let dir = tempfile::tempdir().unwrap();
+    let big = dir.path().join("big.xosc");
+    let f = std::fs::File::create(&big).unwrap();
+    f.set_len(MAX_FILE_BYTES + 1).unwrap();
+    let e = read(&big, &[]).unwrap_err().to_string();
+    assert!(e.contains("more than the 64 MB a file may have"), "{e}");
+    let e = read(&dir.path().join("absent.xosc"), &[]).unwrap_err().to_string();
+    assert!(e.contains("cannot read the scenario"), "{e}");
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(256))]
+    /// Any bytes cut from or spliced into a valid file: an answer, never a
+    /// panic.
+    #[test]
+    fn any_damage_to_a_file_is_an_answer(cut in 0usize..4000, len in 0usize..200, splice in ".{0,40}") {
+        let text = std::fs::read_to_string(corpus("corpus/cond_time_headway.xosc")).unwrap();
+        let mut cut = cut.min(text.len());
+        while !text.is_char_boundary(cut) { cut -= 1; }
+        let mut end = (cut + len).min(text.len());
+        while !text.is_char_boundary(end) { end -= 1; }
+        let damaged = format!("{}{}{}", &text[..cut], splice, &text[end..]);
+        let _ = read_str(&damaged, &corpus("corpus/damaged.xosc"), &[]);
+    }
+}
