@@ -629,3 +629,38 @@ fn runs_are_deterministic() {
         serde_json::to_string(&b.log).unwrap()
     );
 }
+
+#[test]
+fn a_batch_runs_every_variation_of_a_distribution() {
+    let out = tempfile::tempdir().unwrap();
+    let spec = litesim_scenario::batch::BatchSpec {
+        tests: vec![root().join("examples/xosc/cut_in_sweep.xosc")],
+        seed_from: 1,
+        seed_to: 1,
+        shard: (0, 1),
+        threads: Some(1),
+        out: out.path().to_path_buf(),
+        resume: false,
+        force_new: false,
+        mode: None,
+        load: LoadOptions::default(),
+        calibration_dir: None,
+        sut: litesim_scenario::sut::SutChoice::Acc,
+        npc: litesim_scenario::Npc::Driver,
+        sut_timeout: None,
+        save_failed: false,
+        precomputed: Default::default(),
+        save_failed_mcap: false,
+    };
+    let report = litesim_scenario::batch::run_batch(&spec, &|_, _| {}).unwrap();
+    assert_eq!(report.total, 6);
+    assert_eq!(report.passed, 6, "{report:?}");
+    let csv = std::fs::read_to_string(out.path().join("results.csv")).unwrap();
+    for k in 1..=6 {
+        assert!(csv.contains(&format!("cut_in_sweep.xosc#{k}\"")), "{csv}");
+    }
+    // The variations differ: the ego's speed decides when the cut-in
+    // starts.
+    let lines = std::fs::read_to_string(out.path().join("results.jsonl")).unwrap();
+    assert_eq!(lines.lines().count(), 6);
+}

@@ -8,11 +8,13 @@
 //! this crate only reads. See `docs/xosc.md` for the element-by-element
 //! support table.
 
+pub mod distribution;
 pub mod error;
 pub mod expr;
 pub mod model;
 mod read;
 
+pub use distribution::{Distribution, is_distribution, read_distribution};
 pub use error::XoscError;
 pub use model::*;
 pub use read::MAX_FILE_BYTES;

@@ -80,7 +80,8 @@ fn the_corpus_is_valid_against_asam_xsd_and_reads() {
 
 #[test]
 fn schema_violations_are_refused_by_the_xsd_and_the_reader_alike() {
-    let base = std::fs::read_to_string(repo().join("examples/xosc/corpus/speed_linear_time.xosc")).unwrap();
+    let base = std::fs::read_to_string(repo().join("examples/xosc/corpus/speed_linear_time.xosc"))
+        .unwrap();
     // (what is changed, the mutation, what the reader's error says)
     let cases: Vec<(&str, String, &str)> = vec![
         (
@@ -121,7 +122,11 @@ fn schema_violations_are_refused_by_the_xsd_and_the_reader_alike() {
         ),
         (
             "a choice made twice",
-            base.replacen("<TeleportAction><Position>", "<TeleportAction><Position><WorldPosition x=\"0\" y=\"0\"/>", 1),
+            base.replacen(
+                "<TeleportAction><Position>",
+                "<TeleportAction><Position><WorldPosition x=\"0\" y=\"0\"/>",
+                1,
+            ),
             "not both",
         ),
         (
@@ -153,6 +158,9 @@ fn schema_violations_are_refused_by_the_xsd_and_the_reader_alike() {
         assert!(e.contains(says), "{what}: {e}");
         // file:line:col first.
         let place = e.split(": ").next().unwrap();
-        assert!(place.matches(':').count() >= 2, "{what}: no line:col in {e}");
+        assert!(
+            place.matches(':').count() >= 2,
+            "{what}: no line:col in {e}"
+        );
     }
 }

@@ -82,16 +82,13 @@ pub fn run_batch(
     let (si, sn) = spec.shard;
     std::fs::create_dir_all(&spec.out).map_err(|e| ScenarioError::write(&spec.out, e))?;
     let results = spec.out.join("results.jsonl");
-    // Each test is parsed and its map loaded once.
+    // Each test is parsed and its map loaded once; an OpenSCENARIO XML
+    // parameter distribution is one test per variation (`FILE#k`).
     let preps: Vec<(String, Result<Prepared, String>)> = spec
         .tests
         .iter()
-        .map(|t| {
-            (
-                t.display().to_string(),
-                crate::prepare(t, &spec.load).map_err(|e| e.chain()),
-            )
-        })
+        .flat_map(|t| variations(t, &spec.load))
+        .map(|(name, path, load)| (name, crate::prepare(&path, &load).map_err(|e| e.chain())))
         .collect();
     let base = RunOptions {
         mode: spec.mode,
@@ -191,6 +188,31 @@ pub fn run_batch(
     report.errors = errors;
     report.verdict = verdict;
     Ok(report)
+}
+
+/// The tests a batch entry stands for: itself, or each variation of an
+/// OpenSCENARIO XML `ParameterValueDistribution` (named `FILE#k`, its
+/// scenario loaded with the variation's parameters). A distribution that
+/// cannot be read is one test that fails to load.
+fn variations(t: &Path, load: &LoadOptions) -> Vec<(String, PathBuf, LoadOptions)> {
+    let name = t.display().to_string();
+    if !(crate::load::is_xosc(t) && litesim_xosc::is_distribution(t)) {
+        return vec![(name, t.to_path_buf(), load.clone())];
+    }
+    match litesim_xosc::read_distribution(t) {
+        Ok(d) => d
+            .variations
+            .into_iter()
+            .enumerate()
+            .map(|(k, v)| {
+                let mut l = load.clone();
+                l.params.extend(v);
+                (format!("{name}#{}", k + 1), d.scenario.clone(), l)
+            })
+            .collect(),
+        // Read again by `prepare`, which reports the error.
+        Err(_) => vec![(name, t.to_path_buf(), load.clone())],
+    }
 }
 
 /// Refuses a shard that is not i/N and a seed range that is empty or too
