@@ -109,6 +109,10 @@ pub struct RunOptions {
     /// Pace the steps to the wall clock (hardware in the loop), with this
     /// policy for late steps; `None`: as fast as possible.
     pub realtime: Option<realtime::Policy>,
+    /// The simulation step (ms), overriding the test's `sim_info.step_ms`
+    /// and the profile's (an OpenSCENARIO XML file has no step of its own:
+    /// the profile's, else this).
+    pub step_ms: Option<u32>,
 }
 
 /// What drives the scenario's vehicles other than sut.car (`--npc`).

@@ -56,10 +56,9 @@ where
     let (profile, model) = simulator_of(&prep.test);
     let profile = opts.profile.clone().unwrap_or(profile);
     let prof = litesim_ssp::Profile::builtin(&profile).ok();
-    let step_ms = prep
-        .test
-        .config
+    let step_ms = opts
         .step_ms
+        .or(prep.test.config.step_ms)
         .or(prof.as_ref().map(|p| p.step_ms))
         .unwrap_or(20);
     let (sol, plan) = plan_test(&prep, seed, step_ms)?;
@@ -167,7 +166,9 @@ where
     let (profile, model) = simulator_of(&prep.test);
     let profile = opts.profile.clone().unwrap_or(profile);
     let prof = litesim_ssp::Profile::builtin(&profile).ok();
-    let step_ms = prof.as_ref().map_or(20, |p| p.step_ms);
+    let step_ms = opts
+        .step_ms
+        .unwrap_or_else(|| prof.as_ref().map_or(20, |p| p.step_ms));
     let (calibration, calibration_src) = match &opts.calibration {
         Some(c) => (Some(*c), "given".to_string()),
         None => prep

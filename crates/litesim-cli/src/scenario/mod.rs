@@ -85,6 +85,10 @@ pub struct Common {
     /// nearest ancestor that has one — never the current directory.
     #[arg(long, value_name = "DIR")]
     pub calibration_dir: Option<PathBuf>,
+    /// The simulation step in ms (1 to 1000), overriding the test's and
+    /// the profile's (an OpenSCENARIO XML file has no step of its own).
+    #[arg(long, value_name = "MS", value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub step_ms: Option<u32>,
     /// OpenSCENARIO XML: the entity a system under test drives (default:
     /// the one whose ObjectController is an ExternalController).
     #[arg(long, value_name = "NAME")]

@@ -157,6 +157,7 @@ pub(super) fn run_options(
         sut,
         npc: common.npc(),
         sut_timeout,
+        step_ms: common.step_ms,
         ..RunOptions::default()
     };
     // dSPACE is the hardware-in-the-loop platform: its runs keep pace with

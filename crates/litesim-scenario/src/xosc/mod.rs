@@ -150,6 +150,10 @@ pub struct Storyboard {
     /// Why the storyboard ended, when it did.
     pub ended: Option<String>,
     started: bool,
+    /// The bodies as they were at the step's start (reused).
+    snapshot: Vec<Body>,
+    /// Each body's box centre before the step (reused).
+    before: Vec<(f64, f64, f64)>,
 }
 
 /// What a finished storyboard reports.
@@ -431,6 +435,8 @@ impl Storyboard {
             dt,
             ended: None,
             started: false,
+            snapshot: Vec::new(),
+            before: Vec::new(),
             net,
             scenario: sc.clone(),
         };
@@ -558,16 +564,17 @@ impl Storyboard {
             self.triggers[k].rearm();
         }
         let (t, dt) = (self.t, self.dt);
-        let groups = self.triggers[k].trigger.groups.clone();
         let mut any = false;
-        for (g, conds) in groups.iter().enumerate() {
+        for g in 0..self.triggers[k].trigger.groups.len() {
             let mut all = true;
-            for (c, cond) in conds.iter().enumerate() {
+            for c in 0..self.triggers[k].trigger.groups[g].len() {
+                let cond = &self.triggers[k].trigger.groups[g][c];
+                let (edge, delay) = (cond.edge, cond.delay);
                 let l = self.holds(&cond.kind, t);
                 let st = &mut self.triggers[k].conds[g][c];
                 // Every condition is evaluated each step (their edges need
                 // their history), not only until one group holds.
-                all &= story::condition_value(st, cond.edge, cond.delay, l, t, dt);
+                all &= story::condition_value(st, edge, delay, l, t, dt);
             }
             any |= all;
         }
@@ -850,7 +857,24 @@ impl Storyboard {
 
     /// Moves every body the storyboard drives by one step.
     fn move_bodies(&mut self, t: f64) {
-        let others = self.bodies.clone();
+        // Every body moves against the others as they were at `t`: a
+        // snapshot kept for the run, its kinematics refreshed each step
+        // (names and actions never change in it).
+        let mut others = std::mem::take(&mut self.snapshot);
+        if others.len() == self.bodies.len() {
+            for (o, b) in others.iter_mut().zip(&self.bodies) {
+                o.x = b.x;
+                o.y = b.y;
+                o.yaw = b.yaw;
+                o.v = b.v;
+                o.a = b.a;
+                o.lane = b.lane;
+                o.active = b.active;
+                o.traveled = b.traveled;
+            }
+        } else {
+            others = self.bodies.clone();
+        }
         let mut done = Vec::new();
         let dt = self.dt;
         for (i, b) in self.bodies.iter_mut().enumerate() {
@@ -867,6 +891,7 @@ impl Storyboard {
                 done.push(ai);
             }
         }
+        self.snapshot = others;
         for ai in done {
             self.action_over(ai, false);
         }
@@ -901,8 +926,17 @@ impl Storyboard {
             } else {
                 None
             };
+            // A body within its lane is on the road; only one beyond it
+            // (or off the lanes) is located again.
+            let in_lane = b.lane.is_some_and(|(p, off)| {
+                // Within a metre of a lane's centre is in any lane.
+                off.abs() < 1.0
+                    || self.net.roads()[p.road]
+                        .lane_span(p.s, p.lane)
+                        .is_some_and(|sp| (off.abs() * 2.0) <= (sp.t_outer - sp.t_inner).abs())
+            });
             let (cx, cy) = b.centre();
-            let off = self.net.locate(litesim_core::Vec2::new(cx, cy)).is_none();
+            let off = !in_lane && self.net.locate(litesim_core::Vec2::new(cx, cy)).is_none();
             b.off_since = if off { b.off_since.or(Some(t)) } else { None };
             b.end_since = if b.end_of_road {
                 b.end_since.or(Some(t))
@@ -1010,17 +1044,16 @@ impl Controller for Storyboard {
         self.pending_ssp(act)?;
         self.advance(t)?;
         self.pending_ssp(act)?;
-        let before: Vec<(f64, f64, f64)> = self
-            .bodies
-            .iter()
-            .map(|b| {
-                let (x, y) = b.centre();
-                (x, y, b.yaw)
-            })
-            .collect();
+        let mut before = std::mem::take(&mut self.before);
+        before.clear();
+        before.extend(self.bodies.iter().map(|b| {
+            let (x, y) = b.centre();
+            (x, y, b.yaw)
+        }));
         self.move_bodies(t);
         self.settle()?;
         self.send(act, &before, see)?;
+        self.before = before;
         if let Some(why) = &self.ended {
             return Ok(Flow::End(why.clone()));
         }
