@@ -52,6 +52,20 @@ def test_a_carla_scenario_runs_as_written(tmp_path):
         litesim.run(carla, dialect="litesim")
 
 
+def test_an_openscenario_xml_file_runs_with_a_python_sut():
+    # The cut-in as ASAM OpenSCENARIO XML: the entity with the
+    # ExternalController is the one the SUT drives (here litesim's ACC).
+    xosc = str(ROOT / "examples/xosc/cut_in.xosc")
+    r = litesim.run(xosc, sut="acc")
+    assert r.passed, r.failures
+    assert set(r.log["actor"]) == {"Ego", "Cutter"}
+    starts = [t for t in r.summary["triggers"] if t["element"] == "CutInEvent"]
+    assert len(starts) == 1 and 0.0 < starts[0]["t"] < 1.0
+    # A bad file: the reader's message, with its place.
+    with pytest.raises(litesim.LitesimError, match=r"cut_in_sweep.xosc:.*parameter distribution file"):
+        litesim.run(str(ROOT / "examples/xosc/cut_in_sweep.xosc"))
+
+
 def test_a_failing_run_says_why():
     # sut.car replays its plan into the box standing in its lane: its failure.
     r = litesim.run(str(ROOT / "examples/scenarios/obstacle_goal.osc"), seed=1)

