@@ -405,6 +405,11 @@ add("cond_offroad", scenario("an OffroadCondition: Ego offsets 7 m right, off th
                              story(["Ego"], event("leave", action("leave", lane_offset('<AbsoluteTargetLaneOffset value="-7"/>', "linear", 2)), at_time(1))
                                    + event("react", action("stop", speed(0)), trigger([by_entity("Ego", '<OffroadCondition duration="0.5"/>')]), priority="parallel")), stop=8))
 
+ents = vehicle("Ego")
+init = private("Ego", teleport(lane_pos(1, -2, 50)), speed(0), speed(20, "linear", "time", 4),
+               lane_change(absolute_lane(-1), "sinusoidal", "time", 3))
+add("init_actions_go_on", scenario("Init actions that take time go on after the start: a linear speed-up to 20 m/s over 4 s and a lane change over 3 s", ents, init, "", stop=6))
+
 # ----------------------------------------------------------------- storyboard
 ents, init = two_cars(ego_v=10, lead_lane=-3)
 add("storyboard_element_state", scenario("a StoryboardElementStateCondition: the lane change starts when the speed-up event ends", ents, init,

@@ -664,3 +664,13 @@ fn a_batch_runs_every_variation_of_a_distribution() {
     let lines = std::fs::read_to_string(out.path().join("results.jsonl")).unwrap();
     assert_eq!(lines.lines().count(), 6);
 }
+
+#[test]
+fn init_actions_that_take_time_go_on_after_the_start() {
+    let r = go("init_actions_go_on");
+    assert!(r.summary.pass, "{:?}", r.summary.failures);
+    // From 0 s: 20 m/s over 4 s, linear; lane -1 after 3 s.
+    near(speed(&r, "Ego", 2.0), 10.0, 1e-6, "halfway");
+    near(speed(&r, "Ego", 4.0), 20.0, 1e-9, "at 4 s");
+    near(refp(&r, "Ego", 3.0).1, -1.75, 1e-9, "lane -1 at 3 s");
+}

@@ -619,13 +619,11 @@ impl Storyboard {
             }
             _ => {
                 for c in self.elems[ix].children.clone() {
-                    if self.elems[c].start.is_some() {
-                        // Waits for its own trigger.
-                        self.set(c, State::Standby, Transition::End);
-                        self.took_now.pop();
-                        if let Some(k) = self.elems[c].start {
-                            self.triggers[k].armed = false;
-                        }
+                    if let Some(k) = self.elems[c].start {
+                        // Waits for its own trigger (standby: no
+                        // transition to record).
+                        self.elems[c].state = State::Standby;
+                        self.triggers[k].armed = false;
                     } else {
                         self.start_event_or(c)?;
                     }
@@ -701,7 +699,10 @@ impl Storyboard {
 
     /// An action reached its goal (or was overridden: `stopped`).
     pub(crate) fn action_over(&mut self, ai: usize, stopped: bool) {
-        let ix = self.actions[ai].0;
+        // An Init action (no storyboard element) just ends.
+        let Some(&(ix, _)) = self.actions.get(ai) else {
+            return;
+        };
         if self.elems[ix].state != State::Running {
             return;
         }
