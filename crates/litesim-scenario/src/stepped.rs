@@ -76,31 +76,13 @@ where
     } else if !plan.unplaced.is_empty() {
         notes.push("an actor could not be placed with this seed: the run was not executed".into());
     }
-    let (calibration, calibration_src) = match &opts.calibration {
-        Some(c) => (Some(*c), "given".to_string()),
-        None => prep
-            .calibration_read(opts, &profile)
-            .map_err(ScenarioError::Shared)?,
-    };
     let mode = opts.mode.unwrap_or(if prep.test.config.dynamic {
         DriveMode::Dynamic
     } else {
         DriveMode::Kinematic
     });
-    let test_name = prep
-        .path
-        .file_name()
-        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-    let head = Heading {
-        test: test_name.clone(),
-        seed,
-        mode,
-        profile: profile.clone(),
-        model: model.clone(),
-        sut: opts.sut.name(),
-        npc: opts.npc,
-        calibration: calibration_src.clone(),
-    };
+    let (head, calibration) = heading(&prep, opts, (&profile, &model), (seed, mode), opts.npc)?;
+    let (test_name, calibration_src) = (head.test.clone(), head.calibration.clone());
     if opts.plan_only || !violations.is_empty() || !plan.unplaced.is_empty() {
         // A plan that breaks its checks fails; one whose actors could not
         // all be placed is a scenario that did not happen (`invalid`).
@@ -169,27 +151,9 @@ where
     let step_ms = opts
         .step_ms
         .unwrap_or_else(|| prof.as_ref().map_or(20, |p| p.step_ms));
-    let (calibration, calibration_src) = match &opts.calibration {
-        Some(c) => (Some(*c), "given".to_string()),
-        None => prep
-            .calibration_read(opts, &profile)
-            .map_err(ScenarioError::Shared)?,
-    };
     let mode = opts.mode.unwrap_or(DriveMode::Kinematic);
-    let test_name = prep
-        .path
-        .file_name()
-        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
-    let head = Heading {
-        test: test_name.clone(),
-        seed,
-        mode,
-        profile: profile.clone(),
-        model: model.clone(),
-        sut: opts.sut.name(),
-        npc: Npc::Planned,
-        calibration: calibration_src.clone(),
-    };
+    let (head, calibration) = heading(&prep, opts, (&profile, &model), (seed, mode), Npc::Planned)?;
+    let (test_name, calibration_src) = (head.test.clone(), head.calibration.clone());
     let sut = sut_slot(opts, outside)?;
     let closed_loop = sut.is_some();
     if closed_loop && x.ego.is_none() {
@@ -341,6 +305,40 @@ fn place_drivers(
     notes.extend(d.notes.iter().cloned());
     let drivers = (!d.traffic.vehicles.is_empty()).then_some(d);
     Ok((plan, drivers, actors))
+}
+
+/// A run's heading (what its summary says before anything ran) and the
+/// driver gains it uses.
+fn heading(
+    prep: &Prepared,
+    opts: &RunOptions,
+    (profile, model): (&str, &str),
+    (seed, mode): (u64, DriveMode),
+    npc: Npc,
+) -> Result<(Heading, Option<litesim_ssp::profile::Calibration>), ScenarioError> {
+    let (calibration, calibration_src) = match &opts.calibration {
+        Some(c) => (Some(*c), "given".to_string()),
+        None => prep
+            .calibration_read(opts, profile)
+            .map_err(ScenarioError::Shared)?,
+    };
+    let test = prep
+        .path
+        .file_name()
+        .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+    Ok((
+        Heading {
+            test,
+            seed,
+            mode,
+            profile: profile.to_string(),
+            model: model.to_string(),
+            sut: opts.sut.name(),
+            npc,
+            calibration: calibration_src,
+        },
+        calibration,
+    ))
 }
 
 /// What a summary says of its run before anything ran.

@@ -26,6 +26,14 @@ fn err(at: &str, msg: String) -> ScenarioError {
     ScenarioError::Plan(format!("{at}: {msg}"))
 }
 
+/// The body of entity `name`.
+fn body<'b>(bodies: &'b [Body], name: &str, at: &str) -> Result<&'b Body, ScenarioError> {
+    bodies
+        .iter()
+        .find(|b| b.id == name)
+        .ok_or_else(|| err(at, format!("entity '{name}' does not exist")))
+}
+
 /// Applies an `Orientation` to the heading `base` (the lane's, or the
 /// reference entity's): relative adds, absolute replaces.
 fn orient(base: f64, o: Option<&Orientation>) -> f64 {
@@ -79,12 +87,7 @@ pub fn resolve(
     bodies: &[Body],
     at: &str,
 ) -> Result<Place, ScenarioError> {
-    let find = |name: &str| {
-        bodies
-            .iter()
-            .find(|b| b.id == name)
-            .ok_or_else(|| err(at, format!("entity '{name}' does not exist")))
-    };
+    let find = |name: &str| body(bodies, name, at);
     let road_ix = |id: &str| {
         net.road_index(id)
             .ok_or_else(|| err(at, format!("the map has no road '{id}'")))
@@ -198,12 +201,7 @@ fn lane_relative(
     bodies: &[Body],
     at: &str,
 ) -> Result<Place, ScenarioError> {
-    let find = |name: &str| {
-        bodies
-            .iter()
-            .find(|b| b.id == name)
-            .ok_or_else(|| err(at, format!("entity '{name}' does not exist")))
-    };
+    let find = |name: &str| body(bodies, name, at);
     Ok(match p {
         Position::RelativeLane {
             entity,

@@ -31,6 +31,18 @@ pub(super) fn trigger(cx: &mut Cx<'_>, t: Node<'_, '_>) -> R<Trigger> {
     Ok(Trigger { groups })
 }
 
+/// The attributes of the conditions that measure a distance or a time to
+/// a target (TimeToCollision, Distance; TimeHeadway adds `entityRef`).
+const MEASURED: [&str; 7] = [
+    "value",
+    "freespace",
+    "alongRoute",
+    "rule",
+    "coordinateSystem",
+    "relativeDistanceType",
+    "routingAlgorithm",
+];
+
 fn rule(cx: &Cx<'_>, n: Node<'_, '_>) -> R<Rule> {
     let r = cx.req_enum(
         n,
@@ -385,19 +397,7 @@ fn gap_test(cx: &mut Cx<'_>, e: Node<'_, '_>) -> R<EntityTest> {
     let no_children = |cx: &Cx<'_>| cx.children(e, &[]);
     Ok(match e.name() {
         "TimeHeadwayCondition" => {
-            cx.attrs(
-                e,
-                &[
-                    "entityRef",
-                    "value",
-                    "freespace",
-                    "alongRoute",
-                    "rule",
-                    "coordinateSystem",
-                    "relativeDistanceType",
-                    "routingAlgorithm",
-                ],
-            )?;
+            cx.attrs(e, &[&MEASURED[..], &["entityRef"]].concat())?;
             no_children(cx)?;
             EntityTest::TimeHeadway {
                 entity: cx.req(e, "entityRef")?,
@@ -408,18 +408,7 @@ fn gap_test(cx: &mut Cx<'_>, e: Node<'_, '_>) -> R<EntityTest> {
             }
         }
         "TimeToCollisionCondition" => {
-            cx.attrs(
-                e,
-                &[
-                    "value",
-                    "freespace",
-                    "alongRoute",
-                    "rule",
-                    "coordinateSystem",
-                    "relativeDistanceType",
-                    "routingAlgorithm",
-                ],
-            )?;
+            cx.attrs(e, &MEASURED)?;
             cx.children(e, &["TimeToCollisionConditionTarget"])?;
             let t = cx.child(e, "TimeToCollisionConditionTarget")?;
             let c = cx.choice(t, &["Position", "EntityRef"])?;
@@ -439,18 +428,7 @@ fn gap_test(cx: &mut Cx<'_>, e: Node<'_, '_>) -> R<EntityTest> {
             }
         }
         "DistanceCondition" => {
-            cx.attrs(
-                e,
-                &[
-                    "value",
-                    "freespace",
-                    "alongRoute",
-                    "rule",
-                    "coordinateSystem",
-                    "relativeDistanceType",
-                    "routingAlgorithm",
-                ],
-            )?;
+            cx.attrs(e, &MEASURED)?;
             cx.children(e, &["Position"])?;
             let p = cx.child(e, "Position")?;
             EntityTest::Distance {
