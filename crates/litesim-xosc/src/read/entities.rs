@@ -175,116 +175,8 @@ fn properties(cx: &Cx<'_>, n: Node<'_, '_>) -> R<Vec<(String, String)>> {
 
 /// A `Vehicle`, `Pedestrian` or `MiscObject` (its parameters in scope).
 fn object_body(cx: &mut Cx<'_>, e: Node<'_, '_>) -> R<(EntityKind, [f64; 6])> {
-    let bbox = |cx: &Cx<'_>| -> R<[f64; 6]> {
-        let b = cx.child(e, "BoundingBox")?;
-        cx.attrs(b, &[])?;
-        cx.children(b, &["Center", "Dimensions"])?;
-        let c = cx.child(b, "Center")?;
-        cx.attrs(c, &["x", "y", "z"])?;
-        let d = cx.child(b, "Dimensions")?;
-        cx.attrs(d, &["width", "length", "height"])?;
-        Ok([
-            cx.num(c, "x")?,
-            cx.num(c, "y")?,
-            cx.num(c, "z")?,
-            cx.non_neg(d, "length")?,
-            cx.non_neg(d, "width")?,
-            cx.non_neg(d, "height")?,
-        ])
-    };
     match e.name() {
-        "Vehicle" => {
-            cx.attrs(e, &["name", "vehicleCategory", "role", "mass", "model3d"])?;
-            cx.children(
-                e,
-                &[
-                    "ParameterDeclarations",
-                    "BoundingBox",
-                    "Performance",
-                    "Axles",
-                    "Properties",
-                    "TrailerHitch",
-                    "TrailerCoupler",
-                    "Trailer",
-                ],
-            )?;
-            let category = cx.req_enum(
-                e,
-                "vehicleCategory",
-                &[
-                    "bicycle",
-                    "bus",
-                    "car",
-                    "motorbike",
-                    "semitrailer",
-                    "trailer",
-                    "train",
-                    "tram",
-                    "truck",
-                    "van",
-                ],
-            )?;
-            let p = cx.child(e, "Performance")?;
-            cx.attrs(
-                p,
-                &[
-                    "maxSpeed",
-                    "maxAcceleration",
-                    "maxDeceleration",
-                    "maxAccelerationRate",
-                    "maxDecelerationRate",
-                    "mass",
-                ],
-            )?;
-            let performance = [
-                cx.non_neg(p, "maxSpeed")?,
-                cx.non_neg(p, "maxAcceleration")?,
-                cx.non_neg(p, "maxDeceleration")?,
-            ];
-            let axles = cx.child(e, "Axles")?;
-            cx.children(axles, &["FrontAxle", "RearAxle", "AdditionalAxle"])?;
-            let axle = |a: Node<'_, '_>| -> R<[f64; 5]> {
-                cx.attrs(
-                    a,
-                    &[
-                        "maxSteering",
-                        "wheelDiameter",
-                        "trackWidth",
-                        "positionX",
-                        "positionZ",
-                    ],
-                )?;
-                Ok([
-                    cx.num(a, "maxSteering")?,
-                    cx.non_neg(a, "wheelDiameter")?,
-                    cx.non_neg(a, "trackWidth")?,
-                    cx.num(a, "positionX")?,
-                    cx.num(a, "positionZ")?,
-                ])
-            };
-            let front_axle = match cx.opt_child(axles, "FrontAxle")? {
-                Some(a) => Some(axle(a)?),
-                None if cx.version.1 < 3 => {
-                    return Err(
-                        cx.err(axles, "<Axles> needs a <FrontAxle> before OpenSCENARIO 1.3")
-                    );
-                }
-                None => None,
-            };
-            let rear_axle = axle(cx.child(axles, "RearAxle")?)?;
-            let mass = cx.opt_num(e, "mass")?;
-            properties(cx, e)?;
-            Ok((
-                EntityKind::Vehicle {
-                    category,
-                    performance,
-                    front_axle,
-                    rear_axle,
-                    mass,
-                },
-                bbox(cx)?,
-            ))
-        }
+        "Vehicle" => vehicle(cx, e),
         "Pedestrian" => {
             cx.attrs(
                 e,
@@ -309,7 +201,7 @@ fn object_body(cx: &mut Cx<'_>, e: Node<'_, '_>) -> R<(EntityKind, [f64; 6])> {
                     category,
                     mass: cx.non_neg(e, "mass")?,
                 },
-                bbox(cx)?,
+                bounding_box(cx, e)?,
             ))
         }
         _ => {
@@ -344,10 +236,124 @@ fn object_body(cx: &mut Cx<'_>, e: Node<'_, '_>) -> R<(EntityKind, [f64; 6])> {
                     category,
                     mass: cx.non_neg(e, "mass")?,
                 },
-                bbox(cx)?,
+                bounding_box(cx, e)?,
             ))
         }
     }
+}
+
+/// `BoundingBox`: centre x, y, z and length, width, height (m).
+fn bounding_box(cx: &Cx<'_>, e: Node<'_, '_>) -> R<[f64; 6]> {
+    let b = cx.child(e, "BoundingBox")?;
+    cx.attrs(b, &[])?;
+    cx.children(b, &["Center", "Dimensions"])?;
+    let c = cx.child(b, "Center")?;
+    cx.attrs(c, &["x", "y", "z"])?;
+    let d = cx.child(b, "Dimensions")?;
+    cx.attrs(d, &["width", "length", "height"])?;
+    Ok([
+        cx.num(c, "x")?,
+        cx.num(c, "y")?,
+        cx.num(c, "z")?,
+        cx.non_neg(d, "length")?,
+        cx.non_neg(d, "width")?,
+        cx.non_neg(d, "height")?,
+    ])
+}
+
+/// A `Vehicle` (its parameters in scope).
+fn vehicle(cx: &mut Cx<'_>, e: Node<'_, '_>) -> R<(EntityKind, [f64; 6])> {
+    cx.attrs(e, &["name", "vehicleCategory", "role", "mass", "model3d"])?;
+    cx.children(
+        e,
+        &[
+            "ParameterDeclarations",
+            "BoundingBox",
+            "Performance",
+            "Axles",
+            "Properties",
+            "TrailerHitch",
+            "TrailerCoupler",
+            "Trailer",
+        ],
+    )?;
+    let category = cx.req_enum(
+        e,
+        "vehicleCategory",
+        &[
+            "bicycle",
+            "bus",
+            "car",
+            "motorbike",
+            "semitrailer",
+            "trailer",
+            "train",
+            "tram",
+            "truck",
+            "van",
+        ],
+    )?;
+    let p = cx.child(e, "Performance")?;
+    cx.attrs(
+        p,
+        &[
+            "maxSpeed",
+            "maxAcceleration",
+            "maxDeceleration",
+            "maxAccelerationRate",
+            "maxDecelerationRate",
+            "mass",
+        ],
+    )?;
+    let performance = [
+        cx.non_neg(p, "maxSpeed")?,
+        cx.non_neg(p, "maxAcceleration")?,
+        cx.non_neg(p, "maxDeceleration")?,
+    ];
+    let axles = cx.child(e, "Axles")?;
+    cx.children(axles, &["FrontAxle", "RearAxle", "AdditionalAxle"])?;
+    let front_axle = match cx.opt_child(axles, "FrontAxle")? {
+        Some(a) => Some(axle(cx, a)?),
+        None if cx.version.1 < 3 => {
+            return Err(cx.err(axles, "<Axles> needs a <FrontAxle> before OpenSCENARIO 1.3"));
+        }
+        None => None,
+    };
+    let rear_axle = axle(cx, cx.child(axles, "RearAxle")?)?;
+    let mass = cx.opt_num(e, "mass")?;
+    properties(cx, e)?;
+    Ok((
+        EntityKind::Vehicle {
+            category,
+            performance,
+            front_axle,
+            rear_axle,
+            mass,
+        },
+        bounding_box(cx, e)?,
+    ))
+}
+
+/// An axle: max steering (rad), wheel diameter, track width, position x
+/// and z (m).
+fn axle(cx: &Cx<'_>, a: Node<'_, '_>) -> R<[f64; 5]> {
+    cx.attrs(
+        a,
+        &[
+            "maxSteering",
+            "wheelDiameter",
+            "trackWidth",
+            "positionX",
+            "positionZ",
+        ],
+    )?;
+    Ok([
+        cx.num(a, "maxSteering")?,
+        cx.non_neg(a, "wheelDiameter")?,
+        cx.non_neg(a, "trackWidth")?,
+        cx.num(a, "positionX")?,
+        cx.num(a, "positionZ")?,
+    ])
 }
 
 /// Resolves a `CatalogReference` (`kind`: the `CatalogLocations` element,
