@@ -112,7 +112,7 @@ where
     rt.replans = true;
     Ok(Setup::Ready(Box::new(Started {
         rt,
-        replan,
+        replan: Some(replan),
         ctx: Context {
             test_name,
             seed,
@@ -184,14 +184,11 @@ where
     let claims = story.driven.clone();
     let mut rt = Runtime::new(ssp, plan, cfg, sut, None)?;
     rt.set_story(Box::new(story), &claims);
-    let replan: Box<crate::runtime::Replan<'a>> = Box::new(|_: &BTreeMap<String, f64>| {
-        Err(ScenarioError::Plan(
-            "an OpenSCENARIO XML run is not planned ahead: nothing to plan again".into(),
-        ))
-    });
     Ok(Setup::Ready(Box::new(Started {
         rt,
-        replan,
+        // Nothing is planned ahead: the runtime never asks (`replans` is
+        // off).
+        replan: None,
         ctx: Context {
             test_name,
             seed,
@@ -418,8 +415,9 @@ struct Context {
 pub(crate) struct Started<'a> {
     rt: Runtime<'a>,
     /// The re-planning stage: the test planned again with some condition
-    /// times fixed (what the runtime asks for with [`Head::Replan`]).
-    replan: Box<crate::runtime::Replan<'a>>,
+    /// times fixed (what the runtime asks for with [`Head::Replan`]); none
+    /// for a run not planned ahead (an OpenSCENARIO XML storyboard).
+    replan: Option<Box<crate::runtime::Replan<'a>>>,
     ctx: Context,
 }
 
@@ -439,7 +437,13 @@ impl Started<'_> {
                 Head::Ready => return Ok(true),
                 Head::Over => return Ok(false),
                 Head::Replan(fixed) => {
-                    let plan = (self.replan)(&fixed)?;
+                    let replan = self.replan.as_ref().ok_or_else(|| {
+                        ScenarioError::Plan(
+                            "an OpenSCENARIO XML run is not planned ahead: nothing to plan again"
+                                .into(),
+                        )
+                    })?;
+                    let plan = replan(&fixed)?;
                     self.rt.adopt(plan)?;
                 }
             }

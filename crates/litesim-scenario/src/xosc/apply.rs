@@ -21,12 +21,7 @@ fn err(at: &str, msg: impl std::fmt::Display) -> ScenarioError {
 impl Storyboard {
     /// Starts `a` (`ai`: its index among the stories' actions; none for an
     /// Init action). True when it is over at once.
-    pub(super) fn apply(
-        &mut self,
-        a: &Action,
-        ai: Option<usize>,
-        _elem: Option<usize>,
-    ) -> Result<bool, ScenarioError> {
+    pub(super) fn apply(&mut self, a: &Action, ai: Option<usize>) -> Result<bool, ScenarioError> {
         let ix = ai.unwrap_or(usize::MAX);
         match &a.kind {
             ActionKind::Note(text) => {

@@ -156,17 +156,6 @@ pub struct Storyboard {
     before: Vec<(f64, f64, f64)>,
 }
 
-/// What a finished storyboard reports.
-#[derive(Clone, Debug, Default)]
-pub struct StoryReport {
-    /// Triggers that fired.
-    pub fired: Vec<Fired>,
-    /// Notes.
-    pub notes: Vec<String>,
-    /// Why it ended (none: the run's time ran out).
-    pub ended: Option<String>,
-}
-
 fn class_of(k: &EntityKind) -> (ActorClass, String, &'static str) {
     match k {
         EntityKind::Vehicle { category, .. } => match category.as_str() {
@@ -543,7 +532,7 @@ impl Storyboard {
         // Positions first (a relative position may name an entity placed
         // by another Init action: in document order, as written).
         for a in &sc.init {
-            self.apply(a, None, None)?;
+            self.apply(a, None)?;
         }
         Ok(())
     }
@@ -606,7 +595,7 @@ impl Storyboard {
                         continue;
                     };
                     let action = self.actions[ai].1.clone();
-                    if self.apply(&action, Some(ai), Some(c))? {
+                    if self.apply(&action, Some(ai))? {
                         self.set(c, State::Complete, Transition::End);
                     }
                 }
@@ -1001,15 +990,6 @@ impl Storyboard {
         }
         Ok(())
     }
-
-    /// What the run reports of the storyboard.
-    pub fn report(&mut self) -> StoryReport {
-        StoryReport {
-            fired: std::mem::take(&mut self.fired),
-            notes: std::mem::take(&mut self.notes),
-            ended: self.ended.take(),
-        }
-    }
 }
 
 fn push(triggers: &mut Vec<TriggerRt>, t: litesim_xosc::Trigger) -> usize {
@@ -1073,11 +1053,10 @@ impl Controller for Storyboard {
     }
 
     fn report(&mut self) -> Option<crate::runtime::ControllerReport> {
-        let r = Storyboard::report(self);
         Some(crate::runtime::ControllerReport {
-            triggers: r.fired,
-            notes: r.notes,
-            ended: r.ended,
+            triggers: std::mem::take(&mut self.fired),
+            notes: std::mem::take(&mut self.notes),
+            ended: self.ended.take(),
         })
     }
 }

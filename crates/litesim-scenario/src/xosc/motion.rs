@@ -219,7 +219,7 @@ impl Body {
         let ds = 0.5 * (v_prev + self.v) * dt;
         self.traveled += ds.abs();
         let before = self.lane.map(|l| l.1);
-        let offset = self.step_lateral(net, t + dt, others, done);
+        let offset = self.step_lateral(t + dt, others, done);
         // Standing with nothing moving it sideways, it keeps its pose
         // (a heading of its own, the end of a road).
         if ds == 0.0 && before == Some(offset) {
@@ -415,13 +415,7 @@ impl Body {
     }
 
     /// The lane offset at the end of this step (time `t1`).
-    fn step_lateral(
-        &mut self,
-        _net: &RoadNetwork,
-        t1: f64,
-        others: &[Body],
-        done: &mut Done,
-    ) -> f64 {
+    fn step_lateral(&mut self, t1: f64, others: &[Body], done: &mut Done) -> f64 {
         let now = self.lane.map_or(0.0, |l| l.1);
         let Some(lat) = self.lat.as_mut() else {
             return now;

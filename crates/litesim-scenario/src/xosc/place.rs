@@ -314,10 +314,7 @@ fn on_route(
     let start = lanes[0];
     let (s, lane, offset) = match in_route {
         InRoute::FromCurrentEntity(e) => {
-            let b = bodies
-                .iter()
-                .find(|b| b.id == *e)
-                .ok_or_else(|| err(at, format!("entity '{e}' does not exist")))?;
+            let b = body(bodies, e, at)?;
             return Ok(Place {
                 x: b.x,
                 y: b.y,
