@@ -46,4 +46,4 @@ pub use vehicle::{
     ActuatorLag, Derived, KinematicBicycle, ReferencePoint, SspDynamics, VehicleInput,
     VehicleModel, VehicleModelKind, VehicleState, seed_wheelbase,
 };
-pub use world::{Actor, ActorRef, ControlMode, World, WorldError};
+pub use world::{Actor, ActorRef, ControlMode, SetTrajectoryError, World, WorldError};

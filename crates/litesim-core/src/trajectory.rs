@@ -84,6 +84,17 @@ pub struct Trajectory {
 impl Trajectory {
     /// Validates and builds a trajectory.
     pub fn new(points: Vec<TimedPoint>) -> Result<Self, TrajectoryError> {
+        Self::check(&points)?;
+        Ok(Self {
+            points: points.into(),
+        })
+    }
+
+    /// What [`Trajectory::new`] checks: at least one point, every field
+    /// finite, speeds not negative, times strictly increasing. A caller
+    /// that replaces a trajectory in place ([`Trajectory::replace_from_slice`])
+    /// checks its points with it first.
+    pub fn check(points: &[TimedPoint]) -> Result<(), TrajectoryError> {
         if points.is_empty() {
             return Err(TrajectoryError::Empty);
         }
@@ -110,9 +121,7 @@ impl Trajectory {
                 });
             }
         }
-        Ok(Self {
-            points: points.into(),
-        })
+        Ok(())
     }
 
     /// The points.
@@ -138,6 +147,18 @@ impl Trajectory {
             }
         }
         self.points.extend(new.points);
+    }
+
+    /// [`Trajectory::replace_from`] with points already checked
+    /// ([`Trajectory::check`]), copied in: the trajectory's memory is
+    /// reused (a closed loop sends every actor a new one each step).
+    pub fn replace_from_slice(&mut self, new: &[TimedPoint]) {
+        if let Some(start) = new.first().map(|p| p.t) {
+            while self.points.back().is_some_and(|p| p.t >= start) {
+                self.points.pop_back();
+            }
+        }
+        self.points.extend(new.iter().copied());
     }
 
     /// Drops points no longer needed at time `t` (keeps the one before `t`

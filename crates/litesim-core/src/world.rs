@@ -3,7 +3,7 @@
 use crate::actor::{ActorDescription, ActorId, ActorState, TrajectoryStatus};
 use crate::geometry::{Pose, Vec2, Vec3, wrap_angle};
 use crate::math;
-use crate::trajectory::Trajectory;
+use crate::trajectory::{TimedPoint, Trajectory};
 use crate::vehicle::batch::{self, CommandColumns, Kernel, VehicleColumns};
 use crate::vehicle::{Derived, VehicleInput, VehicleModel, VehicleModelKind, VehicleState};
 use serde::{Deserialize, Serialize};
@@ -254,6 +254,17 @@ pub enum WorldError {
     /// A NaN or infinite number.
     #[error("{0} is not finite")]
     NotFinite(&'static str),
+}
+
+/// Why [`World::set_trajectory_at`] failed: the points, or the world.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum SetTrajectoryError {
+    /// The points do not make a trajectory.
+    #[error("{0}")]
+    Points(crate::trajectory::TrajectoryError),
+    /// The world refused the mode.
+    #[error("{0}")]
+    World(WorldError),
 }
 
 /// The simulated world.
@@ -512,9 +523,11 @@ impl World {
     pub fn set_mode_at(&mut self, i: usize, mode: ControlMode) -> Result<(), WorldError> {
         // What it reports now, kept where it leaves the model (only then:
         // made for every new trajectory it was a tenth of a 100-actor run).
-        let reported = self.actors[i].live.then(|| self.state_at(i));
-        let a = &mut self.actors[i];
         let needs_model = matches!(mode, ControlMode::Dynamic { .. } | ControlMode::External(_));
+        // Needed only where the actor leaves the model (a closed loop
+        // sets a dynamic command every step: no report made for it).
+        let reported = (!needs_model && self.actors[i].live).then(|| self.state_at(i));
+        let a = &mut self.actors[i];
         if needs_model && a.model.is_none() {
             return Err(WorldError::NoVehicleModel(a.id.clone()));
         }
@@ -555,6 +568,29 @@ impl World {
         self.external = self.external + usize::from(is_external) - usize::from(was_external);
         self.batch.changed(i);
         Ok(())
+    }
+
+    /// [`World::set_mode_at`] with a trajectory of `points` (checked by
+    /// [`Trajectory::check`] first): an actor already following one has it
+    /// replaced in place, from the first point's time on, with no new
+    /// memory; otherwise the trajectory is made and the mode set.
+    pub fn set_trajectory_at(
+        &mut self,
+        i: usize,
+        points: &[TimedPoint],
+    ) -> Result<(), SetTrajectoryError> {
+        Trajectory::check(points).map_err(SetTrajectoryError::Points)?;
+        if let ControlMode::Trajectory(old) = &mut self.actors[i].mode {
+            // What `set_mode_at` does for a trajectory over a trajectory:
+            // the actor is not integrated (so nothing to report back), it
+            // stays outside the model and outside the external count.
+            old.replace_from_slice(points);
+            self.batch.changed(i);
+            return Ok(());
+        }
+        let new = Trajectory::new(points.to_vec()).map_err(SetTrajectoryError::Points)?;
+        self.set_mode_at(i, ControlMode::Trajectory(new))
+            .map_err(SetTrajectoryError::World)
     }
 
     /// Compiles the standing commands of dynamic actors whose model allows

@@ -709,6 +709,23 @@ pub trait Ssp: Send {
         states: Vec<BulbState>,
     ) -> SspResult<Vec<TrafficLightBox>>;
 
+    /// [`Ssp::set_xy_trajectory`] from a borrowed trajectory: a caller that
+    /// sends every step keeps one buffer. The default clones it; an
+    /// in-process simulator reads it in place.
+    fn set_xy_trajectory_ref(&mut self, actor_id: &str, traj: &XyTrajectory) -> SspResult<()> {
+        self.set_xy_trajectory(actor_id, traj.clone())
+    }
+
+    /// One step of [`Ssp::step`] for every actor, the states kept as
+    /// [`Kinematics`] in `out` (emptied first; its memory is reused). The
+    /// default steps with `step` and converts; an in-process simulator
+    /// writes the states straight from its world, with no report made.
+    fn step_kinematics(&mut self, out: &mut KinematicSteps) -> SspResult<()> {
+        let (info, states) = self.step(None, &ActorFilter::default())?;
+        out.clear();
+        out.push_reported(info, &states)
+    }
+
     /// Runs `steps` steps back to back, with no commands in between, and
     /// returns what [`Ssp::step`] returns for each. A client whose commands
     /// are already sent (xy trajectories ahead, external controllers) moves

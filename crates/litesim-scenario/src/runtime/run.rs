@@ -29,7 +29,7 @@ use crate::kpi::EgoKpi;
 use crate::plan::Plan;
 use crate::sut::SutInfo;
 use litesim_log::{ControlSample, LogRecorder, SimulationLog};
-use litesim_ssp::api::{ActorFilter, KinematicSteps, Ssp};
+use litesim_ssp::api::{KinematicSteps, Ssp};
 use std::collections::BTreeMap;
 
 /// Runs `plan` on `ssp`; with a `sut`, `sut.car` is driven by it each step
@@ -610,13 +610,10 @@ impl<'a> Runtime<'a> {
     /// The simulator runs `n_steps` steps.
     fn simulate(&mut self, n_steps: u64) -> Result<(), ScenarioError> {
         if n_steps == 1 {
-            let (info, states) = self
-                .ssp
+            self.ssp
                 .get()
-                .step(None, &ActorFilter::default())
+                .step_kinematics(&mut self.got)
                 .map_err(ssp_err)?;
-            self.got.clear();
-            self.got.push_reported(info, &states).map_err(ssp_err)?;
         } else {
             self.ssp
                 .get()

@@ -154,6 +154,8 @@ pub struct Storyboard {
     snapshot: Vec<Body>,
     /// Each body's box centre before the step (reused).
     before: Vec<(f64, f64, f64)>,
+    /// The trajectory being sent (reused).
+    traj: XyTrajectory,
 }
 
 fn class_of(k: &EntityKind) -> (ActorClass, String, &'static str) {
@@ -426,6 +428,7 @@ impl Storyboard {
             started: false,
             snapshot: Vec::new(),
             before: Vec::new(),
+            traj: XyTrajectory::default(),
             net,
             scenario: sc.clone(),
         };
@@ -938,6 +941,10 @@ impl Storyboard {
 
     /// Traffic signal controllers move to their next phase when due.
     fn cycle_signals(&mut self, act: &mut Act<'_>) -> Result<(), ScenarioError> {
+        // Most scenarios have none: no reference taken each step.
+        if self.scenario.signal_controllers.is_empty() {
+            return Ok(());
+        }
         let sc = self.scenario.clone();
         for (k, c) in sc.signal_controllers.iter().enumerate() {
             if c.phases.is_empty() {
@@ -966,7 +973,7 @@ impl Storyboard {
 
     /// Sends every driven body's move over the step.
     fn send(
-        &self,
+        &mut self,
         act: &mut Act<'_>,
         before: &[(f64, f64, f64)],
         see: &See<'_>,
@@ -979,14 +986,19 @@ impl Storyboard {
             let (cx, cy) = b.centre();
             let from = before[i];
             let pt = |x: f64, y: f64, yaw: f64| to_sim(Coord6::xy_yaw(x, y, yaw), see.mirror);
-            let traj = XyTrajectory {
-                start_time_ms: now,
-                end_time_ms: now + step,
-                points: vec![pt(from.0, from.1, from.2), pt(cx, cy, b.yaw)],
-                point_times_ms: vec![now, now + step],
-                speeds: vec![b.v, b.v],
-            };
-            act.ssp.set_xy_trajectory(&b.id, traj).map_err(ssp_err)?;
+            let traj = &mut self.traj;
+            traj.start_time_ms = now;
+            traj.end_time_ms = now + step;
+            traj.points.clear();
+            traj.points
+                .extend([pt(from.0, from.1, from.2), pt(cx, cy, b.yaw)]);
+            traj.point_times_ms.clear();
+            traj.point_times_ms.extend([now, now + step]);
+            traj.speeds.clear();
+            traj.speeds.extend([b.v, b.v]);
+            act.ssp
+                .set_xy_trajectory_ref(&b.id, traj)
+                .map_err(ssp_err)?;
         }
         Ok(())
     }

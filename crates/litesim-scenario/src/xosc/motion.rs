@@ -229,7 +229,7 @@ impl Body {
             // Vehicles go along their lanes; people, animals and objects
             // straight on where they face.
             Some((p, _)) if self.on_lanes => {
-                let route = self.route.clone();
+                let route = &self.route;
                 let choose = |next: &[litesim_map::LaneRef]| -> Option<litesim_map::LaneRef> {
                     next.iter()
                         .find(|n| route.iter().any(|r| r.road == n.road))

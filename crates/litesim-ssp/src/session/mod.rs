@@ -26,8 +26,8 @@ use crate::traffic::{BulbState, LightTarget, TrafficLightBox, TrafficLights};
 use litesim_core::world::ExternalController;
 use litesim_core::{
     Actor, ActorDescription, ActorKind, ActorRef, ActorState, ActuatorLimits, ControlMode,
-    DynamicCommand, PedalInput, Pose, SteeringInput, TimedPoint, Trajectory, Vec3, VehicleCategory,
-    VehicleInput, World, WorldError, normalize_command,
+    DynamicCommand, PedalInput, Pose, SetTrajectoryError, SteeringInput, TimedPoint, Vec3,
+    VehicleCategory, VehicleInput, World, WorldError, normalize_command,
 };
 use serde::Serialize;
 use std::collections::BTreeMap;
@@ -91,6 +91,8 @@ pub struct Session {
     launched: bool,
     steps_executed: u64,
     pending_steps: u64,
+    /// The points of the trajectory being set (reused from call to call).
+    scratch_points: Vec<TimedPoint>,
 }
 
 impl Default for Session {
@@ -131,6 +133,7 @@ impl Session {
             launched: false,
             steps_executed: 0,
             pending_steps: 0,
+            scratch_points: Vec::new(),
         }
     }
 
@@ -515,6 +518,10 @@ impl Ssp for Session {
         })
     }
 
+    fn step_kinematics(&mut self, out: &mut KinematicSteps) -> SspResult<()> {
+        self.step_many_kinematics(1, out)
+    }
+
     fn step_many_kinematics(&mut self, steps: u32, out: &mut KinematicSteps) -> SspResult<()> {
         check_step_count(steps)?;
         self.require("get_actors_states")?;
@@ -875,7 +882,11 @@ impl Ssp for Session {
         }
     }
 
-    fn set_xy_trajectory(&mut self, actor_id: &str, mut traj: XyTrajectory) -> SspResult<()> {
+    fn set_xy_trajectory(&mut self, actor_id: &str, traj: XyTrajectory) -> SspResult<()> {
+        self.set_xy_trajectory_ref(actor_id, &traj)
+    }
+
+    fn set_xy_trajectory_ref(&mut self, actor_id: &str, traj: &XyTrajectory) -> SspResult<()> {
         self.require("set_xy_trajectory")?;
         let slot = self.slot(actor_id)?;
         let n = traj.points.len();
@@ -894,27 +905,29 @@ impl Ssp for Session {
                 traj.speeds.len()
             )));
         }
-        let times: Vec<u64> = if !traj.point_times_ms.is_empty() {
-            if traj.point_times_ms.len() != n {
-                return Err(SspError::invalid(format!(
-                    "point_times_ms has {} entries for {n} points",
-                    traj.point_times_ms.len()
-                )));
+        // Each point's time (ms): given, the start alone, or evenly spaced.
+        let explicit = !traj.point_times_ms.is_empty();
+        if explicit && traj.point_times_ms.len() != n {
+            return Err(SspError::invalid(format!(
+                "point_times_ms has {} entries for {n} points",
+                traj.point_times_ms.len()
+            )));
+        }
+        if !explicit && n > 1 && traj.end_time_ms <= traj.start_time_ms {
+            return Err(SspError::invalid(format!(
+                "end_time_ms = {} must be after start_time_ms = {} for {n} points",
+                traj.end_time_ms, traj.start_time_ms
+            )));
+        }
+        let span = traj.end_time_ms.saturating_sub(traj.start_time_ms);
+        let time_of = |i: usize| -> u64 {
+            if explicit {
+                traj.point_times_ms[i]
+            } else if n == 1 {
+                traj.start_time_ms
+            } else {
+                traj.start_time_ms + span * i as u64 / (n as u64 - 1)
             }
-            std::mem::take(&mut traj.point_times_ms)
-        } else if n == 1 {
-            vec![traj.start_time_ms]
-        } else {
-            if traj.end_time_ms <= traj.start_time_ms {
-                return Err(SspError::invalid(format!(
-                    "end_time_ms = {} must be after start_time_ms = {} for {n} points",
-                    traj.end_time_ms, traj.start_time_ms
-                )));
-            }
-            let span = traj.end_time_ms - traj.start_time_ms;
-            (0..n as u64)
-                .map(|i| traj.start_time_ms + span * i / (n as u64 - 1))
-                .collect()
         };
         // The actor's height, for points without z (only then: it is a
         // state report of the actor).
@@ -927,14 +940,21 @@ impl Ssp for Session {
             0.0
         };
         let mirror = self.mirror();
-        let mut points = Vec::with_capacity(n);
+        // One buffer for the session: a closed loop sends every actor a
+        // trajectory each step.
+        let mut points = std::mem::take(&mut self.scratch_points);
+        points.clear();
         for (i, c) in traj.points.iter().enumerate() {
             let (Some(x), Some(y)) = (c.x, c.y) else {
+                self.scratch_points = points;
                 return Err(SspError::invalid(format!(
                     "polyline[{i}]: x and y are mandatory"
                 )));
             };
-            check_coord(&|| format!("polyline[{i}]"), c)?;
+            if let Err(e) = check_coord(&|| format!("polyline[{i}]"), c) {
+                self.scratch_points = points;
+                return Err(e);
+            }
             // Into litesim's frame (as `frame`: y and yaw mirrored for CARLA).
             let (y, yaw) = if mirror {
                 (-y, c.yaw.map(|v| -v))
@@ -945,23 +965,24 @@ impl Ssp for Session {
             if let Some(s) = speed
                 && !(s.is_finite() && s >= 0.0)
             {
+                self.scratch_points = points;
                 return Err(SspError::invalid(format!(
                     "speeds[{i}] = {s} must be finite and ≥ 0"
                 )));
             }
             points.push(TimedPoint {
-                t: times[i] as f64 / 1000.0,
+                t: time_of(i) as f64 / 1000.0,
                 position: Vec3::new(x, y, c.z.unwrap_or(z0)),
                 yaw,
                 speed,
             });
         }
-        let trajectory =
-            Trajectory::new(points).map_err(|e| SspError::invalid(format!("polyline: {e}")))?;
-        self.parts()
-            .0
-            .set_mode_at(slot, ControlMode::Trajectory(trajectory))
-            .map_err(world_err)
+        let set = self.parts().0.set_trajectory_at(slot, &points);
+        self.scratch_points = points;
+        set.map_err(|e| match e {
+            SetTrajectoryError::Points(e) => SspError::invalid(format!("polyline: {e}")),
+            SetTrajectoryError::World(e) => world_err(e),
+        })
     }
 
     fn set_dynamic_move(

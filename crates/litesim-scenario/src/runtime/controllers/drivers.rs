@@ -56,11 +56,11 @@ impl Controller for Drivers {
             see.now_ms(),
             see.step_ms,
             ego_xy,
-            |i, mut traj| {
+            |i, traj| {
                 if mirror {
-                    traj.points = traj.points.into_iter().map(|c| to_sim(c, true)).collect();
+                    traj.points.iter_mut().for_each(|c| *c = to_sim(*c, true));
                 }
-                ssp.set_xy_trajectory(&plan.actors[i].id, traj)
+                ssp.set_xy_trajectory_ref(&plan.actors[i].id, traj)
                     .map_err(ssp_err)
             },
         );

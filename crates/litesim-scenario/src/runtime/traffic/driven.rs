@@ -111,6 +111,19 @@ pub struct Driven {
     goal_start_lanes: std::cell::RefCell<Vec<(usize, u64, Option<u32>)>>,
     rng: Rng,
     poses: Vec<Pose>,
+    /// One step's buffers, kept for the run: the actors the engine does
+    /// not drive, where they stand in lanes, which vehicles were placed
+    /// again, the trajectory being sent.
+    scratch: Scratch,
+}
+
+/// [`Driven::step`]'s buffers (emptied and filled again each step).
+#[derive(Debug, Default)]
+struct Scratch {
+    others: Vec<(Vec2, f64, f64, f64)>,
+    obstacles: Vec<Obstacle>,
+    jumped: Vec<bool>,
+    traj: XyTrajectory,
 }
 
 impl Driven {
@@ -144,6 +157,7 @@ impl Driven {
             goal_start_lanes: Default::default(),
             rng: Rng::new(0),
             poses: Vec::new(),
+            scratch: Scratch::default(),
         };
         if npc {
             me.place_npcs(net, plan);
@@ -639,6 +653,18 @@ impl Driven {
     /// in both.
     fn obstacles(&mut self, net: &RoadNetwork, actors: &[(Vec2, f64, f64, f64)]) -> Vec<Obstacle> {
         let mut out = Vec::with_capacity(actors.len());
+        self.obstacles_into(net, actors, &mut out);
+        out
+    }
+
+    /// [`Driven::obstacles`] into `out` (emptied first).
+    fn obstacles_into(
+        &mut self,
+        net: &RoadNetwork,
+        actors: &[(Vec2, f64, f64, f64)],
+        out: &mut Vec<Obstacle>,
+    ) {
+        out.clear();
         for (i, &(xy, _yaw, speed, length)) in actors.iter().enumerate() {
             if xy.x.is_nan() {
                 // A driven actor: the engine has it already.
@@ -672,7 +698,6 @@ impl Driven {
                 out.push(Obstacle { lane: b, ..o });
             }
         }
-        out
     }
 
     /// One step: every plan actor as it stands (`states[i]`: position,
@@ -690,22 +715,49 @@ impl Driven {
         now_ms: u64,
         step_ms: u64,
         ego: Option<Vec2>,
-        mut send: impl FnMut(usize, XyTrajectory) -> Result<(), ScenarioError>,
+        mut send: impl FnMut(usize, &mut XyTrajectory) -> Result<(), ScenarioError>,
+    ) -> Result<(), ScenarioError> {
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let stepped = self.step_with(
+            net,
+            plan,
+            states,
+            (red, yellow),
+            (now_ms, step_ms),
+            ego,
+            &mut scratch,
+            &mut send,
+        );
+        self.scratch = scratch;
+        stepped
+    }
+
+    /// [`Driven::step`] with its buffers.
+    #[allow(clippy::too_many_arguments)]
+    fn step_with(
+        &mut self,
+        net: &RoadNetwork,
+        plan: &Plan,
+        states: &[(Vec2, f64, f64, f64)],
+        (red, yellow): (&[bool], &[bool]),
+        (now_ms, step_ms): (u64, u64),
+        ego: Option<Vec2>,
+        scratch: &mut Scratch,
+        send: &mut impl FnMut(usize, &mut XyTrajectory) -> Result<(), ScenarioError>,
     ) -> Result<(), ScenarioError> {
         let t = now_ms as f64 / 1000.0;
         self.update_goals(net, plan, states, t);
-        let others: Vec<(Vec2, f64, f64, f64)> = states
-            .iter()
-            .zip(&self.driven)
-            .map(|(s, d)| {
-                if d.is_some() {
-                    (Vec2::new(f64::NAN, f64::NAN), 0.0, 0.0, 0.0)
-                } else {
-                    *s
-                }
-            })
-            .collect();
-        let obstacles = self.obstacles(net, &others);
+        let others = &mut scratch.others;
+        others.clear();
+        others.extend(states.iter().zip(&self.driven).map(|(s, d)| {
+            if d.is_some() {
+                (Vec2::new(f64::NAN, f64::NAN), 0.0, 0.0, 0.0)
+            } else {
+                *s
+            }
+        }));
+        let obstacles = &mut scratch.obstacles;
+        self.obstacles_into(net, others, obstacles);
         self.traffic.stop_lines.clear();
         for ((lines, &is_red), &is_yellow) in self.box_lines.iter().zip(red).zip(yellow) {
             for &(lane, u) in lines {
@@ -722,23 +774,26 @@ impl Driven {
             // ahead as the run starts (lights included).
             let ambient: Vec<u32> =
                 (self.npcs.len() as u32..self.traffic.vehicles.len() as u32).collect();
-            self.traffic.settle(&self.graph, &obstacles, &ambient);
+            self.traffic.settle(&self.graph, obstacles, &ambient);
         }
         let every = ((RECYCLE_EVERY_S * 1000.0) as u64 / step_ms.max(1)).max(1);
-        let mut jumped = vec![false; self.traffic.vehicles.len()];
+        let jumped = &mut scratch.jumped;
+        jumped.clear();
+        jumped.resize(self.traffic.vehicles.len(), false);
         if let Some(c) = ego
             && self.decl.is_some()
             && self.traffic.tick().is_multiple_of(every)
         {
-            self.recycle(net, c, &obstacles, &mut jumped);
+            self.recycle(net, c, obstacles, jumped);
             let placed: Vec<u32> = (0..jumped.len() as u32)
                 .filter(|&k| jumped[k as usize])
                 .collect();
             if !placed.is_empty() {
-                self.traffic.settle(&self.graph, &obstacles, &placed);
+                self.traffic.settle(&self.graph, obstacles, &placed);
             }
         }
-        self.traffic.step(&self.graph, &obstacles);
+        self.traffic.step(&self.graph, obstacles);
+        let traj = &mut scratch.traj;
         for (k, v) in self.traffic.vehicles.iter().enumerate() {
             let before = self.poses[k];
             let after = if v.active {
@@ -749,16 +804,15 @@ impl Driven {
             self.poses[k] = after;
             let from = if jumped[k] { after } else { before };
             let pt = |p: Pose| Coord6::xy_yaw(p.position.x, p.position.y, p.yaw);
-            send(
-                self.actor_of[k],
-                XyTrajectory {
-                    start_time_ms: now_ms,
-                    end_time_ms: now_ms + step_ms,
-                    points: vec![pt(from), pt(after)],
-                    point_times_ms: vec![now_ms, now_ms + step_ms],
-                    speeds: vec![v.v, v.v],
-                },
-            )?;
+            traj.start_time_ms = now_ms;
+            traj.end_time_ms = now_ms + step_ms;
+            traj.points.clear();
+            traj.points.extend([pt(from), pt(after)]);
+            traj.point_times_ms.clear();
+            traj.point_times_ms.extend([now_ms, now_ms + step_ms]);
+            traj.speeds.clear();
+            traj.speeds.extend([v.v, v.v]);
+            send(self.actor_of[k], traj)?;
         }
         Ok(())
     }
