@@ -99,6 +99,12 @@ pub struct Geometry {
     /// For poly3/paramPoly3/spiral: arc length → (parameter) samples for inversion.
     #[serde(skip)]
     table: Vec<(f64, f64)>,
+    /// sin and cos of the start heading, made once (every evaluation needs
+    /// them; the road's locator evaluates a few times per vehicle per
+    /// step), with the bits of the heading they were made for: a heading
+    /// changed since is computed afresh.
+    #[serde(skip)]
+    start_trig: Option<(u64, f64, f64)>,
 }
 
 /// A point of a reference line.
@@ -112,6 +118,21 @@ pub struct RefPoint {
     pub hdg: f64,
     /// Curvature (1/m).
     pub curvature: f64,
+    /// sin and cos of `hdg` when the evaluation had them at hand (lines
+    /// and arcs): [`RefPoint::sin_cos`] then costs nothing. Kept with the
+    /// bits of the heading they belong to (a caller may turn `hdg`).
+    trig: Option<(u64, f64, f64)>,
+}
+
+impl RefPoint {
+    /// sin and cos of the heading: the same bits as `math::sin_cos(hdg)`.
+    #[inline]
+    pub fn sin_cos(&self) -> (f64, f64) {
+        match self.trig {
+            Some((bits, sh, ch)) if bits == self.hdg.to_bits() => (sh, ch),
+            _ => math::sin_cos(self.hdg),
+        }
+    }
 }
 
 fn poly(c: &[f64; 4], p: f64) -> f64 {
@@ -135,9 +156,22 @@ impl Geometry {
             length,
             shape,
             table: Vec::new(),
+            start_trig: None,
         };
         g.build_table();
+        let (sh, ch) = math::sin_cos(hdg);
+        g.start_trig = Some((hdg.to_bits(), sh, ch));
         g
+    }
+
+    /// sin and cos of the start heading (the same bits as
+    /// `math::sin_cos(self.hdg)`).
+    #[inline]
+    fn start_sin_cos(&self) -> (f64, f64) {
+        match self.start_trig {
+            Some((bits, sh, ch)) if bits == self.hdg.to_bits() => (sh, ch),
+            _ => math::sin_cos(self.hdg),
+        }
     }
 
     /// Arc-length table for poly3 (u) and paramPoly3 (p): 64 intervals, each
@@ -213,15 +247,16 @@ impl Geometry {
     /// Evaluates at `ds` ∈ [0, length] from the piece's start (clamped).
     pub fn eval(&self, ds: f64) -> RefPoint {
         let ds = ds.clamp(0.0, self.length);
-        let (sh, ch) = math::sin_cos(self.hdg);
+        let (sh, ch) = self.start_sin_cos();
         match &self.shape {
             Shape::Line => RefPoint {
                 x: self.x + ds * ch,
                 y: self.y + ds * sh,
                 hdg: self.hdg,
                 curvature: 0.0,
+                trig: Some((self.hdg.to_bits(), sh, ch)),
             },
-            Shape::Arc { curvature: k } => arc(self.x, self.y, self.hdg, *k, ds),
+            Shape::Arc { curvature: k } => arc(self.x, self.y, (self.hdg, sh, ch), *k, ds),
             Shape::Spiral {
                 curv_start,
                 curv_end,
@@ -232,7 +267,7 @@ impl Geometry {
                     0.0
                 };
                 if c.abs() < 1e-12 {
-                    return arc(self.x, self.y, self.hdg, *curv_start, ds);
+                    return arc(self.x, self.y, (self.hdg, sh, ch), *curv_start, ds);
                 }
                 let k0 = *curv_start;
                 let heading = |t: f64| self.hdg + k0 * t + 0.5 * c * t * t;
@@ -248,6 +283,7 @@ impl Geometry {
                     y: self.y + iy,
                     hdg: heading(ds),
                     curvature: k0 + c * ds,
+                    trig: None,
                 }
             }
             Shape::Poly3 { coef } => {
@@ -259,6 +295,7 @@ impl Geometry {
                     y: self.y + u * sh + v * ch,
                     hdg: self.hdg + math::atan(dv),
                     curvature: ddpoly(coef, u) / (1.0 + dv * dv).powf(1.5),
+                    trig: None,
                 }
             }
             Shape::ParamPoly3 { u: cu, v: cv, .. } => {
@@ -276,28 +313,33 @@ impl Geometry {
                     } else {
                         0.0
                     },
+                    trig: None,
                 }
             }
         }
     }
 }
 
-fn arc(x0: f64, y0: f64, h0: f64, k: f64, ds: f64) -> RefPoint {
+/// The arc from (x0, y0) at heading h0 (with its sine and cosine) of
+/// curvature `k`, `ds` along.
+fn arc(x0: f64, y0: f64, (h0, s0, c0): (f64, f64, f64), k: f64, ds: f64) -> RefPoint {
     if k.abs() < 1e-12 {
-        let (s, c) = math::sin_cos(h0);
         return RefPoint {
-            x: x0 + ds * c,
-            y: y0 + ds * s,
+            x: x0 + ds * c0,
+            y: y0 + ds * s0,
             hdg: h0,
             curvature: 0.0,
+            trig: Some((h0.to_bits(), s0, c0)),
         };
     }
     let h = h0 + k * ds;
+    let (s, c) = math::sin_cos(h);
     RefPoint {
-        x: x0 + (math::sin(h) - math::sin(h0)) / k,
-        y: y0 - (math::cos(h) - math::cos(h0)) / k,
+        x: x0 + (s - s0) / k,
+        y: y0 - (c - c0) / k,
         hdg: h,
         curvature: k,
+        trig: Some((h.to_bits(), s, c)),
     }
 }
 

@@ -198,7 +198,7 @@ impl Road {
         } else {
             (t * math::cos(roll), -t * math::sin(roll))
         };
-        let (sn, cs) = math::sin_cos(r.hdg);
+        let (sn, cs) = r.sin_cos();
         (
             r.x - t_h * sn,
             r.y + t_h * cs,

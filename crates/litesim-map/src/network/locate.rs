@@ -177,7 +177,7 @@ pub(super) fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64, f64, bool) 
     let mut settled = false;
     let mut r = road.reference(s);
     for _ in 0..3 {
-        let (sn, cs) = math::sin_cos(r.hdg);
+        let (sn, cs) = r.sin_cos();
         let (dx, dy) = (p.x - r.x, p.y - r.y);
         let along = dx * cs + dy * sn;
         let across = -dx * sn + dy * cs;
@@ -191,7 +191,7 @@ pub(super) fn refine(road: &Road, p: Vec2, mut s: f64) -> (f64, f64, f64, bool) 
         s = ns;
         r = road.reference(s);
     }
-    let (sn, cs) = math::sin_cos(r.hdg);
+    let (sn, cs) = r.sin_cos();
     let t = -(p.x - r.x) * sn + (p.y - r.y) * cs;
     let along = (p.x - r.x) * cs + (p.y - r.y) * sn;
     let beyond = if s <= 0.0 {
