@@ -143,6 +143,51 @@ impl Road {
         None
     }
 
+    /// The lane (of non-zero width) whose span holds `t` at `s`: the same
+    /// answer as `find_span(s, |l| l.width() > 1e-3 && l.contains(t))`,
+    /// with only `t`'s side of the centre lane evaluated (every left lane
+    /// lies at or left of the lane offset, every right lane at or right of
+    /// it). What locating a point asks for every vehicle at every step.
+    pub fn lane_holding(&self, s: f64, t: f64) -> Option<LaneSpan> {
+        let s = s.clamp(0.0, self.length);
+        let (o, _) = self.lane_offset(s);
+        let (ls, rs) = self.sides(s);
+        let pick = |l: &LaneSpan| l.width() > 1e-3 && l.contains(t);
+        // NaN on either side: both sides, as the two-sided search does.
+        let side = t.partial_cmp(&o);
+        if side != Some(std::cmp::Ordering::Less) {
+            let mut ti = o;
+            for lane in &ls.left {
+                let t_out = outer(lane, ls.s, s, ti, o, 1.0);
+                let span = LaneSpan {
+                    id: lane.id,
+                    t_inner: ti,
+                    t_outer: t_out,
+                };
+                if pick(&span) {
+                    return Some(span);
+                }
+                ti = t_out;
+            }
+        }
+        if side != Some(std::cmp::Ordering::Greater) {
+            let mut ti = o;
+            for lane in &rs.right {
+                let t_out = outer(lane, rs.s, s, ti, o, -1.0);
+                let span = LaneSpan {
+                    id: lane.id,
+                    t_inner: ti,
+                    t_outer: t_out,
+                };
+                if pick(&span) {
+                    return Some(span);
+                }
+                ti = t_out;
+            }
+        }
+        None
+    }
+
     /// The span of one lane at `s`.
     pub fn lane_span(&self, s: f64, lane: i32) -> Option<LaneSpan> {
         // Only the lane's own side: the other side's widths do not move it

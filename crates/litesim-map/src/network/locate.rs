@@ -430,15 +430,13 @@ impl RoadNetwork {
         if beyond > BEYOND_END_M {
             return (None, settled);
         }
-        let found = road
-            .find_span(s, |l| l.width() > 1e-3 && l.contains(t))
-            .map(|span| Located {
-                road: ri,
-                lane: span.id,
-                s,
-                t,
-                offset: t - span.t_center(),
-            });
+        let found = road.lane_holding(s, t).map(|span| Located {
+            road: ri,
+            lane: span.id,
+            s,
+            t,
+            offset: t - span.t_center(),
+        });
         (found, settled)
     }
 }
