@@ -114,33 +114,8 @@ impl Road {
         let s = s.clamp(0.0, self.length);
         let (o, _) = self.lane_offset(s);
         let (ls, rs) = self.sides(s);
-        let mut t = o;
-        for lane in &ls.left {
-            let t_out = outer(lane, ls.s, s, t, o, 1.0);
-            let span = LaneSpan {
-                id: lane.id,
-                t_inner: t,
-                t_outer: t_out,
-            };
-            if pick(span) {
-                return Some(span);
-            }
-            t = t_out;
-        }
-        let mut t = o;
-        for lane in &rs.right {
-            let t_out = outer(lane, rs.s, s, t, o, -1.0);
-            let span = LaneSpan {
-                id: lane.id,
-                t_inner: t,
-                t_outer: t_out,
-            };
-            if pick(span) {
-                return Some(span);
-            }
-            t = t_out;
-        }
-        None
+        side_span(&ls.left, (ls.s, s, o, 1.0), &mut pick)
+            .or_else(|| side_span(&rs.right, (rs.s, s, o, -1.0), &mut pick))
     }
 
     /// The lane (of non-zero width) whose span holds `t` at `s`: the same
@@ -152,40 +127,18 @@ impl Road {
         let s = s.clamp(0.0, self.length);
         let (o, _) = self.lane_offset(s);
         let (ls, rs) = self.sides(s);
-        let pick = |l: &LaneSpan| l.width() > 1e-3 && l.contains(t);
+        let mut pick = |l: LaneSpan| l.width() > 1e-3 && l.contains(t);
         // NaN on either side: both sides, as the two-sided search does.
         let side = t.partial_cmp(&o);
-        if side != Some(std::cmp::Ordering::Less) {
-            let mut ti = o;
-            for lane in &ls.left {
-                let t_out = outer(lane, ls.s, s, ti, o, 1.0);
-                let span = LaneSpan {
-                    id: lane.id,
-                    t_inner: ti,
-                    t_outer: t_out,
-                };
-                if pick(&span) {
-                    return Some(span);
-                }
-                ti = t_out;
-            }
+        let found = if side != Some(std::cmp::Ordering::Less) {
+            side_span(&ls.left, (ls.s, s, o, 1.0), &mut pick)
+        } else {
+            None
+        };
+        if found.is_some() || side == Some(std::cmp::Ordering::Greater) {
+            return found;
         }
-        if side != Some(std::cmp::Ordering::Greater) {
-            let mut ti = o;
-            for lane in &rs.right {
-                let t_out = outer(lane, rs.s, s, ti, o, -1.0);
-                let span = LaneSpan {
-                    id: lane.id,
-                    t_inner: ti,
-                    t_outer: t_out,
-                };
-                if pick(&span) {
-                    return Some(span);
-                }
-                ti = t_out;
-            }
-        }
-        None
+        side_span(&rs.right, (rs.s, s, o, -1.0), &mut pick)
     }
 
     /// The span of one lane at `s`.
@@ -269,6 +222,29 @@ impl Road {
             Direction::Backward
         }
     }
+}
+
+/// The first span of one side's `lanes` (section start, road s, lane
+/// offset, +1 left / −1 right) that `pick` takes, from the centre out.
+fn side_span(
+    lanes: &[Lane],
+    (sec_s, s, o, sign): (f64, f64, f64, f64),
+    pick: &mut impl FnMut(LaneSpan) -> bool,
+) -> Option<LaneSpan> {
+    let mut t = o;
+    for lane in lanes {
+        let t_out = outer(lane, sec_s, s, t, o, sign);
+        let span = LaneSpan {
+            id: lane.id,
+            t_inner: t,
+            t_outer: t_out,
+        };
+        if pick(span) {
+            return Some(span);
+        }
+        t = t_out;
+    }
+    None
 }
 
 fn outer(lane: &Lane, sec_s: f64, s: f64, t_inner: f64, offset: f64, sign: f64) -> f64 {
