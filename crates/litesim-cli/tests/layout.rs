@@ -97,6 +97,9 @@ fn long_functions(text: &str) -> Vec<(usize, usize, String)> {
     for (i, line) in lines[..end].iter().enumerate() {
         let Some(name) = fn_name(line) else { continue };
         let mut depth = 0i64;
+        // Brackets and parentheses open in the signature: an array type's
+        // `;` there (`-> [f64; 6]`) does not end a declaration.
+        let mut nest = 0i64;
         let mut started = false;
         let mut last = None;
         'body: for (j, l) in lines[i..end].iter().enumerate() {
@@ -107,8 +110,10 @@ fn long_functions(text: &str) -> Vec<(usize, usize, String)> {
                         started = true;
                     }
                     '}' => depth -= 1,
+                    '(' | '[' => nest += 1,
+                    ')' | ']' => nest -= 1,
                     // A declaration without a body (a trait's method).
-                    ';' if !started && depth == 0 => break 'body,
+                    ';' if !started && depth == 0 && nest == 0 => break 'body,
                     _ => {}
                 }
                 if started && depth == 0 {
@@ -135,6 +140,14 @@ fn the_counter_sees_a_long_function_and_ignores_braces_in_literals() {
     );
     let found = long_functions(&text);
     assert_eq!(found, vec![(MAX_LINES + 2, 1, "long".to_string())]);
+    // An array type in the signature (its `;` once read as the end of a
+    // body-less declaration: a 175-line function went unseen).
+    let text =
+        format!("fn long(a: [u8; 2]) -> R<(u8, [f64; 6])> {{\n{body}}}\nfn decl(a: [u8; 2]);\n");
+    assert_eq!(
+        long_functions(&text),
+        vec![(MAX_LINES + 2, 1, "long".to_string())]
+    );
     let tests =
         format!("fn ok() {{}}\n#[cfg(test)]\nmod tests {{\n    fn long() {{\n{body}    }}\n}}\n");
     assert!(long_functions(&tests).is_empty());
