@@ -107,11 +107,7 @@ impl Trajectory {
                 ("yaw", p.yaw.unwrap_or(0.0)),
                 ("speed", p.speed.unwrap_or(0.0)),
             ];
-            // All finite is the rule: one test of the lot, the field named
-            // only when one is not.
-            if !checks.iter().fold(true, |ok, (_, v)| ok & v.is_finite())
-                && let Some((field, _)) = checks.iter().find(|(_, v)| !v.is_finite())
-            {
+            if let Some((field, _)) = checks.iter().find(|(_, v)| !v.is_finite()) {
                 return Err(TrajectoryError::NotFinite { index, field });
             }
             if let Some(speed) = p.speed.filter(|s| *s < 0.0) {

@@ -588,7 +588,9 @@ impl World {
             self.batch.changed(i);
             return Ok(());
         }
-        let new = Trajectory::new(points.to_vec()).map_err(SetTrajectoryError::Points)?;
+        // Checked above: made without checking again.
+        let mut new = Trajectory::default();
+        new.replace_from_slice(points);
         self.set_mode_at(i, ControlMode::Trajectory(new))
             .map_err(SetTrajectoryError::World)
     }

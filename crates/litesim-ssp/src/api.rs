@@ -515,6 +515,28 @@ pub struct XyTrajectory {
     pub speeds: Vec<f64>,
 }
 
+impl XyTrajectory {
+    /// Makes this (its memory reused) the move of one step from `now_ms`
+    /// to `now_ms + step_ms`: from `from` to `to` at `speed` — what a
+    /// controller that decides each step sends.
+    pub fn set_step(
+        &mut self,
+        (now_ms, step_ms): (u64, u64),
+        from: Coord6,
+        to: Coord6,
+        speed: f64,
+    ) {
+        self.start_time_ms = now_ms;
+        self.end_time_ms = now_ms + step_ms;
+        self.points.clear();
+        self.points.extend([from, to]);
+        self.point_times_ms.clear();
+        self.point_times_ms.extend([now_ms, now_ms + step_ms]);
+        self.speeds.clear();
+        self.speeds.extend([speed, speed]);
+    }
+}
+
 /// Steering in physical units.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -987,15 +987,12 @@ impl Storyboard {
             let from = before[i];
             let pt = |x: f64, y: f64, yaw: f64| to_sim(Coord6::xy_yaw(x, y, yaw), see.mirror);
             let traj = &mut self.traj;
-            traj.start_time_ms = now;
-            traj.end_time_ms = now + step;
-            traj.points.clear();
-            traj.points
-                .extend([pt(from.0, from.1, from.2), pt(cx, cy, b.yaw)]);
-            traj.point_times_ms.clear();
-            traj.point_times_ms.extend([now, now + step]);
-            traj.speeds.clear();
-            traj.speeds.extend([b.v, b.v]);
+            traj.set_step(
+                (now, step),
+                pt(from.0, from.1, from.2),
+                pt(cx, cy, b.yaw),
+                b.v,
+            );
             act.ssp
                 .set_xy_trajectory_ref(&b.id, traj)
                 .map_err(ssp_err)?;

@@ -941,20 +941,17 @@ impl Ssp for Session {
         };
         let mirror = self.mirror();
         // One buffer for the session: a closed loop sends every actor a
-        // trajectory each step.
+        // trajectory each step (a refused call drops it; the next makes
+        // another).
         let mut points = std::mem::take(&mut self.scratch_points);
         points.clear();
         for (i, c) in traj.points.iter().enumerate() {
             let (Some(x), Some(y)) = (c.x, c.y) else {
-                self.scratch_points = points;
                 return Err(SspError::invalid(format!(
                     "polyline[{i}]: x and y are mandatory"
                 )));
             };
-            if let Err(e) = check_coord(&|| format!("polyline[{i}]"), c) {
-                self.scratch_points = points;
-                return Err(e);
-            }
+            check_coord(&|| format!("polyline[{i}]"), c)?;
             // Into litesim's frame (as `frame`: y and yaw mirrored for CARLA).
             let (y, yaw) = if mirror {
                 (-y, c.yaw.map(|v| -v))
@@ -965,7 +962,6 @@ impl Ssp for Session {
             if let Some(s) = speed
                 && !(s.is_finite() && s >= 0.0)
             {
-                self.scratch_points = points;
                 return Err(SspError::invalid(format!(
                     "speeds[{i}] = {s} must be finite and ≥ 0"
                 )));

@@ -804,14 +804,7 @@ impl Driven {
             self.poses[k] = after;
             let from = if jumped[k] { after } else { before };
             let pt = |p: Pose| Coord6::xy_yaw(p.position.x, p.position.y, p.yaw);
-            traj.start_time_ms = now_ms;
-            traj.end_time_ms = now_ms + step_ms;
-            traj.points.clear();
-            traj.points.extend([pt(from), pt(after)]);
-            traj.point_times_ms.clear();
-            traj.point_times_ms.extend([now_ms, now_ms + step_ms]);
-            traj.speeds.clear();
-            traj.speeds.extend([v.v, v.v]);
+            traj.set_step((now_ms, step_ms), pt(from), pt(after), v.v);
             send(self.actor_of[k], traj)?;
         }
         Ok(())
