@@ -28,7 +28,8 @@ pub mod xml;
 pub use grid::{GridError, Obstacle, OccupancyGrid};
 pub use lanes::LanePos;
 pub use network::{
-    LanePolyline, LaneRef, Located, MarkRun, RoadNetwork, RoadPosition, RoadSummary, SurelyOnRoad,
+    LanePolyline, LaneRef, LocateMemo, Located, MarkRun, NearQuery, RoadNetwork, RoadPosition,
+    RoadSummary, SurelyOnRoad,
 };
 pub use parse::{MapError, Warning, parse};
 pub use road::{Direction, LaneSpan};

@@ -132,3 +132,44 @@ proptest! {
         prop_assert_eq!(r.lane_holding(s, t), both);
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    /// `locate_near_kept` answers as `locate_near` does, to the bit, from
+    /// a memo or without one: a memo made for one question (a point and a
+    /// hint from an earlier step, another caller's) is used only for the
+    /// same question, and two hints that differ only where `locate_near`
+    /// does not look (t, offset, lane; a road not alone in the point's
+    /// cell) ask the same question.
+    #[test]
+    fn a_kept_location_is_the_one_locate_near_finds(
+        m in 0usize..5,
+        road in 0.0f64..1.0,
+        s in 0.0f64..1.0,
+        t in 0.0f64..1.0,
+        step in -3.0f64..3.0,
+        same in any::<bool>(),
+        junk in -5.0f64..5.0,
+    ) {
+        let (name, net) = &maps()[m];
+        let p0 = point(net, road, s, t);
+        let hint = net.locate(p0);
+        let p1 = Vec2::new(p0.x + step, p0.y + 0.3 * step);
+        // The memo another caller kept: the same question, or the previous
+        // step's.
+        let (_, kept) = if same {
+            net.locate_near_kept(p1, hint, None)
+        } else {
+            net.locate_near_kept(p0, None, None)
+        };
+        let fresh = net.locate_near(p1, hint);
+        let (got, memo) = net.locate_near_kept(p1, hint, Some(&kept));
+        prop_assert_eq!(got, fresh, "{}", name);
+        prop_assert_eq!(net.locate_near_kept(p1, hint, None).1, memo);
+        // What the answer does not depend on does not change the question.
+        let blurred = hint.map(|h| litesim_map::Located { t: h.t + junk, offset: junk, lane: h.lane + 1, ..h });
+        prop_assert_eq!(net.near_query(p1, blurred), net.near_query(p1, hint));
+        prop_assert_eq!(net.locate_near(p1, blurred), fresh);
+    }
+}

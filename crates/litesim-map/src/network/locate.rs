@@ -68,6 +68,27 @@ impl SegmentIndex {
     }
 }
 
+/// The question [`RoadNetwork::locate_near`] answers, reduced to what its
+/// answer depends on (see [`RoadNetwork::near_query`]); compared bit for
+/// bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct NearQuery {
+    x: u64,
+    y: u64,
+    /// The hint's road and s (bits), where the hint is used.
+    from: Option<(usize, u64)>,
+}
+
+/// One [`RoadNetwork::locate_near`] answer kept with its question (see
+/// [`RoadNetwork::locate_near_kept`]): a run keeps one per actor, so the
+/// read-back, the drivers and the SUT's observation locate an actor once a
+/// step between them.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LocateMemo {
+    question: Option<NearQuery>,
+    found: Option<Located>,
+}
+
 /// A disc every point of which is on a road (see
 /// [`RoadNetwork::surely_on_road`]): a point inside needs no map lookup to
 /// know it is not off road.
@@ -359,16 +380,59 @@ impl RoadNetwork {
     /// cheap). Falls back to the full search when the cell holds other roads
     /// too or the projection does not settle.
     pub fn locate_near(&self, p: Vec2, hint: Option<Located>) -> Option<Located> {
-        let cell = self.segments.cell_of(p)?;
-        match hint {
-            Some(h) if self.segments.single[cell] == h.road as u32 => {
-                match self.on_road(h.road, p, h.s) {
-                    (found, true) => found,
-                    (_, false) => self.locate(p),
-                }
+        self.answer(&self.near_query(p, hint))
+    }
+
+    /// What decides [`RoadNetwork::locate_near`]'s answer for `p` near
+    /// `hint`: the point's bits and, where the hint is used at all (its
+    /// road alone in the point's grid cell), its road and s — nothing else
+    /// of the hint matters.
+    pub fn near_query(&self, p: Vec2, hint: Option<Located>) -> NearQuery {
+        let from = match (self.segments.cell_of(p), hint) {
+            (Some(cell), Some(h)) if self.segments.single[cell] == h.road as u32 => {
+                Some((h.road, h.s.to_bits()))
             }
-            _ => self.locate(p),
+            _ => None,
+        };
+        NearQuery {
+            x: p.x.to_bits(),
+            y: p.y.to_bits(),
+            from,
         }
+    }
+
+    /// [`RoadNetwork::locate_near`], answered from `kept` when it holds the
+    /// same question (another caller located the same actor at the same
+    /// point this step); returns the answer and the memo to keep. Sharing
+    /// it changes no result: the answer is a function of the question.
+    pub fn locate_near_kept(
+        &self,
+        p: Vec2,
+        hint: Option<Located>,
+        kept: Option<&LocateMemo>,
+    ) -> (Option<Located>, LocateMemo) {
+        let q = self.near_query(p, hint);
+        let found = match kept {
+            Some(m) if m.question == Some(q) => m.found,
+            _ => self.answer(&q),
+        };
+        let memo = LocateMemo {
+            question: Some(q),
+            found,
+        };
+        (found, memo)
+    }
+
+    /// The answer to a [`NearQuery`]: a projection from the hint's s where
+    /// it is usable and settles, the full search otherwise.
+    fn answer(&self, q: &NearQuery) -> Option<Located> {
+        let p = Vec2::new(f64::from_bits(q.x), f64::from_bits(q.y));
+        if let Some((road, s)) = q.from
+            && let (found, true) = self.on_road(road, p, f64::from_bits(s))
+        {
+            return found;
+        }
+        self.locate(p)
     }
 
     /// A distance within which every point is on a road, given that `at`

@@ -11,7 +11,7 @@ use crate::plan::{ActorPlan, Plan};
 use crate::state::BodyState;
 use crate::sut::{ObjectState, Observation, RoadPos, Route};
 use litesim_core::math;
-use litesim_map::RoadNetwork;
+use litesim_map::{LocateMemo, RoadNetwork};
 
 /// Every actor as last reported, in the SUT's layout.
 pub struct World {
@@ -20,6 +20,10 @@ pub struct World {
     pub obs: Observation,
     /// sut.car's plan index when a SUT drives it.
     ego: Option<usize>,
+    /// Per actor (plan order): its last map location with the question
+    /// that found it, so that the read-back and the drivers locate an
+    /// actor once a step between them.
+    located: Vec<LocateMemo>,
 }
 
 /// An actor as its plan starts it.
@@ -47,6 +51,7 @@ impl World {
         World {
             obs: Observation::default(),
             ego: None,
+            located: Vec::new(),
         }
     }
 
@@ -64,7 +69,23 @@ impl World {
             obs.ego = objects.remove(e);
         }
         obs.objects = objects;
-        World { obs, ego }
+        World {
+            obs,
+            ego,
+            located: vec![LocateMemo::default(); plan.actors.len()],
+        }
+    }
+
+    /// Every actor's last map location and its question (plan order).
+    pub(crate) fn located(&self) -> &[LocateMemo] {
+        &self.located
+    }
+
+    /// Keeps actor `i`'s map location (see [`World::located`]).
+    pub(crate) fn keep_located(&mut self, i: usize, m: LocateMemo) {
+        if let Some(slot) = self.located.get_mut(i) {
+            *slot = m;
+        }
     }
 
     /// Actor `i` (plan order).

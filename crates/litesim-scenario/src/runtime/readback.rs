@@ -272,7 +272,7 @@ impl Readback {
             acceleration: accel.unwrap_or_default(),
         });
         self.planned.push(p);
-        self.check_road(env, i, st, t);
+        self.check_road(env, world, i, st, t);
         if self.rec.is_some() {
             self.log_sample(env, i, st, info);
         }
@@ -296,7 +296,14 @@ impl Readback {
     /// Off-road and red-light checks of actor `i` (a vehicle is located
     /// again only when it may have left the part of the road it was surely
     /// on).
-    fn check_road(&mut self, env: &ReadEnv<'_>, i: usize, st: &Kinematics, t: f64) {
+    fn check_road(
+        &mut self,
+        env: &ReadEnv<'_>,
+        world: &mut World,
+        i: usize,
+        st: &Kinematics,
+        t: f64,
+    ) {
         let net = env.net;
         let vehicle = env.plan.actors[i].kind == litesim_core::ActorClass::Vehicle;
         let here = st.pose.position.xy();
@@ -310,10 +317,14 @@ impl Readback {
             self.off.push(false);
             return;
         }
-        let pos = if vehicle {
-            net.and_then(|n| n.locate_near(here, self.last_pos[i]))
-        } else {
-            None
+        let pos = match net {
+            Some(n) if vehicle => {
+                let (pos, kept) =
+                    n.locate_near_kept(here, self.last_pos[i], world.located().get(i));
+                world.keep_located(i, kept);
+                pos
+            }
+            _ => None,
         };
         self.off.push(vehicle && net.is_some() && pos.is_none());
         let lights = env.lights.info.as_ref();

@@ -45,6 +45,7 @@ impl Controller for Drivers {
             (Vec2::new(o.x, o.y), o.yaw, o.speed, o.length)
         }));
         let ego_xy = see.ego_index.map(|e| states[e].0);
+        self.driven.see_located(see.world.located());
         let yellow = see.lights.yellow();
         let (plan, mirror) = (see.plan, see.mirror);
         let ssp = &mut *act.ssp;

@@ -27,7 +27,7 @@ use litesim_core::ActorClass;
 use litesim_core::Vec2;
 use litesim_core::geometry::Pose;
 use litesim_core::rng::Rng;
-use litesim_map::{Located, RoadNetwork};
+use litesim_map::{LocateMemo, Located, RoadNetwork};
 use litesim_ssp::api::{Coord6, XyTrajectory};
 use std::sync::Arc;
 
@@ -99,6 +99,10 @@ pub struct Driven {
     box_lines: Vec<Vec<(u32, f64)>>,
     /// Each plan actor's last map location (a hint for the next).
     hints: Vec<Option<Located>>,
+    /// Each plan actor's map location as the run's read-back last found
+    /// it, with its question (see [`Driven::see_located`]): the same
+    /// question asked here is answered from it.
+    kept: Vec<LocateMemo>,
     /// Each plan actor's speed at the last step, and when (s): the
     /// references' accelerations for gap goals.
     last_speeds: (f64, Vec<f64>),
@@ -152,6 +156,7 @@ impl Driven {
             recycled: 0,
             box_lines: Vec::new(),
             hints: vec![None; plan.actors.len()],
+            kept: Vec::new(),
             last_speeds: (f64::NAN, Vec::new()),
             asked: Vec::new(),
             goal_start_lanes: Default::default(),
@@ -543,7 +548,8 @@ impl Driven {
         let active = |t0: f64, t1: f64| t >= t0 - 1e-9 && t < t1 - 1e-9;
         let index = |r: &str| plan.actors.iter().position(|x| x.id == r);
         let lane_at = |xy: Vec2, r: usize| {
-            net.locate_near(xy, self.hints.get(r).copied().flatten())
+            net.locate_near_kept(xy, self.hints.get(r).copied().flatten(), self.kept.get(r))
+                .0
                 .and_then(|p| self.graph.locate(net, &p))
                 .map(|x| x.0)
         };
@@ -648,6 +654,14 @@ impl Driven {
             .collect();
     }
 
+    /// The map locations the run's read-back found last step (plan
+    /// order): where this engine asks the same of an actor, it takes the
+    /// answer instead of locating it again.
+    pub fn see_located(&mut self, kept: &[LocateMemo]) {
+        self.kept.clear();
+        self.kept.extend_from_slice(kept);
+    }
+
     /// Where the actors the engine does not drive stand, in lanes: each
     /// (position, heading, speed, length); one straddling two lanes counts
     /// in both.
@@ -671,7 +685,7 @@ impl Driven {
                 continue;
             }
             let hint = self.hints.get(i).copied().flatten();
-            let found = net.locate_near(xy, hint);
+            let found = net.locate_near_kept(xy, hint, self.kept.get(i)).0;
             if let Some(h) = self.hints.get_mut(i) {
                 *h = found;
             }
