@@ -23,8 +23,10 @@ __all__ = [
     "LitesimError",
     "Observation",
     "ObjectState",
+    "Prepared",
     "Result",
     "Simulator",
+    "prepare",
     "run",
     "__version__",
 ]
@@ -118,8 +120,67 @@ def _path(name: str, v: Any) -> str:
     raise TypeError(f"{name}: expected a path (str or os.PathLike), got {type(v).__name__}")
 
 
-def run(
+class Prepared:
+    """A test read, checked and elaborated, with its map loaded
+    (:func:`prepare`): what every run of it shares, made once. Pass it to
+    :func:`run` in place of the path to run the test again without reading
+    it again (a batch does the same per test). It holds what was read: edit
+    the files and prepare again to see the change."""
+
+    __slots__ = ("_native",)
+
+    def __init__(self, native: Any):
+        self._native = native
+
+    @property
+    def path(self) -> str:
+        """The test file."""
+        return os.fspath(self._native.path)
+
+    @property
+    def source_hash(self) -> str:
+        """SHA-256 of the test's sources as read (the file and its imports)."""
+        return self._native.source_hash
+
+    def __repr__(self) -> str:
+        return f"Prepared({self.path!r})"
+
+
+def _load_options(map: Any, include: Any, dialect: Any, map_dir: Any):
+    if isinstance(include, (str, os.PathLike)):
+        include = [include]
+    inc = [_path("include", p) for p in include]
+    m = None if map is None else _path("map", map)
+    if dialect not in (None, "litesim", "carla"):
+        raise ValueError(f"dialect: expected 'litesim', 'carla' or None, got {dialect!r}")
+    md = None if map_dir is None else _path("map_dir", map_dir)
+    return m, inc, dialect, md
+
+
+def prepare(
     test: PathLike,
+    *,
+    map: Optional[PathLike] = None,
+    include: Sequence[PathLike] = (),
+    dialect: Optional[str] = None,
+    map_dir: Optional[PathLike] = None,
+) -> Prepared:
+    """Reads, checks and elaborates a test and loads its map, once, for many
+    :func:`run` calls: ``p = litesim.prepare(path); litesim.run(p, seed=s)``
+    gives the same result as ``litesim.run(path, seed=s)``, without reading
+    the test again. The load options are :func:`run`'s.
+
+    Raises:
+        TypeError / ValueError: a parameter of the wrong type or value (named).
+        LitesimError: the test or its map could not be read (litesim's message).
+    """
+    test = _path("test", test)
+    m, inc, d, md = _load_options(map, include, dialect, map_dir)
+    return Prepared(_native.prepare(test, m, inc, d, md))
+
+
+def run(
+    test: Union[PathLike, Prepared],
     seed: Optional[int] = None,
     sut: Any = None,
     *,
@@ -135,7 +196,9 @@ def run(
     """Runs an OpenSCENARIO DSL test once.
 
     Args:
-        test: the .osc file.
+        test: the .osc (or .xosc) file, or a :class:`Prepared` test (then
+            ``map``, ``include``, ``dialect`` and ``map_dir`` were
+            :func:`prepare`'s and are not given again).
         seed: the seed (default: the test's, else 1).
         sut: what drives sut.car: None (its plan), ``"acc"``, ``"acc-aeb"``,
             ``"fmt-mpc"``,
@@ -159,7 +222,15 @@ def run(
         TypeError / ValueError: a parameter of the wrong type or value (named).
         LitesimError: the test could not be read or run (litesim's message).
     """
-    test = _path("test", test)
+    if isinstance(test, Prepared):
+        given = [n for n, v in (("map", map), ("include", include or None), ("dialect", dialect), ("map_dir", map_dir)) if v is not None]
+        if given:
+            raise ValueError(
+                f"{given[0]}: a prepared test was read with its own load options; give {given[0]} to litesim.prepare instead"
+            )
+        target = test._native
+    else:
+        target = _path("test", test)
     if npc not in ("driver", "planned"):
         raise ValueError(f"npc: expected 'driver' or 'planned', got {npc!r}")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
@@ -170,13 +241,7 @@ def run(
         raise TypeError(f"record: expected a bool, got {type(record).__name__}")
     if mode is not None and not isinstance(mode, str):
         raise TypeError(f"mode: expected 'kinematic', 'dynamic' or None, got {type(mode).__name__}")
-    if isinstance(include, (str, os.PathLike)):
-        include = [include]
-    inc = [_path("include", p) for p in include]
-    m = None if map is None else _path("map", map)
-    if dialect not in (None, "litesim", "carla"):
-        raise ValueError(f"dialect: expected 'litesim', 'carla' or None, got {dialect!r}")
-    md = None if map_dir is None else _path("map_dir", map_dir)
+    m, inc, d, md = _load_options(map, include, dialect, map_dir)
     return Result(
-        _native.run(test, seed, sut, mode, record, m, inc, sut_timeout, dialect, md, npc)
+        _native.run(target, seed, sut, mode, record, m, inc, sut_timeout, d, md, npc)
     )

@@ -17,6 +17,13 @@ use pyo3::types::{PyDict, PyList};
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 
+/// litesim's allocations go to mimalloc, as in the CLI: with the C
+/// runtime's malloc a `litesim.run` spent about a fifth of its time in
+/// malloc and free (perf, BENCHMARKS.md). Python's own objects keep
+/// Python's allocator; nothing allocated on one side is freed on the other.
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 mod runs;
 mod simulator;
 mod sut;
@@ -64,7 +71,9 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<SteppedRun>()?;
     m.add_class::<Episodes>()?;
     m.add_class::<Simulator>()?;
+    m.add_class::<PreparedTest>()?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(prepare, m)?)?;
     m.add_function(wrap_pyfunction!(run_lines, m)?)?;
     m.add_function(wrap_pyfunction!(write_batch, m)?)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;

@@ -99,13 +99,70 @@ impl NativeRun {
     }
 }
 
-/// Runs one test (see `litesim.run` for the parameters).
+/// A test read, checked and elaborated, its map loaded (`litesim.prepare`):
+/// what every run of it shares, made once. Runs of a prepared test skip the
+/// front end and the map (the batch's "prepared runs", for a caller that
+/// runs the same test many times).
+#[pyclass(name = "PreparedTest", module = "litesim._native", frozen)]
+pub(super) struct PreparedTest {
+    pub(super) prep: Arc<litesim_scenario::Prepared>,
+}
+
+#[pymethods]
+impl PreparedTest {
+    /// The test file.
+    #[getter]
+    fn path(&self) -> PathBuf {
+        self.prep.path.clone()
+    }
+
+    /// SHA-256 of the test's sources as read (the file and its imports).
+    #[getter]
+    fn source_hash(&self) -> String {
+        self.prep.source_hash.clone()
+    }
+}
+
+/// Reads, checks and elaborates `test` and loads its map (see
+/// `litesim.prepare`).
+#[pyfunction]
+#[pyo3(signature = (test, map=None, include=Vec::new(), dialect=None, map_dir=None))]
+pub(super) fn prepare(
+    py: Python<'_>,
+    test: PathBuf,
+    map: Option<PathBuf>,
+    include: Vec<PathBuf>,
+    dialect: Option<&str>,
+    map_dir: Option<PathBuf>,
+) -> PyResult<PreparedTest> {
+    let dialect = dialect
+        .map(|d| d.parse::<litesim_osc::Dialect>())
+        .transpose()
+        .map_err(|e| PyValueError::new_err(format!("dialect: {e}")))?;
+    let load = LoadOptions {
+        include,
+        map,
+        dialect,
+        map_dir,
+        ..LoadOptions::default()
+    };
+    let prep = py
+        .detach(move || litesim_scenario::prepare(&test, &load).map_err(|e| e.chain()))
+        .map_err(LitesimError::new_err)?;
+    Ok(PreparedTest {
+        prep: Arc::new(prep),
+    })
+}
+
+/// Runs one test (see `litesim.run` for the parameters): `test` is a path
+/// (prepared for this run) or a [`PreparedTest`] (then the load options
+/// must be left unset: they were the preparation's).
 #[pyfunction]
 #[pyo3(signature = (test, seed=None, sut=None, mode=None, record=true, map=None, include=Vec::new(), sut_timeout=None, dialect=None, map_dir=None, npc="driver"))]
 #[allow(clippy::too_many_arguments)]
 pub(super) fn run(
     py: Python<'_>,
-    test: PathBuf,
+    test: &Bound<'_, PyAny>,
     seed: Option<u64>,
     sut: Option<&Bound<'_, PyAny>>,
     mode: Option<&str>,
@@ -120,10 +177,24 @@ pub(super) fn run(
     let npc = litesim_scenario::Npc::parse(npc).ok_or_else(|| {
         PyValueError::new_err(format!("npc: expected 'driver' or 'planned', got '{npc}'"))
     })?;
-    let dialect = dialect
-        .map(|d| d.parse::<litesim_osc::Dialect>())
-        .transpose()
-        .map_err(|e| PyValueError::new_err(format!("dialect: {e}")))?;
+    let prepared = match test.cast::<PreparedTest>() {
+        Ok(p) => {
+            let set = [
+                ("map", map.is_some()),
+                ("include", !include.is_empty()),
+                ("dialect", dialect.is_some()),
+                ("map_dir", map_dir.is_some()),
+            ];
+            if let Some((name, _)) = set.iter().find(|(_, on)| *on) {
+                return Err(PyValueError::new_err(format!(
+                    "{name}: a prepared test was read with its own load options; \
+                     give {name} to litesim.prepare instead"
+                )));
+            }
+            Some(Arc::clone(&p.get().prep))
+        }
+        Err(_) => None,
+    };
     let sut = sut_choice(sut)?;
     let mode = mode_of(mode)?;
     if let Some(t) = sut_timeout
@@ -133,12 +204,12 @@ pub(super) fn run(
             "sut_timeout: {t} is not a positive number of seconds"
         )));
     }
-    let load = LoadOptions {
-        include,
-        map,
-        dialect,
-        map_dir,
-        ..LoadOptions::default()
+    let prep = match prepared {
+        Some(p) => p,
+        None => {
+            let path: PathBuf = test.extract()?;
+            prepare(py, path, map, include, dialect, map_dir)?.prep
+        }
     };
     let opts = RunOptions {
         seed,
@@ -151,7 +222,6 @@ pub(super) fn run(
         ..RunOptions::default()
     };
     let r = py.detach(move || -> Result<litesim_scenario::RunResult, String> {
-        let prep = litesim_scenario::prepare(&test, &load).map_err(|e| e.chain())?;
         litesim_scenario::run(&prep, &mut litesim_scenario::in_process(), &opts)
             .map_err(|e| e.chain())
     });

@@ -36,6 +36,39 @@ def test_run_gives_verdict_failures_kpis_and_a_log():
     assert litesim.run(CUT_IN, seed=3).log_json() == r.log_json()
 
 
+def test_a_prepared_test_runs_as_its_path_does(tmp_path):
+    p = litesim.prepare(CUT_IN)
+    assert p.path == CUT_IN and len(p.source_hash) == 64 and "cut_in" in repr(p)
+
+    class Const:
+        def step(self, o):
+            return litesim.Command.pedals(0.3, 0.0, 0.0)
+
+    # The same bytes as the path, for several seeds and SUTs, run after run.
+    for seed, sut in [(1, None), (2, "acc"), (3, Const())]:
+        a = litesim.run(p, seed=seed, sut=sut)
+        b = litesim.run(CUT_IN, seed=seed, sut=sut)
+        assert a.log_json() == b.log_json() and a.summary == b.summary
+    # The load options were the preparation's: given again, an error naming one.
+    with pytest.raises(ValueError, match="map: a prepared test"):
+        litesim.run(p, map=str(ROOT / "examples/maps/straight.xodr"))
+    with pytest.raises(ValueError, match="include"):
+        litesim.run(p, include=["x"])
+    # An edit after preparing is not seen: the test as read is what runs.
+    src = tmp_path / "cut_in.osc"
+    src.write_text(Path(CUT_IN).read_text().replace('import "../../osc/', f'import "{ROOT}/osc/'))
+    q = litesim.prepare(src, map=str(ROOT / "examples/maps/straight.xodr"))
+    before = litesim.run(q, seed=1).log_json()
+    src.write_text("not a scenario")
+    assert litesim.run(q, seed=1).log_json() == before
+    with pytest.raises(litesim.LitesimError):
+        litesim.prepare(src)
+    with pytest.raises(litesim.LitesimError, match="nope.osc"):
+        litesim.prepare(tmp_path / "nope.osc")
+    with pytest.raises(TypeError, match="test: expected a path"):
+        litesim.prepare(3)
+
+
 def test_a_carla_scenario_runs_as_written(tmp_path):
     carla = str(ROOT / "examples/carla/slow_lead.osc")
     r = litesim.run(carla, sut="acc")
@@ -443,3 +476,7 @@ def test_overheads():
     py = median(lambda: litesim.run(CUT_IN, seed=1, record=False, sut=Const(), mode="dynamic"))
     per_step_us = (py - planned_dyn) / 500 * 1e6
     print(f"\nlitesim.run(cut_in, record=False) median {run * 1e3:.2f} ms; python SUT run {py * 1e3:.2f} ms vs planned dynamic {planned_dyn * 1e3:.2f} ms: ≤ {per_step_us:.2f} µs per step")
+    prep = litesim.prepare(CUT_IN)
+    py_prep = median(lambda: litesim.run(prep, seed=1, record=False, sut=Const(), mode="dynamic"))
+    dyn_prep = median(lambda: litesim.run(prep, seed=1, record=False, mode="dynamic"))
+    print(f"prepared once: python SUT run {py_prep * 1e3:.2f} ms, planned dynamic {dyn_prep * 1e3:.2f} ms")
