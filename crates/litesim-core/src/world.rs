@@ -426,6 +426,17 @@ impl World {
             .copied()
             .ok_or_else(|| WorldError::UnknownActor(id.to_string()))
     }
+    /// Actor `i`'s height: [`World::state_at`]'s z without the rest of
+    /// the report (a trajectory without heights takes the actor's).
+    pub fn z_at(&self, i: usize) -> Option<f64> {
+        let a = self.actors.get(i)?;
+        Some(if a.live {
+            self.vehicles.z[i]
+        } else {
+            a.state.pose.position.z
+        })
+    }
+
     fn state_at(&self, i: usize) -> ActorState {
         let a = &self.actors[i];
         if a.live {
@@ -653,19 +664,27 @@ impl World {
         let tick = self.tick + 1;
         let t = self.time_at(tick);
         // A command that runs out this tick changes the compiled set.
-        let changed = std::mem::take(&mut self.batch.changed);
+        let mut changed = std::mem::take(&mut self.batch.changed);
         let built = match self.batch.built.take() {
             Some(mut b) if tick <= b.next_expiry => {
                 if !changed.is_empty() {
                     for &i in &changed {
                         self.compile_actor(i, tick, &mut b);
                     }
-                    b.runs = b.commands.runs();
+                    let mut runs = std::mem::take(&mut b.runs);
+                    b.commands.runs_into(&mut runs);
+                    b.runs = runs;
                 }
                 b
             }
             _ => self.build_batch(tick),
         };
+        // The list's buffer is kept for the next step's changes (a closed
+        // loop changes a command every step).
+        changed.clear();
+        if self.batch.changed.is_empty() {
+            self.batch.changed = changed;
+        }
         // Only external controllers look at other actors; skip the snapshot otherwise.
         let snapshot = if self.external > 0 {
             self.snapshot()

@@ -392,6 +392,14 @@ impl CommandColumns {
     /// Maximal runs of consecutive vehicles stepped by the same loop, in order.
     pub fn runs(&self) -> Vec<(Kernel, Range<usize>)> {
         let mut runs: Vec<(Kernel, Range<usize>)> = Vec::new();
+        self.runs_into(&mut runs);
+        runs
+    }
+
+    /// [`CommandColumns::runs`] into `runs` (emptied first): a world that
+    /// recompiles an actor every step keeps one list.
+    pub fn runs_into(&self, runs: &mut Vec<(Kernel, Range<usize>)>) {
+        runs.clear();
         for (i, k) in self.kernel.iter().enumerate() {
             let Some(k) = *k else { continue };
             match runs.last_mut() {
@@ -399,7 +407,6 @@ impl CommandColumns {
                 _ => runs.push((k, i..i + 1)),
             }
         }
-        runs
     }
 }
 

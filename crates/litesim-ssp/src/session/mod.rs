@@ -934,8 +934,8 @@ impl Ssp for Session {
         let z0 = if traj.points.iter().any(|c| c.z.is_none()) {
             self.world
                 .as_ref()
-                .and_then(|w| w.actor_at(slot))
-                .map_or(0.0, |a| a.state().pose.position.z)
+                .and_then(|w| w.z_at(slot))
+                .unwrap_or(0.0)
         } else {
             0.0
         };

@@ -251,6 +251,9 @@ pub struct Traffic {
     /// Decided this step: acceleration and lane change (−1 right, +1 left).
     decided: Vec<(f64, i8)>,
     touching: std::collections::BTreeSet<(u32, u32)>,
+    /// This step's vehicles with no gap to their leader (a buffer kept for
+    /// the run).
+    touched: Vec<(u32, u32, f64)>,
     stops_by_lane: Vec<(u32, u32)>,
     /// Per junction lane: the earliest arrival (s) and slot of a vehicle
     /// about to enter it, from this step's snapshot.
@@ -283,6 +286,7 @@ impl Traffic {
             cursor: Vec::new(),
             decided: Vec::new(),
             touching: Default::default(),
+            touched: Vec::new(),
             stops_by_lane: Vec::new(),
             claims: Vec::new(),
             settling: false,
@@ -357,7 +361,8 @@ impl Traffic {
         decided.clear();
         decided.resize(n, (0.0, 0));
         let period = ((DECISION_PERIOD_S / self.dt).round() as u64).max(1);
-        let mut touching = Vec::new();
+        let mut touching = std::mem::take(&mut self.touched);
+        touching.clear();
         // Lane by lane through the index: neighbours' entries are next to
         // each other in memory, and each vehicle's own entry is known (the
         // result is per slot, the same in any order).
@@ -414,9 +419,10 @@ impl Traffic {
             decided[slot] = (a, change);
         }
         self.decided = decided;
-        for (me, lane, u) in touching {
+        for &(me, lane, u) in &touching {
             self.note_contact(me, lane, u);
         }
+        self.touched = touching;
     }
 
     fn commit(&mut self, g: &LaneGraph) {
@@ -485,20 +491,18 @@ impl Traffic {
                 }
             }
         }
-        // Contacts end when the pair is apart again.
-        let touching = std::mem::take(&mut self.touching);
-        self.touching = touching
-            .into_iter()
-            .filter(|&(me, other)| {
-                other & OBSTACLE != 0 || {
-                    let (a, b) = (&self.vehicles[me as usize], &self.vehicles[other as usize]);
-                    a.active
-                        && b.active
-                        && a.lane == b.lane
-                        && (a.u - b.u).abs() < 0.5 * (a.length + b.length)
-                }
-            })
-            .collect();
+        // Contacts end when the pair is apart again (kept in place: no new
+        // set each step while a pair touches).
+        let vehicles = &self.vehicles;
+        self.touching.retain(|&(me, other)| {
+            other & OBSTACLE != 0 || {
+                let (a, b) = (&vehicles[me as usize], &vehicles[other as usize]);
+                a.active
+                    && b.active
+                    && a.lane == b.lane
+                    && (a.u - b.u).abs() < 0.5 * (a.length + b.length)
+            }
+        });
     }
 }
 
