@@ -185,3 +185,93 @@ fn no_function_in_non_test_code_is_over_120_lines() {
         over.join("\n")
     );
 }
+
+/// The crates whose numbers reach a run's results (logs, summaries,
+/// plans, maps read, parameters): their shipped code takes transcendental
+/// functions from `litesim_core::math` (litesim's own `sin_cos`, the
+/// pure-Rust `libm`), never from the platform's C library — glibc picks an
+/// FMA or a plain variant of `sin`, `atan`, `pow`… by the CPU it runs on,
+/// so the same binary would write other bytes on another machine.
+const RESULT_CRATES: [&str; 7] = [
+    "litesim-core",
+    "litesim-ssp",
+    "litesim-map",
+    "litesim-plan",
+    "litesim-scenario",
+    "litesim-xosc",
+    "litesim-osc",
+];
+
+/// `f64` methods that call the platform's libm.
+const PLATFORM_MATH: [&str; 19] = [
+    ".sin(",
+    ".cos(",
+    ".tan(",
+    ".sin_cos(",
+    ".asin(",
+    ".acos(",
+    ".atan(",
+    ".atan2(",
+    ".sinh(",
+    ".cosh(",
+    ".tanh(",
+    ".exp(",
+    ".exp_m1(",
+    ".ln(",
+    ".ln_1p(",
+    ".log10(",
+    ".log2(",
+    ".powf(",
+    ".hypot(",
+];
+
+/// Calls that look like the platform's but are litesim's own methods.
+const OWN_METHODS: [(&str, &str); 1] = [
+    // `RefPoint::sin_cos`: the sine and cosine a map reference point keeps.
+    ("crates/litesim-map/src/", "r.sin_cos()"),
+];
+
+#[test]
+fn results_use_litesims_own_transcendentals() {
+    let root = workspace();
+    let mut found = Vec::new();
+    for c in RESULT_CRATES {
+        let mut files = Vec::new();
+        rust_files(&root.join("crates").join(c).join("src"), &mut files);
+        assert!(!files.is_empty(), "{c} has no sources");
+        for f in files {
+            let rel = f.strip_prefix(&root).unwrap().display().to_string();
+            let text = std::fs::read_to_string(&f).unwrap();
+            for (i, line) in text.lines().enumerate() {
+                // A file's unit tests come last: they may compute their
+                // expectations any way they like.
+                if line.trim_start().starts_with("#[cfg(test)]") {
+                    break;
+                }
+                let code = code_of(line);
+                let own = OWN_METHODS
+                    .iter()
+                    .any(|(dir, m)| rel.starts_with(dir) && code.contains(m));
+                if let Some(m) = PLATFORM_MATH.iter().find(|m| code.contains(**m))
+                    && !own
+                {
+                    found.push(format!("{rel}:{}: {m}…) — use litesim_core::math", i + 1));
+                }
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "the platform's libm in code whose results litesim promises bit for bit:\n{}",
+        found.join("\n")
+    );
+}
+
+#[test]
+fn the_platform_math_check_sees_a_call_and_not_a_comment() {
+    let hit = |l: &str| PLATFORM_MATH.iter().any(|m| code_of(l).contains(m));
+    assert!(hit("    let y = x.sin() * 2.0;"));
+    assert!(hit("let d = (a - b).hypot(c);"));
+    assert!(!hit("let y = math::sin(x); // not x.sin()"));
+    assert!(!hit(r#"let s = "x.cos()";"#));
+}

@@ -8,6 +8,12 @@
 //! below a millimetre over a kilometre; constants are precomputed per piece.
 
 use litesim_core::math;
+
+/// `x^1.5` as `x·√x`: a correctly rounded square root and one product, the
+/// same bits on every machine (the platform's `pow` is not).
+fn pow_three_halves(x: f64) -> f64 {
+    x * x.sqrt()
+}
 use serde::{Deserialize, Serialize};
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 8 points (published constants).
@@ -294,7 +300,7 @@ impl Geometry {
                     x: self.x + u * ch - v * sh,
                     y: self.y + u * sh + v * ch,
                     hdg: self.hdg + math::atan(dv),
-                    curvature: ddpoly(coef, u) / (1.0 + dv * dv).powf(1.5),
+                    curvature: ddpoly(coef, u) / pow_three_halves(1.0 + dv * dv),
                     trig: None,
                 }
             }
@@ -309,7 +315,7 @@ impl Geometry {
                     y: self.y + u * sh + v * ch,
                     hdg: self.hdg + math::atan2(dv, du),
                     curvature: if n2 > 0.0 {
-                        (du * ddv - dv * ddu) / n2.powf(1.5)
+                        (du * ddv - dv * ddu) / pow_three_halves(n2)
                     } else {
                         0.0
                     },

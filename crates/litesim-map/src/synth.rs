@@ -15,6 +15,7 @@
 //! starts, so the loader reports no gaps and the lane graph is complete.
 
 use crate::geometry::{Geometry, Shape};
+use litesim_core::math;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::fmt::Write;
 
@@ -211,7 +212,8 @@ impl Town {
                     extensions_left -= 1;
                     self.new_road()
                 });
-                let start = (cx + R * h.cos(), cy + R * h.sin());
+                let (hs, hc) = math::sin_cos(h);
+                let start = (cx + R * hc, cy + R * hs);
                 let sig = stub(&mut self.out, id, start, h, jn, ext, &mut self.next_signal);
                 self.junction_signals[jn].push(sig);
                 if let Some(e) = ext {
@@ -244,7 +246,8 @@ impl Town {
             let mut connection = 0;
             for (from, &o) in ARMS.iter().enumerate() {
                 let inc = self.arms[jn][from].expect("every arm has a road");
-                let start = (cx + R * o.cos(), cy + R * o.sin());
+                let (os, oc) = math::sin_cos(o);
+                let start = (cx + R * oc, cy + R * os);
                 let travel = o + PI;
                 // Straight, right, left: the arm each leads to and its curvature.
                 for (to, curvature) in [
@@ -334,7 +337,8 @@ fn stub_end(start: (f64, f64), h: f64) -> (f64, f64, f64) {
 
 /// The point `len` metres along heading `h` from `(x, y)`.
 fn after_line(x: f64, y: f64, h: f64, len: f64) -> (f64, f64) {
-    (x + len * h.cos(), y + len * h.sin())
+    let (hs, hc) = math::sin_cos(h);
+    (x + len * hc, y + len * hs)
 }
 
 fn link_xml(out: &mut String, pred: &str, succ: &str) {

@@ -11,6 +11,7 @@
 use crate::grid::PlanningGrid;
 use crate::rng::Rng;
 use litesim_core::Vec2;
+use litesim_core::math;
 use serde::{Deserialize, Serialize};
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
@@ -568,7 +569,7 @@ fn sample(
                 * 2.0
                 * (0.5f64).sqrt()
                 * (area / std::f64::consts::PI).sqrt()
-                * (nn.ln() / nn).sqrt()
+                * (math::ln(nn) / nn).sqrt()
         }
         Radius::Fixed(r) => r,
         // k-nearest: grow a radius until it holds k neighbours on average (then exact per node below).

@@ -198,9 +198,7 @@ impl LegFollower {
             (s, lat, i) = leg.corridor.project(pos, self.hint);
             let k0 = leg.corridor.curvature.first().copied().unwrap_or(0.0);
             let need = sign
-                * (veh.wheelbase * k0)
-                    .atan()
-                    .clamp(-veh.max_steer, veh.max_steer);
+                * litesim_core::math::atan(veh.wheelbase * k0).clamp(-veh.max_steer, veh.max_steer);
             self.dwell = (need - self.prev[1]).abs() / veh.max_steer_rate + tracker_dt;
         }
         self.hint = i;

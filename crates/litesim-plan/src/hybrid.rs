@@ -23,6 +23,7 @@
 use crate::fmt::Cheapest;
 use crate::grid::PlanningGrid;
 use litesim_core::Vec2;
+use litesim_core::math;
 use std::collections::BinaryHeap;
 
 /// Settings of the search.
@@ -185,7 +186,10 @@ pub(crate) fn arc(p: Vec2, yaw: f64, k: f64, len: f64) -> (Vec2, f64) {
     }
     let y1 = yaw + k * len;
     (
-        p + Vec2::new(y1.sin() - yaw.sin(), yaw.cos() - y1.cos()) * (1.0 / k),
+        p + Vec2::new(
+            math::sin(y1) - math::sin(yaw),
+            math::cos(yaw) - math::cos(y1),
+        ) * (1.0 / k),
         y1,
     )
 }
@@ -214,9 +218,9 @@ fn arc_free(
     let (ahead, left) = if k.abs() < 1e-12 {
         (ds, 0.0)
     } else {
-        (turn.sin() / k, (1.0 - turn.cos()) / k)
+        (math::sin(turn) / k, (1.0 - math::cos(turn)) / k)
     };
-    let (c, s) = (turn.cos(), turn.sin());
+    let (s, c) = math::sin_cos(turn);
     let mut f = Vec2::from_heading(yaw);
     let mut q = p;
     for _ in 0..m {
@@ -267,7 +271,8 @@ fn shot(
     let mut best: Option<(f64, f64, f64)> = None;
     for side in [1.0, -1.0] {
         // Centre of the turning circle on this side.
-        let c = p + Vec2::new(-travel.sin(), travel.cos()) * (side * r);
+        let (ts, tc) = math::sin_cos(travel);
+        let c = p + Vec2::new(-ts, tc) * (side * r);
         let v = goal - c;
         let dist = v.norm();
         if dist < r * (1.0 + 1e-9) {
@@ -276,7 +281,7 @@ fn shot(
         let straight = (dist * dist - r * r).sqrt();
         // Radial angle of the tangent point, then the angle turned to it
         // (in the direction of travel, 0 ≤ φ < 2π).
-        let beta = v.heading() - side * straight.atan2(r);
+        let beta = v.heading() - side * math::atan2(straight, r);
         let beta0 = (p - c).heading();
         let mut phi = (side * (beta - beta0)).rem_euclid(std::f64::consts::TAU);
         if phi > std::f64::consts::TAU - 1e-9 {
@@ -1237,7 +1242,7 @@ mod tests {
         )
         .unwrap();
         let grid = PlanningGrid::with_footprint(g, 12.0, 2.55, 3.0, 0.3);
-        let kappa = 0.8 * 40f64.to_radians().tan() / 6.0;
+        let kappa = 0.8 * math::tan(40f64.to_radians()) / 6.0;
         let (start, goal) = (Vec2::new(5.0, 5.0), Vec2::new(55.0, 25.0));
         let forward = HybridConfig {
             goal_tolerance: 0.25,

@@ -15,6 +15,7 @@
 //! turning opposite ways (the point inside it). Driving backwards to a point
 //! is driving forwards to its mirror image through the rear axle's normal.
 
+use litesim_core::math;
 use std::f64::consts::TAU;
 
 /// Length of the shortest forward path with turns of radius at least `r`
@@ -46,7 +47,7 @@ fn arc_then_straight(x: f64, y: f64, r: f64) -> f64 {
     let d2 = vx * vx + vy * vy;
     let straight = (d2 - r * r).max(0.0).sqrt();
     // Radial angle of the tangent point (counter-clockwise travel).
-    let beta = vy.atan2(vx) - straight.atan2(r);
+    let beta = math::atan2(vy, vx) - math::atan2(straight, r);
     let mut phi = (beta + std::f64::consts::FRAC_PI_2).rem_euclid(TAU);
     if phi > TAU - 1e-9 {
         phi = 0.0;
@@ -68,17 +69,17 @@ fn right_then_left(x: f64, y: f64, r: f64) -> f64 {
         return f64::INFINITY;
     }
     // u = d (sin ψ, cos ψ).
-    let psi = ux.atan2(uy);
-    let spread = c.acos();
+    let psi = math::atan2(ux, uy);
+    let spread = math::acos(c);
     let mut best = f64::INFINITY;
     for alpha in [psi - spread, psi + spread] {
         let alpha = alpha.rem_euclid(TAU);
-        let (s, co) = alpha.sin_cos();
+        let (s, co) = math::sin_cos(alpha);
         let centre = (2.0 * r * s, -r + 2.0 * r * co);
         // Where the left arc starts (angle of the junction seen from the
         // centre) and where it ends (the point), counter-clockwise.
-        let from = (-co).atan2(-s);
-        let to = (y - centre.1).atan2(x - centre.0);
+        let from = math::atan2(-co, -s);
+        let to = math::atan2(y - centre.1, x - centre.0);
         let beta = (to - from).rem_euclid(TAU);
         best = best.min(r * (alpha + beta));
     }

@@ -6,6 +6,7 @@
 
 use crate::error::XoscError;
 use crate::read::{Cx, list, next, open, read_text};
+use litesim_core::math;
 use litesim_core::rng::Rng;
 use litesim_map::xml::{Node, Tree};
 use std::path::{Path, PathBuf};
@@ -381,7 +382,7 @@ impl Sampler {
                 for _ in 0..1000 {
                     let z = gauss(rng);
                     let x = if *log {
-                        (mean.ln() + sd * z).exp()
+                        math::exp(math::ln(*mean) + sd * z)
                     } else {
                         mean + sd * z
                     };
@@ -395,7 +396,7 @@ impl Sampler {
             Sampler::Poisson { mean, range } => {
                 for _ in 0..1000 {
                     // Knuth's method.
-                    let l = (-mean).exp();
+                    let l = math::exp(-mean);
                     let (mut k, mut p) = (0u64, 1.0);
                     loop {
                         p *= rng.unit();
@@ -431,7 +432,7 @@ impl Sampler {
 fn gauss(rng: &mut Rng) -> f64 {
     let u1 = rng.unit().max(1e-300);
     let u2 = rng.unit();
-    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    (-2.0 * math::ln(u1)).sqrt() * math::cos(2.0 * std::f64::consts::PI * u2)
 }
 
 fn fmt(v: f64) -> String {

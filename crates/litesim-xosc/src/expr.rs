@@ -6,6 +6,8 @@
 //! zero, the square root of a negative number and a result that is not a
 //! finite number are errors, never a NaN passed on into a scenario.
 
+use litesim_core::math;
+
 /// A parameter's value as an expression reads it.
 pub type Lookup<'a> = dyn Fn(&str) -> Result<f64, String> + 'a;
 
@@ -240,15 +242,15 @@ impl Parser<'_, '_> {
                             return Err(format!("sqrt of a negative number ({x})"));
                         }
                         "sqrt" => x.sqrt(),
-                        "sin" => x.sin(),
-                        "cos" => x.cos(),
-                        "tan" => x.tan(),
+                        "sin" => math::sin(x),
+                        "cos" => math::cos(x),
+                        "tan" => math::tan(x),
                         "asin" | "acos" if !(-1.0..=1.0).contains(&x) => {
                             return Err(format!("{w} of {x}, outside [-1, 1]"));
                         }
-                        "asin" => x.asin(),
-                        "acos" => x.acos(),
-                        "atan" => x.atan(),
+                        "asin" => math::asin(x),
+                        "acos" => math::acos(x),
+                        "atan" => math::atan(x),
                         "sign" => {
                             if x > 0.0 {
                                 1.0
@@ -266,7 +268,7 @@ impl Parser<'_, '_> {
                     Ok(match w.as_str() {
                         "max" => a[0].max(a[1]),
                         "min" => a[0].min(a[1]),
-                        _ => a[0].powf(a[1]),
+                        _ => math::pow(a[0], a[1]),
                     })
                 }
                 other => Err(format!(

@@ -251,7 +251,7 @@ impl Shape {
             Shape::Step => 1.0,
             Shape::Linear => t,
             Shape::Cubic => t * t * (3.0 - 2.0 * t),
-            Shape::Sinusoidal => (1.0 - (std::f64::consts::PI * t).cos()) / 2.0,
+            Shape::Sinusoidal => (1.0 - litesim_core::math::cos(std::f64::consts::PI * t)) / 2.0,
         }
     }
 

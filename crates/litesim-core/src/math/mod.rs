@@ -118,6 +118,16 @@ pub fn tan(x: f64) -> f64 {
 pub fn asin(x: f64) -> f64 {
     libm::asin(x)
 }
+/// Arc cosine.
+#[inline]
+pub fn acos(x: f64) -> f64 {
+    libm::acos(x)
+}
+/// Base-10 logarithm.
+#[inline]
+pub fn log10(x: f64) -> f64 {
+    libm::log10(x)
+}
 /// Arc tangent.
 #[inline]
 pub fn atan(x: f64) -> f64 {

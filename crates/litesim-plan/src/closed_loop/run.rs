@@ -197,7 +197,7 @@ pub struct Planned {
 /// plans for itself calls (the `fmt-mpc` SUT of scenarios).
 pub fn plan(cfg: &ClosedLoopConfig, grid: OccupancyGrid) -> Result<Planned, PlanError> {
     let veh = cfg.vehicle.resolve()?;
-    let kappa_max = veh.max_steer.tan() / veh.wheelbase;
+    let kappa_max = litesim_core::math::tan(veh.max_steer) / veh.wheelbase;
     plan_path(cfg, &veh, grid, kappa_max)
 }
 
@@ -422,7 +422,7 @@ pub fn run_closed_loop_timed(
     let (mpc, every) = tracker_of(cfg, &veh)?;
     // The tightest turn the vehicle can drive (1/m): the corridor is
     // shaped towards it, and a path beyond it is refused below.
-    let kappa_max = veh.max_steer.tan() / veh.wheelbase;
+    let kappa_max = litesim_core::math::tan(veh.max_steer) / veh.wheelbase;
     let t_plan = clock();
     let Planned {
         grids,

@@ -216,7 +216,7 @@ mod tests {
             width: 2.0,
             vx,
             vy,
-            speed: vx.hypot(vy),
+            speed: math::hypot(vx, vy),
             acceleration: 0.0,
         }
     }

@@ -511,7 +511,7 @@ impl GapGoal {
             None => *actual,
             Some(p) => {
                 let d = p.speed * (t - p.t0).max(0.0);
-                let (s, c) = p.yaw.sin_cos();
+                let (s, c) = litesim_core::math::sin_cos(p.yaw);
                 crate::state::BodyState {
                     x: p.x + d * c,
                     y: p.y + d * s,
@@ -890,8 +890,8 @@ mod tests {
                     let th = w * t;
                     PlanSample {
                         t,
-                        x: r * th.sin(),
-                        y: r * (1.0 - th.cos()),
+                        x: r * litesim_core::math::sin(th),
+                        y: r * (1.0 - litesim_core::math::cos(th)),
                         yaw: th,
                         v: 17.0,
                         a: 0.0,

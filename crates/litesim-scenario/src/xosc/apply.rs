@@ -550,8 +550,9 @@ impl Storyboard {
                     pts.push((x, y, time));
                     // Midpoint rule on the heading over the step.
                     let hm = h + (curvature + curvature_prime * (s + 0.5 * ds)) * 0.5 * ds;
-                    x += ds * hm.cos();
-                    y += ds * hm.sin();
+                    let (hs, hc) = litesim_core::math::sin_cos(hm);
+                    x += ds * hc;
+                    y += ds * hs;
                     h += (curvature + curvature_prime * (s + 0.5 * ds)) * ds;
                 }
             }
@@ -590,7 +591,7 @@ impl Storyboard {
         let mut s = 0.0;
         for (k, p) in pts.iter().enumerate() {
             if k > 0 {
-                s += (p.0 - pts[k - 1].0).hypot(p.1 - pts[k - 1].1);
+                s += litesim_core::math::hypot(p.0 - pts[k - 1].0, p.1 - pts[k - 1].1);
             }
             out.push((p.0, p.1, s));
         }

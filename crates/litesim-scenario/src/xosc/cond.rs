@@ -8,6 +8,7 @@ use super::place;
 use super::story::in_state;
 use super::{Body, Storyboard};
 use crate::state::BodyState;
+use litesim_core::math;
 use litesim_xosc::{ConditionKind, EntityTest, Frame, Measure, Rule};
 
 /// The box of a body (centred, litesim's frame).
@@ -27,7 +28,7 @@ pub fn boxed(b: &Body) -> BodyState {
 /// `a` relative to `b`'s … no: `p` in `me`'s frame: (ahead, left) of its
 /// reference point.
 fn in_frame(me: &Body, px: f64, py: f64) -> (f64, f64) {
-    let (s, c) = me.yaw.sin_cos();
+    let (s, c) = math::sin_cos(me.yaw);
     let (dx, dy) = (px - me.x, py - me.y);
     (dx * c + dy * s, -dx * s + dy * c)
 }
@@ -36,7 +37,7 @@ fn measure(m: Measure, along: f64, across: f64) -> f64 {
     match m {
         Measure::Longitudinal => along.abs(),
         Measure::Lateral => across.abs(),
-        Measure::Euclidean => along.hypot(across),
+        Measure::Euclidean => math::hypot(along, across),
     }
 }
 
@@ -154,7 +155,7 @@ impl Storyboard {
                 position,
                 tolerance,
             } => place::resolve(&self.net, position, &self.bodies, "ReachPositionCondition")
-                .is_ok_and(|p| (p.x - me.x).hypot(p.y - me.y) <= *tolerance),
+                .is_ok_and(|p| math::hypot(p.x - me.x, p.y - me.y) <= *tolerance),
             _ => self.gap_holds(me, test),
         }
     }
@@ -194,7 +195,7 @@ impl Storyboard {
                     (Some(e), _) => match find(e) {
                         Some(r) => {
                             let (along, _) = in_frame(me, r.x, r.y);
-                            let rv = r.v * (r.yaw - me.yaw).cos();
+                            let rv = r.v * math::cos(r.yaw - me.yaw);
                             let gap = if *freespace {
                                 along - 0.5 * (me.length + r.length)
                             } else {

@@ -24,6 +24,7 @@ use crate::error::ScenarioError;
 use crate::plan::{ActorPlan, Plan, PlanSample};
 use crate::runtime::controllers::{Act, Controller, Flow, See, ssp_err, to_sim};
 use litesim_core::ActorClass;
+use litesim_core::math;
 use litesim_map::{LanePos, RoadNetwork};
 use litesim_ssp::api::{Coord6, XyTrajectory};
 use litesim_xosc::{ActionKind, ElementType, EntityKind, Priority, Scenario};
@@ -93,7 +94,7 @@ pub struct Body {
 impl Body {
     /// The box centre (m).
     pub fn centre(&self) -> (f64, f64) {
-        let (s, c) = self.yaw.sin_cos();
+        let (s, c) = math::sin_cos(self.yaw);
         let (dx, dy) = self.centre_offset;
         (self.x + dx * c - dy * s, self.y + dx * s + dy * c)
     }
@@ -341,9 +342,12 @@ fn ego_route(net: &RoadNetwork, b: &Body, duration: f64) -> Vec<PlanSample> {
                     let q = net.advance(p, v * t);
                     place::on_lane(net, q, off).map_or((b.x, b.y, b.yaw), |pl| (pl.x, pl.y, pl.yaw))
                 }
-                None => (b.x + v * t * b.yaw.cos(), b.y + v * t * b.yaw.sin(), b.yaw),
+                None => {
+                    let (bs, bc) = math::sin_cos(b.yaw);
+                    (b.x + v * t * bc, b.y + v * t * bs, b.yaw)
+                }
             };
-            let (s, c) = yaw.sin_cos();
+            let (s, c) = math::sin_cos(yaw);
             let (dx, dy) = b.centre_offset;
             PlanSample {
                 t,
@@ -878,7 +882,7 @@ impl Storyboard {
             b.step(&self.net, t, dt, &others, &mut done);
             b.a = (b.v - v0) / dt;
             if let Some((ai, target)) = b.acquire
-                && (target.x - b.x).hypot(target.y - b.y) <= (b.v * dt).max(1.0)
+                && math::hypot(target.x - b.x, target.y - b.y) <= (b.v * dt).max(1.0)
             {
                 b.acquire = None;
                 done.push(ai);
@@ -898,10 +902,10 @@ impl Storyboard {
             if !self.driven[i] && !see.first() {
                 let o = see.world.get(i);
                 let b = &mut self.bodies[i];
-                let (s, c) = o.yaw.sin_cos();
+                let (s, c) = math::sin_cos(o.yaw);
                 let (dx, dy) = b.centre_offset;
                 let (x, y) = (o.x - dx * c + dy * s, o.y - dx * s - dy * c);
-                b.traveled += (x - b.x).hypot(y - b.y);
+                b.traveled += math::hypot(x - b.x, y - b.y);
                 b.x = x;
                 b.y = y;
                 b.yaw = o.yaw;

@@ -11,6 +11,7 @@
 use super::Body;
 use super::place::{self, Place};
 use crate::error::ScenarioError;
+use litesim_core::math;
 use litesim_map::{LanePos, RoadNetwork};
 use litesim_xosc::{Dimension, Shape, SpeedTarget, Transition};
 
@@ -248,7 +249,7 @@ impl Body {
                         let lateral = (offset - self.lane.map_or(offset, |l| l.1))
                             * if net.travels_forward(np) { 1.0 } else { -1.0 };
                         let along = (self.v * dt).max(1e-6);
-                        self.yaw = litesim_core::wrap_angle(pl.yaw + (lateral / along).atan());
+                        self.yaw = litesim_core::wrap_angle(pl.yaw + math::atan(lateral / along));
                         self.x = pl.x;
                         self.y = pl.y;
                         self.lane = Some((np, offset));
@@ -256,14 +257,16 @@ impl Body {
                     None => {
                         // The lane ended under it: straight on.
                         self.lane = None;
-                        self.x = before.0 + ds * self.yaw.cos();
-                        self.y = before.1 + ds * self.yaw.sin();
+                        let (ys, yc) = math::sin_cos(self.yaw);
+                        self.x = before.0 + ds * yc;
+                        self.y = before.1 + ds * ys;
                     }
                 }
             }
             _ => {
-                self.x += ds * self.yaw.cos();
-                self.y += ds * self.yaw.sin();
+                let (ys, yc) = math::sin_cos(self.yaw);
+                self.x += ds * yc;
+                self.y += ds * ys;
                 self.lane = place::lane_at(net, self.x, self.y);
             }
         }
@@ -505,7 +508,7 @@ impl Body {
 pub fn point_at(pts: &[(f64, f64, f64)], s: f64) -> (f64, f64, f64) {
     let k = pts.partition_point(|p| p.2 <= s).clamp(1, pts.len() - 1);
     let (a, b) = (pts[k - 1], pts[k]);
-    let yaw = (b.1 - a.1).atan2(b.0 - a.0);
+    let yaw = math::atan2(b.1 - a.1, b.0 - a.0);
     let u = if b.2 > a.2 {
         ((s - a.2) / (b.2 - a.2)).clamp(0.0, 1.0)
     } else {

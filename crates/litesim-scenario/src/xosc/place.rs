@@ -128,7 +128,7 @@ pub fn resolve(
             orientation,
         } => {
             let b = find(entity)?;
-            let (s, c) = b.yaw.sin_cos();
+            let (s, c) = litesim_core::math::sin_cos(b.yaw);
             let (x, y) = (b.x + dx * c - dy * s, b.y + dx * s + dy * c);
             Place {
                 x,

@@ -397,7 +397,7 @@ impl Ramp {
     /// Its value at `t`, and whether it has arrived.
     fn at(&self, t: f64) -> (f64, bool) {
         let u = ((t - self.t0) / self.dur.max(1e-9)).clamp(0.0, 1.0);
-        let w = 0.5 * (1.0 - (std::f64::consts::PI * u).cos());
+        let w = 0.5 * (1.0 - litesim_core::math::cos(std::f64::consts::PI * u));
         (self.from + (self.to - self.from) * w, u >= 1.0)
     }
 }
@@ -1244,7 +1244,10 @@ impl<'a> Mover<'a> {
                     let there = net
                         .lane_pos_pose(LanePos { lane: to, ..mo.pos }, 0.0)
                         .position;
-                    let len = lane_change_time((there.x - from.x).hypot(there.y - from.y), r);
+                    let len = lane_change_time(
+                        litesim_core::math::hypot(there.x - from.x, there.y - from.y),
+                        r,
+                    );
                     // The action lasts that long (to the plan's step): its
                     // natural duration in the next layout.
                     self.out

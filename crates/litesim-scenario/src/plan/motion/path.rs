@@ -98,7 +98,7 @@ impl Mover<'_> {
         let mut total = 0.0;
         for i in 0..pts.len() {
             if i > 0 {
-                total += (pts[i].0 - pts[i - 1].0).hypot(pts[i].1 - pts[i - 1].1);
+                total += math::hypot(pts[i].0 - pts[i - 1].0, pts[i].1 - pts[i - 1].1);
             }
             cum.push(total);
         }
@@ -112,7 +112,7 @@ impl Mover<'_> {
                 pts[i.saturating_sub(1).min(pts.len() - 2)],
                 pts[(i + 1).min(pts.len() - 1)],
             );
-            let along = (b.1 - a.1).atan2(b.0 - a.0);
+            let along = math::atan2(b.1 - a.1, b.0 - a.0);
             pts[i].2 = match def.points[i].h {
                 Some(h) => wrap_angle(pts[i].2 + h),
                 None => along,
@@ -159,7 +159,7 @@ impl Mover<'_> {
         // A path that starts away from the actor puts it there.
         let (x0, y0, _) = on.at_s(start);
         let here = self.cx.net.lane_pos_pose(self.mo.pos, self.mo.lateral);
-        let away = (x0 - here.position.x).hypot(y0 - here.position.y);
+        let away = math::hypot(x0 - here.position.x, y0 - here.position.y);
         if k > 0 && away > 1.0 && self.parked.is_none() {
             self.out.jumps.push(k);
             self.out.notes.push(format!(
@@ -413,12 +413,12 @@ impl Mover<'_> {
         };
         let here = net.lane_pos_pose(self.mo.pos, self.mo.lateral);
         let (x0, y0) = (here.position.x, here.position.y);
-        let len = (x1 - x0).hypot(y1 - y0);
+        let len = math::hypot(x1 - x0, y1 - y0);
         if len < 0.1 {
             return Err(self.action_err(l, "it is at its target already".into()));
         }
         self.needs_speed(l, "change its position")?;
-        let yaw = (y1 - y0).atan2(x1 - x0);
+        let yaw = math::atan2(y1 - y0, x1 - x0);
         self.parked = None;
         self.on_path = Some(OnPath {
             pts: vec![(x0, y0, yaw), (x1, y1, yaw)],
