@@ -426,7 +426,7 @@ impl World {
             .copied()
             .ok_or_else(|| WorldError::UnknownActor(id.to_string()))
     }
-    /// Actor `i`'s height: [`World::state_at`]'s z without the rest of
+    /// Actor `i`'s height: [`ActorRef::state`]'s z without the rest of
     /// the report (a trajectory without heights takes the actor's).
     pub fn z_at(&self, i: usize) -> Option<f64> {
         let a = self.actors.get(i)?;
