@@ -222,15 +222,9 @@ def run(
         TypeError / ValueError: a parameter of the wrong type or value (named).
         LitesimError: the test could not be read or run (litesim's message).
     """
-    if isinstance(test, Prepared):
-        given = [n for n, v in (("map", map), ("include", include or None), ("dialect", dialect), ("map_dir", map_dir)) if v is not None]
-        if given:
-            raise ValueError(
-                f"{given[0]}: a prepared test was read with its own load options; give {given[0]} to litesim.prepare instead"
-            )
-        target = test._native
-    else:
-        target = _path("test", test)
+    # With a Prepared test, load options given again are refused by the
+    # native run (a ValueError naming the first).
+    target = test._native if isinstance(test, Prepared) else _path("test", test)
     if npc not in ("driver", "planned"):
         raise ValueError(f"npc: expected 'driver' or 'planned', got {npc!r}")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):

@@ -8,13 +8,13 @@
 //! below a millimetre over a kilometre; constants are precomputed per piece.
 
 use litesim_core::math;
+use serde::{Deserialize, Serialize};
 
 /// `x^1.5` as `x·√x`: a correctly rounded square root and one product, the
 /// same bits on every machine (the platform's `pow` is not).
 fn pow_three_halves(x: f64) -> f64 {
     x * x.sqrt()
 }
-use serde::{Deserialize, Serialize};
 
 /// Gauss–Legendre nodes and weights on [−1, 1], 8 points (published constants).
 const GL_X: [f64; 8] = [

@@ -81,8 +81,8 @@ pub struct NearQuery {
 
 /// One [`RoadNetwork::locate_near`] answer kept with its question (see
 /// [`RoadNetwork::locate_near_kept`]): a run keeps one per actor, so the
-/// read-back, the drivers and the SUT's observation locate an actor once a
-/// step between them.
+/// read-back and the drivers locate an actor once a step between them where
+/// they ask the same question.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LocateMemo {
     question: Option<NearQuery>,
