@@ -598,6 +598,7 @@ pub(super) fn write_batch(
         sut,
         npc: litesim_scenario::Npc::default(),
         sut_timeout: None,
+        step_ms: None,
         save_failed: false,
         save_failed_mcap: false,
         precomputed,

@@ -89,3 +89,57 @@ fn run_check_and_batch_an_xosc_file() {
     let j = std::fs::read_to_string(&junit).unwrap();
     assert_eq!(j.matches("<testcase").count(), 6, "{j}");
 }
+
+/// `batch --step-ms` steps every run at that step (it was once accepted and
+/// not passed on: the runs stepped at the profile's 20 ms), the manifest
+/// names it, and resuming with another step is refused.
+#[test]
+fn a_batch_steps_at_the_step_it_is_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let xosc = workspace().join("examples/xosc/cut_in.xosc");
+    let out = dir.path().join("b");
+    let batch = |step: &str, extra: &[&str]| {
+        litesim()
+            .args([
+                "batch",
+                "--sut",
+                "acc",
+                "--seeds",
+                "1..2",
+                "--step-ms",
+                step,
+            ])
+            .args(extra)
+            .arg("-o")
+            .arg(&out)
+            .arg(&xosc)
+            .output()
+            .unwrap()
+    };
+    let o = batch("10", &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    let lines = std::fs::read_to_string(out.join("results.jsonl")).unwrap();
+    let steps: Vec<u64> = lines
+        .lines()
+        .map(|l| {
+            serde_json::from_str::<serde_json::Value>(l).unwrap()["steps"]
+                .as_u64()
+                .unwrap()
+        })
+        .collect();
+    // 20 s at 10 ms, and the stop trigger's step.
+    assert_eq!(steps, vec![2002, 2002], "{lines}");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["step_ms"], 10, "{manifest}");
+    let o = batch("20", &["--resume"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("step: 10 ms there, 20 ms now"),
+        "{}",
+        text(&o)
+    );
+    // The same step resumes (nothing left to run).
+    let o = batch("10", &["--resume"]);
+    assert!(o.status.success(), "{}", text(&o));
+}

@@ -945,6 +945,7 @@ fn a_batch_counts_unplaced_seeds_as_invalid_with_their_reason() {
         sut: Default::default(),
         npc: Npc::Driver,
         sut_timeout: None,
+        step_ms: None,
         save_failed: false,
         save_failed_mcap: false,
         precomputed: Default::default(),

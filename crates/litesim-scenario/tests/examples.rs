@@ -640,6 +640,7 @@ fn batch_spec(
         sut: Default::default(),
         npc: litesim_scenario::Npc::Planned,
         sut_timeout: None,
+        step_ms: None,
         save_failed: false,
         save_failed_mcap: false,
         precomputed: Default::default(),

@@ -648,6 +648,7 @@ fn a_batch_runs_every_variation_of_a_distribution() {
         sut: litesim_scenario::sut::SutChoice::Acc,
         npc: litesim_scenario::Npc::Driver,
         sut_timeout: None,
+        step_ms: None,
         save_failed: false,
         precomputed: Default::default(),
         save_failed_mcap: false,

@@ -157,6 +157,7 @@ pub fn batch(
         sut: common.sut()?,
         npc: common.npc(),
         sut_timeout: common.sut_timeout()?,
+        step_ms: common.step_ms,
         save_failed,
         save_failed_mcap,
         precomputed: Default::default(),

@@ -22,6 +22,10 @@ pub struct Manifest {
     pub npc: String,
     /// The SUT's timeout option (s), if given.
     pub sut_timeout: Option<f64>,
+    /// The step option (ms), if given (`--step-ms`); absent from the
+    /// manifests of batches written before it was honoured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step_ms: Option<u32>,
     /// Seeds, `A..B`.
     pub seeds: String,
     /// Shard, `i/N`.
@@ -65,6 +69,11 @@ impl Manifest {
             format!("{:?}", self.sut_timeout),
             format!("{:?}", other.sut_timeout),
         );
+        let step = |m: &Manifest| {
+            m.step_ms
+                .map_or("as configured".to_string(), |v| format!("{v} ms"))
+        };
+        cmp("step", step(self), step(other));
         if shard_too {
             cmp("shard", self.shard.clone(), other.shard.clone());
         }

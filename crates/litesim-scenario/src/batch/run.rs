@@ -35,6 +35,9 @@ pub struct BatchSpec {
     pub npc: crate::Npc,
     /// Time the SUT may take per call (s); `None`: the test's, else 1 s.
     pub sut_timeout: Option<f64>,
+    /// The simulation step (ms), overriding each test's and profile's
+    /// (see [`RunOptions::step_ms`]).
+    pub step_ms: Option<u32>,
     /// Keep the log of every failed run as `OUT/failed/TEST-seedN.json`
     /// (failed runs are run again with a recorder; passing runs cost nothing).
     pub save_failed: bool,
@@ -97,6 +100,7 @@ pub fn run_batch(
         sut: spec.sut.clone(),
         npc: spec.npc,
         sut_timeout: spec.sut_timeout,
+        step_ms: spec.step_ms,
         ..RunOptions::default()
     };
     let manifest = manifest_of(spec, &preps, &base);
@@ -272,6 +276,7 @@ pub(super) fn manifest_of(
         sut: spec.sut.name(),
         npc: spec.npc.name().into(),
         sut_timeout: spec.sut_timeout,
+        step_ms: spec.step_ms,
         seeds: format!("{}..{}", spec.seed_from, spec.seed_to),
         shard: format!("{si}/{sn}"),
     }
