@@ -296,7 +296,9 @@ pub struct World {
 #[derive(Clone, Debug, Default)]
 struct Batch {
     // None: actors were added or removed (or the clock set) since it was built.
-    built: Option<Built>,
+    // Boxed: taken out and put back every step, a pointer moves instead of
+    // ten column headers.
+    built: Option<Box<Built>>,
     // Actors whose command or mode changed since: recompiled one by one at
     // the next step, so that a client commanding one actor per step does
     // not pay for recompiling all of them.
@@ -677,7 +679,7 @@ impl World {
                 }
                 b
             }
-            _ => self.build_batch(tick),
+            _ => Box::new(self.build_batch(tick)),
         };
         // The list's buffer is kept for the next step's changes (a closed
         // loop changes a command every step).

@@ -79,22 +79,39 @@ impl Road {
     /// Sections for the left and right side at `s` (`singleSide` sections
     /// only replace their own side).
     fn sides(&self, s: f64) -> (&LaneSection, &LaneSection) {
+        // Most roads have one section: it is both sides everywhere.
+        if let [only] = &self.sections[..] {
+            return (only, only);
+        }
         let upto = self.sections.partition_point(|x| x.s <= s).max(1);
-        let pick = |left: bool| {
-            self.sections[..upto]
-                .iter()
-                .rev()
-                .find(|sec| {
-                    !sec.single_side
-                        || if left {
-                            !sec.left.is_empty()
-                        } else {
-                            !sec.right.is_empty()
-                        }
-                })
-                .unwrap_or(&self.sections[0])
-        };
-        (pick(true), pick(false))
+        (self.side_upto(upto, true), self.side_upto(upto, false))
+    }
+
+    /// The section in force for one side among the first `upto` sections:
+    /// the last that is not `singleSide` or that has lanes on that side.
+    fn side_upto(&self, upto: usize, left: bool) -> &LaneSection {
+        self.sections[..upto]
+            .iter()
+            .rev()
+            .find(|sec| {
+                !sec.single_side
+                    || if left {
+                        !sec.left.is_empty()
+                    } else {
+                        !sec.right.is_empty()
+                    }
+            })
+            .unwrap_or(&self.sections[0])
+    }
+
+    /// The section in force at `s` for lane `id`'s side (`s` in range):
+    /// [`Road::sides`]' answer for that side, without the other.
+    fn side_of(&self, s: f64, id: i32) -> &LaneSection {
+        if let [only] = &self.sections[..] {
+            return only;
+        }
+        let upto = self.sections.partition_point(|x| x.s <= s).max(1);
+        self.side_upto(upto, id > 0)
     }
 
     /// The lane spans at `s`, left lanes (outward) then right lanes (outward).
@@ -147,36 +164,16 @@ impl Road {
         // (the same numbers as `find_span`, without evaluating the left
         // lanes for every right lane). Ids on the wrong side, which a
         // hand-written map may have, go the long way.
-        let sc = s.clamp(0.0, self.length);
-        let (o, _) = self.lane_offset(sc);
-        let (ls, rs) = self.sides(sc);
-        let (sec, lanes, sign) = if lane > 0 {
-            (ls, &ls.left, 1.0)
-        } else {
-            (rs, &rs.right, -1.0)
-        };
-        let mut t = o;
-        for l in lanes {
-            let t_out = outer(l, sec.s, sc, t, o, sign);
-            if l.id == lane {
-                return Some(LaneSpan {
-                    id: lane,
-                    t_inner: t,
-                    t_outer: t_out,
-                });
-            }
-            t = t_out;
-        }
-        self.find_span(s, |l| l.id == lane)
+        self.lane_span_of(s, lane).map(|(span, _)| span)
     }
 
     /// A lane of the section in force at `s`.
     pub fn lane(&self, s: f64, id: i32) -> Option<&Lane> {
-        let (ls, rs) = self.sides(s.clamp(0.0, self.length));
+        let sec = self.side_of(s.clamp(0.0, self.length), id);
         if id > 0 {
-            ls.left.iter().find(|l| l.id == id)
+            sec.left.iter().find(|l| l.id == id)
         } else {
-            rs.right.iter().find(|l| l.id == id)
+            sec.right.iter().find(|l| l.id == id)
         }
     }
 
@@ -207,7 +204,12 @@ impl Road {
 
     /// Direction of travel of lane `id` under the road's rule.
     pub fn lane_direction(&self, s: f64, id: i32) -> Direction {
-        let lane = self.lane(s, id);
+        self.direction_of(self.lane(s, id), id)
+    }
+
+    /// [`Road::lane_direction`] of lane `id` found as `lane` (`None`: not
+    /// in the section; the rule alone decides).
+    pub(crate) fn direction_of(&self, lane: Option<&Lane>, id: i32) -> Direction {
         if lane.is_some_and(|l| l.direction == "both" || l.kind == "bidirectional") {
             return Direction::Both;
         }
@@ -221,6 +223,35 @@ impl Road {
         } else {
             Direction::Backward
         }
+    }
+
+    /// [`Road::lane_span`] and the lane [`Road::lane`] finds for `lane`
+    /// (`None` for an id on the wrong side of its section), the section
+    /// looked up once: a lane pose asks for both at every step.
+    pub(crate) fn lane_span_of(&self, s: f64, lane: i32) -> Option<(LaneSpan, Option<&Lane>)> {
+        let sc = s.clamp(0.0, self.length);
+        let (o, _) = self.lane_offset(sc);
+        let sec = self.side_of(sc, lane);
+        let (lanes, sign) = if lane > 0 {
+            (&sec.left, 1.0)
+        } else {
+            (&sec.right, -1.0)
+        };
+        let mut t = o;
+        for l in lanes {
+            let t_out = outer(l, sec.s, sc, t, o, sign);
+            if l.id == lane {
+                let span = LaneSpan {
+                    id: lane,
+                    t_inner: t,
+                    t_outer: t_out,
+                };
+                return Some((span, Some(l)));
+            }
+            t = t_out;
+        }
+        self.find_span(s, |l| l.id == lane)
+            .map(|span| (span, self.lane(s, lane)))
     }
 }
 
@@ -258,5 +289,110 @@ fn outer(lane: &Lane, sec_s: f64, s: f64, t_inner: f64, offset: f64, sign: f64) 
         let i = lane.borders.partition_point(|w| w.s <= ds).max(1) - 1;
         let b = &lane.borders[i];
         offset + sign * b.at(ds - b.s).abs()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::RoadNetwork;
+
+    /// A road of three sections — the second replaces only its right side
+    /// (`singleSide`), the last has a reversed and a bidirectional lane and
+    /// widths that change along s.
+    fn road() -> RoadNetwork {
+        let lane = |id: i32, extra: &str, b: f64| {
+            format!(
+                r#"<lane id="{id}" type="driving"{extra}><width sOffset="0" a="3.5" b="{b}" c="0" d="0"/></lane>"#
+            )
+        };
+        let section = |s: f64, single: bool, left: &[String], right: &[String]| {
+            let side = |name: &str, l: &[String]| {
+                if l.is_empty() {
+                    String::new()
+                } else {
+                    format!("<{name}>{}</{name}>", l.join(""))
+                }
+            };
+            format!(
+                r#"<laneSection s="{s}"{}>{}<center><lane id="0" type="none"/></center>{}</laneSection>"#,
+                if single { r#" singleSide="true""# } else { "" },
+                side("left", left),
+                side("right", right)
+            )
+        };
+        let text = format!(
+            r#"<?xml version="1.0"?><OpenDRIVE><header revMajor="1" revMinor="8"/>
+            <road id="1" length="300" junction="-1" rule="RHT"><planView>
+            <geometry s="0" x="0" y="0" hdg="0.3" length="300"><arc curvature="0.002"/></geometry>
+            </planView><lanes>
+            <laneOffset s="0" a="0.2" b="0.001" c="0" d="0"/>
+            {}{}{}
+            </lanes></road></OpenDRIVE>"#,
+            section(
+                0.0,
+                false,
+                &[lane(1, "", 0.0), lane(2, "", 0.0)],
+                &[lane(-1, "", 0.0), lane(-2, "", 0.0)]
+            ),
+            section(
+                100.0,
+                true,
+                &[],
+                &[lane(-1, "", 0.01), lane(-2, "", 0.0), lane(-3, "", 0.0)]
+            ),
+            section(
+                200.0,
+                false,
+                &[
+                    lane(1, r#" direction="reversed""#, 0.0),
+                    lane(2, r#" direction="both""#, 0.0)
+                ],
+                &[
+                    lane(-1, r#" direction="reversed""#, -0.005),
+                    lane(-2, "", 0.0)
+                ]
+            ),
+        );
+        RoadNetwork::from_xodr(&text, "sections.xodr").unwrap()
+    }
+
+    /// `lane_span_of` (what a lane pose uses) measures the span the long
+    /// way (`find_span`) measures and finds the lane `Road::lane` finds, so
+    /// `direction_of` its lane is `lane_direction` — on every section, a
+    /// single-sided one among them, and for ids a section does not have.
+    #[test]
+    fn one_lookup_answers_as_the_separate_ones_do() {
+        let net = road();
+        let r = &net.roads()[0];
+        let mut checked = 0;
+        for k in -4..=620 {
+            let s = k as f64 * 0.5 + 0.013;
+            for id in [-4, -3, -2, -1, 1, 2, 3] {
+                let long = r.find_span(s, |l| l.id == id);
+                let got = r.lane_span_of(s, id);
+                assert_eq!(got.map(|(sp, _)| sp), long, "span of {id} at s {s}");
+                assert_eq!(r.lane_span(s, id), long, "lane_span of {id} at s {s}");
+                if let Some((_, lane)) = got {
+                    assert_eq!(
+                        lane.map(|l| l as *const Lane),
+                        r.lane(s, id).map(|l| l as *const Lane),
+                        "lane {id} at s {s}"
+                    );
+                    assert_eq!(
+                        r.direction_of(lane, id),
+                        r.lane_direction(s, id),
+                        "{id} at {s}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 2500, "{checked}");
+        // The single-sided section keeps the first section's left lanes.
+        assert!(r.lane(150.0, 2).is_some() && r.lane(150.0, -3).is_some());
+        assert_eq!(r.lane_direction(250.0, 1), Direction::Forward);
+        assert_eq!(r.lane_direction(250.0, 2), Direction::Both);
+        assert_eq!(r.lane_direction(250.0, -1), Direction::Backward);
     }
 }

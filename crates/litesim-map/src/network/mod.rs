@@ -155,7 +155,7 @@ impl RoadNetwork {
     /// out of range.
     pub fn lane_pose_at(&self, road: usize, lane: i32, s: f64, offset: f64) -> Option<Pose> {
         let r = &self.od.roads[road];
-        let span = r.lane_span(s, lane)?;
+        let (span, found) = r.lane_span_of(s, lane)?;
         let t = span.t_center() + offset;
         let (x, y, z, h) = r.st_to_xyz_hdg(s, t);
         // Lane centre heading: road heading + atan(dt/ds), by a central
@@ -170,7 +170,8 @@ impl RoadNetwork {
                 - r.lane_span(a, lane).map_or(0.0, |l| l.t_center())
         };
         let mut yaw = h + if b > a { math::atan(dt / (b - a)) } else { 0.0 };
-        if r.lane_direction(s, lane) == Direction::Backward {
+        // The lane the span was measured on: the one `lane_direction` finds.
+        if r.direction_of(found, lane) == Direction::Backward {
             yaw += std::f64::consts::PI;
         }
         let mut pose = Pose::planar(x, y, wrap_angle(yaw));

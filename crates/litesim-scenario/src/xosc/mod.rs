@@ -89,12 +89,24 @@ pub struct Body {
     pub route: Vec<LanePos>,
     /// An `AcquirePositionAction` under way: (action, target).
     pub acquire: Option<(usize, place::Place)>,
+    /// The heading's sine and cosine, kept while it holds.
+    pub trig: std::cell::Cell<math::SinCosMemo>,
 }
 
 impl Body {
+    /// `math::sin_cos(yaw)`, kept for the next ask: the body's heading is
+    /// asked several times a step (before and after moving, observing,
+    /// sending) and holds along a straight lane.
+    pub fn sin_cos(&self, yaw: f64) -> (f64, f64) {
+        let mut memo = self.trig.get();
+        let sc = memo.get(yaw);
+        self.trig.set(memo);
+        sc
+    }
+
     /// The box centre (m).
     pub fn centre(&self) -> (f64, f64) {
-        let (s, c) = math::sin_cos(self.yaw);
+        let (s, c) = self.sin_cos(self.yaw);
         let (dx, dy) = self.centre_offset;
         (self.x + dx * c - dy * s, self.y + dx * s + dy * c)
     }
@@ -406,6 +418,7 @@ impl Storyboard {
                     path: None,
                     route: Vec::new(),
                     acquire: None,
+                    trig: Default::default(),
                 }
             })
             .collect::<Vec<_>>();
@@ -902,7 +915,7 @@ impl Storyboard {
             if !self.driven[i] && !see.first() {
                 let o = see.world.get(i);
                 let b = &mut self.bodies[i];
-                let (s, c) = math::sin_cos(o.yaw);
+                let (s, c) = b.sin_cos(o.yaw);
                 let (dx, dy) = b.centre_offset;
                 let (x, y) = (o.x - dx * c + dy * s, o.y - dx * s - dy * c);
                 b.traveled += math::hypot(x - b.x, y - b.y);

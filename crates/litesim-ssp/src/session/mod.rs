@@ -172,12 +172,13 @@ impl Session {
         self.world.as_ref().map_or(0, |w| w.tick() * self.step_ms)
     }
 
-    fn require(&self, call: &str) -> SspResult<()> {
+    fn require(&self, call: Call) -> SspResult<()> {
         if self.phase.allows(call) {
             Ok(())
         } else {
             Err(SspError::precondition(format!(
-                "cannot call {call} while the session is {}; allowed now: {}",
+                "cannot call {} while the session is {}; allowed now: {}",
+                call.name(),
                 self.phase,
                 self.phase.allowed_calls().join(", ")
             )))
@@ -316,7 +317,7 @@ pub const SIM_COMMANDS: &[&str] = &[
 
 impl Ssp for Session {
     fn init(&mut self, req: InitRequest) -> SspResult<InitResponse> {
-        self.require("init")?;
+        self.require(Call::Init)?;
         let profile_name = if req.profile.is_empty() {
             self.default_profile.clone()
         } else {
@@ -430,7 +431,7 @@ impl Ssp for Session {
     }
 
     fn launch_simulator(&mut self, connection_string: &str) -> SspResult<String> {
-        self.require("launch_simulator")?;
+        self.require(Call::LaunchSimulator)?;
         if self.launched {
             return Err(SspError::precondition(
                 "launch_simulator was already called: the simulator is launched",
@@ -445,7 +446,7 @@ impl Ssp for Session {
     }
 
     fn terminate_simulator(&mut self) -> SspResult<()> {
-        self.require("terminate_simulator")?;
+        self.require(Call::TerminateSimulator)?;
         if !self.launched {
             return Err(SspError::precondition(
                 "terminate_simulator: no simulator was launched",
@@ -458,7 +459,7 @@ impl Ssp for Session {
     fn start_simulation(&mut self, start_time_ms: u64) -> SspResult<()> {
         // Called again (starting, running, stepping): `require` answers
         // FAILED_PRECONDITION with the state and the allowed calls.
-        self.require("start_simulation")?;
+        self.require(Call::StartSimulation)?;
         if !start_time_ms.is_multiple_of(self.step_ms) {
             return Err(SspError::invalid(format!(
                 "start_time_ms = {start_time_ms} is not a multiple of the step size {} ms",
@@ -472,20 +473,20 @@ impl Ssp for Session {
     }
 
     fn wait_start_simulation(&mut self, _max_wait_ms: u32) -> SspResult<u64> {
-        self.require("wait_start_simulation")?;
+        self.require(Call::WaitStartSimulation)?;
         // The in-process model starts instantly, so no wait can time out.
         self.phase = Phase::Running;
         Ok(self.sim_time_ms())
     }
 
     fn end_simulation(&mut self, _reason: &str) -> SspResult<u64> {
-        self.require("end_simulation")?;
+        self.require(Call::EndSimulation)?;
         self.phase = Phase::Ended;
         Ok(self.steps_executed)
     }
 
     fn start_step(&mut self, requested_sim_time_ms: Option<u64>) -> SspResult<u64> {
-        self.require("start_step")?;
+        self.require(Call::StartStep)?;
         let now = self.sim_time_ms();
         let steps = match requested_sim_time_ms {
             None => 1,
@@ -509,7 +510,7 @@ impl Ssp for Session {
     }
 
     fn wait_step(&mut self, _max_wait_ms: u32) -> SspResult<StepInfo> {
-        self.require("wait_step")?;
+        self.require(Call::WaitStep)?;
         self.phase = Phase::Running;
         self.pending_steps = 0;
         Ok(StepInfo {
@@ -524,7 +525,7 @@ impl Ssp for Session {
 
     fn step_many_kinematics(&mut self, steps: u32, out: &mut KinematicSteps) -> SspResult<()> {
         check_step_count(steps)?;
-        self.require("get_actors_states")?;
+        self.require(Call::GetActorsStates)?;
         let n = self.world.as_ref().map_or(0, World::len);
         check_reply_size(steps, n as u64, false)?;
         out.clear();
@@ -554,7 +555,7 @@ impl Ssp for Session {
     }
 
     fn count_states(&mut self, filter: &ActorFilter) -> SspResult<u64> {
-        self.require("get_actors_states")?;
+        self.require(Call::GetActorsStates)?;
         for id in &filter.actor_ids {
             self.meta(id)?;
         }
@@ -563,7 +564,7 @@ impl Ssp for Session {
     }
 
     fn get_actors_states(&mut self, filter: &ActorFilter) -> SspResult<Vec<ReportedState>> {
-        self.require("get_actors_states")?;
+        self.require(Call::GetActorsStates)?;
         for id in &filter.actor_ids {
             self.meta(id)?;
         }
@@ -585,7 +586,7 @@ impl Ssp for Session {
     }
 
     fn create_actor(&mut self, req: CreateActor) -> SspResult<ActualDescription> {
-        self.require("create_actor")?;
+        self.require(Call::CreateActor)?;
         if req.actor_id.is_empty() {
             return Err(SspError::invalid("actor_id must not be empty"));
         }
@@ -686,7 +687,7 @@ impl Ssp for Session {
     }
 
     fn destroy_actor(&mut self, actor_id: &str) -> SspResult<()> {
-        self.require("destroy_actor")?;
+        self.require(Call::DestroyActor)?;
         let i = self.slot(actor_id)?;
         self.parts().0.remove_actor(actor_id).map_err(world_err)?;
         self.meta.remove(i);
@@ -699,7 +700,7 @@ impl Ssp for Session {
         params: BTreeMap<String, String>,
         controls: Option<ActorControls>,
     ) -> SspResult<()> {
-        self.require("set_actor_params")?;
+        self.require(Call::SetActorParams)?;
         self.meta(actor_id)?;
         if let Some(c) = &controls {
             for (name, v) in [
@@ -777,7 +778,7 @@ impl Ssp for Session {
     }
 
     fn set_weather(&mut self, weather: Weather) -> SspResult<Weather> {
-        self.require("set_weather")?;
+        self.require(Call::SetWeather)?;
         if !self.profile.as_ref().is_some_and(|p| p.weather) {
             return Err(SspError::unimplemented("this profile has no weather"));
         }
@@ -815,7 +816,7 @@ impl Ssp for Session {
     }
 
     fn set_time_of_day(&mut self, tod: TimeOfDay) -> SspResult<()> {
-        self.require("set_time_of_day")?;
+        self.require(Call::SetTimeOfDay)?;
         if !self.profile.as_ref().is_some_and(|p| p.time_of_day) {
             return Err(SspError::unimplemented("this profile has no time of day"));
         }
@@ -842,7 +843,7 @@ impl Ssp for Session {
     }
 
     fn sim_command(&mut self, command: &str, args: &[String]) -> SspResult<String> {
-        self.require("sim_command")?;
+        self.require(Call::SimCommand)?;
         let json = |v: &dyn erased::Json| v.json();
         match command {
             "status" => Ok(self.status_json()),
@@ -887,7 +888,7 @@ impl Ssp for Session {
     }
 
     fn set_xy_trajectory_ref(&mut self, actor_id: &str, traj: &XyTrajectory) -> SspResult<()> {
-        self.require("set_xy_trajectory")?;
+        self.require(Call::SetXyTrajectory)?;
         let slot = self.slot(actor_id)?;
         let n = traj.points.len();
         if n == 0 {
@@ -987,7 +988,7 @@ impl Ssp for Session {
         cmd: DynamicMove,
         valid_until_ms: u64,
     ) -> SspResult<()> {
-        self.require("set_dynamic_move")?;
+        self.require(Call::SetDynamicMove)?;
         let limits = self.meta(actor_id)?.limits;
         let sign = if self.mirror() { -1.0 } else { 1.0 };
         let input = match cmd {
@@ -1054,7 +1055,7 @@ impl Ssp for Session {
     }
 
     fn set_external_controller(&mut self, actor_id: &str, ext: ExternalMove) -> SspResult<()> {
-        self.require("set_external_controller")?;
+        self.require(Call::SetExternalController)?;
         self.meta(actor_id)?;
         let keys: &[(&str, f64)] = match ext.controller.as_str() {
             "cruise" => &[("max_acceleration", 2.0)],
@@ -1128,7 +1129,7 @@ impl Ssp for Session {
     }
 
     fn list_traffic_lights(&mut self) -> SspResult<TrafficLights> {
-        self.require("list_traffic_lights")?;
+        self.require(Call::ListTrafficLights)?;
         if self
             .profile
             .as_ref()
@@ -1146,7 +1147,7 @@ impl Ssp for Session {
         target: LightTarget,
         states: Vec<BulbState>,
     ) -> SspResult<Vec<TrafficLightBox>> {
-        self.require("set_traffic_light_state")?;
+        self.require(Call::SetTrafficLightState)?;
         match self.profile.as_ref().map(|p| p.traffic_light_api) {
             Some(TrafficLightApi::None) => {
                 return Err(SspError::unimplemented(

@@ -33,40 +33,122 @@ impl fmt::Display for Phase {
     }
 }
 
-pub(super) const ACTOR_CALLS: &[&str] = &[
-    "create_actor",
-    "destroy_actor",
-    "set_actor_params",
-    "set_xy_trajectory",
-    "set_dynamic_move",
-    "set_external_controller",
-    "get_actors_states",
-    "set_weather",
-    "set_time_of_day",
-    "sim_command",
-    "list_traffic_lights",
-    "set_traffic_light_state",
+/// A call of the simulator-support API, as the phases allow or refuse
+/// it: a value, not its name, so that asking costs a byte compare (the
+/// session's per-step calls ask several times a step).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Call {
+    /// `init`.
+    Init,
+    /// `launch_simulator`.
+    LaunchSimulator,
+    /// `terminate_simulator`.
+    TerminateSimulator,
+    /// `start_simulation`.
+    StartSimulation,
+    /// `wait_start_simulation`.
+    WaitStartSimulation,
+    /// `end_simulation`.
+    EndSimulation,
+    /// `start_step`.
+    StartStep,
+    /// `step`.
+    Step,
+    /// `wait_step`.
+    WaitStep,
+    /// `create_actor`.
+    CreateActor,
+    /// `destroy_actor`.
+    DestroyActor,
+    /// `set_actor_params`.
+    SetActorParams,
+    /// `set_xy_trajectory`.
+    SetXyTrajectory,
+    /// `set_dynamic_move`.
+    SetDynamicMove,
+    /// `set_external_controller`.
+    SetExternalController,
+    /// `get_actors_states`.
+    GetActorsStates,
+    /// `set_weather`.
+    SetWeather,
+    /// `set_time_of_day`.
+    SetTimeOfDay,
+    /// `sim_command`.
+    SimCommand,
+    /// `list_traffic_lights`.
+    ListTrafficLights,
+    /// `set_traffic_light_state`.
+    SetTrafficLightState,
+}
+
+impl Call {
+    /// The call's name, as errors and `allowed_calls` give it.
+    pub(super) fn name(self) -> &'static str {
+        match self {
+            Call::Init => "init",
+            Call::LaunchSimulator => "launch_simulator",
+            Call::TerminateSimulator => "terminate_simulator",
+            Call::StartSimulation => "start_simulation",
+            Call::WaitStartSimulation => "wait_start_simulation",
+            Call::EndSimulation => "end_simulation",
+            Call::StartStep => "start_step",
+            Call::Step => "step",
+            Call::WaitStep => "wait_step",
+            Call::CreateActor => "create_actor",
+            Call::DestroyActor => "destroy_actor",
+            Call::SetActorParams => "set_actor_params",
+            Call::SetXyTrajectory => "set_xy_trajectory",
+            Call::SetDynamicMove => "set_dynamic_move",
+            Call::SetExternalController => "set_external_controller",
+            Call::GetActorsStates => "get_actors_states",
+            Call::SetWeather => "set_weather",
+            Call::SetTimeOfDay => "set_time_of_day",
+            Call::SimCommand => "sim_command",
+            Call::ListTrafficLights => "list_traffic_lights",
+            Call::SetTrafficLightState => "set_traffic_light_state",
+        }
+    }
+}
+
+pub(super) const ACTOR_CALLS: &[Call] = &[
+    Call::CreateActor,
+    Call::DestroyActor,
+    Call::SetActorParams,
+    Call::SetXyTrajectory,
+    Call::SetDynamicMove,
+    Call::SetExternalController,
+    Call::GetActorsStates,
+    Call::SetWeather,
+    Call::SetTimeOfDay,
+    Call::SimCommand,
+    Call::ListTrafficLights,
+    Call::SetTrafficLightState,
 ];
 
 impl Phase {
     /// The calls of this phase's own (the actor calls come on top).
-    pub(super) fn own_calls(self) -> &'static [&'static str] {
+    pub(super) fn own_calls(self) -> &'static [Call] {
         match self {
-            Phase::Uninitialized => &["init"],
+            Phase::Uninitialized => &[Call::Init],
             Phase::Initialized => &[
-                "launch_simulator",
-                "terminate_simulator",
-                "start_simulation",
+                Call::LaunchSimulator,
+                Call::TerminateSimulator,
+                Call::StartSimulation,
             ],
-            Phase::Starting => &["wait_start_simulation", "end_simulation"],
+            Phase::Starting => &[Call::WaitStartSimulation, Call::EndSimulation],
             Phase::Running => &[
-                "start_step",
-                "step",
-                "end_simulation",
-                "wait_start_simulation",
+                Call::StartStep,
+                Call::Step,
+                Call::EndSimulation,
+                Call::WaitStartSimulation,
             ],
-            Phase::Stepping => &["wait_step", "end_simulation"],
-            Phase::Ended => &["get_actors_states", "terminate_simulator", "sim_command"],
+            Phase::Stepping => &[Call::WaitStep, Call::EndSimulation],
+            Phase::Ended => &[
+                Call::GetActorsStates,
+                Call::TerminateSimulator,
+                Call::SimCommand,
+            ],
         }
     }
 
@@ -74,21 +156,16 @@ impl Phase {
         !matches!(self, Phase::Uninitialized | Phase::Ended)
     }
 
-    /// Whether `call` is allowed in this phase (every API call asks: no
-    /// list is built).
-    pub fn allows(self, call: &str) -> bool {
-        // Callers pass the same literals as the lists hold: the address
-        // usually decides, the text only when it does not (the session's
-        // per-step calls ask this several times a step).
-        let is = |c: &&str| (c.as_ptr() == call.as_ptr() && c.len() == call.len()) || *c == call;
-        self.own_calls().iter().any(is) || (self.has_actor_calls() && ACTOR_CALLS.iter().any(is))
+    /// Whether `call` is allowed in this phase.
+    pub(super) fn allows(self, call: Call) -> bool {
+        self.own_calls().contains(&call) || (self.has_actor_calls() && ACTOR_CALLS.contains(&call))
     }
 
     /// The calls allowed in this state.
     pub fn allowed_calls(self) -> Vec<&'static str> {
-        let mut v = self.own_calls().to_vec();
+        let mut v: Vec<&'static str> = self.own_calls().iter().map(|c| c.name()).collect();
         if self.has_actor_calls() {
-            v.extend_from_slice(ACTOR_CALLS);
+            v.extend(ACTOR_CALLS.iter().map(|c| c.name()));
         }
         v
     }
