@@ -184,7 +184,9 @@ impl Profile {
             [const { OnceLock::new() }; BUILTIN.len()];
         let name = if name.is_empty() { "dummy" } else { name };
         match BUILTIN.iter().position(|(n, _)| *n == name) {
-            Some(i) => PARSED[i].get_or_init(|| Self::from_toml(BUILTIN[i].1)).clone(),
+            Some(i) => PARSED[i]
+                .get_or_init(|| Self::from_toml(BUILTIN[i].1))
+                .clone(),
             None => Err(SspError::not_found(format!(
                 "unknown profile '{name}'; available: {}",
                 builtin_names().join(", ")

@@ -97,7 +97,7 @@ impl Body {
     /// `math::sin_cos(yaw)`, kept for the next ask: the body's heading is
     /// asked several times a step (before and after moving, observing,
     /// sending) and holds along a straight lane.
-    pub fn sin_cos(&self, yaw: f64) -> (f64, f64) {
+    pub fn trig_of(&self, yaw: f64) -> (f64, f64) {
         let mut memo = self.trig.get();
         let sc = memo.get(yaw);
         self.trig.set(memo);
@@ -106,7 +106,7 @@ impl Body {
 
     /// The box centre (m).
     pub fn centre(&self) -> (f64, f64) {
-        let (s, c) = self.sin_cos(self.yaw);
+        let (s, c) = self.trig_of(self.yaw);
         let (dx, dy) = self.centre_offset;
         (self.x + dx * c - dy * s, self.y + dx * s + dy * c)
     }
@@ -915,7 +915,7 @@ impl Storyboard {
             if !self.driven[i] && !see.first() {
                 let o = see.world.get(i);
                 let b = &mut self.bodies[i];
-                let (s, c) = b.sin_cos(o.yaw);
+                let (s, c) = b.trig_of(o.yaw);
                 let (dx, dy) = b.centre_offset;
                 let (x, y) = (o.x - dx * c + dy * s, o.y - dx * s - dy * c);
                 b.traveled += math::hypot(x - b.x, y - b.y);

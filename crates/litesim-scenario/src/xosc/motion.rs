@@ -257,14 +257,14 @@ impl Body {
                     None => {
                         // The lane ended under it: straight on.
                         self.lane = None;
-                        let (ys, yc) = self.sin_cos(self.yaw);
+                        let (ys, yc) = self.trig_of(self.yaw);
                         self.x = before.0 + ds * yc;
                         self.y = before.1 + ds * ys;
                     }
                 }
             }
             _ => {
-                let (ys, yc) = self.sin_cos(self.yaw);
+                let (ys, yc) = self.trig_of(self.yaw);
                 self.x += ds * yc;
                 self.y += ds * ys;
                 self.lane = place::lane_at(net, self.x, self.y);
