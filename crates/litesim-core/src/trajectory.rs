@@ -99,19 +99,6 @@ impl Trajectory {
             return Err(TrajectoryError::Empty);
         }
         for (index, p) in points.iter().enumerate() {
-            // Every value finite, the speed not negative, the time after the
-            // last: the common case, answered without the named list below
-            // (a closed loop sends every actor a trajectory each step).
-            let fine = p.t.is_finite()
-                && p.position.x.is_finite()
-                && p.position.y.is_finite()
-                && p.position.z.is_finite()
-                && p.yaw.is_none_or(f64::is_finite)
-                && p.speed.is_none_or(|v| v.is_finite() && v >= 0.0)
-                && (index == 0 || p.t > points[index - 1].t);
-            if fine {
-                continue;
-            }
             let checks = [
                 ("t", p.t),
                 ("x", p.position.x),

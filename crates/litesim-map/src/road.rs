@@ -160,10 +160,6 @@ impl Road {
 
     /// The span of one lane at `s`.
     pub fn lane_span(&self, s: f64, lane: i32) -> Option<LaneSpan> {
-        // Only the lane's own side: the other side's widths do not move it
-        // (the same numbers as `find_span`, without evaluating the left
-        // lanes for every right lane). Ids on the wrong side, which a
-        // hand-written map may have, go the long way.
         self.lane_span_of(s, lane).map(|(span, _)| span)
     }
 
@@ -229,6 +225,10 @@ impl Road {
     /// (`None` for an id on the wrong side of its section), the section
     /// looked up once: a lane pose asks for both at every step.
     pub(crate) fn lane_span_of(&self, s: f64, lane: i32) -> Option<(LaneSpan, Option<&Lane>)> {
+        // Only the lane's own side: the other side's widths do not move it
+        // (the same numbers as `find_span`, without evaluating the left
+        // lanes for every right lane). Ids on the wrong side, which a
+        // hand-written map may have, go the long way.
         let sc = s.clamp(0.0, self.length);
         let (o, _) = self.lane_offset(sc);
         let sec = self.side_of(sc, lane);

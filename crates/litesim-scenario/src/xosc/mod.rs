@@ -89,8 +89,9 @@ pub struct Body {
     pub route: Vec<LanePos>,
     /// An `AcquirePositionAction` under way: (action, target).
     pub acquire: Option<(usize, place::Place)>,
-    /// The heading's sine and cosine, kept while it holds.
-    pub trig: std::cell::Cell<math::SinCosMemo>,
+    /// The heading's sine and cosine, kept while it holds (a cache of
+    /// `trig_of`, not part of the body's state).
+    pub(crate) trig: std::cell::Cell<math::SinCosMemo>,
 }
 
 impl Body {
