@@ -205,3 +205,33 @@ fn a_model_swapped_mid_run_changes_gear_and_keeps_the_state() {
     };
     assert_eq!(run(true), run(false));
 }
+
+/// `position` answers by id in any order of asking — its guess (the actor
+/// after the last one found) right or wrong — and after an actor is
+/// removed and the positions close up.
+#[test]
+fn positions_answer_in_any_order_and_after_a_removal() {
+    let mut w = World::new(0.02).unwrap();
+    for id in ["a", "b", "c", "d"] {
+        w.add_actor(Actor::new(
+            id,
+            ActorDescription::car("t"),
+            ActorState::at_rest(Pose::planar(0.0, 0.0, 0.0)),
+            None,
+        ))
+        .unwrap();
+    }
+    let asks = ["a", "b", "c", "d", "a", "d", "d", "c", "a", "b", "x", "b"];
+    let expect = [0, 1, 2, 3, 0, 3, 3, 2, 0, 1, usize::MAX, 1];
+    for (id, e) in asks.iter().zip(expect) {
+        assert_eq!(w.position(id), (e != usize::MAX).then_some(e), "{id}");
+    }
+    w.remove_actor("b").unwrap();
+    for (id, e) in [("a", 0), ("c", 1), ("d", 2), ("a", 0)] {
+        assert_eq!(w.position(id), Some(e), "{id}");
+    }
+    assert_eq!(w.position("b"), None);
+    let clone = w.clone();
+    assert_eq!(clone.position("d"), Some(2));
+    assert_eq!(clone, w);
+}

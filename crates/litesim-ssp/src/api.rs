@@ -526,14 +526,20 @@ impl XyTrajectory {
         to: Coord6,
         speed: f64,
     ) {
+        // The same two slots are overwritten step after step.
+        fn put<T: Copy>(v: &mut Vec<T>, pair: [T; 2]) {
+            if let [a, b] = v.as_mut_slice() {
+                (*a, *b) = (pair[0], pair[1]);
+            } else {
+                v.clear();
+                v.extend(pair);
+            }
+        }
         self.start_time_ms = now_ms;
         self.end_time_ms = now_ms + step_ms;
-        self.points.clear();
-        self.points.extend([from, to]);
-        self.point_times_ms.clear();
-        self.point_times_ms.extend([now_ms, now_ms + step_ms]);
-        self.speeds.clear();
-        self.speeds.extend([speed, speed]);
+        put(&mut self.points, [from, to]);
+        put(&mut self.point_times_ms, [now_ms, now_ms + step_ms]);
+        put(&mut self.speeds, [speed, speed]);
     }
 }
 

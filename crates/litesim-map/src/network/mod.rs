@@ -154,6 +154,21 @@ impl RoadNetwork {
     /// lanes by index: no lookup by name per sample). Panics on an index
     /// out of range.
     pub fn lane_pose_at(&self, road: usize, lane: i32, s: f64, offset: f64) -> Option<Pose> {
+        self.lane_pose_travel_at(road, lane, s, offset)
+            .map(|(pose, _)| pose)
+    }
+
+    /// [`RoadNetwork::lane_pose_at`] and whether the lane is travelled
+    /// towards increasing s there (what [`RoadNetwork::travels_forward`]
+    /// answers): the pose finds the lane's direction anyway, and a body
+    /// moved along its lane each step needs both.
+    pub fn lane_pose_travel_at(
+        &self,
+        road: usize,
+        lane: i32,
+        s: f64,
+        offset: f64,
+    ) -> Option<(Pose, bool)> {
         let r = &self.od.roads[road];
         let (span, found) = r.lane_span_of(s, lane)?;
         let t = span.t_center() + offset;
@@ -171,12 +186,13 @@ impl RoadNetwork {
         };
         let mut yaw = h + if b > a { math::atan(dt / (b - a)) } else { 0.0 };
         // The lane the span was measured on: the one `lane_direction` finds.
-        if r.direction_of(found, lane) == Direction::Backward {
+        let forward = r.direction_of(found, lane) != Direction::Backward;
+        if !forward {
             yaw += std::f64::consts::PI;
         }
         let mut pose = Pose::planar(x, y, wrap_angle(yaw));
         pose.position.z = z;
-        Some(pose)
+        Some((pose, forward))
     }
 
     /// Summaries of all roads (for scenario elaboration).

@@ -86,6 +86,10 @@ pub struct EgoKpi {
     pub(super) passes: Vec<Vec<[f64; 2]>>,
     #[serde(skip)]
     pub(super) dt: f64,
+    /// The jerk windows in whole steps of `dt`: 0.1 s and 1 s (made with
+    /// `dt`, not each step).
+    #[serde(skip)]
+    pub(super) windows: (usize, usize),
     #[serde(skip)]
     pub(super) accels: std::collections::VecDeque<f64>,
     #[serde(skip)]
@@ -108,6 +112,10 @@ impl EgoKpi {
         EgoKpi {
             id: id.to_string(),
             dt,
+            windows: (
+                ((0.1 / dt).round() as usize).max(1),
+                ((1.0 / dt).round() as usize).max(1),
+            ),
             // No heading yet: the first step computes its trigonometry.
             trig: (f64::NAN, (0.0, 1.0)),
             ..EgoKpi::default()
@@ -128,7 +136,7 @@ impl EgoKpi {
         }
         // Jerk over 0.1 s (whole steps): a per-step difference of a
         // pedal-driven car is dominated by the pedal switching.
-        let m = ((0.1 / self.dt).round() as usize).max(1);
+        let (m, m1) = self.windows;
         self.accels.push_back(a);
         if self.accels.len() > m {
             let old = self.accels.pop_front().unwrap_or(a);
@@ -138,7 +146,6 @@ impl EgoKpi {
                 self.max_jerk_at = t;
             }
         }
-        let m1 = ((1.0 / self.dt).round() as usize).max(1);
         self.accels_1s.push_back(a);
         if self.accels_1s.len() > m1 {
             let old = self.accels_1s.pop_front().unwrap_or(a);

@@ -146,6 +146,10 @@ pub struct Storyboard {
     pub(crate) took: Vec<(usize, Transition)>,
     /// Transitions of this step.
     took_now: Vec<(usize, Transition)>,
+    /// Whether an element moved (by [`Storyboard::set`]) since the last
+    /// [`Storyboard::settle`] found nothing to end: only such a move can
+    /// give a running element its last complete child.
+    unsettled: bool,
     pub(crate) params: BTreeMap<String, String>,
     pub(crate) vars: BTreeMap<String, String>,
     pub(crate) signals: BTreeMap<String, String>,
@@ -433,6 +437,7 @@ impl Storyboard {
             stop: None,
             took: Vec::new(),
             took_now: Vec::new(),
+            unsettled: true,
             params: sc.parameters.iter().cloned().collect(),
             vars: sc.variables.iter().cloned().collect(),
             signals: BTreeMap::new(),
@@ -565,6 +570,7 @@ impl Storyboard {
     /// Moves element `ix` to `state`, recording the transition.
     fn set(&mut self, ix: usize, state: State, tr: Transition) {
         self.elems[ix].state = state;
+        self.unsettled = true;
         self.record(ix, tr);
     }
 
@@ -730,6 +736,11 @@ impl Storyboard {
 
     /// Ends whatever has all its children complete, bottom up.
     fn settle(&mut self) -> Result<(), ScenarioError> {
+        // (Elements put back to standby directly, as `rearm` does, end
+        // nothing: no need to look again for them.)
+        if !self.unsettled {
+            return Ok(());
+        }
         let mut changed = true;
         while changed {
             changed = false;
@@ -763,6 +774,7 @@ impl Storyboard {
                 }
             }
         }
+        self.unsettled = false;
         Ok(())
     }
 
@@ -1092,6 +1104,9 @@ impl Controller for Storyboard {
 /// no simulator at hand) and sent here.
 impl Storyboard {
     fn pending_ssp(&mut self, act: &mut Act<'_>) -> Result<(), ScenarioError> {
+        if self.pending.is_empty() {
+            return Ok(());
+        }
         let pending = std::mem::take(&mut self.pending);
         for (signal, state) in pending {
             self.set_signal(act, &signal, &state)?;

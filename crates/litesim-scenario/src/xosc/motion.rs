@@ -243,15 +243,15 @@ impl Body {
                     self.v = 0.0;
                 }
                 let before = (self.x, self.y);
-                match place::on_lane(net, np, offset) {
-                    Some(pl) => {
+                match net.lane_pose_travel_at(np.road, np.lane, np.s, offset) {
+                    Some((pl, forward)) => {
                         // Heading: the lane's, turned by the sideways speed.
                         let lateral = (offset - self.lane.map_or(offset, |l| l.1))
-                            * if net.travels_forward(np) { 1.0 } else { -1.0 };
+                            * if forward { 1.0 } else { -1.0 };
                         let along = (self.v * dt).max(1e-6);
                         self.yaw = litesim_core::wrap_angle(pl.yaw + math::atan(lateral / along));
-                        self.x = pl.x;
-                        self.y = pl.y;
+                        self.x = pl.position.x;
+                        self.y = pl.position.y;
                         self.lane = Some((np, offset));
                     }
                     None => {

@@ -172,17 +172,25 @@ impl Session {
         self.world.as_ref().map_or(0, |w| w.tick() * self.step_ms)
     }
 
+    // Inlined: a bit test where every call of a step asks; the refusal,
+    // formatted, is out of line.
+    #[inline]
     fn require(&self, call: Call) -> SspResult<()> {
         if self.phase.allows(call) {
             Ok(())
         } else {
-            Err(SspError::precondition(format!(
-                "cannot call {} while the session is {}; allowed now: {}",
-                call.name(),
-                self.phase,
-                self.phase.allowed_calls().join(", ")
-            )))
+            Err(self.refusal(call))
         }
+    }
+
+    #[cold]
+    fn refusal(&self, call: Call) -> SspError {
+        SspError::precondition(format!(
+            "cannot call {} while the session is {}; allowed now: {}",
+            call.name(),
+            self.phase,
+            self.phase.allowed_calls().join(", ")
+        ))
     }
 
     fn parts(&mut self) -> (&mut World, &Profile) {
