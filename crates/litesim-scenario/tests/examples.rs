@@ -591,6 +591,39 @@ fn the_dummy_configuration_drives_dynamically_with_readable_commands() {
 /// dynamic, dummy).
 const GOLDEN_SMOKE_DYNAMIC_LOG: u64 = 0xe972_e189_2e89_0f11;
 
+/// A run in which no actor replays its plan: sut.car under the reference
+/// ACC, the other car a driver. The planned controller then has nothing
+/// to send and skips its step; the log must be what it was when that
+/// controller still walked every actor each step (the digest was taken
+/// from the code before the skip, and 470 CLI runs compared byte for
+/// byte).
+#[test]
+fn a_run_with_nothing_to_replay_keeps_its_log() {
+    let opts = RunOptions {
+        seed: Some(1),
+        record: true,
+        sut: litesim_scenario::sut::SutChoice::builtin("acc").unwrap(),
+        mode: Some(DriveMode::Kinematic),
+        ..RunOptions::default()
+    };
+    let a = run(
+        &example("cut_in"),
+        &mut litesim_scenario::in_process(),
+        &opts,
+    )
+    .unwrap();
+    assert_eq!(a.summary.steps, 500);
+    let (_, d) = digest(&a);
+    assert_eq!(
+        d, GOLDEN_ACC_CUT_IN_LOG,
+        "acc cut_in log digest changed: {d:#018x}"
+    );
+}
+
+/// FNV-1a of `cut_in.osc`'s log JSON under the reference ACC (seed 1,
+/// kinematic, drivers for the others).
+const GOLDEN_ACC_CUT_IN_LOG: u64 = 0x81e9_7d9a_1dde_26e2;
+
 #[test]
 fn in_process_and_grpc_runs_are_identical() {
     let server = litesim_grpc::LoopbackServer::start(Default::default(), 1).unwrap();

@@ -178,13 +178,16 @@ impl RoadNetwork {
         // reference line (the two spans are the same sums of constants).
         let ds = 0.05;
         let (a, b) = ((s - ds).max(0.0), (s + ds).min(r.length));
-        let dt = if self.parallel[road] {
-            0.0
+        let mut yaw = if self.parallel[road] {
+            // dt = 0 exactly: atan(0 / (b − a)) is +0 either way, added
+            // as the general case adds it (the same bits, a -0 heading
+            // included), without calling atan on every body-step.
+            h + 0.0
         } else {
-            r.lane_span(b, lane).map_or(0.0, |l| l.t_center())
-                - r.lane_span(a, lane).map_or(0.0, |l| l.t_center())
+            let dt = r.lane_span(b, lane).map_or(0.0, |l| l.t_center())
+                - r.lane_span(a, lane).map_or(0.0, |l| l.t_center());
+            h + if b > a { math::atan(dt / (b - a)) } else { 0.0 }
         };
-        let mut yaw = h + if b > a { math::atan(dt / (b - a)) } else { 0.0 };
         // The lane the span was measured on: the one `lane_direction` finds.
         let forward = r.direction_of(found, lane) != Direction::Backward;
         if !forward {

@@ -134,6 +134,11 @@ pub(crate) struct Planned {
     pids: Vec<Option<Pid>>,
     /// Per actor: driven by someone else (the SUT, a driver).
     other: Vec<bool>,
+    /// Every actor is driven by someone else: nothing to send. The warps
+    /// it would move are then read by no one (the read-back takes the
+    /// SUT's own, which [`Planned::react`] never moves, and a driven
+    /// actor's real state), so a step does nothing.
+    idle: bool,
     /// The gains of the pedal drivers.
     calibration: Calibration,
     /// Nothing is driven in closed loop: trajectories go out a chunk ahead.
@@ -168,6 +173,7 @@ impl Planned {
             warps: vec![Warp::new(); n],
             sent: vec![Sent::default(); n],
             pids,
+            idle: !overlap && other.iter().all(|&o| o),
             other,
             calibration,
             open_loop,
@@ -415,6 +421,9 @@ impl Planned {
 
 impl Controller for Planned {
     fn command(&mut self, see: &See<'_>, act: &mut Act<'_>) -> Result<Flow, ScenarioError> {
+        if self.idle {
+            return Ok(Flow::Go);
+        }
         self.react(see);
         let clock = self.clock(see);
         self.make_ahead(see.plan, clock);
