@@ -7,7 +7,8 @@ under test, in-process.
 
 A SUT is any object with ``step(observation) -> Command`` (and optionally
 ``reset(info)``); it is called in lock step with the simulation, in this
-process, with no gRPC in between.
+process, with no gRPC in between. Its ``step`` is looked up once a run,
+before ``reset``.
 """
 from __future__ import annotations
 

@@ -2,8 +2,10 @@
 //! modules (`litesim/__init__.py`, `gym.py`, `ray.py`) wrap it; users import
 //! `litesim`, not this.
 //!
-//! The GIL is released while litesim runs; a Python SUT takes it back for
-//! its own calls only, so other Python threads keep running.
+//! The GIL is released while litesim runs, but for `litesim.run` with a
+//! Python SUT, which keeps it between the SUT's calls (those hand it to
+//! other Python threads at Python's switch interval, as any Python code
+//! does); a Python SUT in a batch takes it back for its own calls only.
 
 use litesim_scenario::sut::{
     LightState, ObjectState, Observation, RoadPos, Sut, SutChoice, SutCommand, SutError,

@@ -8,6 +8,9 @@ use super::*;
 pub(super) struct PySut {
     pub(super) obj: Py<PyAny>,
     pub(super) name: String,
+    /// `obj.step`, bound once a run (at `reset`): a run calls it every
+    /// step, and looking the method up made a new bound method each time.
+    pub(super) step_fn: Option<Py<PyAny>>,
 }
 
 impl Sut for PySut {
@@ -17,6 +20,11 @@ impl Sut for PySut {
     fn reset(&mut self, info: &SutInfo) -> Result<(), SutError> {
         Python::attach(|py| {
             let obj = self.obj.bind(py);
+            self.step_fn = Some(
+                obj.getattr(pyo3::intern!(py, "step"))
+                    .map_err(|e| SutError(traceback_text(py, &e)))?
+                    .unbind(),
+            );
             if !obj.hasattr("reset").unwrap_or(false) {
                 return Ok(());
             }
@@ -27,14 +35,28 @@ impl Sut for PySut {
         })
     }
     fn step(&mut self, obs: &Observation) -> Result<SutCommand, SutError> {
+        self.step_shared(&Arc::new(obs.clone()))
+    }
+    fn step_shared(&mut self, obs: &Arc<Observation>) -> Result<SutCommand, SutError> {
+        // Attaching is a counter's increment where the caller kept the
+        // interpreter for the run (`litesim.run`), a full attach otherwise.
         Python::attach(|py| {
-            let o = Py::new(py, PyObservation { obs: obs.clone() })
-                .map_err(|e| SutError(traceback_text(py, &e)))?;
-            let r = self
-                .obj
-                .bind(py)
-                .call_method1("step", (o,))
-                .map_err(|e| SutError(format!("step() raised:\n{}", traceback_text(py, &e))))?;
+            let o = Py::new(
+                py,
+                PyObservation {
+                    obs: Arc::clone(obs),
+                },
+            )
+            .map_err(|e| SutError(traceback_text(py, &e)))?;
+            let r = match &self.step_fn {
+                Some(f) => f.bind(py).call1((o,)),
+                None => self
+                    .obj
+                    .bind(py)
+                    .call_method1(pyo3::intern!(py, "step"), (o,)),
+            };
+            let r =
+                r.map_err(|e| SutError(format!("step() raised:\n{}", traceback_text(py, &e))))?;
             command_of(&r).map_err(SutError)
         })
     }
@@ -54,6 +76,7 @@ impl SutFactory for PySutFactory {
             Ok(Box::new(PySut {
                 obj: self.obj.clone_ref(py),
                 name: self.name.clone(),
+                step_fn: None,
             }) as Box<dyn Sut>)
         })
     }
@@ -62,23 +85,47 @@ impl SutFactory for PySutFactory {
 /// `sut=`: None (planned), a built-in name, `grpc://HOST:PORT`, or an
 /// object with `step`.
 pub(super) fn sut_choice(sut: Option<&Bound<'_, PyAny>>) -> PyResult<SutChoice> {
+    python_sut_choice(sut).map(|(c, _)| c)
+}
+
+/// [`sut_choice`], and whether the SUT is a Python object (whose every
+/// step needs the interpreter).
+pub(super) fn python_sut_choice(sut: Option<&Bound<'_, PyAny>>) -> PyResult<(SutChoice, bool)> {
+    let choice = named_sut_choice(sut)?;
+    Ok(match choice {
+        Some(c) => (c, false),
+        None => (python_sut(sut)?, true),
+    })
+}
+
+/// The choice `sut` names (None, a built-in, `grpc://…`); `None` where it
+/// is an object (or an error where it is a string that names nothing).
+fn named_sut_choice(sut: Option<&Bound<'_, PyAny>>) -> PyResult<Option<SutChoice>> {
     let Some(s) = sut else {
-        return Ok(SutChoice::Planned);
+        return Ok(Some(SutChoice::Planned));
     };
     if s.is_none() {
-        return Ok(SutChoice::Planned);
+        return Ok(Some(SutChoice::Planned));
     }
     if let Ok(name) = s.extract::<String>() {
         if let Some(c) = litesim_grpc::sut::choice_by_name(&name)
             .map_err(|e| PyValueError::new_err(format!("sut: {}", e.0)))?
         {
-            return Ok(c);
+            return Ok(Some(c));
         }
         return Err(PyValueError::new_err(format!(
             "sut: unknown system under test '{name}'; valid: {}, grpc://HOST:PORT, or an object with step(observation)",
             litesim_scenario::sut::BUILTIN.join(", ")
         )));
     }
+    Ok(None)
+}
+
+/// A Python object as the SUT: it must have `step`.
+fn python_sut(sut: Option<&Bound<'_, PyAny>>) -> PyResult<SutChoice> {
+    let Some(s) = sut else {
+        return Ok(SutChoice::Planned);
+    };
     if !s.hasattr("step")? {
         let t = s.get_type().name()?.to_string();
         return Err(PyTypeError::new_err(format!(

@@ -52,7 +52,10 @@ impl PyObjectState {
 /// that looks at the ego only pays for the ego.
 #[pyclass(name = "Observation", module = "litesim", frozen)]
 pub(super) struct PyObservation {
-    pub(super) obs: Observation,
+    /// The run's own observation of that step, shared: the run changes its
+    /// copy-on-write, so this one never changes (and a SUT that does not
+    /// keep it costs no copy).
+    pub(super) obs: Arc<Observation>,
 }
 
 #[pymethods]

@@ -138,6 +138,71 @@ def test_a_python_object_drives_sut_car():
     assert ego["speed"].iloc[-1] > 5.0
 
 
+def test_an_observation_a_sut_keeps_is_that_steps_and_stays_so():
+    """The observation a Python SUT gets is shared with the run, which
+    changes its own copy-on-write: one kept past its call still shows its
+    step afterwards, and every kept one shows a different step."""
+
+    class Keeper:
+        def __init__(self):
+            self.kept = []
+
+        def step(self, o):
+            self.kept.append((o, o.tick, o.time, o.ego.x, o.ego.speed, o.to_json()))
+            return litesim.Command.pedals(0.3, 0.0, 0.0)
+
+    k = Keeper()
+    r = litesim.run(CUT_IN, seed=1, sut=k, mode="dynamic")
+    assert r.verdict != "error" and len(k.kept) > 100
+    for o, tick, t, x, v, js in k.kept:
+        assert (o.tick, o.time, o.ego.x, o.ego.speed, o.to_json()) == (tick, t, x, v, js)
+    assert [o.tick for o, *_ in k.kept] == list(range(len(k.kept)))
+    assert len({x for _, _, _, x, _, _ in k.kept}) > 100
+
+
+def test_other_python_threads_run_while_a_python_sut_drives():
+    """litesim.run with a Python SUT keeps the interpreter between the
+    SUT's calls; the SUT's own code hands it to other threads at Python's
+    switch interval, so a busy thread beside the run keeps counting."""
+    import threading
+
+    count, stop = [0], threading.Event()
+
+    def busy():
+        while not stop.is_set():
+            count[0] += 1
+
+    class Thinking:
+        """A SUT that computes for a while each step (~20 µs of Python)."""
+
+        def step(self, o):
+            acc = 0.0
+            for k in range(200):
+                acc += k * o.time
+            return litesim.Command.pedals(0.3, 0.0, 0.0)
+
+    # A short interval (Python's default is 5 ms); several runs, so that a
+    # loaded machine that wakes the waiting thread late still shows it.
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-4)
+    th = threading.Thread(target=busy)
+    th.start()
+    try:
+        seen = []
+        for _ in range(5):
+            before = count[0]
+            r = litesim.run(CUT_IN, seed=1, sut=Thinking(), mode="dynamic", record=False)
+            seen.append(count[0] - before)
+            assert r.verdict != "error"
+            if seen[-1] > 0:
+                break
+    finally:
+        stop.set()
+        th.join()
+        sys.setswitchinterval(interval)
+    assert seen[-1] > 0, seen
+
+
 def test_a_python_sut_can_reverse():
     """Reverse gear from Python: the car is braked to rest, then backs up;
     a dict says the same with "reverse", and a "reverse" that is not a

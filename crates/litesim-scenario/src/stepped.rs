@@ -559,7 +559,7 @@ impl Stepped {
 
     /// sut.car's observation for the step to come; `None` once the run
     /// is over (then [`Stepped::finish`]).
-    pub fn observation(&mut self) -> Result<Option<&Observation>, ScenarioError> {
+    pub fn observation(&mut self) -> Result<Option<&Arc<Observation>>, ScenarioError> {
         match &mut self.state {
             State::Running(s) => {
                 if s.head()? {

@@ -12,12 +12,16 @@ use crate::state::BodyState;
 use crate::sut::{ObjectState, Observation, RoadPos, Route};
 use litesim_core::math;
 use litesim_map::{LocateMemo, RoadNetwork};
+use std::sync::Arc;
 
 /// Every actor as last reported, in the SUT's layout.
 pub struct World {
     /// The observation (with a SUT, `ego` is sut.car and `objects` the
-    /// others, in plan order).
-    pub obs: Observation,
+    /// others, in plan order). Shared with a SUT that keeps it past its
+    /// call (a Python object holds it): changed copy-on-write
+    /// ([`Arc::make_mut`]), so a copy is made only while the SUT still
+    /// holds last step's, and what the SUT holds never changes under it.
+    pub obs: Arc<Observation>,
     /// sut.car's plan index when a SUT drives it.
     ego: Option<usize>,
     /// Per actor (plan order): its last map location with the question
@@ -49,7 +53,7 @@ impl World {
     /// No world: nobody observes it (open loop).
     pub fn empty() -> Self {
         World {
-            obs: Observation::default(),
+            obs: Arc::default(),
             ego: None,
             located: Vec::new(),
         }
@@ -70,7 +74,7 @@ impl World {
         }
         obs.objects = objects;
         World {
-            obs,
+            obs: Arc::new(obs),
             ego,
             located: vec![LocateMemo::default(); plan.actors.len()],
         }
@@ -99,10 +103,11 @@ impl World {
 
     /// Actor `i` (plan order), to update.
     pub fn get_mut(&mut self, i: usize) -> &mut ObjectState {
+        let obs = Arc::make_mut(&mut self.obs);
         match self.ego {
-            Some(e) if i == e => &mut self.obs.ego,
-            Some(e) if i > e => &mut self.obs.objects[i - 1],
-            _ => &mut self.obs.objects[i],
+            Some(e) if i == e => &mut obs.ego,
+            Some(e) if i > e => &mut obs.objects[i - 1],
+            _ => &mut obs.objects[i],
         }
     }
 
@@ -157,7 +162,7 @@ impl Observer {
         net: Option<&RoadNetwork>,
         lights: &mut Lights,
     ) -> Option<f64> {
-        let obs = &mut world.obs;
+        let obs = Arc::make_mut(&mut world.obs);
         obs.tick = k;
         obs.time = t;
         let rp = self.route.project(obs.ego.x, obs.ego.y, self.hint);
@@ -166,12 +171,28 @@ impl Observer {
         }
         obs.distance_to_goal = rp.map_or(0.0, |p| self.route.length() - p.s);
         obs.requested_speed = plan.actors[e].speed_at(t, plan.dt);
-        obs.road = pos.zip(net).map(|(p, n)| RoadPos {
-            road: n.od.roads[p.road].id.clone(),
-            lane: p.lane,
-            s: p.s,
-            offset: p.offset,
-        });
+        // Updated in place: the road's name is copied only when it changes
+        // (not an allocation a step).
+        match (pos.zip(net), &mut obs.road) {
+            (Some((p, n)), Some(r)) => {
+                let id = &n.od.roads[p.road].id;
+                if r.road != *id {
+                    r.road.clone_from(id);
+                }
+                r.lane = p.lane;
+                r.s = p.s;
+                r.offset = p.offset;
+            }
+            (Some((p, n)), slot) => {
+                *slot = Some(RoadPos {
+                    road: n.od.roads[p.road].id.clone(),
+                    lane: p.lane,
+                    s: p.s,
+                    offset: p.offset,
+                })
+            }
+            (None, slot) => *slot = None,
+        }
         if !lights.seen {
             obs.lights = lights.states();
             lights.seen = true;

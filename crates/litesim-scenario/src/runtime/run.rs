@@ -470,8 +470,9 @@ impl<'a> Runtime<'a> {
         Ok(Head::Ready)
     }
 
-    /// What sut.car observes at this step (after [`Runtime::head`]).
-    pub fn observation(&self) -> Option<&crate::sut::Observation> {
+    /// What sut.car observes at this step (after [`Runtime::head`]),
+    /// shared (see [`World::obs`]).
+    pub fn observation(&self) -> Option<&std::sync::Arc<crate::sut::Observation>> {
         self.observer.as_ref().map(|_| &self.world.obs)
     }
 

@@ -260,6 +260,14 @@ pub trait Sut: Send {
     fn reset(&mut self, info: &SutInfo) -> Result<(), SutError>;
     /// One step: the object list in, a command for `sut.car` out.
     fn step(&mut self, obs: &Observation) -> Result<SutCommand, SutError>;
+    /// [`Sut::step`] given the run's own observation, shared: what the run
+    /// calls. A SUT that keeps the observation past the call (a Python
+    /// object gets one it may store) takes a reference instead of a copy;
+    /// the run changes its observation copy-on-write, so what the SUT holds
+    /// never changes under it. The default is [`Sut::step`].
+    fn step_shared(&mut self, obs: &Arc<Observation>) -> Result<SutCommand, SutError> {
+        self.step(obs)
+    }
     /// What the SUT has to report since it was last asked (an emergency
     /// stage that fired, and why): the run's summary lists it as notes.
     fn notes(&mut self) -> Vec<String> {

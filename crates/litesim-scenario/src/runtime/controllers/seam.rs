@@ -145,7 +145,7 @@ impl Controller for SutSeam<'_> {
     fn command(&mut self, see: &See<'_>, act: &mut Act<'_>) -> Result<Flow, ScenarioError> {
         // The SUT sees every actor but itself: the observation's layout.
         let answer = match self.inside() {
-            Some(s) => s.step(&see.world.obs),
+            Some(s) => s.step_shared(&see.world.obs),
             None => self
                 .given
                 .take()
