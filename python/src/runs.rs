@@ -226,8 +226,8 @@ pub(super) fn run(
             .map_err(|e| e.chain())
     };
     // A Python SUT is called every step: the run keeps the interpreter
-    // rather than giving it up and taking it back around each call (a
-    // fifth of what the call costs). Other Python threads still run: the
+    // rather than giving it up and taking it back around each call (an
+    // eighth of what a call cost). Other Python threads still run: the
     // SUT's own code hands the interpreter over at Python's switch
     // interval, as any Python code does. The run is on this thread alone
     // (the in-process simulator starts none), so nothing waits for the
