@@ -91,41 +91,23 @@ pub(super) fn sut_choice(sut: Option<&Bound<'_, PyAny>>) -> PyResult<SutChoice> 
 /// [`sut_choice`], and whether the SUT is a Python object (whose every
 /// step needs the interpreter).
 pub(super) fn python_sut_choice(sut: Option<&Bound<'_, PyAny>>) -> PyResult<(SutChoice, bool)> {
-    let choice = named_sut_choice(sut)?;
-    Ok(match choice {
-        Some(c) => (c, false),
-        None => (python_sut(sut)?, true),
-    })
-}
-
-/// The choice `sut` names (None, a built-in, `grpc://…`); `None` where it
-/// is an object (or an error where it is a string that names nothing).
-fn named_sut_choice(sut: Option<&Bound<'_, PyAny>>) -> PyResult<Option<SutChoice>> {
     let Some(s) = sut else {
-        return Ok(Some(SutChoice::Planned));
+        return Ok((SutChoice::Planned, false));
     };
     if s.is_none() {
-        return Ok(Some(SutChoice::Planned));
+        return Ok((SutChoice::Planned, false));
     }
     if let Ok(name) = s.extract::<String>() {
         if let Some(c) = litesim_grpc::sut::choice_by_name(&name)
             .map_err(|e| PyValueError::new_err(format!("sut: {}", e.0)))?
         {
-            return Ok(Some(c));
+            return Ok((c, false));
         }
         return Err(PyValueError::new_err(format!(
             "sut: unknown system under test '{name}'; valid: {}, grpc://HOST:PORT, or an object with step(observation)",
             litesim_scenario::sut::BUILTIN.join(", ")
         )));
     }
-    Ok(None)
-}
-
-/// A Python object as the SUT: it must have `step`.
-fn python_sut(sut: Option<&Bound<'_, PyAny>>) -> PyResult<SutChoice> {
-    let Some(s) = sut else {
-        return Ok(SutChoice::Planned);
-    };
     if !s.hasattr("step")? {
         let t = s.get_type().name()?.to_string();
         return Err(PyTypeError::new_err(format!(
@@ -133,10 +115,11 @@ fn python_sut(sut: Option<&Bound<'_, PyAny>>) -> PyResult<SutChoice> {
         )));
     }
     let name = format!("python:{}", s.get_type().name()?);
-    Ok(SutChoice::External(Arc::new(PySutFactory {
+    let factory = PySutFactory {
         obj: s.clone().unbind(),
         name,
-    })))
+    };
+    Ok((SutChoice::External(Arc::new(factory)), true))
 }
 
 pub(super) fn mode_of(mode: Option<&str>) -> PyResult<Option<DriveMode>> {
